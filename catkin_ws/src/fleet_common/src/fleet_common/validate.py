@@ -1,0 +1,240 @@
+"""The one plan validator: the oracle for solvers, tests, the CLI and the manager.
+
+`validate_plan` checks a `Plan` against its grid (cells on the map and free,
+moves between 4-neighbours or waits), against itself (vertex conflicts: two
+agents in one cell at one step; swap conflicts: two agents exchanging cells in
+one step) and optionally against the starts, goals, soc and makespan a file
+claims. Following moves (an agent entering a cell that another leaves in the
+same step) are legal in mapf-IR and reported as information unless
+`strict_following` is set.
+
+Everything is vectorised over the (steps, agents) position array, so plans of
+thousands of agents and steps check in well under a second; Python loops run
+only over the findings.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .grid import Coord, Grid
+from .plan import Plan
+
+ERROR = "error"
+INFO = "info"
+
+#: Finding kinds, stable strings that tests and tools may match on.
+OFF_MAP = "off-map"
+BLOCKED = "blocked"
+JUMP = "non-adjacent-move"
+VERTEX = "vertex-conflict"
+SWAP = "swap-conflict"
+FOLLOWING = "following-move"
+START = "start-mismatch"
+GOAL = "goal-mismatch"
+AGENTS = "agent-count"
+SOC = "soc-mismatch"
+MAKESPAN = "makespan-mismatch"
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One problem (or remark) about a plan; `str()` is a line for people."""
+
+    severity: str
+    kind: str
+    message: str
+    timestep: Optional[int] = None
+    agents: Tuple[int, ...] = ()
+    cell: Optional[Coord] = None
+
+    def __str__(self) -> str:
+        return self.message
+
+
+@dataclass
+class Report:
+    """The findings about one plan, errors first in the order checked."""
+
+    findings: List[Finding] = field(default_factory=list)
+
+    @property
+    def errors(self) -> List[Finding]:
+        return [f for f in self.findings if f.severity == ERROR]
+
+    @property
+    def infos(self) -> List[Finding]:
+        return [f for f in self.findings if f.severity == INFO]
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    def of_kind(self, kind: str) -> List[Finding]:
+        return [f for f in self.findings if f.kind == kind]
+
+
+def _cell(pos: np.ndarray) -> Coord:
+    return (int(pos[0]), int(pos[1]))
+
+
+def validate_plan(
+    plan: Plan,
+    grid: Grid,
+    starts: Optional[Sequence[Coord]] = None,
+    goals: Optional[Sequence[Coord]] = None,
+    soc: Optional[int] = None,
+    makespan: Optional[int] = None,
+    strict_following: bool = False,
+    max_findings_per_kind: int = 1000,
+) -> Report:
+    """Check `plan` on `grid`; see the module docstring for what is checked.
+
+    Coordinates in messages are base-grid cells. At most `max_findings_per_kind`
+    findings of each kind are listed (a broken 1,000-step plan would otherwise
+    bury the first, most useful ones).
+    """
+    report = Report()
+    add = _Collector(report, max_findings_per_kind)
+    pos = plan.positions
+    steps, n = pos.shape[0], pos.shape[1]
+
+    if starts is not None and len(starts) != n:
+        add(ERROR, AGENTS, "plan has {} agents but {} starts are given".format(n, len(starts)))
+    if goals is not None and len(goals) != n:
+        add(ERROR, AGENTS, "plan has {} agents but {} goals are given".format(n, len(goals)))
+
+    inside = _check_cells(pos, grid, add)
+    _check_moves(pos, add)
+    if n > 1:
+        ids = np.where(inside, pos[:, :, 1].astype(np.int64) * grid.width + pos[:, :, 0], -1 - np.arange(n))
+        _check_vertex(ids, pos, add)
+        _check_swaps_and_following(ids, pos, grid, add, strict_following)
+    _check_endpoints(plan, starts, goals, add)
+
+    if makespan is not None and makespan != plan.makespan:
+        add(ERROR, MAKESPAN, "header says makespan={} but the plan's makespan is {}".format(makespan, plan.makespan))
+    if soc is not None and soc != plan.soc:
+        add(ERROR, SOC, "header says soc={} but the plan's sum of costs is {}".format(soc, plan.soc))
+    return report
+
+
+class _Collector:
+    def __init__(self, report: Report, limit: int) -> None:
+        self.report = report
+        self.limit = limit
+        self.counts: Dict[str, int] = {}
+
+    def __call__(self, severity: str, kind: str, message: str, timestep: Optional[int] = None,
+                 agents: Tuple[int, ...] = (), cell: Optional[Coord] = None) -> None:
+        count = self.counts.get(kind, 0)
+        self.counts[kind] = count + 1
+        if count < self.limit:
+            self.report.findings.append(Finding(severity, kind, message, timestep, agents, cell))
+        elif count == self.limit:
+            self.report.findings.append(Finding(
+                severity, kind, "... more findings of kind '{}' not listed".format(kind)))
+
+
+def _check_cells(pos: np.ndarray, grid: Grid, add: _Collector) -> np.ndarray:
+    xs, ys = pos[:, :, 0], pos[:, :, 1]
+    inside = (xs >= 0) & (xs < grid.width) & (ys >= 0) & (ys < grid.height)
+    for t, i in zip(*np.nonzero(~inside)):
+        add(ERROR, OFF_MAP, "agent {} at t={} is at {} outside the {}x{} map".format(
+            i, t, _cell(pos[t, i]), grid.width, grid.height), int(t), (int(i),), _cell(pos[t, i]))
+    free = np.zeros(inside.shape, dtype=bool)
+    free[inside] = grid.free[ys[inside], xs[inside]]
+    for t, i in zip(*np.nonzero(inside & ~free)):
+        add(ERROR, BLOCKED, "agent {} at t={} is on blocked cell {}".format(
+            i, t, _cell(pos[t, i])), int(t), (int(i),), _cell(pos[t, i]))
+    return inside
+
+
+def _check_moves(pos: np.ndarray, add: _Collector) -> None:
+    if pos.shape[0] < 2:
+        return
+    dist = np.abs(np.diff(pos, axis=0)).sum(axis=2)  # (T, N)
+    for t, i in zip(*np.nonzero(dist > 1)):
+        add(ERROR, JUMP, "agent {} jumps from {} at t={} to {} at t={} (not a neighbouring cell)".format(
+            i, _cell(pos[t, i]), t, _cell(pos[t + 1, i]), t + 1), int(t + 1), (int(i),), _cell(pos[t + 1, i]))
+
+
+def _check_vertex(ids: np.ndarray, pos: np.ndarray, add: _Collector) -> None:
+    order = np.argsort(ids, axis=1, kind="stable")
+    srt = np.take_along_axis(ids, order, axis=1)
+    dup = srt[:, 1:] == srt[:, :-1]
+    for t in np.nonzero(dup.any(axis=1))[0]:
+        row = ids[t]
+        cells, counts = np.unique(row, return_counts=True)
+        for c in cells[counts > 1]:
+            agents = tuple(int(a) for a in np.nonzero(row == c)[0])
+            cell = _cell(pos[t, agents[0]])
+            add(ERROR, VERTEX, "vertex conflict at t={}: agents {} all at {}".format(
+                t, ", ".join(map(str, agents)), cell), int(t), agents, cell)
+
+
+def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add: _Collector,
+                               strict_following: bool) -> None:
+    steps, n = ids.shape
+    if steps < 2:
+        return
+    cells = np.int64(max(grid.num_cells, 1)) + n  # room for the negative off-map ids
+    shift = ids + n  # all non-negative
+    frm, to = shift[:-1], shift[1:]
+    t_idx = np.broadcast_to(np.arange(steps - 1)[:, None], frm.shape)
+    moving = frm != to
+    tm, fm, om = t_idx[moving], frm[moving], to[moving]
+    agent_idx = np.broadcast_to(np.arange(n)[None, :], frm.shape)[moving]
+
+    # swap: someone moves a->b and someone else b->a in the same step
+    key = (tm * cells + fm) * cells + om
+    rev = (tm * cells + om) * cells + fm
+    hit = np.isin(rev, key)
+    seen = set()
+    for k in np.nonzero(hit)[0]:
+        t, i = int(tm[k]), int(agent_idx[k])
+        j = _agent_at(ids[t + 1], ids[t][i], exclude=i)
+        pair = (min(i, j), max(i, j), t)
+        if pair in seen:
+            continue
+        seen.add(pair)
+        add(ERROR, SWAP, "swap conflict at t={}->{}: agents {} and {} exchange {} and {}".format(
+            t, t + 1, pair[0], pair[1], _cell(pos[t, pair[0]]), _cell(pos[t, pair[1]])),
+            t + 1, (pair[0], pair[1]), _cell(pos[t + 1, pair[0]]))
+
+    # following: a mover enters a cell that another agent occupied at the previous step
+    occupied = np.sort((t_idx * cells + frm).ravel())
+    probe = tm * cells + om
+    idx = np.searchsorted(occupied, probe)
+    idx[idx >= occupied.size] = 0
+    follow = occupied[idx] == probe
+    severity = ERROR if strict_following else INFO
+    for k in np.nonzero(follow & ~hit)[0]:
+        t, i = int(tm[k]), int(agent_idx[k])
+        j = _agent_at(ids[t], ids[t + 1][i], exclude=i)
+        if j < 0 or ids[t + 1][j] == ids[t][j]:
+            continue  # the occupant stayed: already a vertex conflict
+        add(severity, FOLLOWING, "following move at t={}->{}: agent {} enters {} as agent {} leaves it".format(
+            t, t + 1, i, _cell(pos[t + 1, i]), j), t + 1, (i, j), _cell(pos[t + 1, i]))
+
+
+def _agent_at(row: np.ndarray, cell_id: int, exclude: int) -> int:
+    for j in np.nonzero(row == cell_id)[0].tolist():
+        if j != exclude:
+            return int(j)
+    return -1
+
+
+def _check_endpoints(plan: Plan, starts: Optional[Sequence[Coord]], goals: Optional[Sequence[Coord]],
+                     add: _Collector) -> None:
+    for label, kind, want, t in (("start", START, starts, 0), ("goal", GOAL, goals, plan.makespan)):
+        if want is None:
+            continue
+        have = plan.positions[t]
+        for i, cell in enumerate(want[: plan.num_agents]):
+            got = _cell(have[i])
+            if got != (int(cell[0]), int(cell[1])):
+                add(ERROR, kind, "agent {} {}s at {} but its {} is {}".format(
+                    i, "start" if label == "start" else "end", got, label, tuple(cell)), t, (i,), got)

@@ -1,0 +1,56 @@
+"""Entry point of `fleetctl`: argument parsing and the one place errors become exit codes.
+
+Exit statuses: 0 success; 1 the input is well formed but wrong (a plan with
+conflicts, a failed run); 2 the input cannot be read (one line `FILE:LINE: message`)
+or the command line is wrong; 3 no plan found within the limit (`solve`);
+130 interrupted. Users never see a traceback; set FLEETCTL_DEBUG=1 to get one.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from typing import List, Optional
+
+from fleet_common.errors import FleetError, FormatError
+
+from .commands import COMMANDS
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fleetctl",
+        description="FleetControl: check, convert, solve and run MAPF plans on the lab's robots.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMANDS:
+        module = importlib.import_module("fleetctl.commands." + name)
+        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args._run(args))
+    except FormatError as err:
+        return _fail(str(err))
+    except FleetError as err:
+        return _fail("fleetctl {}: {}".format(args.command, err))
+    except OSError as err:
+        where = err.filename if err.filename is not None else ""
+        return _fail("{}: {}".format(where, err.strerror or err) if where else str(err))
+    except KeyboardInterrupt:
+        return 130
+
+
+def _fail(line: str) -> int:
+    if os.environ.get("FLEETCTL_DEBUG"):
+        raise
+    print(line, file=sys.stderr)
+    return 2

@@ -1,0 +1,9 @@
+"""One module per `fleetctl` subcommand.
+
+Each module defines `NAME`, `HELP` (one line), `add_arguments(parser)` and
+`run(args) -> int` (the exit status). Adding a subcommand is one module and one
+entry in `COMMANDS`.
+"""
+from __future__ import annotations
+
+COMMANDS = ("info", "validate", "convert", "solve", "demo")
