@@ -15,7 +15,7 @@ only over the findings.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -80,6 +80,10 @@ def _cell(pos: np.ndarray) -> Coord:
     return (int(pos[0]), int(pos[1]))
 
 
+def _identity(c: Coord) -> Coord:
+    return c
+
+
 def validate_plan(
     plan: Plan,
     grid: Grid,
@@ -89,15 +93,18 @@ def validate_plan(
     makespan: Optional[int] = None,
     strict_following: bool = False,
     max_findings_per_kind: int = 1000,
+    show: Callable[[Coord], Coord] = _identity,
 ) -> Report:
     """Check `plan` on `grid`; see the module docstring for what is checked.
 
-    Coordinates in messages are base-grid cells. At most `max_findings_per_kind`
+    Coordinates in messages are base-grid cells passed through `show` (give
+    `grid.flip_y` to speak in a mapf-IR file's own coordinates); `Finding.cell`
+    is always the base cell. At most `max_findings_per_kind`
     findings of each kind are listed (a broken 1,000-step plan would otherwise
     bury the first, most useful ones).
     """
     report = Report()
-    add = _Collector(report, max_findings_per_kind)
+    add = _Collector(report, max_findings_per_kind, show)
     pos = plan.positions
     steps, n = pos.shape[0], pos.shape[1]
 
@@ -122,7 +129,8 @@ def validate_plan(
 
 
 class _Collector:
-    def __init__(self, report: Report, limit: int) -> None:
+    def __init__(self, report: Report, limit: int, show: Callable[[Coord], Coord]) -> None:
+        self.show = show
         self.report = report
         self.limit = limit
         self.counts: Dict[str, int] = {}
@@ -143,12 +151,12 @@ def _check_cells(pos: np.ndarray, grid: Grid, add: _Collector) -> np.ndarray:
     inside = (xs >= 0) & (xs < grid.width) & (ys >= 0) & (ys < grid.height)
     for t, i in zip(*np.nonzero(~inside)):
         add(ERROR, OFF_MAP, "agent {} at t={} is at {} outside the {}x{} map".format(
-            i, t, _cell(pos[t, i]), grid.width, grid.height), int(t), (int(i),), _cell(pos[t, i]))
+            i, t, add.show(_cell(pos[t, i])), grid.width, grid.height), int(t), (int(i),), _cell(pos[t, i]))
     free = np.zeros(inside.shape, dtype=bool)
     free[inside] = grid.free[ys[inside], xs[inside]]
     for t, i in zip(*np.nonzero(inside & ~free)):
         add(ERROR, BLOCKED, "agent {} at t={} is on blocked cell {}".format(
-            i, t, _cell(pos[t, i])), int(t), (int(i),), _cell(pos[t, i]))
+            i, t, add.show(_cell(pos[t, i]))), int(t), (int(i),), _cell(pos[t, i]))
     return inside
 
 
@@ -158,7 +166,7 @@ def _check_moves(pos: np.ndarray, add: _Collector) -> None:
     dist = np.abs(np.diff(pos, axis=0)).sum(axis=2)  # (T, N)
     for t, i in zip(*np.nonzero(dist > 1)):
         add(ERROR, JUMP, "agent {} jumps from {} at t={} to {} at t={} (not a neighbouring cell)".format(
-            i, _cell(pos[t, i]), t, _cell(pos[t + 1, i]), t + 1), int(t + 1), (int(i),), _cell(pos[t + 1, i]))
+            i, add.show(_cell(pos[t, i])), t, add.show(_cell(pos[t + 1, i])), t + 1), int(t + 1), (int(i),), _cell(pos[t + 1, i]))
 
 
 def _check_vertex(ids: np.ndarray, pos: np.ndarray, add: _Collector) -> None:
@@ -172,7 +180,7 @@ def _check_vertex(ids: np.ndarray, pos: np.ndarray, add: _Collector) -> None:
             agents = tuple(int(a) for a in np.nonzero(row == c)[0])
             cell = _cell(pos[t, agents[0]])
             add(ERROR, VERTEX, "vertex conflict at t={}: agents {} all at {}".format(
-                t, ", ".join(map(str, agents)), cell), int(t), agents, cell)
+                t, ", ".join(map(str, agents)), add.show(cell)), int(t), agents, cell)
 
 
 def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add: _Collector,
@@ -195,14 +203,15 @@ def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add
     seen = set()
     for k in np.nonzero(hit)[0]:
         t, i = int(tm[k]), int(agent_idx[k])
-        j = _agent_at(ids[t + 1], ids[t][i], exclude=i)
-        pair = (min(i, j), max(i, j), t)
-        if pair in seen:
-            continue
-        seen.add(pair)
-        add(ERROR, SWAP, "swap conflict at t={}->{}: agents {} and {} exchange {} and {}".format(
-            t, t + 1, pair[0], pair[1], _cell(pos[t, pair[0]]), _cell(pos[t, pair[1]])),
-            t + 1, (pair[0], pair[1]), _cell(pos[t + 1, pair[0]]))
+        partners = np.nonzero((ids[t + 1] == ids[t][i]) & (ids[t] == ids[t + 1][i]))[0].tolist()
+        for j in partners:
+            pair = (min(i, j), max(i, j), t)
+            if pair in seen:
+                continue
+            seen.add(pair)
+            add(ERROR, SWAP, "swap conflict at t={}->{}: agents {} and {} exchange {} and {}".format(
+                t, t + 1, pair[0], pair[1], add.show(_cell(pos[t, pair[0]])),
+                add.show(_cell(pos[t, pair[1]]))), t + 1, (pair[0], pair[1]), _cell(pos[t + 1, pair[0]]))
 
     # following: a mover enters a cell that another agent occupied at the previous step
     occupied = np.sort((t_idx * cells + frm).ravel())
@@ -217,7 +226,7 @@ def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add
         if j < 0 or ids[t + 1][j] == ids[t][j]:
             continue  # the occupant stayed: already a vertex conflict
         add(severity, FOLLOWING, "following move at t={}->{}: agent {} enters {} as agent {} leaves it".format(
-            t, t + 1, i, _cell(pos[t + 1, i]), j), t + 1, (i, j), _cell(pos[t + 1, i]))
+            t, t + 1, i, add.show(_cell(pos[t + 1, i])), j), t + 1, (i, j), _cell(pos[t + 1, i]))
 
 
 def _agent_at(row: np.ndarray, cell_id: int, exclude: int) -> int:
@@ -237,4 +246,5 @@ def _check_endpoints(plan: Plan, starts: Optional[Sequence[Coord]], goals: Optio
             got = _cell(have[i])
             if got != (int(cell[0]), int(cell[1])):
                 add(ERROR, kind, "agent {} {}s at {} but its {} is {}".format(
-                    i, "start" if label == "start" else "end", got, label, tuple(cell)), t, (i,), got)
+                    i, "start" if label == "start" else "end", add.show(got), label,
+                    add.show((int(cell[0]), int(cell[1])))), t, (i,), got)
