@@ -1,0 +1,164 @@
+"""`fleetctl` as a user meets it: real processes, real files, exit codes and one-line errors."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+from typing import List
+
+import pytest
+
+
+def fleetctl(*args: str, cwd: Path = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)], capture_output=True,
+                          text=True, timeout=120, cwd=cwd)
+
+
+def assert_one_line_error(proc: subprocess.CompletedProcess, path: Path, line: int, fragment: str) -> None:
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("{}:{}:".format(path, line)), lines[0]
+    assert fragment in lines[0]
+
+
+def header_value(path: Path, key: str) -> str:
+    for line in path.read_text().splitlines():
+        if line.startswith(key + "="):
+            return line.split("=", 1)[1]
+    raise KeyError(key)
+
+
+def solved_solutions(shared_data: Path) -> List[Path]:
+    return [p for p in sorted((shared_data / "solutions").iterdir()) if header_value(p, "solved") == "1"]
+
+
+def test_help_for_every_subcommand():
+    from fleetctl.commands import COMMANDS
+
+    for name in COMMANDS:
+        proc = fleetctl(name, "--help")
+        assert proc.returncode == 0 and "usage: fleetctl " + name in proc.stdout
+
+
+def test_validate_every_shipped_solution_reports_the_headers_figures(shared_data):
+    solutions = solved_solutions(shared_data)
+    assert len(solutions) >= 4
+    for path in solutions:
+        proc = fleetctl("validate", path)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        summary = proc.stdout.strip().splitlines()[-1]
+        soc, makespan = header_value(path, "soc"), header_value(path, "makespan")
+        assert "soc={},".format(soc) in summary and "makespan={}".format(makespan) in summary, summary
+
+
+def test_following_moves_are_legal_by_default_and_errors_when_strict(shared_data):
+    path = shared_data / "solutions" / "pibt_sample.txt"
+    relaxed = fleetctl("validate", path)
+    assert relaxed.returncode == 0 and "following moves, legal in mapf-IR" in relaxed.stdout
+    strict = fleetctl("validate", "--strict-following", path)
+    assert strict.returncode == 1 and "following move at t=" in strict.stdout
+
+
+def test_failed_run_is_no_plan_with_exit_1(shared_data):
+    proc = fleetctl("validate", shared_data / "solutions" / "cbs_arena300_1_timeout.txt")
+    assert proc.returncode == 1
+    assert "no plan" in proc.stdout and "solved=0" in proc.stdout
+
+
+def test_conflicts_are_listed_in_the_files_own_coordinates(shared_data, tmp_path):
+    src = shared_data / "solutions" / "cbs_makespan-soc-pareto.txt"
+    text = src.read_text().replace("1:(4,1),(0,3),", "1:(4,1),(4,1),")  # agent 1 jumps onto agent 0
+    (tmp_path / "makespan-soc-pareto.map").write_bytes(
+        (shared_data / "maps" / "makespan-soc-pareto.map").read_bytes())
+    bad = tmp_path / "bad.txt"
+    bad.write_text(text)
+    proc = fleetctl("validate", bad)
+    assert proc.returncode == 1
+    assert "vertex conflict at t=1: agents 0, 1 all at (4, 1)" in proc.stdout
+    assert "agent 1 jumps from (1, 3) at t=0 to (4, 1) at t=1" in proc.stdout
+    assert "INVALID" in proc.stdout.splitlines()[-1]
+
+
+def test_unreadable_solution_is_one_line_with_file_and_line(shared_data, tmp_path):
+    (tmp_path / "makespan-soc-pareto.map").write_bytes(
+        (shared_data / "maps" / "makespan-soc-pareto.map").read_bytes())
+    src = (shared_data / "solutions" / "cbs_makespan-soc-pareto.txt").read_text().splitlines(True)
+    src[14] = "2:(4,1),(0,2\n"  # line 15
+    bad = tmp_path / "broken.txt"
+    bad.write_text("".join(src))
+    assert_one_line_error(fleetctl("validate", bad), bad, 15, "")
+    assert_one_line_error(fleetctl("info", bad), bad, 15, "")
+
+
+def test_missing_file_and_missing_map_are_one_line(tmp_path):
+    proc = fleetctl("validate", tmp_path / "nope.txt")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and "nope.txt" in proc.stderr
+    inst = tmp_path / "inst.txt"
+    inst.write_text("map_file=no-such.map\nagents=1\n0,0,1,1\n")
+    assert_one_line_error(fleetctl("info", inst), inst, 1, "no-such.map")
+
+
+@pytest.mark.parametrize("kind,relpath,expect", [
+    ("map", "maps/arena.map", "map 49x49"),
+    ("instance", "instances/arena_300agents_1.txt", "300 agents on arena.map"),
+    ("random instance", "instances/sample.txt", "random_problem=1"),
+    ("solution", "solutions/ir_makespan-soc-pareto.txt", "refinement iterations"),
+    ("failed run", "solutions/cbs_arena300_1_timeout.txt", "NOT solved"),
+])
+def test_info_summarises_mapf_ir_files(shared_data, kind, relpath, expect):
+    proc = fleetctl("info", shared_data / relpath)
+    assert proc.returncode == 0, proc.stderr
+    assert expect in proc.stdout
+
+
+def test_info_on_robot_definitions_and_unknown_files(repo_root, tmp_path):
+    proc = fleetctl("info", repo_root / "robot_definitions.txt")
+    assert proc.returncode == 0 and "robot definitions: 5 robots" in proc.stdout
+    junk = tmp_path / "junk.txt"
+    junk.write_text("hello world\n")
+    assert_one_line_error(fleetctl("info", junk), junk, 1, "cannot tell what this file is")
+
+
+def test_convert_to_mapf_ir_is_byte_for_byte(shared_data, tmp_path):
+    for relpath in ("solutions/pibt_sample.txt", "solutions/ir_makespan-soc-pareto.txt",
+                    "solutions/cbs_arena300_1_timeout.txt", "instances/sample.txt",
+                    "instances/arena_300agents_1.txt", "maps/8x8.map", "maps/arena.map"):
+        src = shared_data / relpath
+        out = tmp_path / src.name
+        proc = fleetctl("convert", src, out, "--to", "mapf-ir", "--map-dir", shared_data / "maps")
+        assert proc.returncode == 0, proc.stderr
+        assert out.read_bytes() == src.read_bytes(), relpath
+
+
+def test_convert_to_base_flips_y_and_back(shared_data, tmp_path):
+    src = shared_data / "solutions" / "cbs_makespan-soc-pareto.txt"
+    maps = shared_data / "maps"
+    base = tmp_path / "base.txt"
+    assert fleetctl("convert", src, base, "--to", "base", "--map-dir", maps).returncode == 0
+    text = base.read_text()
+    assert "orientation=base" in text
+    assert "starts=(3,2),(1,0)," in text  # map height 4: y' = 3 - y
+    back = tmp_path / "back.txt"
+    assert fleetctl("convert", base, back, "--to", "mapf-ir", "--map-dir", maps).returncode == 0
+    assert back.read_bytes() == src.read_bytes()
+    proc = fleetctl("validate", base, "--map-dir", maps)
+    assert proc.returncode == 0 and "soc=13," in proc.stdout
+
+
+def test_convert_refuses_to_overwrite_its_input(shared_data, tmp_path):
+    src = tmp_path / "8x8.map"
+    src.write_bytes((shared_data / "maps" / "8x8.map").read_bytes())
+    proc = fleetctl("convert", src, src)
+    assert proc.returncode == 2 and "same file" in proc.stderr
+    assert src.read_bytes() == (shared_data / "maps" / "8x8.map").read_bytes()
+
+
+def test_demo_plans_the_lab_scenario():
+    proc = fleetctl("demo")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "13x14 marker grid" in proc.stdout
+    assert re.search(r"plan: \S+ in \d+ ms, soc=\d+, makespan=\d+, valid", proc.stdout)
+    assert len(re.findall(r"^  robot \d+ ", proc.stdout, flags=re.M)) == 5
