@@ -1,0 +1,69 @@
+"""Installs FleetControl's Python packages and the `fleetctl` command for pip users.
+
+The source trees stay where catkin expects them (catkin_ws/src/<pkg>/src/<pkg>);
+PACKAGE_ROOTS maps each top-level package to the folder that holds it, so a new
+package is one more line there. `pip install -e ".[test]"` is what
+`scripts/ciirc-exec.sh setup` runs.
+"""
+from __future__ import annotations
+
+import posixpath
+import re
+from pathlib import Path
+from typing import Dict, List
+
+from setuptools import find_packages, setup
+
+HERE = Path(__file__).resolve().parent
+
+#: Top-level package -> folder (relative to this file) that contains it.
+PACKAGE_ROOTS: Dict[str, str] = {
+    "fleet_common": "catkin_ws/src/fleet_common/src",
+    "fleetctl": ".",
+}
+
+#: Data files shipped inside packages (globs relative to the package folder).
+PACKAGE_DATA: Dict[str, List[str]] = {
+    "fleet_common": ["lab/*.map", "lab/*.yaml", "lab/*.txt", "lab/*.scen"],
+}
+
+
+def _packages() -> List[str]:
+    found: List[str] = []
+    for name, root in PACKAGE_ROOTS.items():
+        found += find_packages(root, include=[name, name + ".*"])
+    return found
+
+
+def _version() -> str:
+    # One version for the whole product: fleet_common's, which package.xml repeats.
+    init = HERE / PACKAGE_ROOTS["fleet_common"] / "fleet_common" / "__init__.py"
+    match = re.search(r'^__version__ = "([^"]+)"', init.read_text(encoding="utf-8"), re.M)
+    if match is None:
+        raise RuntimeError(f"{init}: no __version__ = \"X.Y.Z\" line")
+    return match.group(1)
+
+
+setup(
+    name="fleetcontrol",
+    version=_version(),
+    description="Runs multi-agent path finding plans on a fleet of TurtleBot robots.",
+    license="MIT",
+    python_requires=">=3.8",
+    packages=_packages(),
+    package_dir={name: posixpath.normpath(f"{root}/{name}") for name, root in PACKAGE_ROOTS.items()},
+    package_data=PACKAGE_DATA,
+    install_requires=[
+        "numpy>=1.24,<3",
+        "pyyaml>=6,<7",
+        "networkx>=3,<4",
+    ],
+    extras_require={
+        "test": [
+            "pytest>=7.4,<9",
+            "hypothesis>=6.80,<7",
+            "vermin>=1.6,<2",
+        ],
+    },
+    entry_points={"console_scripts": ["fleetctl=fleetctl.cli:main"]},
+)
