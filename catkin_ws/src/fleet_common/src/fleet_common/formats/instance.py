@@ -1,0 +1,333 @@
+"""mapf-IR instance (problem) files: a map, agents, and their starts and goals.
+
+    map_file=arena.map        # key=value lines; unknown keys are kept
+    agents=2
+    seed=0
+    random_problem=0
+    max_timestep=500
+    max_comp_time=30000
+    36,33,5,23                # agent lines `sx,sy,gx,gy`, digits only
+    3,17,23,33
+
+Lines starting with `#` are comments, blank lines are allowed. mapf-IR reads
+these lines by regular expression and silently drops any it does not
+recognise (`12, 7,16,18`, `1,2,3`, surplus agent lines); we raise an
+`InstanceFormatError` naming the line and column instead. With
+`random_problem=1` mapf-IR draws starts and goals itself: such a file has no
+agent lines and `starts`/`goals` stay empty (`is_random`).
+
+Coordinates in the file are top-left, y down, unless the header says
+`orientation=base`; `starts`/`goals` are always base frame. Agents are
+numbered from 0 in messages, as in mapf-IR. Comments, blank lines and line
+endings are kept, so writing an unchanged instance reproduces its bytes.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from ..errors import InstanceFormatError, MapNotFoundError
+from ..grid import Coord, Grid
+from .header import (
+    BASE, MAPF_IR, Header, check_orientation, file_orientation, header_for_orientation,
+    join_lines, read_text, split_lines, write_text,
+)
+from .mapfile import read_map
+from .mapsearch import default_map_dirs, resolve_map
+
+_AGENT = re.compile(r"(\d+),(\d+),(\d+),(\d+)")
+_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_FIELDS = ("sx", "sy", "gx", "gy")
+#: Keys mapf-IR understands; each may appear once.
+KNOWN_KEYS = ("map_file", "agents", "seed", "random_problem", "max_timestep",
+              "max_comp_time", "well_formed")
+#: mapf-IR's defaults (default_params.hpp), used for fresh files.
+DEFAULT_MAX_TIMESTEP = 5000
+DEFAULT_MAX_COMP_TIME = 60000
+
+# layout tokens: where header entries and agent lines sit among verbatim lines
+_KEY_SLOT = ("key", "")
+_AGENT_SLOT = ("agent", "")
+
+
+class Instance:
+    """A MAPF problem; `starts`/`goals` in the base frame, agent i at index i."""
+
+    def __init__(
+        self, map_file: str, grid: Grid, starts: List[Coord], goals: List[Coord],
+        header: Header, path: Optional[str] = None, orientation: str = MAPF_IR,
+        layout: Optional[List[Tuple[str, str]]] = None, newline: str = "\n",
+        final_newline: bool = True,
+    ) -> None:
+        self.map_file = map_file
+        self.grid = grid
+        self.starts = starts
+        self.goals = goals
+        self.header = header
+        self.path = path
+        self.orientation = orientation
+        #: file lines in order: header slots, agent slots and verbatim (comment/blank) lines
+        self.layout: List[Tuple[str, str]] = list(layout or [])
+        self.newline = newline
+        self.final_newline = final_newline
+
+    def _int(self, key: str) -> Optional[int]:
+        return self.header.get_int(key, InstanceFormatError, minimum=0)
+
+    def _flag(self, key: str) -> Optional[bool]:
+        return self.header.get_bool(key, InstanceFormatError)
+
+    @property
+    def num_agents(self) -> int:
+        return self._int("agents") or 0
+
+    @property
+    def seed(self) -> Optional[int]:
+        return self._int("seed")
+
+    @property
+    def random_problem(self) -> bool:
+        return bool(self._flag("random_problem"))
+
+    @property
+    def is_random(self) -> bool:
+        """mapf-IR draws starts and goals itself; `starts`/`goals` are empty."""
+        return self.random_problem
+
+    @property
+    def max_timestep(self) -> Optional[int]:
+        return self._int("max_timestep")
+
+    @property
+    def max_comp_time(self) -> Optional[int]:
+        return self._int("max_comp_time")
+
+    @property
+    def well_formed(self) -> Optional[bool]:
+        return self._flag("well_formed")
+
+    def __repr__(self) -> str:
+        return "Instance({!r}, map={!r}, agents={})".format(self.path, self.map_file, self.num_agents)
+
+
+def _agent_line_error(line: str, path: Optional[str], no: int) -> InstanceFormatError:
+    """Say where an agent line leaves the `sx,sy,gx,gy` shape (digits only)."""
+    pos = 0
+    for k, field in enumerate(_FIELDS):
+        if pos >= len(line):
+            what = "line ends early: expected {} ('sx,sy,gx,gy')".format(field)
+            return InstanceFormatError(what, path, no, pos + 1)
+        if not line[pos].isdigit():
+            what = "expected a digit for {}, got {!r} (agent lines are 'sx,sy,gx,gy', " \
+                   "digits only, no spaces)".format(field, line[pos])
+            return InstanceFormatError(what, path, no, pos + 1)
+        while pos < len(line) and line[pos].isdigit():
+            pos += 1
+        if k < 3 and (pos >= len(line) or line[pos] != ","):
+            got = "the end of the line" if pos >= len(line) else repr(line[pos])
+            what = "expected ',' after {}, got {} ('sx,sy,gx,gy')".format(field, got)
+            return InstanceFormatError(what, path, no, pos + 1)
+        pos += 1 if k < 3 else 0
+    what = "unexpected {!r} after gy; an agent line is exactly 'sx,sy,gx,gy'".format(line[pos])
+    return InstanceFormatError(what, path, no, pos + 1)
+
+
+def _looks_like_agent_line(line: str) -> bool:
+    first = line.lstrip()[:1]
+    return "," in line and (first.isdigit() or first in "-+(")
+
+
+def parse_instance(
+    text: str, path: Optional[str] = None, map_dirs: Optional[Sequence[Path]] = (),
+    grid: Optional[Grid] = None,
+) -> Instance:
+    """Parse instance text. `grid` given: use it instead of reading `map_file`.
+
+    The map is looked for in the file's folder, then `map_dirs`
+    (None: `default_map_dirs()`).
+    """
+    lines, newline, final_newline = split_lines(text)
+    header = Header(path=path)
+    layout: List[Tuple[str, str]] = []
+    agent_lines: List[Tuple[int, "re.Match[str]"]] = []
+    for no, line in enumerate(lines, 1):
+        if line.startswith("#") or not line.strip():
+            layout.append(("text", line))
+            continue
+        m = _AGENT.fullmatch(line)
+        if m is not None:
+            agent_lines.append((no, m))
+            layout.append(_AGENT_SLOT)
+            continue
+        key, eq, value = line.partition("=")
+        if eq and _KEY.fullmatch(key):
+            if key in KNOWN_KEYS and key in header:
+                raise InstanceFormatError("'{}=' given twice (first on line {})".format(
+                    key, header.line_of(key)), path, no)
+            header.append(key, value, no)
+            layout.append(_KEY_SLOT)
+            continue
+        if _looks_like_agent_line(line):
+            raise _agent_line_error(line, path, no)
+        raise InstanceFormatError(
+            "expected a comment ('# ...'), a 'key=value' line or an agent line 'sx,sy,gx,gy'; "
+            "got {!r}".format(line), path, no, 1)
+
+    map_file = _check_header(header, agent_lines, len(lines), path)
+    orientation = file_orientation(header, InstanceFormatError)
+    if grid is None:
+        grid = _load_grid(map_file, header, path, map_dirs)
+    starts, goals = _agents_to_base(agent_lines, grid, orientation, path)
+    return Instance(map_file, grid, starts, goals, header, path, orientation, layout,
+                    newline, final_newline)
+
+
+def _check_header(header: Header, agent_lines: List[Tuple[int, "re.Match[str]"]],
+                  num_lines: int, path: Optional[str]) -> str:
+    """Check the known keys and the agent line count; return map_file."""
+    map_file = header.get_str("map_file")
+    if map_file is None:
+        raise InstanceFormatError("missing 'map_file=' line (the map to plan on)", path, 1)
+    if not map_file:
+        raise InstanceFormatError("'map_file=' is empty; expected a .map file name",
+                                  path, header.line_of("map_file"))
+    if "agents" not in header:
+        raise InstanceFormatError("missing 'agents=' line (the number of agents)", path, 1)
+    agents = header.get_int("agents", InstanceFormatError, minimum=1)
+    for key in ("seed", "max_timestep", "max_comp_time"):
+        header.get_int(key, InstanceFormatError, minimum=0)
+    random_problem = header.get_bool("random_problem", InstanceFormatError)
+    header.get_bool("well_formed", InstanceFormatError)
+    for key in ("map_file", "agents"):
+        key_line = header.line_of(key) or 0
+        if agent_lines and agent_lines[0][0] < key_line:
+            raise InstanceFormatError(
+                "agent line before '{}=' (line {}); mapf-IR reads agent lines only after "
+                "it knows the map and the number of agents".format(key, key_line),
+                path, agent_lines[0][0])
+    if random_problem:
+        if agent_lines:
+            raise InstanceFormatError(
+                "agent line with random_problem=1 (line {}); mapf-IR ignores it and draws "
+                "random starts and goals: remove the agent lines or set random_problem=0".format(
+                    header.line_of("random_problem")), path, agent_lines[0][0])
+    elif len(agent_lines) > (agents or 0):
+        raise InstanceFormatError(
+            "more agent lines than agents={} (line {})".format(agents, header.line_of("agents")),
+            path, agent_lines[agents or 0][0])
+    elif len(agent_lines) < (agents or 0):
+        raise InstanceFormatError(
+            "agents={} but {} agent line(s) 'sx,sy,gx,gy' follow".format(agents, len(agent_lines)),
+            path, header.line_of("agents"))
+    return map_file
+
+
+def _load_grid(map_file: str, header: Header, path: Optional[str],
+               map_dirs: Optional[Sequence[Path]]) -> Grid:
+    dirs = default_map_dirs() if map_dirs is None else map_dirs
+    folder = Path(path).parent if path else None
+    try:
+        found = resolve_map(map_file, folder, dirs)
+    except MapNotFoundError as err:
+        raise MapNotFoundError(err.message, path, header.line_of("map_file")) from None
+    return read_map(str(found)).grid
+
+
+def _agents_to_base(agent_lines: List[Tuple[int, "re.Match[str]"]], grid: Grid,
+                    orientation: str, path: Optional[str]) -> Tuple[List[Coord], List[Coord]]:
+    """Check every cell (as written in the file) and return base-frame starts, goals."""
+    w, h = grid.width, grid.height
+    flip = orientation == MAPF_IR
+    starts: List[Coord] = []
+    goals: List[Coord] = []
+    taken: Tuple[Dict[Coord, Tuple[int, int]], Dict[Coord, Tuple[int, int]]] = ({}, {})
+    for agent, (no, m) in enumerate(agent_lines):
+        sx, sy, gx, gy = (int(v) for v in m.groups())
+        for k, (x, y), out in ((0, (sx, sy), starts), (1, (gx, gy), goals)):
+            what = ("start", "goal")[k]
+            col = m.start(1 + 2 * k) + 1
+            if not (x < w and y < h):
+                raise InstanceFormatError(
+                    "{} ({},{}) of agent {} is off the map ({} wide, {} high)".format(
+                        what, x, y, agent, w, h), path, no, col)
+            base = (x, h - 1 - y) if flip else (x, y)
+            if not grid.free[base[1], base[0]]:
+                raise InstanceFormatError("{} ({},{}) of agent {} is on a blocked cell".format(
+                    what, x, y, agent), path, no, col)
+            if base in taken[k]:
+                other, other_line = taken[k][base]
+                raise InstanceFormatError(
+                    "agent {} {}s at ({},{}), where agent {} {}s too (line {})".format(
+                        agent, ("start", "end")[k], x, y, other, ("start", "end")[k], other_line),
+                    path, no, col)
+            taken[k][base] = (agent, no)
+            out.append(base)
+    return starts, goals
+
+
+def read_instance(path: str, map_dirs: Optional[Sequence[Path]] = ()) -> Instance:
+    return parse_instance(read_text(str(path)), str(path), map_dirs)
+
+
+def format_instance(inst: Instance, orientation: Optional[str] = None) -> str:
+    """The file text; `orientation` None keeps the file's own, else 'mapf-ir' or 'base'."""
+    target = check_orientation(orientation, inst.orientation)
+    header = header_for_orientation(inst.header, target)
+    if not inst.random_problem:
+        header.set("agents", len(inst.starts))
+    h = inst.grid.height
+    agents = []
+    for (sx, sy), (gx, gy) in zip(inst.starts, inst.goals):
+        if target == MAPF_IR:
+            sy, gy = h - 1 - sy, h - 1 - gy
+        agents.append("{},{},{},{}".format(sx, sy, gx, gy))
+    entries = header.lines()
+    out: List[str] = []
+    ei = ai = 0
+    for kind, text in inst.layout:
+        if kind == "key":
+            if ei < len(entries):
+                out.append(entries[ei])
+                ei += 1
+        elif kind == "agent":
+            # header entries added since reading go before the first agent line
+            out.extend(entries[ei:])
+            ei = len(entries)
+            if ai < len(agents):
+                out.append(agents[ai])
+                ai += 1
+        else:
+            out.append(text)
+    out.extend(entries[ei:])
+    out.extend(agents[ai:])
+    return join_lines(out, inst.newline, inst.final_newline)
+
+
+def write_instance(inst: Instance, path: str, orientation: Optional[str] = None) -> None:
+    write_text(str(path), format_instance(inst, orientation))
+
+
+def make_instance(grid: Grid, map_file: str, starts: Sequence[Coord], goals: Sequence[Coord],
+                  **header_values: object) -> Instance:
+    """A fresh instance in mapf-IR's `makeScenFile` layout (base-frame cells)."""
+    starts = [(int(x), int(y)) for x, y in starts]
+    goals = [(int(x), int(y)) for x, y in goals]
+    if len(starts) != len(goals):
+        raise ValueError("{} starts but {} goals".format(len(starts), len(goals)))
+    for what, cells in (("start", starts), ("goal", goals)):
+        for i, c in enumerate(cells):
+            if not grid.is_free(c):
+                raise ValueError("{} {} of agent {} is not a free cell of the map".format(what, c, i))
+        if len(set(cells)) != len(cells):
+            raise ValueError("two agents share a {}".format(what))
+    values: Dict[str, object] = {
+        "map_file": map_file, "agents": len(starts), "seed": 0, "random_problem": 0,
+        "max_timestep": DEFAULT_MAX_TIMESTEP, "max_comp_time": DEFAULT_MAX_COMP_TIME,
+    }
+    values.update(header_values)
+    header = Header()
+    for key, value in values.items():
+        header.append(key, int(value) if isinstance(value, bool) else value)
+    orientation = BASE if str(values.get("orientation", "")) == BASE else MAPF_IR
+    return Instance(map_file, grid, starts, goals, header, None, orientation)
