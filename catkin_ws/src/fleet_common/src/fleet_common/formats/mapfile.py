@@ -116,7 +116,7 @@ def parse_map(text: str, path: Optional[str] = None, strict: bool = False) -> Ma
         if len(row) == width and row.isascii() and row.isprintable():
             continue
         col = _bad_char_column(row)
-        if col and col <= width:
+        if col:
             raise MapFormatError(
                 "{} in a grid row; expected map characters such as '.', '@', 'T'".format(
                     _describe(row[col - 1])), path, first_row_line + r, col,
