@@ -48,6 +48,7 @@ _ENTRY_HEADING = r"\(\d{1,9},\d{1,9}," + _HEADING + r"\),"
 _ONE = re.compile(r"\((\d{1,9}),(\d{1,9})(?:,(" + _HEADING + r"))?\),")
 _NAMES = [o.name for o in sorted(Orientation)]
 _CODES = {name: i for i, name in enumerate(_NAMES)}
+_NAME_ARRAY = np.array(_NAMES, dtype=object)
 _FLIP_CODE = np.array([Orientation(i).flipped_y().value for i in range(len(_NAMES))], np.int8)
 _row_patterns: Dict[Tuple[int, bool], "re.Pattern[str]"] = {}
 
@@ -163,8 +164,18 @@ def _entries_error(body: str, n: int, headings: Optional[bool], path: Optional[s
                                path, no, offset + len(body) + 1)
 
 
+# Matched rows are ASCII; bytes.translate strips them to "x,y,...," at C speed.
+# A heading's letters are kept as two digits: axis (X 0, Y 1), sign (PLUS 0, MINUS 2),
+# so X_PLUS, Y_PLUS, X_MINUS, Y_MINUS read as 0, 10, 2, 12 (see _HEADING_CODE).
+_DIGITS = bytes.maketrans(b"XYPM", b"0102")
+_HEADING_CODE = np.zeros(13, dtype=np.int8)
+_HEADING_CODE[[0, 10, 2, 12]] = [_CODES["X_PLUS"], _CODES["Y_PLUS"], _CODES["X_MINUS"],
+                                 _CODES["Y_MINUS"]]
+
+
 def _to_int_array(joined: str, n_values: int) -> np.ndarray:
-    flat = np.fromstring(joined.replace("(", "").replace(")", ""), dtype=np.int64, sep=",")
+    data = joined.encode("ascii").translate(_DIGITS, b"()_LUSIN")
+    flat = np.fromstring(data, dtype=np.int64, sep=",")
     if flat.size != n_values:  # cannot happen after the full matches; never read short
         raise ValueError("expected {} numbers, converted {}".format(n_values, flat.size))
     return flat
@@ -198,12 +209,10 @@ def _parse_rows(rows: List[str], n: int, path: Optional[str],
             raise _entries_error(body, n, headings, path, no, len(prefix))
         bodies.append(body)
     joined = "".join(bodies)
-    codes = None
-    if headings:
-        names = re.findall(_HEADING, joined)
-        codes = np.array([_CODES[s] for s in names], dtype=np.int8).reshape(len(rows), n)
-        joined = re.sub("," + _HEADING, "", joined)
-    return _to_int_array(joined, 2 * n * len(rows)).reshape(len(rows), n, 2), codes
+    if not headings:
+        return _to_int_array(joined, 2 * n * len(rows)).reshape(len(rows), n, 2), None
+    flat = _to_int_array(joined, 3 * n * len(rows)).reshape(len(rows), n, 3)
+    return flat[..., :2], _HEADING_CODE[flat[..., 2]]
 
 
 def _flip(cells: np.ndarray, height: int) -> np.ndarray:
@@ -287,10 +296,10 @@ def _format_cells(cells: np.ndarray, codes: Optional[np.ndarray]) -> str:
     n = cells.shape[0]
     if codes is None:
         return ("(%d,%d)," * n) % tuple(cells.ravel().tolist())
-    flat: List[object] = []
-    for (x, y), c in zip(cells.tolist(), codes.tolist()):
-        flat += (x, y, _NAMES[c])
-    return ("(%d,%d,%s)," * n) % tuple(flat)
+    flat = np.empty((n, 3), dtype=object)
+    flat[:, :2] = cells
+    flat[:, 2] = _NAME_ARRAY[codes]
+    return ("(%d,%d,%s)," * n) % tuple(flat.ravel().tolist())
 
 
 def format_solution(sol: Solution, orientation: Optional[str] = None) -> str:
