@@ -217,3 +217,20 @@ def test_write_read_write_is_the_identity(sol, orientation):
     assert back.iterations == [{"iter": 0, "comp_time": 1, "soc": 2, "makespan": 3}]
     assert format_solution(back) == text
     assert format_solution(back, "mapf-ir") == format_solution(sol, "mapf-ir")
+
+
+def test_header_keeps_order_repeats_and_raw_values():
+    text = ("instance= a.txt\nagents=1\nmap_file=m.map\niter=0,soc=1\niter=1,soc=1\nzz=?\n"
+            "starts=(0,0),\ngoals=(0,0),\nsolution=\n")
+    sol = parse_solution(text, grid=Grid(np.ones((1, 1), dtype=bool)))
+    h = sol.header
+    assert list(h)[:2] == [("instance", " a.txt"), ("agents", "1")]
+    assert h.get_all("iter") == ["0,soc=1", "1,soc=1"] and h.keys()[-2:] == ["iter", "zz"]
+    assert h.line_of("zz") == 6
+    other = h.copy()
+    other.set("zz", "!")
+    assert other != h and other.get("zz") == "!" and other.line_of("zz") == 6
+    other.set("new", 5)
+    assert other.keys()[-1] == "new" and other.get("new") == "5"
+    with pytest.raises(ValueError, match="orientation must be None, 'mapf-ir' or 'base'"):
+        format_solution(sol, orientation="top-left")

@@ -274,6 +274,8 @@ def format_instance(inst: Instance, orientation: Optional[str] = None) -> str:
     """The file text; `orientation` None keeps the file's own, else 'mapf-ir' or 'base'."""
     target = check_orientation(orientation, inst.orientation)
     header = header_for_orientation(inst.header, target)
+    if header.get_str("map_file") != inst.map_file:
+        header.set("map_file", inst.map_file)
     if not inst.random_problem:
         header.set("agents", len(inst.starts))
     h = inst.grid.height
