@@ -142,10 +142,10 @@ class Transform2D:
                 raise _fail("unknown key {!r}: expected {}".format(key, ", ".join(_KEYS)),
                             path, data, key)
         frames = []
-        for key in ("source", "target"):
+        for key, role in (("source", "reads"), ("target", "writes")):
             if key not in data:
-                raise _fail("missing key {!r} (one of: {})".format(key, ", ".join(sorted(FRAMES))),
-                            path, data)
+                raise _fail("missing key {!r}: the frame it {}, one of {}".format(
+                    key, role, ", ".join(sorted(FRAMES))), path, data)
             try:
                 frames.append(check_frame(data[key], key + " frame"))
             except TransformError as err:
