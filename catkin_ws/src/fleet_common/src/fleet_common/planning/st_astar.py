@@ -1,0 +1,85 @@
+"""Space-time A*: one agent's shortest path around reservations.
+
+States are (cell, step); moves go to a neighbour or wait, one step each. The
+heuristic is the true distance to the goal on the empty map (consistent), so
+the first time the goal is popped the path is shortest. The agent may only
+finish at its goal at a step after the last reservation of that cell, since
+it stays there for good. After the reservations' horizon nothing changes any
+more but parked agents, so all later steps of a cell are one state: the
+search is finite and reports "no path" when the goal cannot be reached.
+"""
+from __future__ import annotations
+
+import heapq
+from typing import Dict, List, Optional, Sequence
+
+from .deadline import Deadline
+from .reservations import NEVER, Reservations
+
+#: Check the deadline every this many expansions (a clock read costs ~50 ns; a pop ~1 us).
+_CHECK_EVERY = 256
+
+
+class DeadlineReached(Exception):
+    """The deadline expired during a search (solvers turn it into a "timeout")."""
+
+
+def space_time_astar(moves: Sequence[Sequence[int]], start: int, goal: int, h: Sequence[int],
+                     res: Reservations, deadline: Deadline, start_time: int = 0) -> Optional[List[int]]:
+    """Cells from `start` (at step `start_time`) to `goal`, one per step, or None if impossible."""
+    nv = res.num_cells
+    vertex, edge, parked = res.vertex, res.edge, res.parked
+    if parked[goal] != NEVER:
+        return None
+    # the agent cannot finish before `done`: a sharper, still admissible heuristic
+    done = res.last.get(goal, -1) + 1
+    cap = res.horizon + 1  # steps >= cap are all alike
+    start_key = (start_time if start_time < cap else cap) * nv + start
+    best: Dict[int, int] = {start_key: start_time}
+    parent: Dict[int, int] = {}
+    h0 = max(h[start], done - start_time)
+    # ties on f go to the deepest state: with waits allowed, this dives instead of flooding
+    heap = [(start_time + h0, -start_time, start)]
+    pops = 0
+    while heap:
+        _, neg_t, cell = heapq.heappop(heap)
+        t = -neg_t
+        key = (t if t < cap else cap) * nv + cell
+        if best[key] < t:
+            continue  # a quicker way here was found after this entry was queued
+        if cell == goal and t >= done:
+            return _path(parent, key, nv)
+        pops += 1
+        if pops % _CHECK_EVERY == 0 and deadline.expired():
+            raise DeadlineReached()
+        nt = t + 1
+        nt_base = nt * nv
+        move_base = (nt_base + cell) * nv
+        nkey_base = (nt if nt < cap else cap) * nv
+        for v in moves[cell]:
+            if nt_base + v in vertex or parked[v] <= nt:
+                continue
+            if v != cell and move_base + v in edge:
+                continue
+            nkey = nkey_base + v
+            old = best.get(nkey)
+            if old is not None and old <= nt:
+                continue
+            best[nkey] = nt
+            parent[nkey] = key
+            hv = h[v]
+            if done - nt > hv:
+                hv = done - nt
+            heapq.heappush(heap, (nt + hv, -nt, v))
+    return None
+
+
+def _path(parent: Dict[int, int], key: int, nv: int) -> List[int]:
+    cells = [key % nv]
+    for _ in range(len(parent)):
+        if key not in parent:
+            break
+        key = parent[key]
+        cells.append(key % nv)
+    cells.reverse()
+    return cells
