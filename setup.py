@@ -24,7 +24,7 @@ PACKAGE_ROOTS: Dict[str, str] = {
 
 #: Data files shipped inside packages (globs relative to the package folder).
 PACKAGE_DATA: Dict[str, List[str]] = {
-    "fleet_common": ["lab/*.map", "lab/*.yaml", "lab/*.txt"],
+    "fleet_common": ["lab/*.map", "lab/*.yaml", "lab/*.txt", "tk_colours.txt"],
 }
 
 

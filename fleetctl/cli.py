@@ -35,7 +35,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Optional[List[str]] = None) -> int:
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
+    # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
+    passthrough: List[str] = []
+    if argv and argv[0] in COMMANDS and "--" in argv and getattr(
+            importlib.import_module("fleetctl.commands." + argv[0]), "PASSTHROUGH", False):
+        cut = argv.index("--")
+        argv, passthrough = argv[:cut], argv[cut + 1:]
     args = parser.parse_args(argv)
+    args.passthrough = passthrough
     try:
         return int(args._run(args))
     except FormatError as err:

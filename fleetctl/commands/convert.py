@@ -105,7 +105,8 @@ def _lab_or_given_map(args: argparse.Namespace):
 
 
 def _legacy_plan(args: argparse.Namespace) -> Optional[str]:
-    from fleet_common.formats.legacy_xml import legacy_plan_to_plan, read_legacy_plan
+    from fleet_common.formats.legacy_convert import legacy_plan_to_plan
+    from fleet_common.formats.legacy_xml import read_legacy_plan
     from fleet_common.formats.solution import make_solution, write_solution
     from fleet_common.validate import validate_plan
 
@@ -124,7 +125,8 @@ def _legacy_plan(args: argparse.Namespace) -> Optional[str]:
 
 
 def _legacy_map(args: argparse.Namespace) -> Optional[str]:
-    from fleet_common.formats.legacy_xml import legacy_nodes_to_grid, read_legacy_node_map
+    from fleet_common.formats.legacy_convert import legacy_nodes_to_grid
+    from fleet_common.formats.legacy_xml import read_legacy_node_map
     from fleet_common.formats.mapfile import map_from_grid, write_map
 
     grid, ids = legacy_nodes_to_grid(read_legacy_node_map(args.input))

@@ -72,5 +72,5 @@ def _robot_lines(robots, plan, nodes) -> List[str]:
         r = robots[i]
         start, goal = plan.path(i)[0], plan.goals[i]
         lines.append("robot {} ({}): node {} {} -> node {} {}, {} steps".format(
-            r.id, r.colour, nodes.id_at(start), start, nodes.id_at(goal), goal, int(costs[i])))
+            r.id, r.colour, nodes.node_at(start), start, nodes.node_at(goal), goal, int(costs[i])))
     return lines

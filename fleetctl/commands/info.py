@@ -92,7 +92,8 @@ def _legacy_map(args: argparse.Namespace) -> List[str]:
 
 def _legacy_plan(args: argparse.Namespace) -> List[str]:
     from fleet_common.errors import NotConvertibleError
-    from fleet_common.formats.legacy_xml import legacy_plan_to_plan, read_legacy_plan
+    from fleet_common.formats.legacy_convert import legacy_plan_to_plan
+    from fleet_common.formats.legacy_xml import read_legacy_plan
 
     legacy = read_legacy_plan(args.file)
     sections = sum(len(a.sections) for a in legacy.agents)

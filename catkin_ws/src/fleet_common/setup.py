@@ -11,6 +11,6 @@ setup(
     **generate_distutils_setup(
         packages=find_packages("src"),
         package_dir={"": "src"},
-        package_data={"fleet_common": ["lab/*.map", "lab/*.yaml", "lab/*.txt"]},
+        package_data={"fleet_common": ["lab/*.map", "lab/*.yaml", "lab/*.txt", "tk_colours.txt"]},
     )
 )

@@ -1,0 +1,155 @@
+"""`fleetctl solve`: plan an instance with a built-in solver or mapf-IR, write mapf-IR's output."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import List, Tuple
+
+from fleet_common.errors import FleetError
+from fleet_common.formats.instance import Instance, read_instance
+from fleet_common.formats.solution import format_solution, make_solution, write_solution
+from fleet_common.plan import Plan
+from fleet_common.planning import SOLVER_NAMES, solve
+from fleet_common.planning.deadline import Deadline
+from fleet_common.planning.dist_table import lower_bounds
+from fleet_common.planning.mapf_ir import APP_ENV, MapfIrFailed, MapfIrSolver
+from fleet_common.planning.result import SolveResult
+
+from .. import filekinds
+from ..options import add_map_dir, map_dirs
+
+NAME = "solve"
+#: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)
+PASSTHROUGH = True
+HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, pp or mapf-IR; write a solution"
+MAPF_IR_PREFIX = "mapf-ir:"
+DEFAULT_SOLVER = "lacam"
+#: Time limit when neither --time-limit nor the instance's max_comp_time gives one.
+DEFAULT_TIME_LIMIT_S = 60.0
+DESCRIPTION = (
+    "Plan INSTANCE (a mapf-IR instance, or a MovingAI .scen with --map and --agents) and write "
+    "the plan as a mapf-IR solution file (mapf-IR orientation, every header key mapf-IR writes, "
+    "comp_time in ms) that mapf-IR's visualizer and `fleetctl validate` read. Default output: "
+    "<instance stem>.<solver>.txt in the current folder, e.g. arena_300agents_1.lacam.txt "
+    "(`-o -` writes to stdout). Prints one summary line. Solvers: pibt (fast, may get stuck), "
+    "lacam (default; complete, PIBT-guided), cbs (optimal sum of costs, small instances), pp "
+    "(prioritized planning), or mapf-ir:NAME to run mapf-IR's solver NAME (PIBT, CBS, ECBS, "
+    "IR_HYBRID, ...) with the binary from --mapf-ir or ${}; options after `--` go to it "
+    "unchanged, e.g. `-s mapf-ir:ECBS -- -w 1.2`. The time limit defaults to the instance's "
+    "max_comp_time, else {:.0f} s; the seed to the instance's seed, else 0. Exit 0 with a plan; "
+    "3 when no plan was found within the limit (a failed output, solved=0 and makespan=-1, is "
+    "still written); 1 when mapf-IR failed; 2 for unreadable input (FILE:LINE: message), an "
+    "invalid problem (the agent named) or a wrong command line."
+).format(APP_ENV, DEFAULT_TIME_LIMIT_S)
+
+
+def solver_name(text: str) -> str:
+    if text.startswith(MAPF_IR_PREFIX) and len(text) > len(MAPF_IR_PREFIX):
+        return text
+    if text in SOLVER_NAMES:
+        return text
+    raise argparse.ArgumentTypeError("unknown solver {!r}; choose from {} or mapf-ir:NAME".format(
+        text, ", ".join(SOLVER_NAMES)))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("instance", type=Path, metavar="INSTANCE", help="mapf-IR instance or .scen file")
+    parser.add_argument("-s", "--solver", type=solver_name, default=DEFAULT_SOLVER, metavar="SOLVER",
+                        help="{} or mapf-ir:NAME (default: {})".format("|".join(SOLVER_NAMES), DEFAULT_SOLVER))
+    parser.add_argument("-o", "--output", metavar="OUT",
+                        help="solution file to write; '-' for stdout (default: <instance stem>.<solver>.txt)")
+    parser.add_argument("--time-limit", type=float, metavar="S",
+                        help="seconds (default: the instance's max_comp_time, else {:.0f})".format(
+                            DEFAULT_TIME_LIMIT_S))
+    parser.add_argument("--seed", type=int, metavar="N", help="random seed (default: the instance's seed, else 0)")
+    add_map_dir(parser)
+    parser.add_argument("--map", type=Path, metavar="MAP", help=".scen input: the map (default: the scen's map name, searched)")
+    parser.add_argument("--agents", type=int, metavar="N", help=".scen input: use the first N entries (default: all)")
+    parser.add_argument("--mapf-ir", type=Path, metavar="PATH", dest="mapf_ir",
+                        help="mapf-IR's `app` binary (default: ${})".format(APP_ENV))
+    parser.add_argument("--mapf-ir-map-dir", type=Path, metavar="D",
+                        help="the map folder mapf-IR was compiled with (default: <app's folder>/../map)")
+    parser.usage = "fleetctl solve INSTANCE [options] [-- MAPF-IR-OPTION ...]"
+
+
+def run(args: argparse.Namespace) -> int:
+    inst, map_file = _load(args)
+    if inst.is_random:
+        raise FleetError("{}: random_problem=1 lets mapf-IR draw starts and goals itself; list them "
+                         "in the file (mapf-IR's `app -P` writes such a file)".format(args.instance))
+    limit = args.time_limit
+    if limit is None:
+        limit = inst.max_comp_time / 1000.0 if inst.max_comp_time else DEFAULT_TIME_LIMIT_S
+    seed = args.seed if args.seed is not None else (inst.seed or 0)
+    grid, starts, goals = inst.grid, inst.starts, inst.goals
+    lb_soc, lb_makespan = lower_bounds(grid, starts, goals)
+    try:
+        result = _solve(args, inst, limit, seed)
+    except MapfIrFailed as err:
+        print("fleetctl solve: {}".format(err), file=sys.stderr)
+        return 1
+    # mapf-IR's IR solvers log their refinement as iter= lines; keep them
+    extra: List[Tuple[str, object]] = [("iter", v) for v in result.stats.get("iter_lines", [])]
+    sol = make_solution(grid, map_file, result.plan, starts, goals, solver=result.solver,
+                        solved=result.solved, comp_time=int(round(result.comp_time_ms)), lb_soc=lb_soc,
+                        lb_makespan=lb_makespan, instance=str(args.instance), extra=extra)
+    out = args.output or "{}.{}.txt".format(args.instance.stem, args.solver.replace(":", "-"))
+    to_stdout = out == "-"
+    if to_stdout:
+        sys.stdout.write(format_solution(sol))
+        sys.stdout.flush()
+    else:
+        write_solution(sol, out)
+    where = "stdout" if to_stdout else out
+    if not result.solved:
+        print("fleetctl solve: no plan: {} {} after {:.0f} ms{}; wrote the failed output to {}".format(
+            result.solver, "ran out of time" if result.status == "timeout" else "found no solution",
+            result.comp_time_ms, " ({})".format(result.message) if result.message else "", where),
+            file=sys.stderr)
+        return 3
+    print(_summary(result, result.plan, lb_soc, lb_makespan, where),
+          file=sys.stderr if to_stdout else sys.stdout)
+    return 0
+
+
+def _load(args: argparse.Namespace) -> Tuple[Instance, str]:
+    """The instance and the map_file= to write; a .scen is turned into an instance."""
+    kind = filekinds.sniff(args.instance)
+    if kind == filekinds.INSTANCE:
+        if args.map is not None or args.agents is not None:
+            raise FleetError("--map and --agents are for .scen input; {} is an instance".format(args.instance))
+        inst = read_instance(args.instance, map_dirs=map_dirs(args))
+        return inst, inst.map_file
+    if kind == filekinds.SCEN:
+        from fleet_common.formats.mapfile import read_map
+        from fleet_common.formats.mapsearch import resolve_map
+        from fleet_common.formats.scen import read_scen, scen_to_instance
+
+        scen = read_scen(args.instance)
+        if args.map is not None:
+            map_path = args.map
+        elif scen.entries:
+            map_path = resolve_map(scen.entries[0].map_name, args.instance.parent, map_dirs(args))
+        else:
+            raise FleetError("{} has no entries".format(args.instance))
+        inst = scen_to_instance(scen, read_map(map_path).grid, map_file=map_path.name, agents=args.agents)
+        return inst, map_path.name
+    raise FleetError("{} is a {} file; solve takes a mapf-IR instance or a .scen".format(args.instance, kind))
+
+
+def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int) -> SolveResult:
+    if args.solver.startswith(MAPF_IR_PREFIX):
+        adapter = MapfIrSolver(args.mapf_ir, map_dir=args.mapf_ir_map_dir, timeout_s=limit)
+        return adapter.solve(inst.grid, inst.starts, inst.goals, args.solver[len(MAPF_IR_PREFIX):],
+                             options=args.passthrough, deadline=Deadline(limit), seed=seed,
+                             max_timestep=inst.max_timestep)
+    if args.passthrough:
+        raise FleetError("options after `--` ({}) are for mapf-IR solvers; {} takes none".format(
+            " ".join(args.passthrough), args.solver))
+    return solve(args.solver, inst.grid, inst.starts, inst.goals, deadline=Deadline(limit), seed=seed)
+
+
+def _summary(result: SolveResult, plan: Plan, lb_soc: int, lb_makespan: int, where: str) -> str:
+    return "solved=1, solver={}, comp_time(ms)={:.0f}, soc={} (LB={}), makespan={} (LB={}) -> {}".format(
+        result.solver, result.comp_time_ms, plan.soc, lb_soc, plan.makespan, lb_makespan, where)
