@@ -162,3 +162,35 @@ def test_demo_plans_the_lab_scenario():
     assert "13x14 marker grid" in proc.stdout
     assert re.search(r"plan: \S+ in \d+ ms, soc=\d+, makespan=\d+, valid", proc.stdout)
     assert len(re.findall(r"^  robot \d+ ", proc.stdout, flags=re.M)) == 5
+
+
+def test_legacy_plan_converts_to_a_mapf_ir_solution_that_validates(repo_root, tmp_path):
+    src = repo_root / "tests" / "data" / "legacy" / "lab_plan.xml"
+    out = tmp_path / "lab_plan.txt"
+    proc = fleetctl("convert", src, out)
+    assert proc.returncode == 0, proc.stderr
+    assert "map_file=lab.map" in out.read_text()
+    info = fleetctl("info", src)
+    assert info.returncode == 0 and "converts to a timed grid plan" in info.stdout
+    check = fleetctl("validate", out)
+    assert check.returncode == 0, check.stdout + check.stderr
+    assert "valid:" in check.stdout
+
+
+def test_thesis_legacy_plan_is_reported_not_convertible(repo_root, tmp_path):
+    src = repo_root / "tests" / "data" / "legacy" / "thesis_fig3_1_plan.xml"
+    info = fleetctl("info", src)
+    assert info.returncode == 0 and "not convertible" in info.stdout and "diagonal" in info.stdout
+    proc = fleetctl("convert", src, tmp_path / "out.txt")
+    assert proc.returncode == 2 and "agent 5 section 1" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "out.txt").exists()
+
+
+def test_legacy_node_map_becomes_the_lab_grid(repo_root, tmp_path):
+    from fleet_common.formats.mapfile import read_map
+    from fleet_common.lab import lab_map_path
+
+    out = tmp_path / "nodes.map"
+    proc = fleetctl("convert", repo_root / "tests" / "data" / "legacy" / "lab_nodes.xml", out)
+    assert proc.returncode == 0, proc.stderr
+    assert read_map(out).grid == read_map(lab_map_path()).grid
