@@ -14,6 +14,7 @@ from fleet_common.planning import SOLVER_NAMES, solve
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.dist_table import lower_bounds
 from fleet_common.planning.mapf_ir import APP_ENV, MapfIrFailed, MapfIrSolver
+from fleet_common.planning.problem import check_problem
 from fleet_common.planning.result import SolveResult
 
 from .. import filekinds
@@ -83,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         limit = inst.max_comp_time / 1000.0 if inst.max_comp_time else DEFAULT_TIME_LIMIT_S
     seed = args.seed if args.seed is not None else (inst.seed or 0)
     grid, starts, goals = inst.grid, inst.starts, inst.goals
+    check_problem(grid, starts, goals)  # names the agent; lower bounds need reachable goals
     lb_soc, lb_makespan = lower_bounds(grid, starts, goals)
     try:
         result = _solve(args, inst, limit, seed)
