@@ -1,9 +1,8 @@
 """Benchmark: the built-in solvers (and mapf-IR, when available) on shipped mapf-IR instances.
 
 Prints one table row per solver and instance: status, best wall time of the
-repeats, soc and makespan. pibt and lacam run on every instance, pp on the
-instances where prioritized planning is sensible here, cbs only on the
-30-agent one with a short limit. With $MAPF_IR_APP set, mapf-IR's PIBT (and
+repeats, soc and makespan. pibt, lacam and pp run on every instance, cbs
+(optimal, for small instances) only on the 30-agent one with a short limit. With $MAPF_IR_APP set, mapf-IR's PIBT (and
 each solver named with --baseline) runs on the same instances in the same run,
 and the last column is our time over mapf-IR PIBT's wall time (its process,
 from start to exit, best of the repeats). Last, replanning: 300 agents on
@@ -36,7 +35,7 @@ PLAN: Dict[str, Tuple[str, ...]] = {
     ARENA: ("pibt", "lacam", "pp"),
     "random-32-32-20_30agents_1": ("pibt", "lacam", "pp", "cbs"),
     "random-32-32-20_70agents_1": ("pibt", "lacam", "pp"),
-    "random-32-32-20_110agents_1": ("pibt", "lacam"),
+    "random-32-32-20_110agents_1": ("pibt", "lacam", "pp"),
     "lak307d_300agents_well-formed_1": ("pibt", "lacam", "pp"),
 }
 CBS_LIMIT_S = 10.0
@@ -173,7 +172,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         for solver in PLAN[name]:
             limit = CBS_LIMIT_S if solver == "cbs" else args.time_limit
             result, ms = best_of(args.repeats if solver != "cbs" else 1, ours(name, solver, limit, args.seed))
-            ratio = "" if reference is None else "{:.1f}x".format(ms / reference)
+            ratio = "" if reference is None else "{:.3g}x".format(ms / reference)
             rows.append(row(name, agents, solver, result, ms, ratio))
         sys.stdout.flush()
     print_table(rows)

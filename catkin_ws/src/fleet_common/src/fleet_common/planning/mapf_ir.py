@@ -16,9 +16,10 @@ so the same path also works for a build without a compiled-in folder (it then
 opens maps relative to the working directory).
 
 The output is read with the foundation reader and the plan validated. When
-mapf-IR fails (exit status, signal, no output, unreadable output, a plan that
-fails validation) a `MapfIrFailed` says so with the tail of its output, and the
-work folder is kept for inspection.
+mapf-IR fails (exit status, signal, no output file, a plan that fails
+validation) a `MapfIrFailed` says so with the tail of its output; an
+unreadable output file is the reader's `SolutionFormatError` naming that file
+and line. Either way the work folder is kept for inspection.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Union
 
 from ..errors import FleetError, FormatError
 from ..grid import Coord, Grid
@@ -39,7 +40,7 @@ from ..formats.instance import DEFAULT_MAX_TIMESTEP, make_instance, write_instan
 from ..formats.mapfile import map_from_grid, write_map
 from ..formats.solution import Solution, read_solution
 from ..validate import validate_plan
-from .deadline import Deadline
+from .deadline import Deadline, as_deadline
 from .problem import check_problem
 from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult
 
@@ -116,26 +117,30 @@ class MapfIrSolver:
         self.grace_s = grace_s
 
     def solve(self, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
-              solver: str = "PIBT", options: Sequence[str] = (), deadline: Optional[Deadline] = None,
+              solver: str = "PIBT", options: Sequence[str] = (),
+              deadline: Union[None, float, Deadline] = None,
               seed: int = 0, max_timestep: Optional[int] = None, keep_files: bool = False) -> SolveResult:
         """Plan with mapf-IR's `solver`; `options` go to it unchanged (e.g. ["-w", "1.2"])."""
         check_problem(grid, starts, goals)
         if not starts:  # mapf-IR halts on agents=0; the empty plan is the answer
             return SolveResult(Plan.from_paths([]), solver, SOLVED, 0.0, "no agents: mapf-IR not run")
-        remaining = deadline.remaining() if deadline is not None else None
+        remaining = as_deadline(deadline).remaining()
         limit_s = self.timeout_s if remaining is None else remaining
         limit_ms = max(1, int(limit_s * 1000))
         work = Path(tempfile.mkdtemp(prefix="fleetcontrol-mapf-ir-"))
+        keep = keep_files
         try:
             result = self._run(work, grid, starts, goals, solver, list(options), limit_ms, seed,
                                max_timestep or DEFAULT_MAX_TIMESTEP)
         except (MapfIrError, FormatError) as err:
+            keep = True  # for the user to look at what mapf-IR was given and wrote
             _keep_note(err, work)
             raise
+        finally:
+            if not keep:
+                shutil.rmtree(str(work), ignore_errors=True)
         if keep_files:
             result.stats["work_dir"] = str(work)
-        else:
-            shutil.rmtree(str(work), ignore_errors=True)
         return result
 
     def _run(self, work: Path, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
