@@ -41,16 +41,21 @@ def cell_problem(grid: Grid, cell: Coord, what: str, agent: int) -> Optional[str
     return None
 
 
-def duplicate_problems(cells: Sequence[Coord], what: str) -> List[str]:
-    """One message per agent whose cell an earlier agent already has."""
+def duplicate_problems(cells: Sequence[Coord], what: str,
+                       agents: Optional[Sequence[int]] = None) -> List[str]:
+    """One message per agent whose cell an earlier agent already has.
+
+    `agents` names the agent of each cell (default: its position in `cells`).
+    """
+    names = list(range(len(cells))) if agents is None else list(agents)
     first: Dict[Coord, int] = {}
     out: List[str] = []
-    for i, c in enumerate(cells):
+    for k, c in enumerate(cells):
         key = (int(c[0]), int(c[1]))
         if key in first:
-            out.append("agents {} and {} have the same {} {}".format(first[key], i, what, _fmt(key)))
+            out.append("agents {} and {} have the same {} {}".format(first[key], names[k], what, _fmt(key)))
         else:
-            first[key] = i
+            first[key] = names[k]
     return out
 
 

@@ -1,0 +1,136 @@
+"""CBS is optimal for sum of costs (counted as mapf-IR counts it); LaCAM is complete.
+
+The oracle is an exhaustive search over joint configurations of 2-3 agents on
+maps of at most 4x4 cells. A state is the configuration plus which agents have
+"finished" (are at their goals and will never move again); each step costs
+the number of unfinished agents, which sums to mapf-IR's sum of costs.
+"""
+from __future__ import annotations
+
+import heapq
+import itertools
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from fleet_common.formats.instance import read_instance
+from fleet_common.formats.solution import read_solution
+from fleet_common.grid import Coord, Grid
+from fleet_common.planning import solve
+from fleet_common.planning.components import component_labels
+from fleet_common.validate import validate_plan
+
+
+def optimal_soc(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> Optional[int]:
+    """Minimum mapf-IR sum of costs by Dijkstra over (configuration, finished set); None if unsolvable."""
+    n = len(starts)
+    adj = grid.adjacency()
+    s = tuple(grid.index(c) for c in starts)
+    g = tuple(grid.index(c) for c in goals)
+
+    def finish_options(cfg: Tuple[int, ...], done: int):
+        home = [i for i in range(n) if cfg[i] == g[i] and not done >> i & 1]
+        for k in range(len(home) + 1):
+            for chosen in itertools.combinations(home, k):
+                yield done | sum(1 << i for i in chosen)
+
+    full = (1 << n) - 1
+    best: Dict[Tuple[Tuple[int, ...], int], int] = {}
+    heap: List[Tuple[int, Tuple[int, ...], int]] = []
+    for d in finish_options(s, 0):
+        best[(s, d)] = 0
+        heapq.heappush(heap, (0, s, d))
+    while heap:
+        cost, cfg, done = heapq.heappop(heap)
+        if best.get((cfg, done), 1 << 30) < cost:
+            continue
+        if done == full:
+            return cost
+        step = n - bin(done).count("1")
+        options = [[cfg[i]] if done >> i & 1 else [cfg[i]] + adj[cfg[i]] for i in range(n)]
+        for nxt in itertools.product(*options):
+            if len(set(nxt)) < n:
+                continue
+            if any(nxt[i] == cfg[j] and nxt[j] == cfg[i] for i in range(n) for j in range(i + 1, n)
+                   if cfg[i] != nxt[i]):
+                continue
+            for d in finish_options(nxt, done):
+                key = (nxt, d)
+                if cost + step < best.get(key, 1 << 30):
+                    best[key] = cost + step
+                    heapq.heappush(heap, (cost + step, nxt, d))
+    return None
+
+
+@st.composite
+def tiny_instances(draw, max_agents: int = 3):
+    w = draw(st.integers(2, 4))
+    h = draw(st.integers(1, 4))
+    cell = st.sampled_from([True, True, True, False])  # about one cell in four blocked
+    grid = Grid(np.array(draw(st.lists(st.lists(cell, min_size=w, max_size=w), min_size=h, max_size=h))))
+    cells = list(grid.free_cells())
+    assume(len(cells) >= 2)
+    n = draw(st.integers(1, min(max_agents, len(cells))))
+    starts = draw(st.lists(st.sampled_from(cells), min_size=n, max_size=n, unique=True))
+    goals = draw(st.lists(st.sampled_from(cells), min_size=n, max_size=n, unique=True))
+    labels = component_labels(grid)
+    assume(all(labels[grid.index(a)] == labels[grid.index(b)] for a, b in zip(starts, goals)))
+    return grid, starts, goals
+
+
+def test_cbs_matches_mapf_irs_cbs_on_the_makespan_soc_pareto_instance(shared_data: Path) -> None:
+    inst = read_instance(str(shared_data / "instances" / "makespan-soc-pareto.txt"),
+                         map_dirs=[shared_data / "maps"])
+    theirs = read_solution(str(shared_data / "solutions" / "cbs_makespan-soc-pareto.txt"),
+                           map_dirs=[shared_data / "maps"])
+    result = solve("cbs", inst.grid, inst.starts, inst.goals, deadline=10.0)
+    assert result.solved
+    assert result.plan.soc == 13 == theirs.plan.soc
+    assert validate_plan(result.plan, inst.grid, inst.starts, inst.goals).ok
+    assert optimal_soc(inst.grid, inst.starts, inst.goals) == 13
+
+
+# derandomized: CBS is exponential in corridor conflicts, and a rare tiny instance (two
+# agents passing in a long corridor) takes it seconds; the fixed examples keep CI steady
+SETTINGS = settings(max_examples=60, derandomize=True,
+                    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+
+
+@SETTINGS
+@given(problem=tiny_instances())
+def test_cbs_sum_of_costs_equals_the_exhaustive_optimum(problem) -> None:
+    grid, starts, goals = problem
+    best = optimal_soc(grid, starts, goals)
+    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0)
+    if best is None:
+        assert not result.solved  # no plan exists: CBS can only run out of time
+        return
+    assert result.solved or result.status == "timeout", result.summary()
+    if result.solved:
+        assert result.plan.soc == best
+
+
+@SETTINGS
+@given(problem=tiny_instances())
+def test_lacam_finds_a_plan_exactly_when_one_exists(problem) -> None:
+    grid, starts, goals = problem
+    best = optimal_soc(grid, starts, goals)
+    result = solve("lacam", grid, starts, goals, deadline=10.0)
+    assert result.solved == (best is not None), result.summary()
+    if best is not None:
+        assert result.plan.soc >= best
+    else:
+        assert result.status == "no-solution"
+
+
+def test_cbs_stops_at_the_deadline_with_timeout(shared_data: Path) -> None:
+    inst = read_instance(str(shared_data / "instances" / "random-32-32-20_110agents_1.txt"),
+                         map_dirs=[shared_data / "maps"])
+    result = solve("cbs", inst.grid, inst.starts, inst.goals, deadline=0.3)
+    assert result.status == "timeout" and result.plan is None
+    assert result.comp_time_ms < 3000
+    assert "time limit" in result.message

@@ -1,0 +1,168 @@
+"""The solver interface: deadlines, problem checks, distance tables, results, `solve`."""
+from __future__ import annotations
+
+from collections import deque
+from typing import List
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fleet_common.errors import FleetError
+from fleet_common.formats.instance import read_instance
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
+from fleet_common.planning import (
+    SOLVER_NAMES, SOLVERS, InvalidProblemError, SolverError, UnknownSolverError, solve,
+)
+from fleet_common.planning.components import component_labels
+from fleet_common.planning.deadline import Deadline
+from fleet_common.planning.dist_table import dist_array, dist_arrays, lower_bounds
+from fleet_common.planning.problem import check_problem
+from fleet_common.planning.result import SolveResult
+
+# base frame: row 0 of the list is the TOP row (as in a .map file)
+ROOMS = Grid.from_rows([
+    "...@...",
+    "...@...",
+    "...@...",
+])
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_deadline_expires_after_its_seconds_and_none_never_does() -> None:
+    clock = FakeClock()
+    d = Deadline(2.0, clock=clock)
+    assert not d.expired() and d.remaining() == 2.0
+    clock.now += 1.5
+    assert not d.expired() and d.elapsed() == 1.5 and d.remaining() == pytest.approx(0.5)
+    clock.now += 0.5
+    assert d.expired() and d.remaining() == 0.0
+    forever = Deadline(None, clock=clock)
+    clock.now += 1e9
+    assert not forever.expired() and forever.remaining() is None
+    with pytest.raises(ValueError):
+        Deadline(-1)
+
+
+@pytest.mark.parametrize("starts, goals, expected", [
+    ([(0, 0)], [(9, 0)], "agent 0: goal (9, 0) is outside the 7x3 map"),
+    ([(0, 0), (3, 1)], [(1, 1), (2, 2)], "agent 1: start (3, 1) is on a blocked cell"),
+    ([(0, 0), (0, 0)], [(1, 1), (2, 2)], "agents 0 and 1 have the same start (0, 0)"),
+    ([(0, 0), (1, 0)], [(2, 2), (2, 2)], "agents 0 and 1 have the same goal (2, 2)"),
+    ([(0, 0), (1, 0)], [(2, 2)], "2 starts but 1 goals"),
+    ([(0, 0), (1, 0)], [(2, 2), (5, 1)],
+     "agent 1: goal (5, 1) cannot be reached from start (1, 0)"),
+])
+def test_unusable_problems_are_rejected_naming_agent_and_cell(starts, goals, expected) -> None:
+    with pytest.raises(InvalidProblemError) as err:
+        check_problem(ROOMS, starts, goals)
+    assert expected in str(err.value)
+    assert isinstance(err.value, FleetError)
+
+
+def test_every_problem_is_listed_not_only_the_first() -> None:
+    with pytest.raises(InvalidProblemError) as err:
+        check_problem(ROOMS, [(3, 0), (0, 0), (0, 0)], [(1, 1), (3, 2), (2, 2)])
+    assert len(err.value.problems) == 3
+    assert "agent 0: start (3, 0) is on a blocked cell" in err.value.problems
+    assert "agent 1: goal (3, 2) is on a blocked cell" in err.value.problems
+
+
+@pytest.mark.parametrize("name", SOLVER_NAMES)
+def test_solve_checks_the_problem_before_any_search(name: str) -> None:
+    with pytest.raises(InvalidProblemError, match="agent 0: goal"):
+        solve(name, ROOMS, [(0, 0)], [(6, 2)])
+
+
+def test_unknown_solver_names_the_built_in_ones() -> None:
+    with pytest.raises(UnknownSolverError) as err:
+        solve("astar", ROOMS, [], [])
+    assert "unknown solver 'astar'" in str(err.value)
+    assert "pibt, lacam, cbs, pp" in str(err.value)
+
+
+def test_a_solver_bug_surfaces_as_an_error_not_as_a_bad_plan(monkeypatch) -> None:
+    def teleporting(grid, starts, goals, deadline, seed):
+        return SolveResult(Plan.from_paths([[starts[0], goals[0]]]), "teleport", "solved")
+
+    monkeypatch.setitem(SOLVERS, "pibt", teleporting)
+    with pytest.raises(SolverError, match="non-adjacent|jumps"):
+        solve("pibt", ROOMS, [(0, 0)], [(2, 2)])
+
+
+def test_result_has_a_plan_exactly_when_solved() -> None:
+    with pytest.raises(ValueError):
+        SolveResult(None, "x", "solved")
+    with pytest.raises(ValueError):
+        SolveResult(Plan.from_paths([[(0, 0)]]), "x", "timeout")
+    with pytest.raises(ValueError):
+        SolveResult(None, "x", "gave-up")
+    r = SolveResult(None, "x", "no-solution", 1.0, "exhausted")
+    assert not r.solved and "exhausted" in r.summary()
+
+
+def python_bfs(grid: Grid, goal) -> List[int]:
+    adj = grid.adjacency()
+    d = [-1] * grid.num_cells
+    if not grid.is_free(goal):
+        return d
+    s = grid.index(goal)
+    d[s] = 0
+    q = deque([s])
+    while q:
+        u = q.popleft()
+        for v in adj[u]:
+            if d[v] < 0:
+                d[v] = d[u] + 1
+                q.append(v)
+    return d
+
+
+grids = st.integers(1, 9).flatmap(lambda w: st.integers(1, 9).flatmap(
+    lambda h: st.lists(st.lists(st.booleans(), min_size=w, max_size=w), min_size=h, max_size=h)))
+
+
+@settings(max_examples=60)
+@given(rows=grids, data=st.data())
+def test_batched_distance_tables_equal_a_plain_bfs(rows, data) -> None:
+    free = np.array(rows, dtype=bool)
+    grid = Grid(free)
+    cells = [(x, y) for y in range(grid.height) for x in range(grid.width)]
+    goals = data.draw(st.lists(st.sampled_from(cells), min_size=1, max_size=70))
+    tables = dist_arrays(grid, goals)
+    for goal, table in zip(goals, tables):
+        assert table.dtype == np.int32 and table.shape == (grid.num_cells,)
+        assert table.tolist() == python_bfs(grid, goal)
+        assert dist_array(grid, goal) is table  # cached per grid and goal
+
+
+@settings(max_examples=60)
+@given(rows=grids)
+def test_components_join_exactly_the_mutually_reachable_cells(rows) -> None:
+    grid = Grid(np.array(rows, dtype=bool))
+    labels = component_labels(grid).tolist()
+    for y in range(grid.height):
+        for x in range(grid.width):
+            d = python_bfs(grid, (x, y))
+            me = labels[grid.index((x, y))]
+            if me < 0:
+                assert not grid.is_free((x, y))
+                continue
+            assert [labels[c] == me for c in range(grid.num_cells)] == [v >= 0 for v in d]
+
+
+def test_lower_bounds_match_mapf_irs_header(shared_data) -> None:
+    inst = read_instance(str(shared_data / "instances" / "makespan-soc-pareto.txt"),
+                         map_dirs=[shared_data / "maps"])
+    # mapf-IR's CBS solution file says lb_soc=9, lb_makespan=8
+    assert lower_bounds(inst.grid, inst.starts, inst.goals) == (9, 8)
+    assert lower_bounds(inst.grid, [], []) == (0, 0)
