@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import List
+from typing import List, Tuple
 
 from fleet_common.formats.mapsearch import default_map_dirs
 
@@ -18,3 +18,29 @@ def add_map_dir(parser: argparse.ArgumentParser) -> None:
 
 def map_dirs(args: argparse.Namespace) -> List[Path]:
     return list(args.map_dir) + default_map_dirs()
+
+
+def add_legacy_units(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--legacy-scale", type=float, default=None, metavar="S",
+                        help="legacy XML plan: plan units per grid cell (default: the lab robot "
+                             "frame's 0.7 m; 1 when a --map is given)")
+    parser.add_argument("--legacy-origin", type=float, nargs=2, default=None, metavar=("X", "Y"),
+                        help="legacy XML plan: plan coordinates of cell (0, 0) (default: the lab "
+                             "robot frame's 0.7 2.1; 0 0 when a --map is given)")
+
+
+def legacy_units(args: argparse.Namespace) -> Tuple[float, Tuple[float, float]]:
+    """(scale, origin) of a legacy plan: the lab's robot-frame metres unless told otherwise."""
+    if getattr(args, "map", None) is None:
+        from fleet_common.lab import base_to_robot
+
+        to_robot = base_to_robot()
+        ox, oy = to_robot.apply((0.0, 0.0))
+        scale, origin = float(to_robot.apply((1.0, 0.0))[0] - ox), (float(ox), float(oy))
+    else:
+        scale, origin = 1.0, (0.0, 0.0)
+    if args.legacy_scale is not None:
+        scale = args.legacy_scale
+    if args.legacy_origin is not None:
+        origin = (args.legacy_origin[0], args.legacy_origin[1])
+    return scale, origin

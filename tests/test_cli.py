@@ -179,9 +179,11 @@ def test_legacy_plan_converts_to_a_mapf_ir_solution_that_validates(repo_root, tm
 
 def test_thesis_legacy_plan_is_reported_not_convertible(repo_root, tmp_path):
     src = repo_root / "tests" / "data" / "legacy" / "thesis_fig3_1_plan.xml"
-    info = fleetctl("info", src)
+    info = fleetctl("info", src)  # lab units: (37, 37) m is not a lab cell
+    assert info.returncode == 0 and "not convertible" in info.stdout and "not on a grid cell" in info.stdout
+    info = fleetctl("info", src, "--legacy-scale", "1", "--legacy-origin", "0", "0")
     assert info.returncode == 0 and "not convertible" in info.stdout and "diagonal" in info.stdout
-    proc = fleetctl("convert", src, tmp_path / "out.txt")
+    proc = fleetctl("convert", src, tmp_path / "out.txt", "--legacy-scale", "1", "--legacy-origin", "0", "0")
     assert proc.returncode == 2 and "agent 5 section 1" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "out.txt").exists()
 

@@ -8,7 +8,7 @@ from typing import Optional
 from fleet_common.errors import FleetError, NotConvertibleError
 
 from .. import filekinds
-from ..options import add_map_dir, map_dirs
+from ..options import add_legacy_units, add_map_dir, legacy_units, map_dirs
 
 NAME = "convert"
 HELP = "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"
@@ -31,10 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_map_dir(parser)
     parser.add_argument("--map", type=Path, help="map for a .scen or a legacy plan")
     parser.add_argument("--agents", type=int, help="scen: number of agents (default: all entries)")
-    parser.add_argument("--legacy-scale", type=float, default=1.0,
-                        help="legacy plan: plan units per grid cell (default 1)")
-    parser.add_argument("--legacy-origin", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
-                        help="legacy plan: plan coordinates of cell (0, 0) (default 0 0)")
+    add_legacy_units(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,8 +109,8 @@ def _legacy_plan(args: argparse.Namespace) -> Optional[str]:
 
     legacy = read_legacy_plan(args.input)
     map_path, grid = _lab_or_given_map(args)
-    plan, starts, goals = legacy_plan_to_plan(legacy, scale=args.legacy_scale,
-                                              origin=tuple(args.legacy_origin))
+    scale, origin = legacy_units(args)
+    plan, starts, goals = legacy_plan_to_plan(legacy, scale=scale, origin=origin)
     report = validate_plan(plan, grid, starts=starts, goals=goals)
     sol = make_solution(grid, map_path.name, plan, starts, goals, solver="legacy-xml",
                         solved=report.ok, comp_time=0, instance=str(args.input))

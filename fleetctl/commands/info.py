@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Callable, Dict, List
 
 from .. import filekinds
-from ..options import add_map_dir, map_dirs
+from ..options import add_legacy_units, add_map_dir, legacy_units, map_dirs
 
 NAME = "info"
 HELP = "summarise any supported file (map, instance, solution, scen, legacy XML, robot definitions)"
@@ -18,6 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_map_dir(parser)
     parser.add_argument("--strict-map", action="store_true",
                         help="maps: the MovingAI rule (W and O block too) instead of mapf-IR's")
+    add_legacy_units(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -99,7 +100,8 @@ def _legacy_plan(args: argparse.Namespace) -> List[str]:
     sections = sum(len(a.sections) for a in legacy.agents)
     lines = ["legacy FleetControl execution plan: {} agents, {} sections".format(len(legacy.agents), sections)]
     try:
-        plan, _, _ = legacy_plan_to_plan(legacy)
+        scale, origin = legacy_units(args)
+        plan, _, _ = legacy_plan_to_plan(legacy, scale=scale, origin=origin)
         lines.append("converts to a timed grid plan: makespan {}".format(plan.makespan))
     except NotConvertibleError as err:
         lines.append("not convertible to a grid plan: {}".format(err))
