@@ -51,6 +51,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         return _fail(str(err))
     except FleetError as err:
         return _fail("fleetctl {}: {}".format(args.command, err))
+    except BrokenPipeError:
+        # the reader went away (`fleetctl info x | head`): stop quietly, like other tools
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except OSError as err:
         where = err.filename if err.filename is not None else ""
         return _fail("{}: {}".format(where, err.strerror or err) if where else str(err))

@@ -23,7 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="robot definitions (default: the repository's robot_definitions.txt)")
     parser.add_argument("--instance", type=Path, default=None,
                         help="instance on the lab map (default: the lab's own)")
-    parser.add_argument("-s", "--solver", default="lacam", help="built-in solver (default: lacam)")
+    parser.add_argument("-s", "--solver", default=None,
+                        help="built-in solver (default: cbs, the optimal plan, falling back to "
+                             "lacam if cbs runs out of time)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--time-limit", type=float, default=10.0, metavar="S")
 
@@ -50,10 +52,14 @@ def run(args: argparse.Namespace) -> int:
         raise FleetError("{} has {} agents but {} defines only {} robots".format(
             inst_path, len(inst.starts), robots_path, len(robots)))
 
-    result = solve(args.solver, grid, inst.starts, inst.goals,
-                   deadline=Deadline(args.time_limit), seed=args.seed)
+    # a demo should show the best plan: CBS is optimal and quick for a handful of robots
+    for name in [args.solver] if args.solver else ["cbs", "lacam"]:
+        result = solve(name, grid, inst.starts, inst.goals,
+                       deadline=Deadline(args.time_limit), seed=args.seed)
+        if result.solved:
+            break
     if not result.solved or result.plan is None:
-        print("plan: {} found no plan: {}".format(args.solver, result.message))
+        print("plan: {} found no plan: {}".format(result.solver, result.message))
         return 3
     plan = result.plan
     report = validate_plan(plan, grid, starts=inst.starts, goals=inst.goals)
