@@ -47,21 +47,29 @@ def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: D
     h = dist_lists(grid, goals, unreachable=grid.num_cells + 1)
     mv = moves(grid)
 
-    def low_level(i: int, cons: Tuple[Constraint, ...]) -> Optional[List[int]]:
+    def low_level(i: int, cons: Tuple[Constraint, ...], others: Sequence[List[int]]) -> Optional[List[int]]:
         res = Reservations(grid.num_cells)
         for t, a, b in cons:
             if b < 0:
                 res.block_cell(a, t)
             else:
                 res.block_move(a, b, t)
-        return space_time_astar(mv, start_ids[i], goal_ids[i], h[i], res, deadline)
+        # the other agents' paths are soft: among optimal paths, prefer one that meets them less
+        soft = Reservations(grid.num_cells)
+        for j, p in enumerate(others):
+            if j != i and p:
+                soft.add_path(p)
+        return space_time_astar(mv, start_ids[i], goal_ids[i], h[i], res, deadline, avoid=soft)
 
     expanded = 0
     try:
-        root_paths = [low_level(i, ()) for i in range(n)]
-        if any(p is None for p in root_paths):
-            return failed(NAME, NO_SOLUTION, "an agent cannot reach its goal")
-        root = _Node([() for _ in range(n)], root_paths)  # type: ignore[arg-type]
+        root_paths: List[List[int]] = []
+        for i in range(n):
+            path = low_level(i, (), root_paths)
+            if path is None:
+                return failed(NAME, NO_SOLUTION, "agent {} cannot reach its goal".format(i))
+            root_paths.append(path)
+        root = _Node([() for _ in range(n)], root_paths)
         counter = 0
         heap = [(root.cost, 0, counter, root)]
         while heap:
@@ -76,7 +84,7 @@ def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: D
             for agent, con in conflict:
                 cons = list(node.constraints)
                 cons[agent] = cons[agent] + (con,)
-                path = low_level(agent, cons[agent])
+                path = low_level(agent, cons[agent], node.paths)
                 if path is None:
                     continue
                 paths = list(node.paths)

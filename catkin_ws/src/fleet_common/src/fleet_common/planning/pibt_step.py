@@ -20,7 +20,7 @@ fixed in advance: LaCAM uses it as its configuration generator.
 """
 from __future__ import annotations
 
-from typing import List, Sequence
+from typing import List, Sequence, Tuple
 
 from ..grid import Coord, Grid
 from .cells import NIL, moves, to_ids
@@ -121,7 +121,7 @@ class PIBTStep:
                 return holder == NIL
             agent, cands, k, partner = stack.pop()
 
-    def _open(self, i: int, q_from: Sequence[int], q_to: List[int], salt: int):
+    def _open(self, i: int, q_from: Sequence[int], q_to: List[int], salt: int) -> Tuple[List[int], int]:
         """Candidates of agent i, best first (reversed when it must lead a swap), and its partner."""
         cands = self._candidates(i, q_from[i], salt)
         partner = self._swap_partner(i, cands[0], q_from, q_to) if self.swap else NIL
@@ -158,7 +158,7 @@ class PIBTStep:
                 return k
         return NIL
 
-    def _exits(self, cell: int, came_from: int):
+    def _exits(self, cell: int, came_from: int) -> List[int]:
         """Neighbours of `cell` other than `came_from`, ignoring dead ends whose agent is home."""
         out = []
         for u in self.adj[cell]:

@@ -16,7 +16,7 @@ are; robots that keep their plans keep their paths).
 from __future__ import annotations
 
 import random
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -80,7 +80,7 @@ def plan_with_reservations(grid: Grid, starts: Sequence[Coord], goals: Sequence[
 
 def _plan_in_order(grid: Grid, mv: List[List[int]], h: List[List[int]], starts: List[int],
                    goals: List[int], fixed: List[List[int]], order: List[int],
-                   deadline: Deadline) -> "List[List[int]] | int":
+                   deadline: Deadline) -> Union[List[List[int]], int]:
     """Paths per agent, or the index of the first agent that found none."""
     res = Reservations(grid.num_cells)
     for p in fixed:

@@ -11,7 +11,7 @@ search is finite and reports "no path" when the goal cannot be reached.
 from __future__ import annotations
 
 import heapq
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Set
 
 from .deadline import Deadline
 from .reservations import NEVER, Reservations
@@ -20,33 +20,46 @@ from .reservations import NEVER, Reservations
 _CHECK_EVERY = 256
 
 
+#: Packs (step, soft conflicts) into one int: step * _SCALE + conflicts.
+_SCALE = 1 << 16
+_EMPTY: Set[int] = set()
+
+
 class DeadlineReached(Exception):
     """The deadline expired during a search (solvers turn it into a "timeout")."""
 
 
 def space_time_astar(moves: Sequence[Sequence[int]], start: int, goal: int, h: Sequence[int],
-                     res: Reservations, deadline: Deadline, start_time: int = 0) -> Optional[List[int]]:
-    """Cells from `start` (at step `start_time`) to `goal`, one per step, or None if impossible."""
+                     res: Reservations, deadline: Deadline, start_time: int = 0,
+                     avoid: Optional[Reservations] = None) -> Optional[List[int]]:
+    """Cells from `start` (at step `start_time`) to `goal`, one per step, or None if impossible.
+
+    `avoid` holds soft reservations (other agents' current paths, in CBS):
+    among shortest paths, one that meets them least often is preferred.
+    """
     nv = res.num_cells
     vertex, edge, parked = res.vertex, res.edge, res.parked
     if parked[goal] != NEVER:
         return None
+    soft, soft_parked = (avoid.vertex, avoid.parked) if avoid is not None else (_EMPTY, None)
     # the agent cannot finish before `done`: a sharper, still admissible heuristic
     done = res.last.get(goal, -1) + 1
     cap = res.horizon + 1  # steps >= cap are all alike
     start_key = (start_time if start_time < cap else cap) * nv + start
-    best: Dict[int, int] = {start_key: start_time}
+    # per state, the best (step, soft conflicts) reached, packed in one int
+    best: Dict[int, int] = {start_key: start_time * _SCALE}
     parent: Dict[int, int] = {}
     h0 = max(h[start], done - start_time)
-    # ties on f go to the deepest state: with waits allowed, this dives instead of flooding
-    heap = [(start_time + h0, -start_time, start)]
+    # ties on f go to fewer soft conflicts, then to the deepest state: with waits
+    # allowed, diving beats flooding every (cell, step) of equal f
+    heap = [(start_time + h0, 0, -start_time, start)]
     pops = 0
     while heap:
-        _, neg_t, cell = heapq.heappop(heap)
+        _, hits, neg_t, cell = heapq.heappop(heap)
         t = -neg_t
         key = (t if t < cap else cap) * nv + cell
-        if best[key] < t:
-            continue  # a quicker way here was found after this entry was queued
+        if best[key] < t * _SCALE + hits:
+            continue  # a better way here was found after this entry was queued
         if cell == goal and t >= done:
             return _path(parent, key, nv)
         pops += 1
@@ -61,16 +74,20 @@ def space_time_astar(moves: Sequence[Sequence[int]], start: int, goal: int, h: S
                 continue
             if v != cell and move_base + v in edge:
                 continue
+            nhits = hits
+            if nt_base + v in soft or (soft_parked is not None and soft_parked[v] <= nt):
+                nhits += 1
+            score = nt * _SCALE + min(nhits, _SCALE - 1)
             nkey = nkey_base + v
             old = best.get(nkey)
-            if old is not None and old <= nt:
+            if old is not None and old <= score:
                 continue
-            best[nkey] = nt
+            best[nkey] = score
             parent[nkey] = key
             hv = h[v]
             if done - nt > hv:
                 hv = done - nt
-            heapq.heappush(heap, (nt + hv, -nt, v))
+            heapq.heappush(heap, (nt + hv, nhits, -nt, v))
     return None
 
 
