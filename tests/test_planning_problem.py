@@ -14,7 +14,8 @@ from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import (
-    SOLVER_NAMES, SOLVERS, InvalidProblemError, SolverError, UnknownSolverError, solve,
+    SOLVER_NAMES, SOLVERS, InvalidProblemError, ProblemTooLargeError, SolverError, UnknownSolverError,
+    solve,
 )
 from fleet_common.planning.components import component_labels
 from fleet_common.planning.deadline import Deadline
@@ -166,3 +167,13 @@ def test_lower_bounds_match_mapf_irs_header(shared_data) -> None:
     # mapf-IR's CBS solution file says lb_soc=9, lb_makespan=8
     assert lower_bounds(inst.grid, inst.starts, inst.goals) == (9, 8)
     assert lower_bounds(inst.grid, [], []) == (0, 0)
+
+
+def test_problems_too_large_for_distance_tables_are_refused_before_any_search(monkeypatch) -> None:
+    from fleet_common.planning import problem
+
+    monkeypatch.setattr(problem, "MAX_TABLE_ENTRIES", 40)
+    grid = Grid.from_rows(["......."] * 3)  # 21 cells: 1 agent fits, 2 do not
+    assert solve("pibt", grid, [(0, 0)], [(6, 2)]).solved
+    with pytest.raises(ProblemTooLargeError, match="2 agents on a 7x3 map need .* run a mapf-IR solver"):
+        solve("pibt", grid, [(0, 0), (1, 0)], [(6, 2), (5, 2)])

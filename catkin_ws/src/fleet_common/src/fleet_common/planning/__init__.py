@@ -26,7 +26,7 @@ from .deadline import Deadline, as_deadline
 from .lacam import lacam
 from .pibt import pibt
 from .prioritized import plan_with_reservations, pp
-from .problem import InvalidProblemError, check_problem
+from .problem import InvalidProblemError, ProblemTooLargeError, check_problem, check_size
 from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult, SolverError
 
 Solver = Callable[..., SolveResult]
@@ -50,6 +50,7 @@ def solve(name: str, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]
     starts = [(int(c[0]), int(c[1])) for c in starts]
     goals = [(int(c[0]), int(c[1])) for c in goals]
     check_problem(grid, starts, goals)
+    check_size(grid, len(set(goals)))
     budget = as_deadline(deadline)
     began = time.perf_counter()
     result = solver(grid, starts, goals, budget, seed, **options)
@@ -71,6 +72,6 @@ def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: 
 
 __all__ = [
     "SOLVERS", "SOLVER_NAMES", "solve", "check_plan", "Deadline", "SolveResult", "SolverError",
-    "InvalidProblemError", "UnknownSolverError", "check_problem", "plan_with_reservations",
+    "InvalidProblemError", "ProblemTooLargeError", "UnknownSolverError", "check_problem", "plan_with_reservations",
     "pibt", "lacam", "cbs", "pp", "SOLVED", "TIMEOUT", "NO_SOLUTION",
 ]

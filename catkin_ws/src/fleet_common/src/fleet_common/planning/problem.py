@@ -17,6 +17,9 @@ from .components import component_labels
 
 #: At most this many problems are named in one message; the rest are counted.
 MAX_LISTED = 5
+#: Largest agents x cells the built-in solvers accept: they keep a full distance
+#: table per agent (int32 arrays plus Python lists), about 1.5 GB at this size.
+MAX_TABLE_ENTRIES = 40_000_000
 
 
 class InvalidProblemError(FleetError, ValueError):
@@ -29,6 +32,21 @@ class InvalidProblemError(FleetError, ValueError):
         if more > 0:
             shown += "; and {} more".format(more)
         super().__init__(shown)
+
+
+class ProblemTooLargeError(FleetError):
+    """More agents x cells than the built-in solvers' distance tables fit in memory."""
+
+
+def check_size(grid: Grid, num_agents: int) -> None:
+    """Refuse, before allocating anything, problems whose distance tables would not fit."""
+    goals = min(num_agents, int(grid.free.sum()))
+    if goals * grid.num_cells > MAX_TABLE_ENTRIES:
+        raise ProblemTooLargeError(
+            "{} agents on a {}x{} map need {} million distance-table entries, more than the "
+            "built-in solvers allow ({} million); run a mapf-IR solver for instances this "
+            "large".format(num_agents, grid.width, grid.height, goals * grid.num_cells // 1_000_000,
+                           MAX_TABLE_ENTRIES // 1_000_000))
 
 
 def cell_problem(grid: Grid, cell: Coord, what: str, agent: int) -> Optional[str]:
