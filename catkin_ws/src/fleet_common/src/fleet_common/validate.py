@@ -106,7 +106,7 @@ def validate_plan(
     report = Report()
     add = _Collector(report, max_findings_per_kind, show)
     pos = plan.positions
-    steps, n = pos.shape[0], pos.shape[1]
+    n = pos.shape[1]
 
     if starts is not None and len(starts) != n:
         add(ERROR, AGENTS, "plan has {} agents but {} starts are given".format(n, len(starts)))

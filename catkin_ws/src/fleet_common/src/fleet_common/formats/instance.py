@@ -27,14 +27,13 @@ import re
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from ..errors import InstanceFormatError, MapNotFoundError
+from ..errors import InstanceFormatError
 from ..grid import Coord, Grid
 from .header import (
     BASE, MAPF_IR, Header, check_orientation, file_orientation, header_for_orientation,
     join_lines, read_text, split_lines, write_text,
 )
-from .mapfile import read_map
-from .mapsearch import default_map_dirs, resolve_map
+from .mapsearch import load_map_grid
 
 _AGENT = re.compile(r"(\d+),(\d+),(\d+),(\d+)")
 _KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -177,7 +176,7 @@ def parse_instance(
     map_file = _check_header(header, agent_lines, len(lines), path)
     orientation = file_orientation(header, InstanceFormatError)
     if grid is None:
-        grid = _load_grid(map_file, header, path, map_dirs)
+        grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
     starts, goals = _agents_to_base(agent_lines, grid, orientation, path)
     return Instance(map_file, grid, starts, goals, header, path, orientation, layout,
                     newline, final_newline)
@@ -221,17 +220,6 @@ def _check_header(header: Header, agent_lines: List[Tuple[int, "re.Match[str]"]]
             "agents={} but {} agent line(s) 'sx,sy,gx,gy' follow".format(agents, len(agent_lines)),
             path, header.line_of("agents"))
     return map_file
-
-
-def _load_grid(map_file: str, header: Header, path: Optional[str],
-               map_dirs: Optional[Sequence[Path]]) -> Grid:
-    dirs = default_map_dirs() if map_dirs is None else map_dirs
-    folder = Path(path).parent if path else None
-    try:
-        found = resolve_map(map_file, folder, dirs)
-    except MapNotFoundError as err:
-        raise MapNotFoundError(err.message, path, header.line_of("map_file")) from None
-    return read_map(str(found)).grid
 
 
 def _agents_to_base(agent_lines: List[Tuple[int, "re.Match[str]"]], grid: Grid,

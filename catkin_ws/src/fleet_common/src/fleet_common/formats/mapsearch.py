@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import List, Optional, Sequence
 
 from ..errors import MapNotFoundError
+from ..grid import Grid
+from .mapfile import read_map
 
 #: Environment variable: extra map folders, `os.pathsep`-separated, searched first.
 MAP_PATH_ENV = "FLEETCONTROL_MAP_PATH"
@@ -75,3 +77,14 @@ def resolve_map(map_file: str, relative_to: Optional[Path], map_dirs: Sequence[P
     raise MapNotFoundError(
         "map_file '{}' not found; looked in: {}".format(map_file, ", ".join(looked) or "(no folders)")
     )
+
+
+def load_map_grid(map_file: str, path: Optional[str], map_dirs: Optional[Sequence[Path]],
+                  line: Optional[int]) -> Grid:
+    """The grid named by `map_file=` on `line` of the file at `path` (None: default dirs)."""
+    dirs = default_map_dirs() if map_dirs is None else map_dirs
+    try:
+        found = resolve_map(map_file, Path(path).parent if path else None, dirs)
+    except MapNotFoundError as err:
+        raise MapNotFoundError(err.message, path, line) from None
+    return read_map(str(found)).grid
