@@ -63,6 +63,7 @@ setup(
             "pytest>=7.4,<9",
             "hypothesis>=6.80,<7",
             "vermin>=1.6,<2",
+            "ruff>=0.6,<1",
         ],
     },
     entry_points={"console_scripts": ["fleetctl=fleetctl.cli:main"]},

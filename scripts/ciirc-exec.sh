@@ -146,10 +146,16 @@ check_robot_python() {
     || die "robot-side code needs a Python newer than 3.8 (above); the TurtleBots run ROS Noetic on 3.8"
 }
 
+check_lint() {
+  say "checking for undefined and unused names (ruff; rules in pyproject.toml)"
+  "$VENV/bin/ruff" check --quiet . || die "ruff found mistakes (above)"
+}
+
 cmd_test() {
   cmd_setup
   build_catkin_ws
   check_robot_python
+  check_lint
   say "running pytest"
   exec "$VENV/bin/python" -m pytest -p no:cacheprovider "$@"
 }
