@@ -196,3 +196,30 @@ def test_legacy_node_map_becomes_the_lab_grid(repo_root, tmp_path):
     proc = fleetctl("convert", repo_root / "tests" / "data" / "legacy" / "lab_nodes.xml", out)
     assert proc.returncode == 0, proc.stderr
     assert read_map(out).grid == read_map(lab_map_path()).grid
+
+
+def test_scen_converts_to_an_instance_that_solves(shared_data, tmp_path):
+    scen = tmp_path / "pareto.scen"
+    scen.write_text("version 1\n"
+                    "0\tmakespan-soc-pareto.map\t6\t4\t3\t1\t4\t1\t1\n"
+                    "0\tmakespan-soc-pareto.map\t6\t4\t1\t3\t5\t1\t8\n"
+                    "0\tmakespan-soc-pareto.map\t6\t4\t0\t3\t0\t2\t1\n")
+    info = fleetctl("info", scen)
+    assert info.returncode == 0 and "MovingAI scenario: 3 entries" in info.stdout
+    out = tmp_path / "pareto.txt"
+    proc = fleetctl("convert", scen, out, "--agents", "2", "--map-dir", shared_data / "maps")
+    assert proc.returncode == 0, proc.stderr
+    text = out.read_text()
+    assert "map_file=makespan-soc-pareto.map" in text and "agents=2" in text
+    assert text.strip().splitlines()[-2:] == ["3,1,4,1", "1,3,5,1"]
+    solved = fleetctl("solve", out, "-s", "cbs", "-o", tmp_path / "sol.txt", "--map-dir", shared_data / "maps")
+    assert solved.returncode == 0 and "soc=13" in solved.stdout
+
+
+def test_scen_naming_a_blocked_cell_is_one_line_with_its_line(shared_data, tmp_path):
+    scen = tmp_path / "bad.scen"
+    scen.write_text("version 1\n"
+                    "0\tmakespan-soc-pareto.map\t6\t4\t3\t1\t4\t1\t1\n"
+                    "0\tmakespan-soc-pareto.map\t6\t4\t0\t0\t5\t1\t8\n")  # (0,0) is 'T'
+    proc = fleetctl("convert", scen, tmp_path / "out.txt", "--map-dir", shared_data / "maps")
+    assert_one_line_error(proc, scen, 3, "blocked")
