@@ -1,0 +1,139 @@
+"""Messages <-> bytes: one compact JSON object per ZeroMQ frame.
+
+    {"t":"drive","v":1,"id":7,"x":3.0,"y":4.0,"time":2.5}
+
+Why JSON: both ends have it in the standard library (the robots' Python 3.8
+needs no extra package, unlike msgpack), a frame can be read in a packet dump
+or typed by hand while debugging, and the messages are a few dozen bytes sent
+tens of times a second per robot, where encoding cost does not matter.
+`t` is the message type, `v` the protocol version, the rest are the record's
+fields (a `Pose` is `[x, y, theta]`). Decoding is strict: unknown types or
+fields, missing fields, wrong types and non-finite numbers raise
+`RemoteProtocolError`, because bytes come from the peer. A `Bye` of any version
+decodes (its layout is frozen); a `Hello` or `Welcome` of another version
+raises `VersionMismatchError`, so both ends can say clearly what is wrong.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from typing import Any, Dict, List, Optional, Tuple
+
+from .errors import RemoteProtocolError, VersionMismatchError
+from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose
+
+__all__ = ["encode", "decode"]
+
+_MAX_ID = 2 ** 63 - 1
+
+
+def _field_kinds(cls: type) -> List[Tuple[str, str]]:
+    """(name, kind) of a record's fields; kinds are the few the protocol uses."""
+    kinds = {"int": "int", "float": "float", "str": "str", "bool": "bool", "Pose": "pose",
+             "Optional[int]": "opt_int", "Tuple[str, ...]": "strs"}
+    # annotations are strings (postponed); the spelling in messages.py is the schema
+    return [(f.name, kinds[str(f.type)]) for f in dataclasses.fields(cls)
+            if f.name != "version"]
+
+
+_SCHEMA: Dict[str, List[Tuple[str, str]]] = {t: _field_kinds(c) for t, c in MESSAGE_TYPES.items()}
+
+
+def encode(message: Message, version: int = PROTOCOL_VERSION) -> bytes:
+    """The frame for `message` (our own records, so only values are checked)."""
+    frame: Dict[str, Any] = {"t": message.TYPE, "v": version}
+    for name, kind in _SCHEMA[message.TYPE]:
+        value = getattr(message, name)
+        if kind == "pose":
+            value = [value.x, value.y, value.theta]
+        elif kind == "strs":
+            value = list(value)
+        frame[name] = value
+    # allow_nan=False: a NaN would be sent as a token the peer must refuse
+    return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")
+
+
+def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
+    """The message in frame `data`; RemoteProtocolError if it is not a valid one."""
+    try:
+        frame = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise RemoteProtocolError("frame is not JSON text: {}".format(err)) from err
+    if not isinstance(frame, dict):
+        raise RemoteProtocolError("frame is not a JSON object")
+    kind = frame.pop("t", None)
+    their = frame.pop("v", None)
+    if kind not in MESSAGE_TYPES:
+        raise RemoteProtocolError("unknown message type {!r}; known: {}".format(
+            kind, ", ".join(sorted(MESSAGE_TYPES))))
+    if not _is_int(their):
+        raise RemoteProtocolError("{} message without an integer protocol version 'v'".format(kind))
+    if their != version:
+        if kind == "bye":  # frozen layout: readable whatever the version
+            frame = {k: frame[k] for k in ("reason", "code") if k in frame}
+        else:
+            raise VersionMismatchError(
+                "peer speaks wire protocol version {}, this end speaks {} ({} message)".format(
+                    their, version, kind), ours=version, theirs=their)
+    values = {}
+    for name, field_kind in _SCHEMA[kind]:
+        if name not in frame:
+            raise RemoteProtocolError("{} message lacks field {!r}".format(kind, name))
+        values[name] = _check(kind, name, field_kind, frame.pop(name))
+    if frame:
+        raise RemoteProtocolError("{} message has unknown field(s) {}".format(
+            kind, ", ".join(sorted(map(repr, frame)))))
+    if kind in ("hello", "welcome"):
+        values["version"] = their
+    return MESSAGE_TYPES[kind](**values)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value: Any) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
+    """`value` as the record wants it, or RemoteProtocolError naming what was expected."""
+    if field_kind == "int" or (field_kind == "opt_int" and value is not None):
+        if _is_int(value) and 0 <= value <= _MAX_ID:
+            return value
+        expected = "a non-negative integer" + (" or null" if field_kind == "opt_int" else "")
+    elif field_kind == "opt_int":
+        return None
+    elif field_kind == "float":
+        if _is_number(value):
+            return float(value)
+        expected = "a finite number"
+    elif field_kind == "str":
+        if isinstance(value, str):
+            return value
+        expected = "a string"
+    elif field_kind == "bool":
+        if isinstance(value, bool):
+            return value
+        expected = "true or false"
+    elif field_kind == "strs":
+        if isinstance(value, list) and all(isinstance(v, str) for v in value):
+            return tuple(value)
+        expected = "a list of strings"
+    else:  # pose
+        if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
+            return Pose(float(value[0]), float(value[1]), float(value[2]))
+        expected = "[x, y, theta] (three finite numbers)"
+    raise RemoteProtocolError("field {!r} of a {} message must be {}, got {}".format(
+        name, kind, expected, _short(value)))
+
+
+def _short(value: Any, limit: int = 40) -> str:
+    text: Optional[str] = None
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."

@@ -1,0 +1,143 @@
+"""The robot's command executor: each command id runs at most once, one at a time.
+
+Pure: it drives a `Navigator` and returns replies; the transport sends them.
+Every reply comes out as `(epoch, reply)`, the epoch being the manager's
+(from its Hello), so the transport can route it to that manager's newest
+connection: a command may finish after the connection that sent it was
+replaced by a reconnect.
+
+Rules, in the order they are applied to a command:
+
+- a (epoch, id) seen before is acknowledged again and never executed again:
+  `Accepted(duplicate=True)` plus its outcome if it has one (a refused command
+  gets its `Failed` again). Ids strictly increase within an epoch, so an id
+  at or below the highest seen that has dropped out of the bounded memory is
+  refused, not run;
+- `GetStatus` is answered at once (reading has no effect to repeat);
+- `Stop` preempts: the navigator halts, the running command fails with
+  "stopped by command N", the stop is accepted and completed at once;
+- a drive or turn is refused while the robot has faults or another command
+  runs (one at a time: the manager sends `Stop` first to change its mind),
+  or when the navigator refuses it; otherwise it starts and is accepted, and
+  `poll()` reports its `Completed` or `Failed` when the navigator says so.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Dict, List, Optional, Tuple
+
+from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Reply,
+                       Status, Stop, Turn)
+from .navigator import MotionRefused, Navigator
+
+__all__ = ["CommandExecutor", "Routed"]
+
+Routed = Tuple[str, Reply]  # (epoch of the manager to tell, reply)
+_Key = Tuple[str, int]
+
+
+class CommandExecutor:
+    """Runs commands through `navigator`; remembers the last `memory` outcomes."""
+
+    def __init__(self, navigator: Navigator, memory: int = 4096) -> None:
+        if memory < 1:
+            raise ValueError("memory must be at least 1 command, got {}".format(memory))
+        self.navigator = navigator
+        self.memory = memory
+        # (epoch, id) -> (was accepted, final reply or None while running)
+        self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
+        self._highest: Dict[str, int] = {}
+        self._running: Optional[_Key] = None
+        self.executed = 0  # motions started and stops carried out, for tests and logs
+
+    @property
+    def current(self) -> Optional[int]:
+        """Id of the command running now, None when idle."""
+        return None if self._running is None else self._running[1]
+
+    def status(self, command_id: int) -> Status:
+        return Status(command_id, self.navigator.pose(), self.current,
+                      tuple(self.navigator.faults()))
+
+    def handle(self, epoch: str, command: Command) -> List[Routed]:
+        """Replies to `command` from the manager of `epoch`, in the order to send them."""
+        if isinstance(command, GetStatus):
+            return [(epoch, self.status(command.id))]
+        key = (epoch, command.id)
+        if key in self._seen:
+            accepted, outcome = self._seen[key]
+            replies: List[Reply] = [Accepted(command.id, duplicate=True)] if accepted else []
+            replies += [outcome] if outcome is not None else []
+            return [(epoch, r) for r in replies]
+        if command.id <= self._highest.get(epoch, -1):
+            return [(epoch, Failed(command.id, "command id {} is older than the last {} "
+                                   "remembered; it is not executed again".format(
+                                       command.id, self.memory)))]
+        self._highest[epoch] = command.id
+        if isinstance(command, Stop):
+            return self._stop(key)
+        refusal = self._refusal(command)
+        if refusal is not None:
+            return [self._settle(key, Failed(command.id, refusal), accepted=False)]
+        self._remember(key, True, None)
+        self._running = key
+        self.executed += 1
+        return [(epoch, Accepted(command.id))]
+
+    def poll(self) -> List[Routed]:
+        """The running command's outcome once the navigator reports it, else []."""
+        if self._running is None:
+            return []
+        outcome = self.navigator.poll()
+        if outcome is None:
+            return []
+        key, self._running = self._running, None
+        reply = Completed(key[1]) if outcome.ok else Failed(key[1], outcome.reason or "failed")
+        return [self._settle(key, reply, accepted=True)]
+
+    # ---- internals ---------------------------------------------------------------
+
+    def _refusal(self, command: Command) -> Optional[str]:
+        """Why `command` cannot start now (None: it has started)."""
+        if isinstance(command, DriveToPosition) and command.time < 0:
+            return "time must be 0 (as fast as allowed) or more seconds, got {}".format(command.time)
+        faults = list(self.navigator.faults())
+        if faults:
+            return "robot has faults: {}".format(", ".join(faults))
+        if self._running is not None:
+            return "busy with command {}; send stop first or wait for it".format(self._running[1])
+        try:
+            if isinstance(command, DriveToPosition):
+                self.navigator.start_drive(command.x, command.y, command.time)
+            elif isinstance(command, Turn):
+                self.navigator.start_turn(command.angle)
+        except MotionRefused as err:
+            return str(err) or "refused by the navigator"
+        return None
+
+    def _stop(self, key: _Key) -> List[Routed]:
+        self.navigator.halt()
+        self.executed += 1
+        out: List[Routed] = []
+        if self._running is not None:
+            running, self._running = self._running, None
+            out.append(self._settle(running, Failed(running[1], "stopped by command {}".format(
+                key[1])), accepted=True))
+        self._remember(key, True, None)
+        out.append((key[0], Accepted(key[1])))
+        out.append(self._settle(key, Completed(key[1]), accepted=True))
+        return out
+
+    def _settle(self, key: _Key, reply: Reply, accepted: bool) -> Routed:
+        self._remember(key, accepted, reply)
+        return key[0], reply
+
+    def _remember(self, key: _Key, accepted: bool, reply: Optional[Reply]) -> None:
+        self._seen[key] = (accepted, reply)
+        self._seen.move_to_end(key)
+        while len(self._seen) > self.memory:
+            oldest = next(iter(self._seen))
+            if oldest == self._running:  # never forget the command still running
+                self._seen.move_to_end(oldest)
+                continue
+            del self._seen[oldest]

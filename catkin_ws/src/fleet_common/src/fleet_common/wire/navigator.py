@@ -1,0 +1,60 @@
+"""What the robot-side executor drives: a non-blocking navigation interface.
+
+The thesis's navigation API is two blocking calls, `driveToPosition(x, y,
+time)` and `turn(angle)` (3.6.1). The executor must stay responsive while a
+robot moves (to answer status, heartbeats and a preempting stop), so it uses
+them split in two: `start_*` begins a motion and returns at once, `poll()`
+says whether it has ended. The ROS navigator (agv_package) and the virtual
+robot (virtual_fleet) implement this; neither needs to know about messages.
+
+All coordinates are base-grid cells and radians; a navigator that works in
+its own frame (metres, the robot frame) converts inside itself.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+try:  # typing.Protocol is 3.8+; only annotations use it
+    from typing import Protocol
+except ImportError:  # pragma: no cover
+    Protocol = object  # type: ignore
+
+from .messages import Pose
+
+__all__ = ["Navigator", "MotionOutcome", "MotionRefused"]
+
+
+@dataclass(frozen=True)
+class MotionOutcome:
+    """How a motion ended: `ok`, or not with a `reason` for people ("bumper pressed")."""
+
+    ok: bool
+    reason: str = ""
+
+
+class MotionRefused(Exception):
+    """Raised by `start_drive`/`start_turn` when the motion cannot begin (target off the
+    grid, a fault); the message is the reason the manager is told."""
+
+
+class Navigator(Protocol):
+    def start_drive(self, x: float, y: float, time: float) -> None:
+        """Begin: turn to face (x, y), then drive there, arriving `time` s from now
+        (0: at the configured speed). Returns at once; MotionRefused if it cannot."""
+
+    def start_turn(self, angle: float) -> None:
+        """Begin turning in place to heading `angle` (radians, base frame)."""
+
+    def halt(self) -> None:
+        """Stop moving now (zero velocity); the motion under way is abandoned."""
+
+    def poll(self) -> Optional[MotionOutcome]:
+        """None while a motion started by start_* is under way, then its outcome once
+        (and None again after that, until the next start)."""
+
+    def pose(self) -> Pose:
+        """The current pose estimate."""
+
+    def faults(self) -> Sequence[str]:
+        """Faults now present ("bumper"); while any is, new motions are refused."""
