@@ -57,6 +57,7 @@ setup(
         "numpy>=1.24,<3",
         "pyyaml>=6,<7",
         "networkx>=3,<4",
+        "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
     ],
     extras_require={
         "test": [
