@@ -1,0 +1,39 @@
+"""Executing MAPF plans on robots that are late, stall and die.
+
+A pure library (no sockets, ROS, threads or clocks): the manager, the virtual
+fleet, the console and the tests drive the same code. `Engine` takes a
+`Plan` and a strategy, then events in (`Started`, `Completed`, `Failed`,
+`Disabled`, `Enabled`, `Resume`, `Pause`, `StepRound`, `SwitchStrategy`),
+decisions out (`Dispatch`: robot r may start its action k now).
+
+    actions       plan -> per-robot moves (waits are not actions)
+    adg           Action Dependency Graph: the safety rule every strategy keeps
+    strategy      the strategy interface and registry (`make_strategy`)
+    step, adg_strategy   the discrete time step and the ADG strategy
+    run, engine   progress of a run; the engine
+    blocking      robots blocked by out robots, transitively
+    metrics       executed makespan, sum of costs, waits, who blocked whom
+    delays, trace, simulate   a one-process simulator and its collision checker
+"""
+from __future__ import annotations
+
+from .actions import Action, ActionTable
+from .adg import ActionDependencyGraph, build_adg
+from .adg_strategy import AdgStrategy
+from .engine import Engine
+from .errors import EventError, PlanError, UnknownStrategyError
+from .events import (
+    Completed, Disabled, Dispatch, Enabled, Failed, Pause, Resume, Started, StepRound,
+    SwitchStrategy, Wait,
+)
+from .metrics import Metrics, RobotMetrics
+from .step import DiscreteTimeStep
+from .strategy import STRATEGIES, Strategy, make_strategy, register
+
+__all__ = [
+    "Action", "ActionTable", "ActionDependencyGraph", "build_adg", "AdgStrategy", "Engine",
+    "EventError", "PlanError", "UnknownStrategyError", "Completed", "Disabled", "Dispatch",
+    "Enabled", "Failed", "Pause", "Resume", "Started", "StepRound", "SwitchStrategy", "Wait",
+    "Metrics", "RobotMetrics", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
+    "register",
+]

@@ -1,0 +1,230 @@
+"""The execution engine: events in, decisions out, for one run of one plan.
+
+Theory of operation. The plan becomes per-robot actions (`actions`) and an
+Action Dependency Graph (`adg`); progress lives in a `RunState` (`run`).
+Each event updates the progress, then the engine looks again at only the
+robots the event can have freed: the robot itself, the robot waiting for the
+completed action (its ADG successor), and whichever robots the strategy
+names (the next step's robots when a barrier moves). A robot's next action is
+dispatched when
+
+1. the robot takes part (not disabled, not failed),
+2. fewer than `strategy.window` of its actions are sent and incomplete,
+3. the run is not paused (or the current round allows it),
+4. its ADG predecessor (the other robot's move out of the cell it enters)
+   has completed: the safety rule, the same for every strategy,
+5. the strategy does not hold it (the discrete time step's barrier).
+
+So a completion costs O(1) plus the dispatches it causes, whatever the
+fleet's size. No sockets, threads or clocks: time is a number in each event,
+used only for the metrics. An event that contradicts the progress raises
+`EventError` and changes nothing.
+
+Switching strategies keeps the progress and attaches the new strategy to it;
+actions already sent stay sent. Because rule 4 holds under every strategy,
+any mix of strategies, pauses, disabled and failed robots is collision-free:
+a robot that stops (even mid-move) still holds both cells of its move, since
+nobody may enter a cell before its previous occupant's move out is complete.
+"""
+from __future__ import annotations
+
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+from ..grid import Coord
+from ..plan import Plan
+from .actions import ActionTable
+from .adg import build_adg
+from .blocking import blocked_by
+from .errors import EventError
+from .events import (
+    CELL, PAUSED, Completed, Disabled, Dispatch, Enabled, Failed, Pause, Resume, Started, StepRound,
+    SwitchStrategy, Wait,
+)
+from .metrics import Metrics
+from .run import DISABLED, FAILED, RunState
+from .strategy import Strategy, make_strategy
+
+Recheck = Tuple[Sequence[int], Optional[int]]  # robots to look at, robot whose event freed them
+
+
+def _identity(c: Coord) -> Coord:
+    return c
+
+
+class Engine:
+    """One run of `plan` under a switchable strategy; see the module docstring."""
+
+    def __init__(self, plan: Plan, strategy: Union[str, Strategy] = "adg",
+                 show: Callable[[Coord], Coord] = _identity, **settings: object) -> None:
+        """Build actions and ADG (raising `PlanError` for plans robots cannot run).
+
+        `strategy` is a registered name (with its `settings`, e.g. `lookahead=2`)
+        or a `Strategy`; `show` turns base cells into the frame messages use.
+        """
+        table = ActionTable.from_plan(plan, show)
+        self.run = RunState(build_adg(table, show))
+        self.table = table
+        self.strategy = make_strategy(strategy, **settings) if isinstance(strategy, str) else strategy
+        self.strategy.attach(self.run)
+        self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_robots)])
+        self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
+        self._handlers: Dict[type, Callable[..., Recheck]] = {
+            Completed: self._completed, Started: self._started, Failed: self._failed,
+            Disabled: self._disabled, Enabled: self._enabled, Resume: self._resume,
+            Pause: self._pause, StepRound: self._step_round, SwitchStrategy: self._switch,
+        }
+
+    def handle(self, event: object) -> List[Dispatch]:
+        """Apply `event`; the actions that may start now, each to be sent once."""
+        handler = self._handlers.get(type(event))
+        if handler is None:
+            raise EventError("not an engine event: {!r}".format(event))
+        robots, released_by = handler(event)
+        self.run.version += 1
+        self.metrics.record(event)
+        return self._dispatch(robots, released_by, event.time)  # type: ignore[attr-defined]
+
+    @property
+    def paused(self) -> bool:
+        return self._cap is not None
+
+    @property
+    def finished(self) -> bool:
+        """Every robot that is not out has completed all its actions."""
+        return self.run.finished
+
+    @property
+    def stalled(self) -> bool:
+        """Running, not finished, and nothing moving: only an out robot can cause this."""
+        return not self.paused and not self.run.finished and not self.run.moving
+
+    def out_robots(self) -> List[int]:
+        return [r for r, why in enumerate(self.run.out) if why is not None]
+
+    def waiting(self) -> List[Wait]:
+        """Robots ready for their next action that may not start it, and why."""
+        run, cap, out = self.run, self._cap, []
+        for r in range(run.num_robots):
+            if run.out[r] is not None or run.dispatched[r] > run.completed[r]:
+                continue
+            a = run.next_undispatched(r)
+            if a < 0:
+                continue
+            d = run.dep[a]
+            if cap is not None and run.dispatched[r] >= cap[r]:
+                out.append(Wait(r, (), None, PAUSED))
+            elif d >= 0 and not run.done[d]:
+                out.append(Wait(r, (run.robot[d],), self.table.coord(run.dst[a]), CELL))
+            elif self.strategy.holds(a):
+                reason, on = self.strategy.hold_reason(a)
+                out.append(Wait(r, on, None, reason))
+        return out
+
+    def blocked_by(self) -> Dict[int, List[int]]:
+        """For each out robot, the robots now waiting for it, directly or transitively."""
+        return blocked_by(self.waiting(), self.out_robots())
+
+    # ---- events -------------------------------------------------------------------------
+    def _robot(self, r: object, event: object) -> int:
+        if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.run.num_robots:
+            raise EventError("{!r}: no robot {!r} in this plan of {} robots".format(
+                event, r, self.run.num_robots))
+        return r
+
+    def _started(self, e: Started) -> Recheck:
+        run, r = self.run, self._robot(e.robot, e)
+        if not run.completed[r] <= e.index < run.sent[r]:
+            raise EventError("robot {} reports starting action {}, but it was sent actions up to {} "
+                             "and completed {}".format(r, e.index, run.sent[r] - 1, run.completed[r]), r)
+        run.started[r] = max(run.started[r], e.index + 1)
+        run.dispatched[r] = max(run.dispatched[r], e.index + 1)  # a withdrawn action it began anyway
+        return (), None
+
+    def _completed(self, e: Completed) -> Recheck:
+        run, r = self.run, self._robot(e.robot, e)
+        k = e.index
+        if k != run.completed[r] or k >= run.sent[r]:
+            raise EventError("robot {} reports completing action {}, but its next action to complete "
+                             "is {} and it was sent {}".format(r, k, run.completed[r], run.sent[r]), r)
+        a = run.first[r] + k
+        run.done[a] = 1
+        run.completed[r] = k + 1
+        run.started[r] = max(run.started[r], k + 1)
+        run.dispatched[r] = max(run.dispatched[r], k + 1)
+        extra = self.strategy.on_completed(a)
+        s = run.succ[a]
+        robots = [r] if s < 0 else [r, run.robot[s]]
+        if extra:
+            robots.extend(extra)
+        return robots, r
+
+    def _failed(self, e: Failed) -> Recheck:
+        run, r = self.run, self._robot(e.robot, e)
+        was_active = run.out[r] is None
+        run.out[r] = FAILED
+        # nothing it was sent counts as done; on Enabled it is sent its next action again
+        run.dispatched[r] = run.started[r] = run.completed[r]
+        return (self.strategy.on_out(r) if was_active else ()), r
+
+    def _disabled(self, e: Disabled) -> Recheck:
+        run, r = self.run, self._robot(e.robot, e)
+        was_active = run.out[r] is None
+        if run.out[r] is None:
+            run.out[r] = DISABLED
+        run.dispatched[r] = max(run.started[r], run.completed[r])  # keeps only what it began
+        return (self.strategy.on_out(r) if was_active else ()), r
+
+    def _enabled(self, e: Enabled) -> Recheck:
+        run, r = self.run, self._robot(e.robot, e)
+        if run.out[r] is None:
+            return (), None
+        run.out[r] = None
+        return [r] + list(self.strategy.on_back(r)), r
+
+    def _resume(self, e: Resume) -> Recheck:
+        self._cap = None
+        return range(self.run.num_robots), None
+
+    def _pause(self, e: Pause) -> Recheck:
+        self._cap = list(self.run.dispatched)
+        return (), None
+
+    def _step_round(self, e: StepRound) -> Recheck:
+        limits = self.strategy.round()
+        self._cap = [max(c, d) for c, d in zip(limits, self.run.dispatched)]
+        return range(self.run.num_robots), None
+
+    def _switch(self, e: SwitchStrategy) -> Recheck:
+        new = e.strategy
+        if not isinstance(new, Strategy) or (new.run is not None and new.run is not self.run):
+            raise EventError("SwitchStrategy needs a new strategy from make_strategy(), got {!r}".format(new))
+        new.attach(self.run)
+        self.strategy = new
+        return range(self.run.num_robots), None
+
+    # ---- decisions ----------------------------------------------------------------------
+    def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
+        run, strategy, cap, out = self.run, self.strategy, self._cap, []
+        first, dep, done, step = run.first, run.dep, run.done, run.step
+        window = strategy.window
+        coord = self.table.coord
+        for r in robots:
+            if run.out[r] is not None:
+                continue
+            base = first[r]
+            limit = min(first[r + 1], base + run.completed[r] + window)
+            if cap is not None:
+                limit = min(limit, base + cap[r])
+            a = base + run.dispatched[r]
+            while a < limit:
+                d = dep[a]
+                if (d >= 0 and not done[d]) or strategy.holds(a):
+                    break
+                k = a - base
+                run.dispatched[r] = k + 1
+                if k >= run.sent[r]:
+                    run.sent[r] = k + 1
+                out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a])))
+                self.metrics.record_dispatch(r, k, time, released_by)
+                a += 1
+        return out

@@ -1,0 +1,120 @@
+"""What goes into the engine (events) and what comes out (decisions).
+
+Every input is an event carrying `time`, a number the caller chooses (seconds
+of a wall clock, simulated time, plan steps): the engine never reads a clock,
+it only passes times on to the metrics. Robots report progress (`Started`,
+`Completed`, `Failed`); the operator or the manager controls the run
+(`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`).
+A run starts paused: the first `Resume` starts it.
+
+`Engine.handle(event)` answers with `Dispatch` decisions: robot r may start
+its action `index` now (move from `src` to `dst`, plan step `step`). The
+caller sends each one to its robot exactly once. `Wait` reports who is
+waiting for whom and where, for the console's red highlight.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Optional, Tuple
+
+from ..grid import Coord
+from .strategy import Strategy
+
+
+@dataclass(frozen=True)
+class Started:
+    """Robot `robot` began its action `index` (optional: completion implies it)."""
+
+    robot: int
+    index: int
+    time: float
+
+
+@dataclass(frozen=True)
+class Completed:
+    """Robot `robot` finished its action `index`: it is wholly in the action's `dst`."""
+
+    robot: int
+    index: int
+    time: float
+
+
+@dataclass(frozen=True)
+class Failed:
+    """Robot `robot` stopped with a fault; it is out until `Enabled`, then retries."""
+
+    robot: int
+    time: float
+
+
+@dataclass(frozen=True)
+class Disabled:
+    """The operator took `robot` out (a dead battery): it is sent nothing new."""
+
+    robot: int
+    time: float
+
+
+@dataclass(frozen=True)
+class Enabled:
+    """`robot` takes part again and continues where it stopped."""
+
+    robot: int
+    time: float
+
+
+@dataclass(frozen=True)
+class Resume:
+    """Start the run, or continue it after `Pause` or `StepRound`."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class Pause:
+    """Send no new actions (robots finish the ones they have)."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class StepRound:
+    """Release one round (strategy's unit: one plan step, or one action per robot), then hold."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class SwitchStrategy:
+    """Continue the run under `strategy` (from `make_strategy`), keeping all progress."""
+
+    strategy: Strategy
+    time: float
+
+
+class Dispatch(NamedTuple):
+    """Decision: robot `robot` may start its action `index` (plan step `step`)."""
+
+    robot: int
+    index: int
+    step: int
+    src: Coord
+    dst: Coord
+
+
+#: Wait reasons (stable strings): the cell to enter is not free yet, the strategy
+#: holds the robot (e.g. the step barrier), or the run is paused.
+CELL = "cell"
+PAUSED = "paused"
+
+
+class Wait(NamedTuple):
+    """Robot `robot` is ready for its next action but waits for robots `on`.
+
+    `cell` is the cell it waits to enter (reason CELL) or None.
+    """
+
+    robot: int
+    on: Tuple[int, ...]
+    cell: Optional[Coord]
+    reason: str

@@ -1,0 +1,107 @@
+"""Run metrics, computed from the engine's events and decisions alone.
+
+Times are relative to the first `Resume` or `StepRound` (the run's start), in the caller's
+unit. A robot *waits* from the moment it is ready for its next action (its
+previous one completed, the run started, or it was enabled again) until that
+action is dispatched; a wait is charged to the robot whose completion
+released it (the leader it followed, the last robot of a step barrier, a
+robot enabled again), or to "held" when the operator released it (resume,
+step, strategy switch). The executed makespan is the last completion; the
+sum of costs adds each robot's arrival (its last completion, 0 if it never
+moves) over the robots that reached their goals.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+from .events import Completed, Disabled, Enabled, Failed, Resume, StepRound
+
+
+@dataclass
+class RobotMetrics:
+    """One robot's figures; `blocked_by[q]` is the time it waited for robot q."""
+
+    moves: int = 0
+    waits: int = 0
+    wait_time: float = 0.0
+    held_time: float = 0.0
+    blocked_by: Dict[int, float] = field(default_factory=dict)
+    arrival: Optional[float] = None
+
+
+class Metrics:
+    """Fed by the engine with every event and dispatch; read at any time."""
+
+    def __init__(self, actions_per_robot: List[int]) -> None:
+        self.counts = list(actions_per_robot)
+        self.robots = [RobotMetrics(arrival=0.0 if c == 0 else None) for c in self.counts]
+        self.begin: Optional[float] = None
+        self.last_completion: Optional[float] = None
+        self._ready: List[Optional[float]] = [None] * len(self.counts)
+        self._done = [0] * len(self.counts)
+
+    def record(self, event: object) -> None:
+        if isinstance(event, Completed):
+            self._completed(event.robot, event.time)
+        elif isinstance(event, (Resume, StepRound)) and self.begin is None:
+            self.begin = event.time
+            self._ready = [event.time] * len(self.counts)
+        elif isinstance(event, Enabled):
+            self._ready[event.robot] = event.time
+        elif isinstance(event, (Disabled, Failed)):
+            self._ready[event.robot] = None
+
+    def record_dispatch(self, robot: int, index: int, time: float, released_by: Optional[int]) -> None:
+        ready = self._ready[robot]
+        if index != self._done[robot] or ready is None:
+            return  # sent ahead (lookahead) or not ready: no wait
+        self._ready[robot] = None
+        waited = time - ready
+        if waited <= 0:
+            return
+        m = self.robots[robot]
+        m.waits += 1
+        m.wait_time += waited
+        if released_by is None or released_by == robot:
+            m.held_time += waited
+        else:
+            m.blocked_by[released_by] = m.blocked_by.get(released_by, 0.0) + waited
+
+    def _completed(self, robot: int, time: float) -> None:
+        self._done[robot] += 1
+        m = self.robots[robot]
+        m.moves += 1
+        self._ready[robot] = time
+        self.last_completion = time
+        if self._done[robot] == self.counts[robot]:
+            m.arrival = time - (self.begin or 0.0)
+
+    @property
+    def makespan(self) -> float:
+        if self.last_completion is None:
+            return 0.0
+        return self.last_completion - (self.begin or 0.0)
+
+    @property
+    def reached(self) -> List[int]:
+        """Robots that completed all their actions (or had none)."""
+        return [r for r, m in enumerate(self.robots) if m.arrival is not None]
+
+    @property
+    def soc(self) -> float:
+        return sum(m.arrival for m in self.robots if m.arrival is not None)
+
+    @property
+    def total_waits(self) -> int:
+        return sum(m.waits for m in self.robots)
+
+    @property
+    def total_wait_time(self) -> float:
+        return sum(m.wait_time for m in self.robots)
+
+    def blocking_pairs(self) -> List[tuple]:
+        """(time, waiting robot, blocking robot), longest first."""
+        pairs = [(t, r, q) for r, m in enumerate(self.robots) for q, t in m.blocked_by.items()]
+        pairs.sort(key=lambda p: (-p[0], p[1], p[2]))
+        return pairs

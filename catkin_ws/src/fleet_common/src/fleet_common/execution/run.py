@@ -1,0 +1,100 @@
+"""The progress of one run: what every robot was sent, has started and completed.
+
+One `RunState` is shared by the engine (which writes it) and whichever
+strategy is active (which reads it). Progress lives here and nowhere else, so
+switching strategies mid-run loses nothing: the new strategy derives its own
+bookkeeping from this state when it is attached.
+
+Per robot, actions are counted in order: `completed <= started <= dispatched
+<= sent`. `dispatched` is what the robot is committed to now; `sent` is the
+most ever sent, so a robot that finishes a move it was sent before it was
+disabled is believed. A robot is *out* while disabled (the operator's choice)
+or failed (it reported a fault); out robots get no new actions.
+
+Lists of Python ints rather than numpy arrays: the engine reads a handful of
+entries per event, and a list index is several times faster than a numpy one.
+"""
+from __future__ import annotations
+
+from typing import List, Optional
+
+import numpy as np
+
+from .actions import ActionTable
+from .adg import ActionDependencyGraph
+
+DISABLED = "disabled"
+FAILED = "failed"
+
+
+class RunState:
+    """Progress per robot and per action; see the module docstring."""
+
+    def __init__(self, graph: ActionDependencyGraph) -> None:
+        table = graph.table
+        self.table: ActionTable = table
+        self.graph = graph
+        self.num_robots = table.num_robots
+        self.first: List[int] = table.first.tolist()
+        self.step: List[int] = table.step.tolist()
+        self.robot: List[int] = table.robot.tolist()
+        self.src: List[int] = table.src.tolist()
+        self.dst: List[int] = table.dst.tolist()
+        self.dep: List[int] = graph.dep.tolist()
+        self.succ: List[int] = graph.succ.tolist()
+        n = self.num_robots
+        self.done = bytearray(table.num_actions)
+        self.completed = [0] * n
+        self.started = [0] * n
+        self.dispatched = [0] * n
+        self.sent = [0] * n
+        #: None while the robot takes part; DISABLED or FAILED while it is out.
+        self.out: List[Optional[str]] = [None] * n
+        #: Events handled so far; strategies key their caches on it.
+        self.version = 0
+        self._by_step: Optional[List[List[int]]] = None
+
+    def count(self, r: int) -> int:
+        return self.first[r + 1] - self.first[r]
+
+    def active(self, r: int) -> bool:
+        return self.out[r] is None
+
+    def finished_robot(self, r: int) -> bool:
+        return self.completed[r] == self.first[r + 1] - self.first[r]
+
+    def next_undispatched(self, r: int) -> int:
+        """Flat index of the next action robot r has not been sent, or -1."""
+        a = self.first[r] + self.dispatched[r]
+        return a if a < self.first[r + 1] else -1
+
+    def next_incomplete(self, r: int) -> int:
+        a = self.first[r] + self.completed[r]
+        return a if a < self.first[r + 1] else -1
+
+    def incomplete_active_mask(self) -> np.ndarray:
+        """Per action: not completed and its robot is not out."""
+        done = np.frombuffer(bytes(self.done), dtype=np.uint8).astype(bool)
+        active = np.array([o is None for o in self.out], dtype=bool)
+        return ~done & active[self.table.robot] if self.table.num_actions else done
+
+    def robots_at_step(self, t: int) -> List[int]:
+        """Robots that have an action in plan step t (built once, on first use)."""
+        if self._by_step is None:
+            steps = self.table.step
+            order = np.argsort(steps, kind="stable")
+            bounds = np.searchsorted(steps[order], np.arange(self.table.makespan + 2))
+            robots = self.table.robot[order].tolist()
+            b = bounds.tolist()
+            self._by_step = [robots[b[s]:b[s + 1]] for s in range(len(b) - 1)]
+        return self._by_step[t] if 0 <= t < len(self._by_step) else []
+
+    @property
+    def finished(self) -> bool:
+        """Every robot that is not out has completed all its actions."""
+        return all(self.out[r] is not None or self.finished_robot(r) for r in range(self.num_robots))
+
+    @property
+    def moving(self) -> bool:
+        """Some robot has an action it was sent and has not completed."""
+        return any(self.dispatched[r] > self.completed[r] for r in range(self.num_robots))

@@ -1,0 +1,115 @@
+"""The discrete time step: the original system's implicit barrier, as a strategy.
+
+No robot starts an action of plan step t + 1 before every robot that takes
+part has completed its actions of step t, so the run keeps the plan's timing
+and a student sees their plan as the solver wrote it (thesis 5.6.1). Steps in
+which nobody moves are skipped. Following moves (a robot entering a cell that
+another leaves in the same step) are not started together: the engine's
+dependency rule starts the follower once the leader's move is complete, so a
+chain of k followers takes k move times within the step.
+
+The barrier is the lowest step with an incomplete action of a robot that is
+not out; `remaining[t]` counts those actions per step, so a completion costs
+O(1) and only the completion that empties the barrier step looks at the
+robots of the next one. A disabled robot leaves the count (the others go on
+without it) and rejoins it when enabled: the others then wait for it to catch
+up, as the plan's timing says.
+"""
+from __future__ import annotations
+
+from bisect import bisect_right
+from typing import List, Sequence, Tuple
+
+import numpy as np
+
+from .run import RunState
+from .strategy import BARRIER, Strategy, register
+
+
+@register
+class DiscreteTimeStep(Strategy):
+    """Everyone finishes step t before anyone starts step t + 1."""
+
+    name = "step"
+    summary = "discrete time step: every robot waits for the slowest at each plan step"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.barrier = 0
+        self.remaining: List[int] = []
+        self._reason_key = (-1, -1)
+        self._reason: Tuple[int, ...] = ()
+
+    def attach(self, run: RunState) -> None:
+        super().attach(run)
+        mask = run.incomplete_active_mask()
+        steps = run.table.step[mask] if run.table.num_actions else np.zeros(0, dtype=np.int64)
+        self.remaining = np.bincount(steps, minlength=run.table.makespan + 1).tolist()
+        self.barrier = 0
+        self._advance()
+
+    def holds(self, a: int) -> bool:
+        return self.run.step[a] > self.barrier  # type: ignore[union-attr]
+
+    def hold_reason(self, a: int) -> Tuple[str, Tuple[int, ...]]:
+        run = self._attached()
+        key = (self.barrier, run.version)
+        if key != self._reason_key:  # one tuple per state, shared by every waiting robot
+            self._reason_key = key
+            t = self.barrier
+            self._reason = tuple(sorted({
+                r for r in run.robots_at_step(t)
+                if run.active(r) and not run.done[self._action_at(r, t)]}))
+        return (BARRIER, self._reason)
+
+    def on_completed(self, a: int) -> Sequence[int]:
+        run = self.run
+        if run.out[run.robot[a]] is not None:  # type: ignore[union-attr]
+            return ()  # not counted while out
+        t = run.step[a]  # type: ignore[union-attr]
+        self.remaining[t] -= 1
+        if t == self.barrier and self.remaining[t] == 0:
+            return self._advance()
+        return ()
+
+    def on_out(self, robot: int) -> Sequence[int]:
+        run = self._attached()
+        for a in range(run.first[robot] + run.completed[robot], run.first[robot + 1]):
+            self.remaining[run.step[a]] -= 1
+        if self.barrier < len(self.remaining) and self.remaining[self.barrier] == 0:
+            return self._advance()
+        return ()
+
+    def on_back(self, robot: int) -> Sequence[int]:
+        run = self._attached()
+        a = run.next_incomplete(robot)
+        for b in range(run.first[robot] + run.completed[robot], run.first[robot + 1]):
+            self.remaining[run.step[b]] += 1
+        if a >= 0:
+            self.barrier = min(self.barrier, run.step[a])
+        return ()
+
+    def round(self) -> List[int]:
+        """One plan step: the lowest step some robot has not been sent yet."""
+        run = self._attached()
+        nxt = [run.next_undispatched(r) for r in range(run.num_robots)]
+        pending = [run.step[a] for r, a in enumerate(nxt) if a >= 0 and run.active(r)]
+        if not pending:
+            return list(run.dispatched)
+        t = min(pending)
+        return [bisect_right(run.step, t, run.first[r] + run.dispatched[r], run.first[r + 1]) - run.first[r]
+                for r in range(run.num_robots)]
+
+    def _advance(self) -> List[int]:
+        """Move the barrier past empty steps; the robots of the new barrier step."""
+        end = len(self.remaining)
+        t = self.barrier
+        while t < end and self.remaining[t] == 0:
+            t += 1
+        self.barrier = t
+        return self.run.robots_at_step(t) if t < end else []  # type: ignore[union-attr]
+
+    def _action_at(self, robot: int, t: int) -> int:
+        run = self._attached()
+        lo, hi = run.first[robot], run.first[robot + 1]
+        return bisect_right(run.step, t, lo, hi) - 1
