@@ -1,0 +1,289 @@
+"""The manager's connection to one robot, which reconnects by itself.
+
+A `RobotLink` owns a DEALER socket connected to the robot's command port and,
+once the robot's `Welcome` names it, a SUB socket on its feedback port. It
+keeps the protocol's `Connection` and turns what arrives into events:
+`LinkUp`, `LinkDown`, `RobotReply` (the robot's Accepted / Completed /
+Failed / Status) and `PoseFeedback`.
+
+Reconnecting: after `PEER_TIMEOUT` of silence, a refused handshake or a
+`Bye`, the link drops its socket, opens a new one and says hello again with
+the same epoch. Commands not yet settled are sent again: if the robot is the
+same process (same session), its executor recognises their ids and only
+reports their outcome; if it restarted (new session), commands it may have
+been running are reported failed here ("outcome unknown"), and those never
+sent go out. A version mismatch or a robot of another id stops the link for
+good (`LinkDown(fatal=True)`): retrying cannot help.
+
+Commands may be issued while the link is down; they are sent once it is up.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Callable, List, Optional, Tuple, Union
+
+import zmq
+
+from fleet_common.robots import RobotDefinition
+from fleet_common.wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed,
+                               GetStatus, Heartbeat, Hello, Liveness, PoseFeedback,
+                               RemoteProtocolError, Reply, Role, Status, Stop, Turn,
+                               VersionMismatchError, Welcome)
+from fleet_common.wire.codec import decode
+from fleet_common.wire.curve_keys import ManagerKeys
+
+__all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
+
+
+@dataclass(frozen=True)
+class LinkUp:
+    robot_id: int
+    session: str
+    restarted: bool  # a different robot process than last time
+
+
+@dataclass(frozen=True)
+class LinkDown:
+    robot_id: int
+    reason: str
+    fatal: bool = False  # the link gave up (version or robot id mismatch)
+
+
+@dataclass(frozen=True)
+class RobotReply:
+    robot_id: int
+    reply: Reply
+
+
+LinkEvent = Union[LinkUp, LinkDown, RobotReply, PoseFeedback]
+
+_SUPERSEDED_RETRY = 5.0  # another manager took the robot: do not fight over it every second
+
+
+class RobotLink:
+    """One robot, seen from the manager. Not thread-safe: use it from one loop."""
+
+    def __init__(self, context: zmq.Context, robot: RobotDefinition, epoch: str, *,
+                 keys: Optional[ManagerKeys] = None, host: Optional[str] = None,
+                 clock: Callable[[], float] = time.monotonic, retry: float = 1.0,
+                 log: Optional[logging.Logger] = None) -> None:
+        self.context = context
+        self.robot_id = robot.id
+        self.host = host or robot.host
+        self.address = "tcp://{}:{}".format(self.host, robot.command_port)
+        self.epoch = epoch
+        self.keys = keys
+        self.clock = clock
+        self.retry = retry
+        self.log = log or logging.getLogger("fleet_manager.robot{}".format(robot.id))
+        self.state = "connecting"  # connecting | up | down | failed
+        self.session: Optional[str] = None
+        self.feedback_port: Optional[int] = None
+        self.feedback: Optional[zmq.Socket] = None
+        self.command: Optional[zmq.Socket] = None
+        self.conn = Connection(Role.MANAGER, self.robot_id)
+        self.live = Liveness(clock())
+        self.retry_at = 0.0
+        self._next_id = 1
+        # id -> (command, session it was last sent to, None: not sent yet)
+        self._unsettled: "OrderedDict[int, Tuple[Command, Optional[str]]]" = OrderedDict()
+        self._connect(clock())
+
+    # ---- commands (the thesis's navigation API, remote) ---------------------------
+
+    def drive_to_position(self, x: float, y: float, time: float) -> int:
+        return self._issue(lambda i: DriveToPosition(i, float(x), float(y), float(time)))
+
+    def turn(self, angle: float) -> int:
+        return self._issue(lambda i: Turn(i, float(angle)))
+
+    def stop(self) -> int:
+        return self._issue(Stop)
+
+    def get_status(self) -> int:
+        return self._issue(GetStatus)
+
+    @property
+    def unsettled(self) -> List[int]:
+        """Ids of commands without a final reply yet."""
+        return list(self._unsettled)
+
+    # ---- the loop's side -----------------------------------------------------------
+
+    def sockets(self) -> List[zmq.Socket]:
+        return [s for s in (self.command, self.feedback) if s is not None]
+
+    def handle(self, sock: zmq.Socket) -> List[LinkEvent]:
+        """Events from what is waiting on `sock` (one of `sockets()`)."""
+        events: List[LinkEvent] = []
+        now = self.clock()
+        while sock is self.command or sock is self.feedback:
+            try:
+                data = sock.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            if sock is self.feedback:
+                events += self._on_feedback(data)
+            else:
+                events += self._on_command_frame(data, now)
+        return events
+
+    def tick(self, now: float) -> Tuple[List[LinkEvent], float]:
+        """Heartbeats, timeouts and retries; (events, the next time to call tick)."""
+        events: List[LinkEvent] = []
+        if self.state == "failed":
+            return events, now + 3600.0
+        if self.state == "down":
+            if now >= self.retry_at:
+                self._connect(now)
+            return events, max(self.retry_at, now + 0.05) if self.state == "down" else now
+        if self.live.peer_gone(now):
+            what = "no welcome" if self.state == "connecting" else "silent"
+            events += self._lost("robot {} {} for {:.1f} s".format(
+                self.robot_id, what, self.live.timeout), now, retry=0.0)
+            return events, now
+        if self.state == "up" and self.live.heartbeat_due(now):
+            self._send(Heartbeat(), now)
+        return events, self.live.next_deadline()
+
+    def close(self) -> None:
+        if self.command is not None and self.conn.can_send(Bye("manager closing")):
+            self._send(Bye("manager closing", "shutdown"), self.clock())
+        for sock in self.sockets():
+            sock.close(linger=100)
+        self.command = self.feedback = None
+        self.state = "failed"
+
+    # ---- internals -------------------------------------------------------------------
+
+    def _issue(self, make: Callable[[int], Command]) -> int:
+        command = make(self._next_id)
+        self._next_id += 1
+        self._unsettled[command.id] = (command, None)
+        if self.state == "up":
+            self._send_command(command, self.clock())
+        return command.id
+
+    def _send_command(self, command: Command, now: float) -> None:
+        self._unsettled[command.id] = (command, self.session)
+        self._send(command, now)
+
+    def _connect(self, now: float) -> None:
+        if self.command is not None:
+            self.command.close(linger=0)
+        sock = self.context.socket(zmq.DEALER)
+        sock.linger = 0
+        self._secure(sock)
+        sock.connect(self.address)
+        self.command = sock
+        self.conn = Connection(Role.MANAGER, self.robot_id)
+        self.live = Liveness(now)
+        self.state = "connecting"
+        self._send(Hello(self.robot_id, self.epoch), now)
+
+    def _secure(self, sock: zmq.Socket) -> None:
+        if self.keys is not None:
+            sock.curve_secretkey = self.keys.secret
+            sock.curve_publickey = self.keys.public
+            sock.curve_serverkey = self.keys.robot_public
+
+    def _send(self, message: object, now: float) -> None:
+        data = self.conn.send(message)
+        if self.command is None:
+            return
+        try:
+            self.command.send(data, zmq.NOBLOCK)
+        except zmq.Again:
+            self.log.warning("robot %s: send queue full; %s dropped", self.robot_id, message)
+        self.live.sent(now)
+
+    def _on_command_frame(self, data: bytes, now: float) -> List[LinkEvent]:
+        try:
+            message = self.conn.receive(data)
+        except VersionMismatchError as err:
+            self.log.error("robot %s: %s", self.robot_id, err)
+            return self._fail(str(err))
+        except RemoteProtocolError as err:
+            if err.code == "robot-id":
+                self.log.error("robot %s: %s", self.robot_id, err)
+                return self._fail(str(err))
+            self.log.error("robot %s broke the protocol: %s", self.robot_id, err)
+            if self.conn.can_send(Bye("", "protocol")):
+                self._send(Bye(str(err), err.code), now)
+            return self._lost("protocol error: {}".format(err), now, retry=self.retry)
+        self.live.heard(now)
+        if isinstance(message, Welcome):
+            return self._on_welcome(message, now)
+        if isinstance(message, Bye):
+            retry = _SUPERSEDED_RETRY if message.code == "superseded" else (
+                0.0 if message.code == "no-session" else self.retry)
+            level = logging.WARNING if message.code == "superseded" else logging.INFO
+            self.log.log(level, "robot %s said bye (%s): %s", self.robot_id, message.code,
+                         message.reason)
+            return self._lost("robot said bye: {}".format(message.reason), now, retry)
+        if isinstance(message, (Completed, Failed, Status)):
+            self._unsettled.pop(message.id, None)
+        if isinstance(message, Heartbeat):
+            return []
+        return [RobotReply(self.robot_id, message)]
+
+    def _on_welcome(self, welcome: Welcome, now: float) -> List[LinkEvent]:
+        restarted = self.session is not None and welcome.session != self.session
+        self.session = welcome.session
+        self.state = "up"
+        if welcome.feedback_port != self.feedback_port:
+            self._subscribe(welcome.feedback_port)
+        events: List[LinkEvent] = [LinkUp(self.robot_id, welcome.session, restarted)]
+        for cid, (command, sent_to) in list(self._unsettled.items()):
+            if sent_to is not None and sent_to != welcome.session:
+                del self._unsettled[cid]
+                events.append(RobotReply(self.robot_id, Failed(cid, (
+                    "robot {} restarted while command {} was in flight; its outcome is "
+                    "unknown").format(self.robot_id, cid))))
+            else:
+                self._send_command(command, now)
+        self.log.info("robot %s: link up (session %s%s)", self.robot_id, welcome.session,
+                      ", restarted" if restarted else "")
+        return events
+
+    def _subscribe(self, port: int) -> None:
+        if self.feedback is not None:
+            self.feedback.close(linger=0)
+        sock = self.context.socket(zmq.SUB)
+        sock.linger = 0
+        self._secure(sock)
+        sock.setsockopt(zmq.SUBSCRIBE, b"")
+        sock.setsockopt(zmq.RCVHWM, 20)  # only recent poses matter
+        sock.connect("tcp://{}:{}".format(self.host, port))
+        self.feedback, self.feedback_port = sock, port
+
+    def _on_feedback(self, data: bytes) -> List[LinkEvent]:
+        try:
+            message = decode(data)
+        except RemoteProtocolError as err:
+            self.log.warning("robot %s: bad pose feedback frame: %s", self.robot_id, err)
+            return []
+        if not isinstance(message, PoseFeedback) or message.robot_id != self.robot_id:
+            self.log.warning("robot %s: feedback port sent %s", self.robot_id, message)
+            return []
+        return [message]
+
+    def _lost(self, reason: str, now: float, retry: float) -> List[LinkEvent]:
+        was_up = self.state == "up"
+        self.state = "down"
+        self.retry_at = now + retry
+        if self.command is not None:
+            self.command.close(linger=0)
+            self.command = None
+        self.log.info("robot %s: link down: %s", self.robot_id, reason)
+        return [LinkDown(self.robot_id, reason)] if was_up else []
+
+    def _fail(self, reason: str) -> List[LinkEvent]:
+        self.state = "failed"
+        if self.command is not None:
+            self.command.close(linger=0)
+            self.command = None
+        return [LinkDown(self.robot_id, reason, fatal=True)]

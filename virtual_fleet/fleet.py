@@ -1,0 +1,128 @@
+"""Many virtual robots in one process: one ZeroMQ context, one ZAP handler, one loop.
+
+Each robot definition becomes a `RobotEndpoint` on 127.0.0.1 (its own command
+port; feedback ports from fleet_common.wire.ports: base, base + 1, ... in
+definition order) driving a `VirtualNavigator`. Dropouts from the delay model
+are carried out here: the robot's sockets close without a goodbye, as at a
+power cut, and after the model's pause a new endpoint (new session, empty
+command memory) comes up where the robot stopped.
+"""
+from __future__ import annotations
+
+import logging
+import random
+import time
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import zmq
+
+from fleet_common.robots import RobotDefinition
+from fleet_common.wire.curve_keys import RobotKeys
+from fleet_common.wire.messages import Pose
+from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports, on_localhost
+from fleet_common.wire.zap import ZapHandler
+from fleet_common.wire.zmq_transport import RobotEndpoint, RobotLoop
+
+from .delays import DelayModel
+from .kinematics import VirtualNavigator
+
+__all__ = ["VirtualFleet", "row_poses"]
+
+_DROPOUT_CHECK = 0.05  # wall seconds between looks for robots due to drop out
+
+
+def row_poses(robots: Sequence[RobotDefinition], width: int = 32) -> Dict[int, Pose]:
+    """Start poses when no instance is given: rows of `width` cells from (0, 0), facing +x."""
+    return {r.id: Pose(float(i % width), float(i // width), 0.0) for i, r in enumerate(robots)}
+
+
+class VirtualFleet:
+    """Serves one virtual robot per definition until closed."""
+
+    def __init__(self, robots: Sequence[RobotDefinition], *, keys: Optional[RobotKeys] = None,
+                 feedback_base: int = FEEDBACK_PORT, time_scale: float = 1.0,
+                 model: Optional[DelayModel] = None, seed: int = 0, speed: float = 0.5,
+                 turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
+                 path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
+                 clock: Callable[[], float] = time.monotonic,
+                 log: Optional[logging.Logger] = None) -> None:
+        self.robots = on_localhost(robots, path)
+        self.ports = feedback_ports(self.robots, feedback_base, path)
+        self.keys = keys
+        self.model = model or DelayModel()
+        self.clock = clock
+        self.feedback_rate = feedback_rate
+        self.log = log or logging.getLogger("virtual_fleet")
+        self.context = zmq.Context()
+        self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
+        self.loop = RobotLoop(self.zap, clock)
+        poses = start_poses or row_poses(self.robots)
+        self.navigators: Dict[int, VirtualNavigator] = {
+            r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
+                                   time_scale=time_scale, model=self.model,
+                                   rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
+            for r in self.robots}
+        self.endpoints: Dict[int, RobotEndpoint] = {}
+        self.away: Dict[int, float] = {}  # robot id -> wall time it comes back
+        self.dropouts = 0
+        self._next_check = clock()
+        try:
+            for robot in self.robots:
+                self._start(robot)
+        except BaseException:
+            self.close()
+            raise
+
+    def _start(self, robot: RobotDefinition) -> None:
+        endpoint = RobotEndpoint(self.context, robot.id, self.navigators[robot.id],
+                                 robot.command_port, self.ports[robot.id], bind="127.0.0.1",
+                                 keys=self.keys, zap=self.zap, clock=self.clock,
+                                 log=self.log, feedback_rate=self.feedback_rate)
+        self.endpoints[robot.id] = endpoint
+        self.loop.add(endpoint)
+
+    def run_once(self, max_wait: float = 0.1) -> None:
+        self.loop.run_once(min(max_wait, _DROPOUT_CHECK) if self.model.dropout_p or self.away
+                           else max_wait)
+        now = self.clock()
+        if now >= self._next_check:
+            self._next_check = now + _DROPOUT_CHECK
+            self._dropouts(now)
+
+    def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
+        while not should_stop():
+            self.run_once(max_wait)
+
+    def drop_out(self, robot_id: int, seconds: float) -> None:
+        """Cut robot `robot_id` off now; it restarts `seconds` (wall) later."""
+        endpoint = self.endpoints.pop(robot_id)
+        self.loop.remove(endpoint)
+        endpoint.close(send_bye=False)  # also halts its navigator where it is
+        self.away[robot_id] = self.clock() + seconds
+        self.dropouts += 1
+        self.log.info("robot %s dropped out; back in %.1f s", robot_id, seconds)
+
+    def close(self) -> None:
+        for endpoint in self.endpoints.values():
+            self.loop.remove(endpoint)
+            endpoint.close()
+        self.endpoints.clear()
+        if self.zap is not None:
+            self.zap.socket.close(linger=0)
+        self.context.term()
+
+    def _dropouts(self, now: float) -> None:
+        by_id = {r.id: r for r in self.robots}
+        for robot_id, back in list(self.away.items()):
+            if now >= back:
+                del self.away[robot_id]
+                self._start(by_id[robot_id])
+                self.log.info("robot %s is back (restarted)", robot_id)
+        if not self.model.dropout_p:
+            return
+        due: List[Tuple[int, VirtualNavigator]] = [
+            (rid, nav) for rid, nav in self.navigators.items()
+            if rid in self.endpoints and nav.dropout_time is not None
+            and nav.now() >= nav.dropout_time]
+        for robot_id, nav in due:
+            self.drop_out(robot_id, self.model.dropout_s / nav.time_scale)

@@ -1,0 +1,152 @@
+"""A virtual robot's motion: turn in place, then drive straight, at set speeds.
+
+`VirtualNavigator` implements fleet_common.wire's `Navigator` without ROS. A
+move is laid out when it starts as a few timed segments (wait, turn, drive,
+stall) and the pose is read off them whenever asked, so a robot costs nothing
+between questions. Time is the fleet's own: wall time since start times
+`time_scale`, so a fleet at --time-scale 10 finishes a 5 s move in 0.5 s.
+
+drive_to_position(x, y, time) takes max(time, turn + distance/speed) seconds,
+and longer if the delay model slows or stalls the move; turn(angle) goes the
+short way round to an absolute heading.
+"""
+from __future__ import annotations
+
+import math
+import random
+import time as _time
+from dataclasses import dataclass
+from typing import Callable, List, Optional, Tuple
+
+from fleet_common.wire.messages import Pose
+from fleet_common.wire.navigator import MotionOutcome
+
+from .delays import DelayModel, MoveFate
+
+__all__ = ["VirtualNavigator", "wrap_angle"]
+
+
+def wrap_angle(a: float) -> float:
+    """`a` in (-pi, pi]."""
+    a = math.fmod(a + math.pi, 2.0 * math.pi)
+    return a - math.pi if a > 0 else a + math.pi
+
+
+@dataclass(frozen=True)
+class _Segment:
+    start: float   # fleet seconds
+    end: float
+    a: Pose        # pose at start
+    b: Pose        # pose at end
+
+
+class VirtualNavigator:
+    """Kinematic robot; `speed` in cells/s, `turn_speed` in rad/s (fleet seconds)."""
+
+    def __init__(self, pose: Pose, *, speed: float = 0.5, turn_speed: float = 1.5,
+                 time_scale: float = 1.0, model: Optional[DelayModel] = None,
+                 rng: Optional[random.Random] = None,
+                 clock: Callable[[], float] = _time.monotonic) -> None:
+        if speed <= 0 or turn_speed <= 0 or time_scale <= 0:
+            raise ValueError("speed, turn_speed and time_scale must be positive")
+        self.speed = speed
+        self.turn_speed = turn_speed
+        self.time_scale = time_scale
+        self.model = model or DelayModel()
+        self.rng = rng or random.Random(0)
+        self.clock = clock
+        self._t0 = clock()
+        self._rest = pose
+        self._segments: List[_Segment] = []
+        self.dropout_time: Optional[float] = None  # fleet seconds; the fleet acts on it
+
+    def now(self) -> float:
+        """Fleet seconds since this navigator was made."""
+        return (self.clock() - self._t0) * self.time_scale
+
+    # ---- Navigator -------------------------------------------------------------------
+
+    def start_drive(self, x: float, y: float, time: float) -> None:
+        start = self.pose()
+        dx, dy = x - start.x, y - start.y
+        dist = math.hypot(dx, dy)
+        heading = math.atan2(dy, dx) if dist > 1e-9 else start.theta
+        turn = abs(wrap_angle(heading - start.theta)) / self.turn_speed
+        drive = max(dist / self.speed, time - turn)
+        self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
+
+    def start_turn(self, angle: float) -> None:
+        start = self.pose()
+        turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
+        self._lay_out(start, wrap_angle(angle), turn, None, 0.0)
+
+    def halt(self) -> None:
+        self._rest = self.pose()
+        self._segments = []
+        self.dropout_time = None
+
+    def poll(self) -> Optional[MotionOutcome]:
+        if not self._segments or self.now() < self._segments[-1].end:
+            return None
+        self._rest = self._segments[-1].b
+        self._segments = []
+        self.dropout_time = None
+        return MotionOutcome(True)
+
+    def pose(self) -> Pose:
+        if not self._segments:
+            return self._rest
+        t = self.now()
+        for seg in self._segments:
+            if t < seg.end:
+                if t <= seg.start:
+                    return seg.a
+                f = (t - seg.start) / (seg.end - seg.start)
+                return Pose(seg.a.x + (seg.b.x - seg.a.x) * f, seg.a.y + (seg.b.y - seg.a.y) * f,
+                            wrap_angle(seg.a.theta + wrap_angle(seg.b.theta - seg.a.theta) * f))
+        return self._segments[-1].b
+
+    def faults(self) -> Tuple[str, ...]:
+        return ()
+
+    def seconds_to_change(self) -> float:
+        """Wall seconds until poll() or the dropout may change (the loop sleeps that long)."""
+        if not self._segments:
+            return 1.0
+        due = self._segments[-1].end
+        if self.dropout_time is not None:
+            due = min(due, self.dropout_time)
+        return max(0.0, (due - self.now()) / self.time_scale)
+
+    # ---- internals -------------------------------------------------------------------
+
+    def _lay_out(self, start: Pose, heading: float, turn: float, goal: Optional[Pose],
+                 drive: float) -> None:
+        fate: MoveFate = self.model.draw(self.rng)
+        t = self.now()
+        turned = Pose(start.x, start.y, heading)
+        plan: List[Tuple[float, Pose]] = [(fate.start_delay, start),
+                                          (turn * fate.slowdown, turned)]
+        if goal is not None:
+            plan.append((drive * fate.slowdown, goal))
+        if fate.stall > 0:  # pause where the robot is at `stall_at` of the moving part
+            moving = sum(d for d, _ in plan[1:])
+            cut, done = fate.stall_at * moving, 0.0
+            for i in range(1, len(plan)):
+                d, target = plan[i]
+                if done + d >= cut:
+                    a = plan[i - 1][1]
+                    f = (cut - done) / d if d > 0 else 1.0
+                    mid = Pose(a.x + (target.x - a.x) * f, a.y + (target.y - a.y) * f,
+                               wrap_angle(a.theta + wrap_angle(target.theta - a.theta) * f))
+                    plan[i:i + 1] = [(cut - done, mid), (fate.stall, mid), (d - (cut - done), target)]
+                    break
+                done += d
+        segments, pose = [], start
+        for duration, target in plan:
+            segments.append(_Segment(t, t + duration, pose, target))
+            t, pose = t + duration, target
+        self._segments = segments
+        total = t - segments[0].start
+        self.dropout_time = (None if fate.dropout_at is None
+                             else segments[0].start + fate.dropout_at * total)
