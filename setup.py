@@ -19,6 +19,8 @@ HERE = Path(__file__).resolve().parent
 #: Top-level package -> folder (relative to this file) that contains it.
 PACKAGE_ROOTS: Dict[str, str] = {
     "fleet_common": "catkin_ws/src/fleet_common/src",
+    "fleet_manager": "catkin_ws/src/fleet_manager/src",
+    "virtual_fleet": ".",
     "fleetctl": ".",
 }
 
