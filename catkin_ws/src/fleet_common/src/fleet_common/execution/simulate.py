@@ -61,8 +61,15 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
              controls: Sequence[object] = (), nominal: float = 1.0, **settings: object) -> SimResult:
     """Run `plan` under `strategy` with durations drawn from `delays` (or given)."""
     engine = Engine(plan, strategy, **settings)  # type: ignore[arg-type]
-    sim = _Simulation(engine, durations if durations is not None
-                      else (delays or DelayModel()).durations(engine.table, seed, nominal), disable or {})
+    if durations is None:
+        durations = (delays or DelayModel()).durations(engine.table, seed, nominal)
+    return simulate_engine(engine, durations, disable, controls)
+
+
+def simulate_engine(engine: Engine, durations: np.ndarray, disable: Optional[Mapping[int, int]] = None,
+                    controls: Sequence[object] = ()) -> SimResult:
+    """Run a fresh `engine` (not yet resumed) with one duration per action."""
+    sim = _Simulation(engine, durations, disable or {})
     sim.run(controls)
     return SimResult(engine, sim.trace, sim.durations, find_collisions(sim.trace), sim.now, sim.disabled_at)
 

@@ -1,0 +1,145 @@
+"""`fleetctl simulate`: run a plan against simulated robots before booking the lab."""
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+from typing import Dict, List
+
+from fleet_common.errors import FleetError
+from fleet_common.execution import STRATEGIES, PlanError
+from fleet_common.execution.delays import FORMS, parse_delay_model
+from fleet_common.execution.simulate import SimResult, simulate
+from fleet_common.execution.trace import SWAP, VERTEX
+from fleet_common.formats.solution import read_solution
+from fleet_common.validate import validate_plan
+
+from ..options import add_map_dir, map_dirs
+from ..report import print_findings
+
+NAME = "simulate"
+HELP = "run a solution on simulated robots with delays: metrics, collisions, who waited for whom"
+DESCRIPTION = (
+    "Execute a mapf-IR solution with the execution engine against simulated robots in one "
+    "process. Every move takes a nominal time of 1 (one plan step) times a random factor, "
+    "with random stalls, as the delay model says. Prints the executed makespan and sum of "
+    "costs, the waits, the number of collisions in the executed trace (vertex and swap, from "
+    "the executed positions over continuous time) and whether every enabled robot reached its "
+    "goal. Exit 0 when there was no collision and every enabled robot reached its goal, 1 "
+    "otherwise (also for invalid plans and plans robots cannot execute), 2 for unreadable input."
+)
+
+
+class SimulateOptionError(FleetError):
+    """A command-line value that does not fit the plan."""
+
+
+def _disable(text: str) -> tuple:
+    m = re.fullmatch(r"(\d+)@(\d+)", text.strip())
+    if not m:
+        raise argparse.ArgumentTypeError("expected ROBOT@STEP (e.g. 3@10), got '{}'".format(text))
+    return int(m.group(1)), int(m.group(2))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("solution", type=Path, help="solution file (mapf-IR solver output)")
+    add_map_dir(parser)
+    parser.add_argument("--strategy", choices=list(STRATEGIES), default="adg",
+                        help="synchronization strategy: " + "; ".join(
+                            "{}: {}".format(name, cls.summary) for name, cls in STRATEGIES.items())
+                        + " (default adg)")
+    parser.add_argument("--lookahead", type=int, default=None, metavar="K",
+                        help="adg: actions a robot may be sent ahead (default 1)")
+    parser.add_argument("--delay-model", action="append", default=[], metavar="M",
+                        help="how long moves take (repeatable, they combine): " + FORMS
+                        + "; default moderate (random:0.8-1.5 and stall:0.02:3)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed of the delays (default 0)")
+    parser.add_argument("--disable", action="append", default=[], type=_disable, metavar="ROBOT@STEP",
+                        help="robot ROBOT (0-based agent index) stops for good where the plan has it at "
+                             "step STEP, like a dead battery (repeatable)")
+    parser.add_argument("--per-robot", action="store_true",
+                        help="also print a line per robot: moves, arrival, waits, who it waited for")
+
+
+def run(args: argparse.Namespace) -> int:
+    sol = read_solution(args.solution, map_dirs=map_dirs(args))
+    name = str(args.solution)
+    if sol.plan is None or not sol.solved:
+        print("{}: no plan: solver {} did not solve it (solved={})".format(
+            name, sol.solver or "?", int(bool(sol.solved))))
+        return 1
+    plan = sol.plan
+    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
+    report = validate_plan(plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
+    if not report.ok:
+        print_findings(name, report)
+        print("{}: INVALID: {} problem(s); not simulated (`fleetctl validate` explains)".format(
+            name, len(report.errors)))
+        return 1
+    delays = parse_delay_model(args.delay_model)
+    delays.check_robots(plan.num_agents)
+    disable: Dict[int, int] = {}
+    for robot, step in args.disable:
+        if robot >= plan.num_agents:
+            raise SimulateOptionError("--disable {}@{}: the plan has robots 0..{}".format(
+                robot, step, plan.num_agents - 1))
+        disable[robot] = step
+    settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
+    try:
+        result = simulate(plan, args.strategy, delays, seed=args.seed, disable=disable, show=show,
+                          **settings)
+    except PlanError as err:
+        print("{}: cannot be executed by robots: {}".format(name, err))
+        return 1
+    for line in _summary(result, plan.makespan, plan.soc, delays.describe(), args.seed):
+        print(line)
+    if args.per_robot:
+        for line in _per_robot(result):
+            print(line)
+    return 0 if not result.collisions and not result.unfinished() else 1
+
+
+def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int) -> List[str]:
+    engine, m = result.engine, result.metrics
+    n = engine.run.num_robots
+    missing = result.unfinished()
+    partial = "" if not missing else " (robots that reached their goals only)"
+    lines = [
+        "robots: {}, moves: {}, plan makespan {}, plan soc {}".format(
+            n, engine.table.num_actions, makespan, soc),
+        "strategy: {}; delays: {}; seed {}".format(engine.strategy.describe(), delays, seed),
+        "executed makespan: {:.2f} (time unit: one nominal move, one plan step){}".format(
+            m.makespan, partial),
+        "sum of costs: {:.2f}{}".format(m.soc, partial),
+        "waits: {} by {} robots, {:.2f} in total".format(
+            m.total_waits, sum(1 for r in m.robots if r.waits), m.total_wait_time),
+    ]
+    pairs = m.blocking_pairs()[:5]
+    if pairs:
+        lines.append("longest waits: " + "; ".join(
+            "robot {} waited {:.2f} for robot {}".format(r, t, q) for t, r, q in pairs))
+    for robot, when in sorted(result.disabled_at.items()):
+        lines.append("disabled: robot {} at t={:.2f}".format(robot, when))
+    for robot, blocked in sorted(engine.blocked_by().items()):
+        if blocked:
+            lines.append("blocked by robot {}: {}".format(robot, ", ".join(map(str, blocked))))
+    vertex = sum(1 for c in result.collisions if c.kind == VERTEX)
+    swap = sum(1 for c in result.collisions if c.kind == SWAP)
+    lines.append("collisions: {} (vertex {}, swap {})".format(len(result.collisions), vertex, swap))
+    enabled = n - len(engine.out_robots())
+    reached = "reached goal: {} of {} enabled robots".format(enabled - len(missing), enabled)
+    if missing:
+        reached += "; not reached: " + ", ".join(map(str, missing))
+    lines.append(reached)
+    return lines
+
+
+def _per_robot(result: SimResult) -> List[str]:
+    lines = ["robot  moves  arrival  waits  wait time  waited for (time)"]
+    for r, rm in enumerate(result.metrics.robots):
+        arrival = "-" if rm.arrival is None else "{:.2f}".format(rm.arrival)
+        who = ", ".join("{} ({:.2f})".format(q, t) for q, t in sorted(
+            rm.blocked_by.items(), key=lambda kv: -kv[1]))
+        lines.append("{:>5}  {:>5}  {:>7}  {:>5}  {:>9.2f}  {}".format(
+            r, rm.moves, arrival, rm.waits, rm.wait_time, who or "-"))
+    return lines
