@@ -18,7 +18,7 @@ step i leaves it): j starts once i's move is complete.
 
 Worked example (base frame, y up):
 
-    y=1   .  E  .  .        robot 0: A B C D D     (t = 0..4)
+    y=1   .  .  E  .        robot 0: A B C D D     (t = 0..4)
     y=0   A  B  C  D        robot 1: E E E C B
 
     actions   robot 0: a0 = A->B (step 0), a1 = B->C (step 1), a2 = C->D (step 2)
@@ -129,8 +129,8 @@ def build_adg(table: ActionTable, show: Callable[[Coord], Coord] = _identity) ->
     p, q = order[pair], order[pair + 1]  # p's visit, then q's visit to the same cell
     leave, enter = v_leave[p], v_enter[q]
     # q arrives (at v_begin[q]) while p is still there: p never leaves, or leaves later
-    clash = (leave < 0) | (enter < 0)
-    clash |= ~clash & (step[np.maximum(leave, 0)] > step[np.maximum(enter, 0)])
+    padded = np.append(step, 0)  # index -1 (no such action) reads the pad
+    clash = (leave < 0) | (enter < 0) | (padded[leave] > padded[enter])
     if clash.any():
         _raise_vertex(table, p[clash], q[clash], v_robot, v_cell, v_begin, show)
     dep[enter] = leave
@@ -156,12 +156,11 @@ def _check_cycles(table: ActionTable, dep: np.ndarray, show: Callable[[Coord], C
     sink = table.num_actions
     jump = np.full(sink + 1, sink, dtype=np.int64)
     jump[same] = dep[same]
-    # a same-step chain has at most one action per robot; after 2^k >= robots jumps
-    # every node not on a cycle has reached the sink
-    reach = jump[same]
-    for _ in range(int(table.num_robots).bit_length() + 1):
-        reach = jump[reach]
-    on_cycle = same[reach != sink]
+    # a same-step chain has at most one action per robot: after squaring the jump k times
+    # (2^k > robots jumps) every action that is not on a cycle has reached the sink
+    for _ in range(int(table.num_robots).bit_length()):
+        jump = jump[jump]
+    on_cycle = same[jump[same] != sink]
     if on_cycle.size == 0:
         return
     start = int(on_cycle[0])
