@@ -21,7 +21,9 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "fleet_common": "catkin_ws/src/fleet_common/src",
     "fleet_manager": "catkin_ws/src/fleet_manager/src",
     "virtual_fleet": ".",
+    "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
+    "console": ".",
 }
 
 #: Data files shipped inside packages (globs relative to the package folder).
@@ -59,10 +61,16 @@ setup(
         "numpy>=1.24,<3",
         "pyyaml>=6,<7",
         "networkx>=3,<4",
+        "Pillow>=9.4,<14",
         "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
     ],
     extras_require={
+        # The robot's tag detector and the simulated base's tag drawing (agv_package).
+        "robot": ["pupil-apriltags>=1.0.4,<2"],
+        "sim": ["pupil-apriltags>=1.0.4,<2", "opencv-python-headless>=4.7,<4.12"],
         "test": [
+            "pupil-apriltags>=1.0.4,<2",
+            "opencv-python-headless>=4.7,<4.12",  # <4.12: keeps Debian 12's numpy 1.24
             "pytest>=7.4,<9",
             "hypothesis>=6.80,<7",
             "vermin>=1.6,<2",
