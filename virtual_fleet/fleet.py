@@ -9,8 +9,10 @@ command memory) comes up where the robot stopped.
 """
 from __future__ import annotations
 
+import collections
 import logging
 import random
+import threading
 import time
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -26,7 +28,7 @@ from fleet_common.wire.zmq_transport import RobotEndpoint, RobotLoop
 from .delays import DelayModel
 from .kinematics import VirtualNavigator
 
-__all__ = ["VirtualFleet", "row_poses"]
+__all__ = ["VirtualFleet", "FleetThread", "row_poses"]
 
 _DROPOUT_CHECK = 0.05  # wall seconds between looks for robots due to drop out
 
@@ -66,6 +68,7 @@ class VirtualFleet:
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back
         self.dropouts = 0
         self._next_check = clock()
+        self._calls: "collections.deque[Callable[[], None]]" = collections.deque()
         try:
             for robot in self.robots:
                 self._start(robot)
@@ -81,7 +84,13 @@ class VirtualFleet:
         self.endpoints[robot.id] = endpoint
         self.loop.add(endpoint)
 
+    def call_soon(self, fn: Callable[[], None]) -> None:
+        """Run `fn` in the fleet's thread at its next turn (sockets belong to that thread)."""
+        self._calls.append(fn)
+
     def run_once(self, max_wait: float = 0.1) -> None:
+        while self._calls:
+            self._calls.popleft()()
         self.loop.run_once(min(max_wait, _DROPOUT_CHECK) if self.model.dropout_p or self.away
                            else max_wait)
         now = self.clock()
@@ -94,7 +103,8 @@ class VirtualFleet:
             self.run_once(max_wait)
 
     def drop_out(self, robot_id: int, seconds: float) -> None:
-        """Cut robot `robot_id` off now; it restarts `seconds` (wall) later."""
+        """Cut robot `robot_id` off now; it restarts `seconds` (wall) later. From another
+        thread, go through `call_soon`."""
         endpoint = self.endpoints.pop(robot_id)
         self.loop.remove(endpoint)
         endpoint.close(send_bye=False)  # also halts its navigator where it is
@@ -126,3 +136,23 @@ class VirtualFleet:
             and nav.now() >= nav.dropout_time]
         for robot_id, nav in due:
             self.drop_out(robot_id, self.model.dropout_s / nav.time_scale)
+
+
+class FleetThread:
+    """Runs a fleet in a background thread for the `with` block; stops and closes it after,
+    whatever happens (tests, benchmarks)."""
+
+    def __init__(self, fleet: VirtualFleet, max_wait: float = 0.05) -> None:
+        self.fleet = fleet
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=fleet.run, args=(self._stop.is_set, max_wait),
+                                        name="virtual-fleet", daemon=True)
+
+    def __enter__(self) -> VirtualFleet:
+        self._thread.start()
+        return self.fleet
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(timeout=10.0)
+        self.fleet.close()

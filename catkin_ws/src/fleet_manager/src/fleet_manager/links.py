@@ -58,7 +58,7 @@ class LinkSet:
             more, due = link.tick(now)
             events += more
             self._sync(link)
-            self._schedule(robot_id, due)
+            self._schedule(robot_id, max(due, now + 0.001))  # never spin on one link
         return events
 
     def close(self) -> None:

@@ -106,6 +106,17 @@ class RobotLink:
     def get_status(self) -> int:
         return self._issue(GetStatus)
 
+    def reconnect(self, reason: str = "asked to reconnect") -> List[LinkEvent]:
+        """Drop the connection and start a new one now (same epoch, commands resent)."""
+        if self.state == "failed":
+            return []
+        now = self.clock()
+        if self.command is not None and self.conn.can_send(Bye(reason, "shutdown")):
+            self._send(Bye(reason, "shutdown"), now)
+        events = self._lost(reason, now, retry=0.0)
+        self._connect(now)
+        return events
+
     @property
     def unsettled(self) -> List[int]:
         """Ids of commands without a final reply yet."""
@@ -145,7 +156,9 @@ class RobotLink:
             events += self._lost("robot {} {} for {:.1f} s".format(
                 self.robot_id, what, self.live.timeout), now, retry=0.0)
             return events, now
-        if self.state == "up" and self.live.heartbeat_due(now):
+        if self.state != "up":  # no heartbeats before the welcome: wait for it or give up
+            return events, self.live.last_heard + self.live.timeout
+        if self.live.heartbeat_due(now):
             self._send(Heartbeat(), now)
         return events, self.live.next_deadline()
 

@@ -276,7 +276,7 @@ class RobotLoop:
             if self.due.get(key) != when:
                 continue  # rescheduled or removed since
             del self.due[key]
-            self._schedule(key, self.endpoints[key].tick(now))
+            self._schedule(key, max(self.endpoints[key].tick(now), now + 0.001))
 
     def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
         while not should_stop():
