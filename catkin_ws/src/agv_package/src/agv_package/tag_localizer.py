@@ -9,7 +9,9 @@ and poses that put the robot off the floor.
 """
 from __future__ import annotations
 
-from typing import List, NamedTuple, Tuple
+import functools
+import threading
+from typing import Any, List, NamedTuple, Tuple
 
 import numpy as np
 
@@ -20,6 +22,21 @@ from .tag_pose import TagObservation, robot_pose_from_tag
 
 #: How far (metres) a fix may put the robot origin above or below the floor.
 MAX_HEIGHT_ERROR = 0.05
+
+
+@functools.lru_cache(maxsize=None)
+def _shared_detector(quad_decimate: float, threads: int) -> Tuple[Any, threading.Lock]:
+    """One detector per setting, kept for the life of the process, with a lock for it.
+
+    pupil-apriltags frees a detector's tag family before the detector itself, and the
+    detector then reads the freed family: deleting a Detector can crash the process
+    (pupil-labs/apriltags issues 34 and 46). Detectors made here are never deleted.
+    """
+    import pupil_apriltags  # a compiled extension: imported where it is used
+
+    detector = pupil_apriltags.Detector(families="tag36h11", nthreads=threads,
+                                        quad_decimate=quad_decimate)
+    return detector, threading.Lock()
 
 
 class TagFix(NamedTuple):
@@ -41,24 +58,22 @@ class TagLocalizer:
     def __init__(self, tags: TagMap, tag_size: float, mount: CameraMount,
                  quad_decimate: float = 2.0, min_decision_margin: float = 0.0,
                  max_hamming: int = 0, threads: int = 1) -> None:
-        import pupil_apriltags  # a compiled extension: imported where it is used
-
         self.tags = tags
         self.tag_size = tag_size
         self.mount = mount
         self.min_decision_margin = min_decision_margin
         self.max_hamming = max_hamming
-        self._detector = pupil_apriltags.Detector(
-            families="tag36h11", nthreads=threads, quad_decimate=quad_decimate)
+        self._detector, self._detector_lock = _shared_detector(float(quad_decimate), threads)
 
     def observe(self, image: np.ndarray, intrinsics: Intrinsics) -> List[TagObservation]:
         """Every tag36h11 detection in `image` with its pose in the camera frame."""
         if image.dtype != np.uint8 or image.ndim != 2:
             raise ValueError("expected a mono8 image (2-D uint8 array), got {} {}".format(
                 image.dtype, image.shape))
-        found = self._detector.detect(np.ascontiguousarray(image), estimate_tag_pose=True,
-                                      camera_params=tuple(float(v) for v in intrinsics),
-                                      tag_size=self.tag_size)
+        with self._detector_lock:
+            found = self._detector.detect(np.ascontiguousarray(image), estimate_tag_pose=True,
+                                          camera_params=tuple(float(v) for v in intrinsics),
+                                          tag_size=self.tag_size)
         return [TagObservation(int(d.tag_id), np.asarray(d.pose_R), np.asarray(d.pose_t),
                                float(d.decision_margin), int(d.hamming)) for d in found]
 
