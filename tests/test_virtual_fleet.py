@@ -1,0 +1,229 @@
+"""Virtual robots: kinematics in scaled time, the delay and fault model, 50 robots over TCP."""
+from __future__ import annotations
+
+import itertools
+import math
+import random
+import socket
+import time
+from pathlib import Path
+from typing import Iterator, List
+
+import pytest
+import zmq
+
+from fleet_common.errors import FleetError, RobotDefinitionsError
+from fleet_common.robots import RobotDefinition
+from fleet_common.wire import Completed, Failed, Pose, Status
+from fleet_common.wire.curve_keys import load_manager_keys, load_robot_keys, make_keys
+from fleet_manager.links import LinkSet
+from fleet_manager.robot_link import LinkUp, RobotLink, RobotReply
+from virtual_fleet.delays import DelayModel, parse_delay_model
+from virtual_fleet.fleet import FleetThread, VirtualFleet
+from virtual_fleet.kinematics import VirtualNavigator
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def near(p: Pose, x: float, y: float, theta: float) -> bool:
+    return (abs(p.x - x) < 1e-9 and abs(p.y - y) < 1e-9
+            and abs(math.remainder(p.theta - theta, 2 * math.pi)) < 1e-9)
+
+
+# ---- kinematics ----------------------------------------------------------------------
+
+def test_a_drive_turns_first_then_drives_at_the_set_speed() -> None:
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(0, 0, 0), speed=0.5, turn_speed=1.5, clock=clock)
+    nav.start_drive(0.0, 2.0, 0.0)      # behind-left: a quarter turn, then 2 cells
+    turn = (math.pi / 2) / 1.5
+    clock.t += turn / 2
+    assert near(nav.pose(), 0, 0, math.pi / 4) and nav.poll() is None
+    clock.t += turn / 2 + 2.0           # halfway along
+    assert near(nav.pose(), 0, 1, math.pi / 2)
+    clock.t += 2.0
+    assert nav.poll().ok and near(nav.pose(), 0, 2, math.pi / 2)
+    assert nav.poll() is None           # reported once
+
+
+def test_a_drive_arrives_at_the_asked_time_and_time_scale_speeds_it_up() -> None:
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, time_scale=10.0)
+    nav.start_drive(1.0, 0.0, 8.0)      # 2 s at full speed, asked to take 8
+    assert nav.seconds_to_change() == pytest.approx(0.8)
+    clock.t += 0.79
+    assert nav.poll() is None
+    clock.t += 0.02
+    assert nav.poll().ok and near(nav.pose(), 1, 0, 0)
+
+
+def test_turn_goes_the_short_way_to_an_absolute_heading_and_halt_stops_there() -> None:
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(3, 3, math.radians(170)), turn_speed=1.0, clock=clock)
+    nav.start_turn(math.radians(-170))  # 20 degrees through pi, not 340 back
+    clock.t += math.radians(10)
+    assert near(nav.pose(), 3, 3, math.pi)
+    nav.halt()
+    clock.t += 5
+    assert near(nav.pose(), 3, 3, math.pi) and nav.poll() is None
+
+
+def test_slow_and_stalled_moves_take_longer_and_the_seed_repeats_them() -> None:
+    def duration(model: DelayModel, seed: int) -> float:
+        clock = FakeClock()
+        nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, model=model, rng=random.Random(seed))
+        nav.start_drive(2.0, 0.0, 0.0)
+        return nav.seconds_to_change()
+
+    assert duration(DelayModel(), 1) == pytest.approx(4.0)
+    assert duration(parse_delay_model("slow=1:2"), 1) == pytest.approx(8.0)
+    assert duration(parse_delay_model("stall=1:3"), 1) == pytest.approx(7.0)
+    waits = [duration(parse_delay_model("delay=2"), s) - 4.0 for s in range(20)]
+    assert all(0 <= w <= 2 for w in waits) and len(set(waits)) > 1
+    assert waits == [duration(parse_delay_model("delay=2"), s) - 4.0 for s in range(20)]
+
+
+def test_a_stall_holds_the_robot_still_partway() -> None:
+    clock = FakeClock()
+    model = parse_delay_model("stall=1:3")
+    nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, model=model, rng=random.Random(5))
+    nav.start_drive(4.0, 0.0, 0.0)
+    seen = []
+    for _ in range(110):
+        clock.t += 0.1
+        seen.append(round(nav.pose().x, 6))
+    still = max(len(list(g)) for _, g in itertools.groupby(seen))
+    assert still >= 29  # about 3 s without moving
+    assert seen[-1] == 4.0
+
+
+# ---- the delay model's syntax --------------------------------------------------------
+
+def test_delay_model_reads_every_term() -> None:
+    assert parse_delay_model("delay=0.5, slow=0.1:2,stall=0.05:3,dropout=0.01:10") == DelayModel(
+        0.5, 0.1, 2.0, 0.05, 3.0, 0.01, 10.0)
+    assert parse_delay_model("none") == DelayModel()
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("jitter=1", "delay model term 'jitter=1': expected delay=D, slow=P:F"),
+    ("slow=0.5", "delay model term 'slow=0.5': expected slow=P:F with non-negative numbers"),
+    ("stall=2:1", "the probability P must be 0..1"),
+    ("slow=0.5:0.5", "slow=P:F needs F >= 1"),
+    ("delay=1,delay=2", "delay model names delay twice"),
+    ("delay=-1", "expected delay=D with non-negative numbers"),
+])
+def test_delay_model_errors_name_the_term(spec: str, message: str) -> None:
+    with pytest.raises(FleetError) as err:
+        parse_delay_model(spec)
+    assert message in str(err.value)
+
+
+# ---- fleets over TCP -----------------------------------------------------------------
+
+def free_ports(n: int) -> List[int]:
+    socks = []
+    for _ in range(n):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        socks.append(s)
+    ports = [s.getsockname()[1] for s in socks]
+    for s in socks:
+        s.close()
+    return ports
+
+
+@pytest.fixture
+def keys(tmp_path: Path) -> Path:
+    make_keys(tmp_path / "keys")
+    return tmp_path / "keys"
+
+
+@pytest.fixture
+def context() -> Iterator[zmq.Context]:
+    ctx = zmq.Context()
+    yield ctx
+    ctx.destroy(linger=0)
+
+
+def definitions(n: int) -> List[RobotDefinition]:
+    ports = free_ports(n)
+    return [RobotDefinition(i + 1, "192.168.2.{}".format(10 + i), port, "u", "v{}".format(i), "red")
+            for i, port in enumerate(ports)]
+
+
+def test_fifty_virtual_robots_each_complete_a_command_round_trip(keys: Path, context) -> None:
+    robots = definitions(50)
+    feedback = free_ports(1)[0]
+    while any(p in range(feedback, feedback + 50) for p in (r.command_port for r in robots)):
+        feedback = free_ports(1)[0]
+    fleet = VirtualFleet(robots, keys=load_robot_keys(keys), feedback_base=feedback,
+                         time_scale=20.0)
+    with FleetThread(fleet):
+        # the fleet runs where the definitions say, but on 127.0.0.1
+        links = LinkSet([RobotLink(context, r, "epoch", keys=load_manager_keys(keys),
+                                   host="127.0.0.1") for r in robots])
+        try:
+            start = {r.id: fleet.navigators[r.id].pose() for r in robots}
+            drives = {r.id: links[r.id].drive_to_position(start[r.id].x + 1, start[r.id].y + 1, 0)
+                      for r in robots}
+            done = set()
+            statuses = {}
+            deadline = time.monotonic() + 20
+            while len(statuses) < len(robots):
+                assert time.monotonic() < deadline, "done: {}, status: {}".format(
+                    len(done), len(statuses))
+                for ev in links.poll(0.05):
+                    if not isinstance(ev, RobotReply):
+                        continue
+                    if ev.reply == Completed(drives[ev.robot_id]):
+                        done.add(ev.robot_id)
+                        links[ev.robot_id].get_status()
+                    elif isinstance(ev.reply, Status):
+                        statuses[ev.robot_id] = ev.reply
+        finally:
+            links.close()
+    assert done == {r.id for r in robots}
+    for r in robots:
+        pose = statuses[r.id].pose
+        assert (pose.x, pose.y) == (start[r.id].x + 1, start[r.id].y + 1)
+        assert statuses[r.id].current is None and statuses[r.id].faults == ()
+    assert len({fleet.ports[r.id] for r in robots}) == 50
+
+
+def test_a_robot_that_drops_out_comes_back_restarted(keys: Path, context) -> None:
+    [robot] = definitions(1)
+    fleet = VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=free_ports(1)[0],
+                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3)
+    with FleetThread(fleet):
+        links = LinkSet([RobotLink(context, robot, "epoch", keys=load_manager_keys(keys),
+                                   host="127.0.0.1")])
+        try:
+            cid = links[robot.id].drive_to_position(5.0, 0.0, 0.0)
+            events: list = []
+            deadline = time.monotonic() + 10
+            while not any(isinstance(e, LinkUp) and e.restarted for e in events):
+                assert time.monotonic() < deadline, events
+                events += links.poll(0.05)
+        finally:
+            links.close()
+    failed = [e.reply for e in events if isinstance(e, RobotReply) and isinstance(e.reply, Failed)]
+    assert [f.id for f in failed] == [cid] and "restarted" in failed[0].reason
+    assert fleet.dropouts == 1
+    # it came back where it stopped: partway, not at the start or the goal
+    assert 0 < fleet.navigators[robot.id].pose().x < 5
+
+
+def test_robots_sharing_a_command_port_cannot_all_run_on_localhost() -> None:
+    robots = [RobotDefinition(1, "10.0.0.1", 10001, "u", "a", "red", line=3),
+              RobotDefinition(2, "10.0.0.2", 10001, "u", "b", "red", line=4)]
+    with pytest.raises(RobotDefinitionsError) as err:
+        VirtualFleet(robots)
+    assert str(err.value) == ("robot_definitions.txt:4: robots 1 and 2 both use command port "
+                              "10001; on one host (127.0.0.1) every robot needs its own")

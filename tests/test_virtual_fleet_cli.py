@@ -1,0 +1,137 @@
+"""`fleetctl virtual-fleet` and `fleetctl keys` as a user runs them: real processes, real ports."""
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Iterator, List
+
+import pytest
+import zmq
+
+from fleet_common.robots import read_robot_definitions
+from fleet_common.wire import Completed
+from fleet_common.wire.curve_keys import load_manager_keys
+from fleet_manager.links import LinkSet
+from fleet_manager.robot_link import RobotLink, RobotReply
+
+
+def fleetctl(*args: object, **kwargs: object) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)],
+                          capture_output=True, text=True, timeout=60, **kwargs)
+
+
+def free_ports(n: int) -> List[int]:
+    socks = []
+    for _ in range(n):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        socks.append(s)
+    ports = [s.getsockname()[1] for s in socks]
+    for s in socks:
+        s.close()
+    return ports
+
+
+def test_keys_are_made_once_with_private_secrets(tmp_path: Path) -> None:
+    folder = tmp_path / "keys"
+    made = fleetctl("keys", "--dir", folder)
+    assert made.returncode == 0, made.stderr
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == ["manager.key", "manager.key_secret", "robot.key", "robot.key_secret"]
+    for name in ("manager.key_secret", "robot.key_secret"):
+        assert stat.S_IMODE((folder / name).stat().st_mode) == 0o600
+    before = (folder / "manager.key").read_bytes()
+    again = fleetctl("keys", "--dir", folder)
+    assert again.returncode == 2
+    assert "already has keys" in again.stderr and "--force" in again.stderr
+    assert (folder / "manager.key").read_bytes() == before
+    assert fleetctl("keys", "--dir", folder, "--force").returncode == 0
+    assert (folder / "manager.key").read_bytes() != before
+
+
+def test_keys_go_to_the_folder_named_by_the_environment(tmp_path: Path) -> None:
+    env = dict(os.environ, FLEETCONTROL_KEYS=str(tmp_path / "env-keys"))
+    assert fleetctl("keys", env=env).returncode == 0
+    assert (tmp_path / "env-keys" / "robot.key_secret").is_file()
+
+
+@pytest.fixture
+def fleet_files(tmp_path: Path) -> Path:
+    ports = free_ports(3)
+    (tmp_path / "robots.txt").write_text("".join(
+        "{}  192.168.2.{}  {}  turtlebot  tb{}  red\n".format(i, 10 + i, port, i)
+        for i, port in enumerate(ports, 1)))
+    assert fleetctl("keys", "--dir", tmp_path / "keys").returncode == 0
+    return tmp_path
+
+
+@pytest.fixture
+def running_fleet(fleet_files: Path) -> Iterator[subprocess.Popen]:
+    feedback = free_ports(1)[0]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions",
+         str(fleet_files / "robots.txt"), "--keys", str(fleet_files / "keys"),
+         "--time-scale", "10", "--feedback-base", str(feedback), "--log-level", "warning"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=10)
+        proc.stdout.close()
+        proc.stderr.close()
+
+
+def test_virtual_fleet_serves_every_robot_and_stops_on_ctrl_c(fleet_files: Path,
+                                                               running_fleet) -> None:
+    banner = running_fleet.stdout.readline()
+    assert banner.startswith("virtual fleet: 3 robots on 127.0.0.1"), banner
+    assert "CURVE on" in banner
+    robots = read_robot_definitions(fleet_files / "robots.txt")
+    context = zmq.Context()
+    links = LinkSet([RobotLink(context, r, "cli-test", host="127.0.0.1",
+                               keys=load_manager_keys(fleet_files / "keys")) for r in robots])
+    try:
+        ids = {r.id: links[r.id].turn(1.0) for r in robots}
+        done = set()
+        deadline = time.monotonic() + 15
+        while done != set(ids):
+            assert time.monotonic() < deadline and running_fleet.poll() is None
+            for ev in links.poll(0.05):
+                if isinstance(ev, RobotReply) and ev.reply == Completed(ids[ev.robot_id]):
+                    done.add(ev.robot_id)
+    finally:
+        links.close()
+        context.destroy(linger=0)
+    running_fleet.send_signal(signal.SIGINT)
+    assert running_fleet.wait(timeout=10) == 0
+    assert "virtual fleet stopped" in running_fleet.stdout.read()
+    assert "Traceback" not in running_fleet.stderr.read()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--delay-model", "wobble=1"], "fleetctl virtual-fleet: delay model term 'wobble=1'"),
+    (["--keys", "{tmp}/nokeys"], "robot.key_secret not found: make the keys with `fleetctl keys"),
+])
+def test_virtual_fleet_errors_are_one_line(tmp_path: Path, args: List[str], message: str) -> None:
+    proc = fleetctl("virtual-fleet", *[a.format(tmp=tmp_path) for a in args])
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and message in proc.stderr
+    if "keys" in message:
+        assert "--no-curve" in proc.stderr
+
+
+def test_virtual_fleet_names_the_definitions_line_of_a_port_clash(tmp_path: Path) -> None:
+    path = tmp_path / "robots.txt"
+    path.write_text("1 10.0.0.1 10001 u a red\n# comment\n2 10.0.0.2 10001 u b red\n")
+    proc = fleetctl("virtual-fleet", "--definitions", path, "--no-curve")
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("{}:3: robots 1 and 2 both use command port 10001; on one "
+                                   "host (127.0.0.1) every robot needs its own".format(path))
