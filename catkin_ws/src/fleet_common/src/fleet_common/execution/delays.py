@@ -49,9 +49,9 @@ class DelayModel:
         count = table.num_actions
         factor = rng.uniform(self.low, self.high, count) if self.high > self.low else np.full(count, self.low)
         stalls = (rng.random(count) < self.stall_p) * self.stall_len
+        self.check_robots(table.num_robots)
         for robot, slow in self.slow.items():
-            if 0 <= robot < table.num_robots:
-                factor[table.first[robot]:table.first[robot + 1]] *= slow
+            factor[table.first[robot]:table.first[robot + 1]] *= slow
         return nominal * (factor + stalls)
 
     def check_robots(self, num_robots: int) -> None:

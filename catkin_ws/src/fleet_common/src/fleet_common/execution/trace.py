@@ -15,11 +15,15 @@ instant the previous occupant's move out of it completes.
 - swap collision: two robots traverse the same edge in opposite directions
   at overlapping times.
 
-A swap is also seen as vertex collisions, and one incident may show as more
-than one overlapping pair; the counts are of overlapping pairs as found, so
-zero means none at all. Each vertex collision records whether each robot was
-moving or at rest: a robot entering a cell where another stands still is a
-collision under any robot size.
+Counting: each visit of a robot to a cell (from the start of its move in to
+the end of its move out) is one occupancy interval; a vertex collision is
+one pair of robots whose intervals at one cell overlap, counted once however
+long. A swap is counted as a swap and, since each robot occupies both cells,
+also shows as vertex collisions; zero means none of either. Each vertex
+collision records whether each robot was moving throughout the overlap: a
+robot entering a cell where another stands still is a collision under any
+robot size, while two robots moving on at once (following too closely) are
+one only for robots as large as a cell.
 """
 from __future__ import annotations
 
@@ -66,18 +70,19 @@ class Trace:
     def final_cells(self) -> List[Coord]:
         return [m[-1].dst if m else s for s, m in zip(self.starts, self.moves)]
 
-    def occupancy(self) -> Dict[Coord, List[Tuple[float, float, int, bool]]]:
-        """Per cell, (start, end, robot, moving) intervals; the last rest never ends."""
-        cells: Dict[Coord, List[Tuple[float, float, int, bool]]] = {}
+    def occupancy(self) -> Dict[Coord, List[Tuple[float, float, int, float, float]]]:
+        """Per cell, one (start, end, robot, rest_start, rest_end) per visit.
+
+        A visit lasts from the start of the move in (or `begin`) to the end of the
+        move out (or forever); the robot is at rest in [rest_start, rest_end).
+        """
+        cells: Dict[Coord, List[Tuple[float, float, int, float, float]]] = {}
         for r, start in enumerate(self.starts):
-            here, since = start, self.begin
+            here, entered, since = start, self.begin, self.begin
             for m in self.moves[r]:
-                if m.start > since:
-                    cells.setdefault(here, []).append((since, m.start, r, False))
-                cells.setdefault(m.src, []).append((m.start, m.end, r, True))
-                cells.setdefault(m.dst, []).append((m.start, m.end, r, True))
-                here, since = m.dst, m.end
-            cells.setdefault(here, []).append((since, math.inf, r, False))
+                cells.setdefault(here, []).append((entered, m.end, r, since, m.start))
+                here, entered, since = m.dst, m.start, m.end
+            cells.setdefault(here, []).append((entered, math.inf, r, since, math.inf))
         return cells
 
 
@@ -85,27 +90,29 @@ def find_collisions(trace: Trace) -> List[Collision]:
     """Every vertex and swap collision in `trace` (see the module docstring)."""
     found: List[Collision] = []
     for cell, spans in trace.occupancy().items():
-        for (s1, e1, r1, m1), (s2, e2, r2, m2) in _overlaps(spans):
-            a, b = (r1, m1), (r2, m2)
-            if b[0] < a[0]:
-                a, b = b, a
-            found.append(Collision(VERTEX, (a[0], b[0]), (cell,), max(s1, s2), (a[1], b[1])))
-    edges: Dict[Tuple[Coord, Coord], List[Tuple[float, float, int, bool]]] = {}
+        for one, two in _overlaps(spans):
+            if two[2] < one[2]:
+                one, two = two, one
+            begin, end = max(one[0], two[0]), min(one[1], two[1])
+            moving = tuple(max(v[3], begin) >= min(v[4], end) for v in (one, two))  # no rest inside
+            found.append(Collision(VERTEX, (one[2], two[2]), (cell,), begin, moving))  # type: ignore[arg-type]
+    edges: Dict[Tuple[Coord, Coord], List[tuple]] = {}
     for r, moves in enumerate(trace.moves):
         for m in moves:
             forward = m.src < m.dst
             key = (m.src, m.dst) if forward else (m.dst, m.src)
             edges.setdefault(key, []).append((m.start, m.end, r, forward))
     for key, spans in edges.items():
-        for (s1, e1, r1, f1), (s2, e2, r2, f2) in _overlaps(spans):
-            if f1 != f2:
-                found.append(Collision(SWAP, (min(r1, r2), max(r1, r2)), key, max(s1, s2), (True, True)))
+        for one, two in _overlaps(spans):
+            if one[3] != two[3]:
+                found.append(Collision(SWAP, (min(one[2], two[2]), max(one[2], two[2])), key,
+                                       max(one[0], two[0]), (True, True)))
     found.sort(key=lambda c: (c.time, c.kind, c.robots))
     return found
 
 
-def _overlaps(spans: List[Tuple[float, float, int, bool]]) -> List[Tuple[tuple, tuple]]:
-    """Pairs of intervals of different robots that overlap for a positive time."""
+def _overlaps(spans: List[tuple]) -> List[Tuple[tuple, tuple]]:
+    """Pairs of (start, end, robot, ...) of different robots that overlap for a positive time."""
     spans = sorted(spans)
     active: List[Tuple[float, int]] = []  # heap of (end, index)
     pairs = []
