@@ -1,0 +1,127 @@
+"""`fleetctl simulate` as a student meets it: real processes, shipped solutions, exit codes."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fleet_common.formats.mapfile import map_from_grid, write_map
+from fleet_common.formats.solution import make_solution, write_solution
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
+
+SOLVED = ["pibt_sample.txt", "ecbs_random-32-32-20_30agents_1.txt", "cbs_makespan-soc-pareto.txt",
+          "ir_makespan-soc-pareto.txt"]
+
+
+def simulate(*args: object) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fleetctl", "simulate", *map(str, args)],
+                          capture_output=True, text=True, timeout=120)
+
+
+def figure(out: str, label: str) -> float:
+    m = re.search(r"^{}: ([0-9.]+)".format(re.escape(label)), out, re.M)
+    assert m, out
+    return float(m.group(1))
+
+
+@pytest.mark.parametrize("name", SOLVED)
+def test_shipped_solutions_run_without_collision_under_both_strategies(name, shared_data):
+    makespans = {}
+    for strategy in ("adg", "step"):
+        proc = simulate(shared_data / "solutions" / name, "--strategy", strategy, "--seed", "5")
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        out = proc.stdout
+        assert "collisions: 0 (vertex 0, swap 0)" in out
+        n = int(re.search(r"^robots: (\d+)", out, re.M).group(1))
+        assert "reached goal: {0} of {0} enabled robots".format(n) in out
+        assert re.search(r"^strategy: {}.*; delays: moves take 0.8-1.5 x nominal; stalls of 3 moves "
+                         r"with p=0.02; seed 5$".format(strategy), out, re.M)
+        assert re.search(r"^waits: \d+ by \d+ robots, [0-9.]+ in total$", out, re.M)
+        makespans[strategy] = figure(out, "executed makespan")
+        assert figure(out, "sum of costs") > 0
+    assert makespans["adg"] <= makespans["step"]
+
+
+def test_without_delays_a_plan_without_following_moves_keeps_its_makespan(shared_data):
+    proc = simulate(shared_data / "solutions" / "cbs_makespan-soc-pareto.txt", "--delay-model", "none")
+    assert proc.returncode == 0
+    assert "robots: 2, moves: 13, plan makespan 12, plan soc 13" in proc.stdout
+    assert figure(proc.stdout, "executed makespan") == 12.0 and figure(proc.stdout, "sum of costs") == 13.0
+    assert "waits: 0 by 0 robots" in proc.stdout and "delays: none" in proc.stdout
+
+
+def test_a_disabled_robot_blocks_others_who_are_named(shared_data):
+    proc = simulate(shared_data / "solutions" / "pibt_sample.txt", "--disable", "3@10", "--per-robot")
+    assert proc.returncode == 1  # not every enabled robot reached its goal
+    out = proc.stdout
+    assert re.search(r"^disabled: robot 3 at t=[0-9.]+$", out, re.M)
+    blocked = re.search(r"^blocked by robot 3: ([0-9, ]+)$", out, re.M).group(1)
+    missing = re.search(r"^reached goal: (\d+) of 99 enabled robots; not reached: ([0-9, ]+)$", out, re.M)
+    assert missing.group(2) == blocked and int(missing.group(1)) == 99 - len(blocked.split(", "))
+    assert "collisions: 0 (vertex 0, swap 0)" in out
+    assert "(robots that reached their goals only)" in out
+    rows = [ln for ln in out.splitlines() if re.match(r"^\s+\d+\s+\d+\s+", ln)]
+    assert len(rows) == 100 and rows[3].split()[:3] == ["3", "10", "-"]  # 10 moves, never arrived
+
+
+def test_the_seed_makes_runs_repeatable(shared_data):
+    path = shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"
+    one, two, other = simulate(path, "--seed", "9"), simulate(path, "--seed", "9"), simulate(path, "--seed", "10")
+    assert one.stdout == two.stdout and one.stdout != other.stdout
+    lookahead = simulate(path, "--lookahead", "2", "--delay-model", "random:1-2", "--delay-model", "slow:4:3")
+    assert "strategy: adg (lookahead 2); delays: moves take 1-2 x nominal; robot 4 3x slower" in lookahead.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--delay-model", "sometimes"], "fleetctl simulate: unknown delay model 'sometimes'; use one of: none, "
+                                     "moderate, random:LOW-HIGH, stall:P:LENGTH, slow:ROBOT:FACTOR"),
+    (["--delay-model", "random:2-1"], "fleetctl simulate: delay model 'random:2-1': need 0 < LOW <= HIGH"),
+    (["--delay-model", "slow:100:2"], "fleetctl simulate: slow:100: the plan has robots 0..99 only"),
+    (["--disable", "100@5"], "fleetctl simulate: --disable 100@5: the plan has robots 0..99"),
+    (["--strategy", "step", "--lookahead", "2"],
+     "fleetctl simulate: strategy 'step' has no setting 'lookahead'; its settings are: none"),
+])
+def test_wrong_options_are_one_line_errors(args, message, shared_data):
+    proc = simulate(shared_data / "solutions" / "pibt_sample.txt", *args)
+    assert proc.returncode == 2 and proc.stderr.strip() == message and proc.stdout == ""
+
+
+def test_a_malformed_disable_is_refused_by_the_parser(shared_data):
+    proc = simulate(shared_data / "solutions" / "pibt_sample.txt", "--disable", "3-10")
+    assert proc.returncode == 2 and "expected ROBOT@STEP (e.g. 3@10), got '3-10'" in proc.stderr
+
+
+def test_a_failed_solver_run_has_no_plan_to_simulate(shared_data):
+    proc = simulate(shared_data / "solutions" / "cbs_arena300_1_timeout.txt")
+    assert proc.returncode == 1 and "no plan: solver CBS did not solve it" in proc.stdout
+
+
+def _write(tmp_path: Path, paths) -> Path:
+    grid = Grid(np.ones((4, 4), dtype=bool), name="open.map")
+    write_map(map_from_grid(grid), tmp_path / "open.map")
+    plan = Plan.from_paths(paths)
+    sol = make_solution(grid, "open.map", plan, plan.starts, plan.goals, solver="hand", solved=True, comp_time=0)
+    write_solution(sol, tmp_path / "plan.txt")
+    return tmp_path / "plan.txt"
+
+
+def test_a_rotation_cannot_be_executed_and_is_named_in_the_files_coordinates(tmp_path):
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]  # base frame; the file's y is 3 - y
+    path = _write(tmp_path, [[square[i], square[(i + 1) % 4]] for i in range(4)])
+    proc = simulate(path)
+    assert proc.returncode == 1
+    assert proc.stdout.startswith("{}: cannot be executed by robots: rotation at t=0->1: agents ".format(path))
+    assert "(0, 3)" in proc.stdout and "(1, 2)" in proc.stdout and "(0, 0)" not in proc.stdout
+
+
+def test_an_invalid_plan_is_not_simulated(tmp_path):
+    path = _write(tmp_path, [[(0, 0), (1, 0)], [(2, 0), (1, 0)]])
+    proc = simulate(path)
+    assert proc.returncode == 1
+    assert "error: vertex conflict at t=1: agents 0, 1 all at (1, 3)" in proc.stdout
+    assert "INVALID: 1 problem(s); not simulated" in proc.stdout
