@@ -1,0 +1,19 @@
+"""The operator console: one Tk window that shows a fleet on its grid map.
+
+Today it plays plans offline (`fleetctl console --replay FILE`); a later part
+connects it to the live manager. Both feed the same views, so the package is
+split by what changes together:
+
+- the model, pure Python and tested without a display: `scene` (what is
+  shown: map, agents, colours, findings), `fleet_state` (where every agent is
+  at one moment), `sources` (where fleet states come from: `PlanClock` for a
+  plan and a clock, `QueueSource` for states put on a queue by another
+  thread), `viewport` and `orientation` (cells to pixels), `view_options`,
+  `conflicts`, `palette`, `keys` (the key table the bindings and the Help
+  menu share) and `background` (the map picture as pixels);
+- `ui`: the Tk views, small classes on one canvas, run on the main thread
+  only; a 33 ms `after()` loop polls the source and moves canvas items.
+
+The console imports fleet_common only, never the manager's internals.
+"""
+from __future__ import annotations

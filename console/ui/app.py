@@ -1,0 +1,405 @@
+"""PlayerApp: the console window, wiring a fleet-state source to the views.
+
+Threading rule (as in thonny): Tk is touched on the main thread only. A source
+is polled by one `after()` loop every FRAME_MS; a live source is a
+`QueueSource` that network threads fill, so nothing else ever reaches into Tk.
+Key, menu and mouse handlers run on the same thread; a handler that fails
+logs its error and shows it in the status line instead of ending the window.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+import tkinter as tk
+from tkinter import filedialog, ttk
+from typing import Callable, Dict, Optional, Tuple, Union
+
+import numpy as np
+
+from fleet_common.plan import Plan
+
+from .. import orientation
+from ..conflicts import conflict_entries, next_entry
+from ..fleet_state import FleetState
+from ..keys import GROUPS, KEYS
+from ..scene import Scene
+from ..sources import DEFAULT_SPEED, PlanClock, QueueSource
+from ..view_options import LINE_LABELS, ViewOptions
+from . import capture
+from .agent_layer import AgentLayer
+from .conflict_layer import ConflictLayer
+from .controls import ControlsBar
+from .help_window import show_keys
+from .lists import AgentList, ConflictList
+from .map_view import PAN_STEP, ZOOM_STEP, MapView
+from .overlays import SEPARATOR, AxesLayer, CellIdLayer, HeaderBand
+
+log = logging.getLogger(__name__)
+
+#: One frame every 33 ms: 30 frames per second while something moves.
+FRAME_MS = 33
+SPEED_STEP = math.sqrt(2.0)
+
+
+class PlayerApp:
+    """The player window on `root`; `source` None plays `scene.plan` with a `PlanClock`."""
+
+    def __init__(self, root: tk.Tk, scene: Scene, options: Optional[ViewOptions] = None,
+                 source: Optional[QueueSource] = None, canvas_size: Tuple[int, int] = (900, 680),
+                 playing: bool = True, speed: float = DEFAULT_SPEED) -> None:
+        self.root = root
+        self.scene = scene
+        self.options = options or ViewOptions()
+        self.clock: Optional[PlanClock] = None
+        self.source: Union[PlanClock, QueueSource]
+        if source is None:
+            plan = scene.plan if scene.plan is not None else Plan(np.array([scene.starts]).reshape(1, -1, 2))
+            self.clock = PlanClock(plan, speed=speed, playing=playing and plan.makespan > 0)
+            self.source = self.clock
+        else:
+            self.source = source
+        self.entries = conflict_entries(scene.findings)
+        self.state: Optional[FleetState] = None
+        self._after: Optional[str] = None
+        root.title("FleetControl player: {}".format(scene.title or "plan"))
+        root.report_callback_exception = self._report  # type: ignore[assignment]
+        self.actions: Dict[str, Callable[[], None]] = {
+            k.action: self._guarded(getattr(self, "do_" + k.action)) for k in KEYS}
+        self.actions["loop_from_button"] = self._guarded(self._loop_from_button)
+        self._build(canvas_size)
+        self._bind_keys()
+        self._build_menus()
+        self.relayout()
+        self._status_changed()
+        self._tick()
+
+    # -- building ----------------------------------------------------------------------
+
+    def _build(self, canvas_size: Tuple[int, int]) -> None:
+        scene, root = self.scene, self.root
+        self.status = tk.StringVar(root, value="")
+        ttk.Label(root, textvariable=self.status, anchor=tk.W, padding=(6, 2)).pack(side=tk.BOTTOM, fill=tk.X)
+        self.controls: Optional[ControlsBar] = None
+        if self.clock is not None:
+            self.controls = ControlsBar(root, self.clock.makespan, self.actions, self._seek_from_slider,
+                                        self._speed_from_slider)
+            self.controls.pack(side=tk.BOTTOM, fill=tk.X)
+        side = ttk.Frame(root, padding=(2, 2))
+        side.pack(side=tk.RIGHT, fill=tk.Y)
+        self.map = MapView(root, scene.grid.free, canvas_size[0], canvas_size[1], down=self._mirrored())
+        self.map.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
+        canvas = self.canvas = self.map.canvas
+        self.cell_ids = CellIdLayer(canvas, scene.grid.free, scene.file_orientation)
+        self.agents = AgentLayer(canvas, scene)
+        self.conflicts = ConflictLayer(canvas, self.entries)
+        self.axes = AxesLayer(canvas, scene.file_orientation)
+        self.header = HeaderBand(canvas, scene.info)
+        self.layers = (self.cell_ids, self.agents, self.conflicts, self.axes, self.header)
+        focus = self.canvas.focus_set
+        self.agent_list = AgentList(side, scene.names, scene.colours, self._pick_agent, focus)
+        self.agent_list.pack(fill=tk.BOTH, expand=True)
+        self.conflict_list = ConflictList(side, self._pick_conflict, focus)
+        self.conflict_list.pack(fill=tk.BOTH, expand=True)
+        self._fill_conflicts()
+        self.map.on_view_change(self.relayout)
+        self.map.on_click = self._clicked
+        self.map.on_hover = self._hovered
+        canvas.focus_set()
+
+    def _bind_keys(self) -> None:
+        for key in KEYS:
+            handler = self.actions[key.action]
+            for sequence in key.sequences:
+                self.root.bind(sequence, lambda e, h=handler: h())
+
+    def _build_menus(self) -> None:
+        bar = tk.Menu(self.root)
+        for group in GROUPS:
+            menu = tk.Menu(bar, tearoff=False)
+            for key in KEYS:
+                if key.group == group:
+                    menu.add_command(label=key.help, accelerator=key.shown, command=self.actions[key.action])
+            bar.add_cascade(label=group, menu=menu)
+        self.root.configure(menu=bar)
+        self.menubar = bar
+
+    # -- the frame loop ----------------------------------------------------------------
+
+    def _tick(self) -> None:
+        started = time.perf_counter()
+        try:
+            self.refresh()
+        except Exception:  # one bad frame must not stop the loop
+            log.exception("frame failed")
+        spent = int((time.perf_counter() - started) * 1000)
+        self._after = self.root.after(max(1, FRAME_MS - spent), self._tick)
+
+    def refresh(self) -> None:
+        """Poll the source now and draw what changed."""
+        state = self.source.poll(time.monotonic())
+        if state is not None:
+            self.show(state)
+
+    def show(self, state: FleetState) -> None:
+        was_playing = self.clock is not None and self.clock.playing
+        self.state = state
+        for layer in self.layers:
+            layer.update(state)
+        if self.clock is not None and self.controls is not None:
+            self.controls.show(self.clock.time, self.clock.playing, self.clock.speed, self.clock.loop)
+            if was_playing != self.clock.playing:
+                self._status_changed()
+
+    def relayout(self) -> None:
+        """Place every item again (the view or the options changed)."""
+        for layer in self.layers:
+            layer.relayout(self.map.view, self.options)
+        if self.state is not None:
+            for layer in self.layers:
+                layer.update(self.state)
+        self.canvas.tag_raise("overlay")
+
+    def close(self) -> None:
+        if self._after is not None:
+            self.root.after_cancel(self._after)
+            self._after = None
+        self.root.destroy()
+
+    # -- helpers -----------------------------------------------------------------------
+
+    def _mirrored(self) -> bool:
+        return orientation.rows_grow_down(self.options.orientation, self.scene.file_orientation)
+
+    def shown_cell(self, cell: Tuple[int, int]) -> Tuple[int, int]:
+        """A base cell in the coordinates the current orientation shows."""
+        return orientation.shown_cell(cell, self.scene.grid.height, self.options.orientation,
+                                      self.scene.file_orientation)
+
+    def _status_changed(self) -> None:
+        parts = []
+        if self.clock is not None:
+            parts += ["playing" if self.clock.playing else "paused",
+                      "{:g} steps/s".format(round(self.clock.speed, 2)),
+                      "loop" if self.clock.loop else "no loop"]
+        parts.append(orientation.DESCRIPTIONS[self.options.orientation])
+        self.header.set_status(SEPARATOR.join(parts), self.scene.makespan)
+
+    def _fill_conflicts(self) -> None:
+        h = self.scene.grid.height
+        labels = [e.label(h, self.options.orientation, self.scene.file_orientation) for e in self.entries]
+        self.conflict_list.fill(labels, self.scene.following)
+
+    def _guarded(self, fn: Callable[[], None]) -> Callable[[], None]:
+        def run() -> None:
+            try:
+                fn()
+            except Exception as err:
+                log.exception("%s failed", getattr(fn, "__name__", "action"))
+                self.status.set("error: {}".format(err))
+        return run
+
+    def _report(self, exc: type, value: BaseException, tb: object) -> None:
+        log.error("Tk callback failed", exc_info=(exc, value, tb))  # type: ignore[arg-type]
+        self.status.set("error: {}".format(value))
+
+    def _clock_changed(self) -> None:
+        self.refresh()
+        self._status_changed()
+
+    # -- picking -----------------------------------------------------------------------
+
+    def select(self, agent: Optional[int]) -> None:
+        self.options.selected = agent
+        self.agent_list.mark(agent)
+        self.relayout()
+        if agent is not None:
+            s = self.scene
+            self.status.set("{} (agent {}): start {}, goal {}".format(
+                s.names[agent], agent, self.shown_cell(s.starts[agent]), self.shown_cell(s.goals[agent])))
+
+    def jump_to_conflict(self, index: int) -> None:
+        entry = self.entries[index]
+        self.conflict_list.mark(index)
+        self.conflicts.pick(entry)
+        if entry.jump_time is not None and self.clock is not None:
+            self.clock.pause()
+            self.clock.seek(entry.jump_time)
+        if entry.cell is not None and not self.map.view.shows(*entry.cell):
+            self.map.view.centre_on(*entry.cell)
+            self.map.changed()
+        self.select(entry.agents[0] if entry.agents else None)
+        self.status.set(entry.finding.message)
+        self._clock_changed()
+
+    def _pick_agent(self, index: Optional[int]) -> None:
+        self.select(index)
+
+    def _pick_conflict(self, index: Optional[int]) -> None:
+        if index is not None:
+            self.jump_to_conflict(index)
+
+    def _clicked(self, px: float, py: float) -> None:
+        agent = self.agents.agent_at(px, py)
+        if agent is not None:
+            self.select(None if agent == self.options.selected else agent)
+        else:
+            self._hovered(px, py)
+
+    def _hovered(self, px: float, py: float) -> None:
+        x, y = self.map.view.to_cell(px, py)
+        grid = self.scene.grid
+        if not grid.in_bounds((x, y)):
+            return
+        sx, sy = self.shown_cell((x, y))
+        text = "cell ({}, {})  id {}  {}".format(sx, sy, sy * grid.width + sx,
+                                                  "free" if grid.is_free((x, y)) else "blocked")
+        agent = self.agents.agent_at(px, py)
+        if agent is not None:
+            text += "   {} (agent {})".format(self.scene.names[agent], agent)
+        self.status.set(text)
+
+    def _seek_from_slider(self, t: float) -> None:
+        if self.clock is not None:
+            self.clock.pause()
+            self.clock.seek(t)
+            self._clock_changed()
+
+    def _speed_from_slider(self, speed: float) -> None:
+        if self.clock is not None:
+            self.clock.speed = speed
+            self._status_changed()
+
+    def _loop_from_button(self) -> None:
+        if self.clock is not None and self.controls is not None:
+            self.clock.loop = self.controls.loop.get()
+            self._status_changed()
+
+    # -- actions (one per entry of console.keys.KEYS) ------------------------------------
+
+    def _with_clock(self, fn: Callable[[PlanClock], None]) -> None:
+        if self.clock is not None:
+            fn(self.clock)
+            self._clock_changed()
+
+    def do_play_pause(self) -> None:
+        self._with_clock(lambda c: c.toggle())
+
+    def do_loop(self) -> None:
+        self._with_clock(lambda c: setattr(c, "loop", not c.loop))
+
+    def do_reset(self) -> None:
+        self._with_clock(lambda c: c.reset())
+
+    def do_step_forward(self) -> None:
+        self._with_clock(lambda c: c.step(1))
+
+    def do_step_back(self) -> None:
+        self._with_clock(lambda c: c.step(-1))
+
+    def do_first(self) -> None:
+        self._with_clock(lambda c: (c.pause(), c.seek(0)))
+
+    def do_last(self) -> None:
+        self._with_clock(lambda c: (c.pause(), c.seek(c.makespan)))
+
+    def do_faster(self) -> None:
+        self._with_clock(lambda c: setattr(c, "speed", c.speed * SPEED_STEP))
+
+    def do_slower(self) -> None:
+        self._with_clock(lambda c: setattr(c, "speed", c.speed / SPEED_STEP))
+
+    def do_goals(self) -> None:
+        self.options.goals = not self.options.goals
+        self.relayout()
+
+    def do_lines(self) -> None:
+        self.options.cycle_lines()
+        self.relayout()
+        self.status.set(LINE_LABELS[self.options.lines])
+
+    def do_ids(self) -> None:
+        self.options.ids = not self.options.ids
+        self.relayout()
+
+    def do_grid(self) -> None:
+        self.options.grid_lines = not self.options.grid_lines
+        self.map.set_grid_lines(self.options.grid_lines)
+
+    def do_orientation(self) -> None:
+        self.options.toggle_orientation()
+        if self._mirrored() != self.map.view.down:
+            self.map.set_mirrored(self._mirrored())  # relayouts through on_view_change
+        else:
+            self.relayout()
+        self._fill_conflicts()
+        self._status_changed()
+
+    def do_zoom_in(self) -> None:
+        self.map.zoom(ZOOM_STEP)
+
+    def do_zoom_out(self) -> None:
+        self.map.zoom(1 / ZOOM_STEP)
+
+    def do_fit(self) -> None:
+        self.map.fit()
+
+    def do_pan_left(self) -> None:
+        self.map.pan(PAN_STEP, 0)
+
+    def do_pan_right(self) -> None:
+        self.map.pan(-PAN_STEP, 0)
+
+    def do_pan_up(self) -> None:
+        self.map.pan(0, PAN_STEP)
+
+    def do_pan_down(self) -> None:
+        self.map.pan(0, -PAN_STEP)
+
+    def do_next_agent(self) -> None:
+        self.options.select_next(self.scene.num_agents, 1)
+        self.select(self.options.selected)
+
+    def do_prev_agent(self) -> None:
+        self.options.select_next(self.scene.num_agents, -1)
+        self.select(self.options.selected)
+
+    def do_only_selected(self) -> None:
+        if self.options.selected is None and self.scene.num_agents:
+            self.options.selected = 0
+        self.options.only_selected = not self.options.only_selected
+        self.select(self.options.selected)
+
+    def do_clear_selection(self) -> None:
+        self.options.only_selected = False
+        self.select(None)
+
+    def do_next_conflict(self) -> None:
+        k = next_entry(self.entries, self._now(), 1)
+        if k is not None:
+            self.jump_to_conflict(k)
+
+    def do_prev_conflict(self) -> None:
+        k = next_entry(self.entries, self._now(), -1)
+        if k is not None:
+            self.jump_to_conflict(k)
+
+    def _now(self) -> float:
+        return self.state.time if self.state is not None else 0.0
+
+    def do_save_png(self) -> None:
+        path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
+                                            filetypes=[("PNG image", "*.png")], title="Save view as PNG")
+        if path:
+            # let the dialog's window vanish from the screen before reading the pixels
+            self.root.after(200, self._guarded(lambda: self.save_png(path)))
+
+    def save_png(self, path: str) -> None:
+        capture.grab(self.canvas, path)
+        self.status.set("saved {}".format(path))
+
+    def do_help(self) -> None:
+        show_keys(self.root)
+
+    def do_quit(self) -> None:
+        self.close()
