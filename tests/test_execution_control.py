@@ -248,6 +248,8 @@ def test_strategy_names_and_settings_are_checked_with_the_valid_ones_listed():
     with pytest.raises(UnknownStrategyError, match="lookahead must be a whole number >= 1"):
         make_strategy("adg", lookahead=0)
     assert make_strategy("adg", lookahead=2).describe() == "adg (lookahead 2)"
+    with pytest.raises(UnknownStrategyError, match=r"settings \(lookahead\) go with a strategy name"):
+        Engine(EXAMPLE, make_strategy("adg"), lookahead=2)
 
 
 # ---- metrics -----------------------------------------------------------------------------

@@ -35,7 +35,7 @@ from ..plan import Plan
 from .actions import ActionTable
 from .adg import build_adg
 from .blocking import blocked_by
-from .errors import EventError
+from .errors import EventError, UnknownStrategyError
 from .events import (
     CELL, PAUSED, Completed, Disabled, Dispatch, Enabled, Failed, Pause, Resume, Started, StepRound,
     SwitchStrategy, Wait,
@@ -64,6 +64,9 @@ class Engine:
         table = ActionTable.from_plan(plan, show)
         self.run = RunState(build_adg(table, show))
         self.table = table
+        if not isinstance(strategy, str) and settings:
+            raise UnknownStrategyError("settings ({}) go with a strategy name, not a Strategy object".format(
+                ", ".join(settings)))
         self.strategy = make_strategy(strategy, **settings) if isinstance(strategy, str) else strategy
         self.strategy.attach(self.run)
         self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_robots)])

@@ -9,7 +9,9 @@ A run starts paused: the first `Resume` starts it.
 
 `Engine.handle(event)` answers with `Dispatch` decisions: robot r may start
 its action `index` now (move from `src` to `dst`, plan step `step`). The
-caller sends each one to its robot exactly once. `Wait` reports who is
+caller sends each one to its robot exactly once. An action that `Failed` or
+`Disabled` took back (sent, not started) is dispatched again when the robot
+is enabled: that is a new decision, to be sent again. `Wait` reports who is
 waiting for whom and where, for the console's red highlight.
 """
 from __future__ import annotations

@@ -28,6 +28,7 @@ from ..plan import Plan
 from .delays import DelayModel
 from .engine import Engine
 from .events import Completed, Disabled, Dispatch, Enabled, Failed, Resume, Started
+from .metrics import Metrics
 from .trace import Collision, Trace, find_collisions
 
 _COMPLETE, _CONTROL = 0, 1
@@ -43,7 +44,7 @@ class SimResult:
     disabled_at: Dict[int, float]
 
     @property
-    def metrics(self):  # type: ignore[no-untyped-def]
+    def metrics(self) -> Metrics:
         return self.engine.metrics
 
     @property
