@@ -26,6 +26,9 @@ KIND_LABELS = {
 }
 
 
+_EPS = 1e-3
+
+
 @dataclass(frozen=True)
 class ConflictEntry:
     finding: Finding
@@ -60,10 +63,10 @@ def conflict_entries(findings: Sequence[Finding]) -> List[ConflictEntry]:
     for f in findings:
         if f.timestep is None:
             out.append(ConflictEntry(f, None, (-1.0, -1.0)))
-        elif f.kind == SWAP:
-            out.append(ConflictEntry(f, f.timestep - 0.5, (f.timestep - 1.0, float(f.timestep))))
+        elif f.kind == SWAP:  # while passing each other, not at either end of the move
+            out.append(ConflictEntry(f, f.timestep - 0.5, (f.timestep - 1 + _EPS, f.timestep - _EPS)))
         else:
-            out.append(ConflictEntry(f, float(f.timestep), (f.timestep - 0.5, f.timestep + 0.5)))
+            out.append(ConflictEntry(f, float(f.timestep), (f.timestep - 0.5 + _EPS, f.timestep + 0.5 - _EPS)))
     out.sort(key=lambda e: (e.jump_time is None, e.jump_time or 0.0))
     return out
 

@@ -234,7 +234,9 @@ def test_conflicts_are_listed_in_time_order_with_where_to_jump(tmp_path: Path) -
     kinds = [e.finding.kind for e in entries]
     assert kinds == ["swap-conflict", "vertex-conflict"]
     swap, vertex = entries
-    assert swap.jump_time == 0.5 and swap.window == (0.0, 1.0) and swap.agents == (2, 3)
+    assert swap.jump_time == 0.5 and swap.agents == (2, 3)
+    lo, hi = swap.window  # shown while the two pass each other, not once they stand apart
+    assert 0.0 < lo < 0.01 and 0.99 < hi < 1.0
     assert vertex.jump_time == 1.0 and vertex.cell == (1, 1) and vertex.agents == (0, 1)
     h = scene.grid.height
     assert vertex.label(h, orientation.LAB, scene.file_orientation).split() == \

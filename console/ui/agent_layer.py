@@ -18,7 +18,7 @@ import numpy as np
 
 from ..fleet_state import FleetState
 from ..scene import Scene
-from ..view_options import LINE_GOAL, LINE_NONE, LINE_PATH, ViewOptions
+from ..view_options import LINE_NONE, LINE_PATH, ViewOptions
 from ..viewport import Viewport
 
 OUTLINE = "#1e1e1e"

@@ -9,10 +9,9 @@ logs its error and shows it in the status line instead of ending the window.
 from __future__ import annotations
 
 import logging
-import math
 import time
 import tkinter as tk
-from tkinter import filedialog, ttk
+from tkinter import ttk
 from typing import Callable, Dict, Optional, Tuple, Union
 
 import numpy as np
@@ -20,29 +19,27 @@ import numpy as np
 from fleet_common.plan import Plan
 
 from .. import orientation
-from ..conflicts import conflict_entries, next_entry
+from ..conflicts import conflict_entries
 from ..fleet_state import FleetState
 from ..keys import GROUPS, KEYS
 from ..scene import Scene
 from ..sources import DEFAULT_SPEED, PlanClock, QueueSource
-from ..view_options import LINE_LABELS, ViewOptions
-from . import capture
+from ..view_options import ViewOptions
+from .actions import PlayerActions
 from .agent_layer import AgentLayer
 from .conflict_layer import ConflictLayer
 from .controls import ControlsBar
-from .help_window import show_keys
 from .lists import AgentList, ConflictList
-from .map_view import PAN_STEP, ZOOM_STEP, MapView
+from .map_view import MapView
 from .overlays import SEPARATOR, AxesLayer, CellIdLayer, HeaderBand
 
 log = logging.getLogger(__name__)
 
 #: One frame every 33 ms: 30 frames per second while something moves.
 FRAME_MS = 33
-SPEED_STEP = math.sqrt(2.0)
 
 
-class PlayerApp:
+class PlayerApp(PlayerActions):
     """The player window on `root`; `source` None plays `scene.plan` with a `PlanClock`."""
 
     def __init__(self, root: tk.Tk, scene: Scene, options: Optional[ViewOptions] = None,
@@ -72,6 +69,7 @@ class PlayerApp:
         self._build_menus()
         self.relayout()
         self._status_changed()
+        root.bind("<Destroy>", self._destroyed, add="+")
         self._tick()
 
     # -- building ----------------------------------------------------------------------
@@ -114,7 +112,7 @@ class PlayerApp:
                 self.root.bind(sequence, lambda e, h=handler: h())
 
     def _build_menus(self) -> None:
-        bar = tk.Menu(self.root)
+        bar = tk.Menu(self.root, tearoff=False)
         for group in GROUPS:
             menu = tk.Menu(bar, tearoff=False)
             for key in KEYS:
@@ -161,10 +159,13 @@ class PlayerApp:
         self.canvas.tag_raise("overlay")
 
     def close(self) -> None:
-        if self._after is not None:
+        self.root.destroy()
+
+    def _destroyed(self, event: "tk.Event[tk.Misc]") -> None:
+        # the window is going (q, the window manager, a test): stop the frame loop with it
+        if event.widget is self.root and self._after is not None:
             self.root.after_cancel(self._after)
             self._after = None
-        self.root.destroy()
 
     # -- helpers -----------------------------------------------------------------------
 
@@ -178,7 +179,7 @@ class PlayerApp:
 
     def _status_changed(self) -> None:
         parts = []
-        if self.clock is not None:
+        if self.clock is not None and self.clock.makespan > 0:
             parts += ["playing" if self.clock.playing else "paused",
                       "{:g} steps/s".format(round(self.clock.speed, 2)),
                       "loop" if self.clock.loop else "no loop"]
@@ -207,58 +208,6 @@ class PlayerApp:
         self.refresh()
         self._status_changed()
 
-    # -- picking -----------------------------------------------------------------------
-
-    def select(self, agent: Optional[int]) -> None:
-        self.options.selected = agent
-        self.agent_list.mark(agent)
-        self.relayout()
-        if agent is not None:
-            s = self.scene
-            self.status.set("{} (agent {}): start {}, goal {}".format(
-                s.names[agent], agent, self.shown_cell(s.starts[agent]), self.shown_cell(s.goals[agent])))
-
-    def jump_to_conflict(self, index: int) -> None:
-        entry = self.entries[index]
-        self.conflict_list.mark(index)
-        self.conflicts.pick(entry)
-        if entry.jump_time is not None and self.clock is not None:
-            self.clock.pause()
-            self.clock.seek(entry.jump_time)
-        if entry.cell is not None and not self.map.view.shows(*entry.cell):
-            self.map.view.centre_on(*entry.cell)
-            self.map.changed()
-        self.select(entry.agents[0] if entry.agents else None)
-        self.status.set(entry.finding.message)
-        self._clock_changed()
-
-    def _pick_agent(self, index: Optional[int]) -> None:
-        self.select(index)
-
-    def _pick_conflict(self, index: Optional[int]) -> None:
-        if index is not None:
-            self.jump_to_conflict(index)
-
-    def _clicked(self, px: float, py: float) -> None:
-        agent = self.agents.agent_at(px, py)
-        if agent is not None:
-            self.select(None if agent == self.options.selected else agent)
-        else:
-            self._hovered(px, py)
-
-    def _hovered(self, px: float, py: float) -> None:
-        x, y = self.map.view.to_cell(px, py)
-        grid = self.scene.grid
-        if not grid.in_bounds((x, y)):
-            return
-        sx, sy = self.shown_cell((x, y))
-        text = "cell ({}, {})  id {}  {}".format(sx, sy, sy * grid.width + sx,
-                                                  "free" if grid.is_free((x, y)) else "blocked")
-        agent = self.agents.agent_at(px, py)
-        if agent is not None:
-            text += "   {} (agent {})".format(self.scene.names[agent], agent)
-        self.status.set(text)
-
     def _seek_from_slider(self, t: float) -> None:
         if self.clock is not None:
             self.clock.pause()
@@ -274,132 +223,3 @@ class PlayerApp:
         if self.clock is not None and self.controls is not None:
             self.clock.loop = self.controls.loop.get()
             self._status_changed()
-
-    # -- actions (one per entry of console.keys.KEYS) ------------------------------------
-
-    def _with_clock(self, fn: Callable[[PlanClock], None]) -> None:
-        if self.clock is not None:
-            fn(self.clock)
-            self._clock_changed()
-
-    def do_play_pause(self) -> None:
-        self._with_clock(lambda c: c.toggle())
-
-    def do_loop(self) -> None:
-        self._with_clock(lambda c: setattr(c, "loop", not c.loop))
-
-    def do_reset(self) -> None:
-        self._with_clock(lambda c: c.reset())
-
-    def do_step_forward(self) -> None:
-        self._with_clock(lambda c: c.step(1))
-
-    def do_step_back(self) -> None:
-        self._with_clock(lambda c: c.step(-1))
-
-    def do_first(self) -> None:
-        self._with_clock(lambda c: (c.pause(), c.seek(0)))
-
-    def do_last(self) -> None:
-        self._with_clock(lambda c: (c.pause(), c.seek(c.makespan)))
-
-    def do_faster(self) -> None:
-        self._with_clock(lambda c: setattr(c, "speed", c.speed * SPEED_STEP))
-
-    def do_slower(self) -> None:
-        self._with_clock(lambda c: setattr(c, "speed", c.speed / SPEED_STEP))
-
-    def do_goals(self) -> None:
-        self.options.goals = not self.options.goals
-        self.relayout()
-
-    def do_lines(self) -> None:
-        self.options.cycle_lines()
-        self.relayout()
-        self.status.set(LINE_LABELS[self.options.lines])
-
-    def do_ids(self) -> None:
-        self.options.ids = not self.options.ids
-        self.relayout()
-
-    def do_grid(self) -> None:
-        self.options.grid_lines = not self.options.grid_lines
-        self.map.set_grid_lines(self.options.grid_lines)
-
-    def do_orientation(self) -> None:
-        self.options.toggle_orientation()
-        if self._mirrored() != self.map.view.down:
-            self.map.set_mirrored(self._mirrored())  # relayouts through on_view_change
-        else:
-            self.relayout()
-        self._fill_conflicts()
-        self._status_changed()
-
-    def do_zoom_in(self) -> None:
-        self.map.zoom(ZOOM_STEP)
-
-    def do_zoom_out(self) -> None:
-        self.map.zoom(1 / ZOOM_STEP)
-
-    def do_fit(self) -> None:
-        self.map.fit()
-
-    def do_pan_left(self) -> None:
-        self.map.pan(PAN_STEP, 0)
-
-    def do_pan_right(self) -> None:
-        self.map.pan(-PAN_STEP, 0)
-
-    def do_pan_up(self) -> None:
-        self.map.pan(0, PAN_STEP)
-
-    def do_pan_down(self) -> None:
-        self.map.pan(0, -PAN_STEP)
-
-    def do_next_agent(self) -> None:
-        self.options.select_next(self.scene.num_agents, 1)
-        self.select(self.options.selected)
-
-    def do_prev_agent(self) -> None:
-        self.options.select_next(self.scene.num_agents, -1)
-        self.select(self.options.selected)
-
-    def do_only_selected(self) -> None:
-        if self.options.selected is None and self.scene.num_agents:
-            self.options.selected = 0
-        self.options.only_selected = not self.options.only_selected
-        self.select(self.options.selected)
-
-    def do_clear_selection(self) -> None:
-        self.options.only_selected = False
-        self.select(None)
-
-    def do_next_conflict(self) -> None:
-        k = next_entry(self.entries, self._now(), 1)
-        if k is not None:
-            self.jump_to_conflict(k)
-
-    def do_prev_conflict(self) -> None:
-        k = next_entry(self.entries, self._now(), -1)
-        if k is not None:
-            self.jump_to_conflict(k)
-
-    def _now(self) -> float:
-        return self.state.time if self.state is not None else 0.0
-
-    def do_save_png(self) -> None:
-        path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
-                                            filetypes=[("PNG image", "*.png")], title="Save view as PNG")
-        if path:
-            # let the dialog's window vanish from the screen before reading the pixels
-            self.root.after(200, self._guarded(lambda: self.save_png(path)))
-
-    def save_png(self, path: str) -> None:
-        capture.grab(self.canvas, path)
-        self.status.set("saved {}".format(path))
-
-    def do_help(self) -> None:
-        show_keys(self.root)
-
-    def do_quit(self) -> None:
-        self.close()

@@ -1,0 +1,207 @@
+"""The player's actions: picking from the lists and the canvas, and one method
+`do_<action>` per entry of `console.keys.KEYS`.
+
+A mixin of `PlayerApp` so that the key table, the menus and the tests reach
+every action by name (`app.actions["step_forward"]()`); the app provides the
+clock, the options, the map view and `select`/`jump_to_conflict`.
+"""
+from __future__ import annotations
+
+import math
+from tkinter import filedialog
+from typing import TYPE_CHECKING, Callable, Optional
+
+from ..conflicts import next_entry
+from ..sources import PlanClock
+from ..view_options import LINE_LABELS
+from . import capture
+from .help_window import show_keys
+from .map_view import PAN_STEP, ZOOM_STEP
+
+if TYPE_CHECKING:
+    from .app import PlayerApp
+
+SPEED_STEP = math.sqrt(2.0)
+
+
+class PlayerActions:
+    # -- picking: the lists and the mouse ---------------------------------------------
+
+    def select(self: "PlayerApp", agent: Optional[int]) -> None:
+        self.options.selected = agent
+        self.agent_list.mark(agent)
+        self.relayout()
+        if agent is not None:
+            s = self.scene
+            self.status.set("{} (agent {}): start {}, goal {}".format(
+                s.names[agent], agent, self.shown_cell(s.starts[agent]), self.shown_cell(s.goals[agent])))
+
+    def jump_to_conflict(self: "PlayerApp", index: int) -> None:
+        entry = self.entries[index]
+        self.conflict_list.mark(index)
+        self.conflicts.pick(entry)
+        if entry.jump_time is not None and self.clock is not None:
+            self.clock.pause()
+            self.clock.seek(entry.jump_time)
+        if entry.cell is not None and not self.map.view.shows(*entry.cell):
+            self.map.view.centre_on(*entry.cell)
+            self.map.changed()
+        self.select(entry.agents[0] if entry.agents else None)
+        self.status.set(entry.finding.message)
+        self._clock_changed()
+
+    def _pick_agent(self: "PlayerApp", index: Optional[int]) -> None:
+        self.select(index)
+
+    def _pick_conflict(self: "PlayerApp", index: Optional[int]) -> None:
+        if index is not None:
+            self.jump_to_conflict(index)
+
+    def _clicked(self: "PlayerApp", px: float, py: float) -> None:
+        agent = self.agents.agent_at(px, py)
+        if agent is not None:
+            self.select(None if agent == self.options.selected else agent)
+        else:
+            self._hovered(px, py)
+
+    def _hovered(self: "PlayerApp", px: float, py: float) -> None:
+        x, y = self.map.view.to_cell(px, py)
+        grid = self.scene.grid
+        if not grid.in_bounds((x, y)):
+            return
+        sx, sy = self.shown_cell((x, y))
+        text = "cell ({}, {})  id {}  {}".format(sx, sy, sy * grid.width + sx,
+                                                  "free" if grid.is_free((x, y)) else "blocked")
+        agent = self.agents.agent_at(px, py)
+        if agent is not None:
+            text += "   {} (agent {})".format(self.scene.names[agent], agent)
+        self.status.set(text)
+
+    # -- keys and menus ------------------------------------------------------------------
+
+    def _with_clock(self: "PlayerApp", fn: Callable[[PlanClock], None]) -> None:
+        if self.clock is not None:
+            fn(self.clock)
+            self._clock_changed()
+
+    def do_play_pause(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: c.toggle())
+
+    def do_loop(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: setattr(c, "loop", not c.loop))
+
+    def do_reset(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: c.reset())
+
+    def do_step_forward(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: c.step(1))
+
+    def do_step_back(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: c.step(-1))
+
+    def do_first(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: (c.pause(), c.seek(0)))
+
+    def do_last(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: (c.pause(), c.seek(c.makespan)))
+
+    def do_faster(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: setattr(c, "speed", c.speed * SPEED_STEP))
+
+    def do_slower(self: "PlayerApp") -> None:
+        self._with_clock(lambda c: setattr(c, "speed", c.speed / SPEED_STEP))
+
+    def do_goals(self: "PlayerApp") -> None:
+        self.options.goals = not self.options.goals
+        self.relayout()
+
+    def do_lines(self: "PlayerApp") -> None:
+        self.options.cycle_lines()
+        self.relayout()
+        self.status.set(LINE_LABELS[self.options.lines])
+
+    def do_ids(self: "PlayerApp") -> None:
+        self.options.ids = not self.options.ids
+        self.relayout()
+
+    def do_grid(self: "PlayerApp") -> None:
+        self.options.grid_lines = not self.options.grid_lines
+        self.map.set_grid_lines(self.options.grid_lines)
+
+    def do_orientation(self: "PlayerApp") -> None:
+        self.options.toggle_orientation()
+        if self._mirrored() != self.map.view.down:
+            self.map.set_mirrored(self._mirrored())  # relayouts through on_view_change
+        else:
+            self.relayout()
+        self._fill_conflicts()
+        self._status_changed()
+
+    def do_zoom_in(self: "PlayerApp") -> None:
+        self.map.zoom(ZOOM_STEP)
+
+    def do_zoom_out(self: "PlayerApp") -> None:
+        self.map.zoom(1 / ZOOM_STEP)
+
+    def do_fit(self: "PlayerApp") -> None:
+        self.map.fit()
+
+    def do_pan_left(self: "PlayerApp") -> None:
+        self.map.pan(PAN_STEP, 0)
+
+    def do_pan_right(self: "PlayerApp") -> None:
+        self.map.pan(-PAN_STEP, 0)
+
+    def do_pan_up(self: "PlayerApp") -> None:
+        self.map.pan(0, PAN_STEP)
+
+    def do_pan_down(self: "PlayerApp") -> None:
+        self.map.pan(0, -PAN_STEP)
+
+    def do_next_agent(self: "PlayerApp") -> None:
+        self.options.select_next(self.scene.num_agents, 1)
+        self.select(self.options.selected)
+
+    def do_prev_agent(self: "PlayerApp") -> None:
+        self.options.select_next(self.scene.num_agents, -1)
+        self.select(self.options.selected)
+
+    def do_only_selected(self: "PlayerApp") -> None:
+        if self.options.selected is None and self.scene.num_agents:
+            self.options.selected = 0
+        self.options.only_selected = not self.options.only_selected
+        self.select(self.options.selected)
+
+    def do_clear_selection(self: "PlayerApp") -> None:
+        self.options.only_selected = False
+        self.select(None)
+
+    def do_next_conflict(self: "PlayerApp") -> None:
+        k = next_entry(self.entries, self._now(), 1)
+        if k is not None:
+            self.jump_to_conflict(k)
+
+    def do_prev_conflict(self: "PlayerApp") -> None:
+        k = next_entry(self.entries, self._now(), -1)
+        if k is not None:
+            self.jump_to_conflict(k)
+
+    def _now(self: "PlayerApp") -> float:
+        return self.state.time if self.state is not None else 0.0
+
+    def do_save_png(self: "PlayerApp") -> None:
+        path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
+                                            filetypes=[("PNG image", "*.png")], title="Save view as PNG")
+        if path:
+            # let the dialog's window vanish from the screen before reading the pixels
+            self.root.after(200, self._guarded(lambda: self.save_png(path)))
+
+    def save_png(self: "PlayerApp", path: str) -> None:
+        capture.grab(self.canvas, path)
+        self.status.set("saved {}".format(path))
+
+    def do_help(self: "PlayerApp") -> None:
+        show_keys(self.root)
+
+    def do_quit(self: "PlayerApp") -> None:
+        self.close()
