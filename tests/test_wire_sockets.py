@@ -172,3 +172,16 @@ def test_a_manager_of_another_protocol_version_is_told_why(fleet, robot, keys, c
     text = "the manager speaks version 2, robot 7 speaks version 1"
     assert text in str(err.value)
     assert any(text in r.getMessage() for r in caplog.records)  # the robot's log says it too
+
+
+def test_a_link_to_the_wrong_robot_gives_up_and_says_why(fleet, robot, keys, context) -> None:
+    # robot 8's link pointed at robot 7's port: the definitions disagree; retrying cannot help
+    wrong = RobotDefinition(8, "127.0.0.1", robot.command_port, "u", "v8", "red")
+    links = LinkSet([RobotLink(context, wrong, "epoch", keys=load_manager_keys(keys))])
+    links[8].turn(1.0)
+    events = collect(links, lambda ev: any(isinstance(e, LinkDown) for e in ev))
+    [down] = [e for e in events if isinstance(e, LinkDown)]
+    assert down.fatal and links[8].state == "failed"
+    assert "hello names robot 8, but this connection is to robot 7" in down.reason
+    assert fleet.endpoints[7].executor.executed == 0
+    links.close()

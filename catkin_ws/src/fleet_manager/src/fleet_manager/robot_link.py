@@ -230,6 +230,9 @@ class RobotLink:
         self.live.heard(now)
         if isinstance(message, Welcome):
             return self._on_welcome(message, now)
+        if isinstance(message, Bye) and message.code == "robot-id":
+            self.log.error("robot %s refused us: %s", self.robot_id, message.reason)
+            return self._fail("robot refused the connection: {}".format(message.reason))
         if isinstance(message, Bye):
             retry = _SUPERSEDED_RETRY if message.code == "superseded" else (
                 0.0 if message.code == "no-session" else self.retry)

@@ -165,7 +165,7 @@ class RobotEndpoint:
             self._refuse(identity, conn, str(err), err.code, now)
             return
         except RemoteProtocolError as err:
-            if conn.state is State.START:
+            if conn.state is State.START and err.code == "protocol":  # not a hello
                 reason = ("robot {} has no session for this connection (it may have restarted); "
                           "say hello first".format(self.robot_id))
                 self.log.info("robot %s: %s (%s)", self.robot_id, reason, err)
