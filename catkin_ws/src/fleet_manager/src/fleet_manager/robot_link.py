@@ -22,43 +22,21 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from dataclasses import dataclass
-from typing import Callable, List, Optional, Tuple, Union
+from typing import Callable, List, Optional, Tuple
 
 import zmq
 
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed,
-                               GetStatus, Heartbeat, Hello, Liveness, PoseFeedback,
-                               RemoteProtocolError, Reply, Role, Status, Stop, Turn,
-                               VersionMismatchError, Welcome)
-from fleet_common.wire.codec import decode
+                               GetStatus, Heartbeat, Hello, Liveness, RemoteProtocolError, Role,
+                               Status, Stop, Turn, VersionMismatchError, Welcome)
 from fleet_common.wire.curve_keys import ManagerKeys
+
+from .link_events import LinkDown, LinkEvent, LinkUp, RobotReply
+from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
 __all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
 
-
-@dataclass(frozen=True)
-class LinkUp:
-    robot_id: int
-    session: str
-    restarted: bool  # a different robot process than last time
-
-
-@dataclass(frozen=True)
-class LinkDown:
-    robot_id: int
-    reason: str
-    fatal: bool = False  # the link gave up (version or robot id mismatch)
-
-
-@dataclass(frozen=True)
-class RobotReply:
-    robot_id: int
-    reply: Reply
-
-
-LinkEvent = Union[LinkUp, LinkDown, RobotReply, PoseFeedback]
 
 _SUPERSEDED_RETRY = 5.0  # another manager took the robot: do not fight over it every second
 
@@ -137,7 +115,7 @@ class RobotLink:
             except zmq.Again:
                 break
             if sock is self.feedback:
-                events += self._on_feedback(data)
+                events += poses_in(data, self.robot_id, self.log)
             else:
                 events += self._on_command_frame(data, now)
         return events
@@ -189,19 +167,13 @@ class RobotLink:
             self.command.close(linger=0)
         sock = self.context.socket(zmq.DEALER)
         sock.linger = 0
-        self._secure(sock)
+        secure_client(sock, self.keys)
         sock.connect(self.address)
         self.command = sock
         self.conn = Connection(Role.MANAGER, self.robot_id)
         self.live = Liveness(now)
         self.state = "connecting"
         self._send(Hello(self.robot_id, self.epoch), now)
-
-    def _secure(self, sock: zmq.Socket) -> None:
-        if self.keys is not None:
-            sock.curve_secretkey = self.keys.secret
-            sock.curve_publickey = self.keys.public
-            sock.curve_serverkey = self.keys.robot_public
 
     def _send(self, message: object, now: float) -> None:
         data = self.conn.send(message)
@@ -268,24 +240,8 @@ class RobotLink:
     def _subscribe(self, port: int) -> None:
         if self.feedback is not None:
             self.feedback.close(linger=0)
-        sock = self.context.socket(zmq.SUB)
-        sock.linger = 0
-        self._secure(sock)
-        sock.setsockopt(zmq.SUBSCRIBE, b"")
-        sock.setsockopt(zmq.RCVHWM, 20)  # only recent poses matter
-        sock.connect("tcp://{}:{}".format(self.host, port))
-        self.feedback, self.feedback_port = sock, port
-
-    def _on_feedback(self, data: bytes) -> List[LinkEvent]:
-        try:
-            message = decode(data)
-        except RemoteProtocolError as err:
-            self.log.warning("robot %s: bad pose feedback frame: %s", self.robot_id, err)
-            return []
-        if not isinstance(message, PoseFeedback) or message.robot_id != self.robot_id:
-            self.log.warning("robot %s: feedback port sent %s", self.robot_id, message)
-            return []
-        return [message]
+        self.feedback = subscribe_feedback(self.context, self.host, port, self.keys)
+        self.feedback_port = port
 
     def _lost(self, reason: str, now: float, retry: float) -> List[LinkEvent]:
         was_up = self.state == "up"

@@ -27,9 +27,10 @@ illegal message raises `LocalProtocolError` or `RemoteProtocolError` and
 changes nothing), `executor` (`CommandExecutor`: a command id seen before is
 acknowledged again, never executed twice; one command at a time; stop
 preempts), `navigator` (the `Navigator` interface it drives), `liveness`
-(heartbeat timing), `ports`. Sockets live in `zmq_transport` and
-`curve_keys` (pyzmq; the only modules here that import it), and on the
-manager side in fleet_manager.robot_link.
+(heartbeat timing), `ports`. Sockets live in `zmq_transport` (the robot's
+endpoint), `robot_loop`, `zap` and `curve_keys` (pyzmq; the only modules here
+that import it, and this package does not import them), and on the manager
+side in fleet_manager.robot_link.
 """
 from __future__ import annotations
 

@@ -12,16 +12,15 @@ Connections: the newest successful Hello wins; any older connection gets
 (the manager's, after this robot restarted) gets `Bye(code="no-session")`, which
 tells the manager to say hello again. A peer silent for `PEER_TIMEOUT` is dropped.
 
-`RobotLoop` runs any number of endpoints in one thread with one `zmq.Poller`
-and a heap of due times, so 300 virtual robots cost one process, not 300 threads.
+`RobotLoop` (robot_loop.py, re-exported here) runs any number of endpoints in
+one thread, so 300 virtual robots cost one process, not 300 threads.
 """
 from __future__ import annotations
 
-import heapq
 import logging
 import secrets
 import time
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import zmq
 
@@ -228,62 +227,5 @@ class RobotEndpoint:
         self.by_epoch = {e: i for e, i in self.by_epoch.items() if i != identity}
 
 
-class RobotLoop:
-    """Runs endpoints (and the ZAP handler) in the calling thread."""
-
-    def __init__(self, zap: Optional[ZapHandler] = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        self.zap = zap
-        self.clock = clock
-        self.poller = zmq.Poller()
-        self.by_socket: Dict[zmq.Socket, RobotEndpoint] = {}
-        self.due: Dict[int, float] = {}
-        self.endpoints: Dict[int, RobotEndpoint] = {}
-        self.heap: List[Tuple[float, int]] = []
-        if zap is not None:
-            self.poller.register(zap.socket, zmq.POLLIN)
-
-    def add(self, endpoint: RobotEndpoint) -> None:
-        key = id(endpoint)
-        self.endpoints[key] = endpoint
-        self.by_socket[endpoint.command] = endpoint
-        self.poller.register(endpoint.command, zmq.POLLIN)
-        self._schedule(key, self.clock())
-
-    def remove(self, endpoint: RobotEndpoint) -> None:
-        """Stop serving `endpoint` (closing it is the caller's business)."""
-        key = id(endpoint)
-        self.endpoints.pop(key, None)
-        self.due.pop(key, None)
-        if self.by_socket.pop(endpoint.command, None) is not None:
-            self.poller.unregister(endpoint.command)
-
-    def run_once(self, max_wait: float = 0.1) -> None:
-        """Wait (at most `max_wait` s) for a socket or a due time, and serve it."""
-        now = self.clock()
-        wait = max_wait if not self.heap else min(max_wait, max(0.0, self.heap[0][0] - now))
-        for sock, _ in self.poller.poll(wait * 1000.0):
-            if self.zap is not None and sock is self.zap.socket:
-                self.zap.handle()
-                continue
-            endpoint = self.by_socket.get(sock)
-            if endpoint is not None:
-                endpoint.handle_readable()
-                self._schedule(id(endpoint), self.clock())  # replies and new motions: tick now
-        now = self.clock()
-        while self.heap and self.heap[0][0] <= now:
-            when, key = heapq.heappop(self.heap)
-            if self.due.get(key) != when:
-                continue  # rescheduled or removed since
-            del self.due[key]
-            self._schedule(key, max(self.endpoints[key].tick(now), now + 0.001))
-
-    def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
-        while not should_stop():
-            self.run_once(max_wait)
-
-    def _schedule(self, key: int, when: float) -> None:
-        if key in self.due and self.due[key] <= when:
-            return  # already due sooner
-        self.due[key] = when
-        heapq.heappush(self.heap, (when, key))
+# the loop lives in its own module; callers of this one find it here too
+from .robot_loop import RobotLoop  # noqa: E402
