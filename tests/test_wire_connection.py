@@ -190,3 +190,14 @@ def test_a_message_is_received_exactly_when_its_sender_may_send_it(script: list)
         # both ends hold the same view of the connection
         assert sender.state is receiver.state
         assert sender.in_flight == receiver.in_flight
+
+
+def test_the_protocol_core_imports_no_socket_library() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys, fleet_common.wire; "
+            "print(sorted(m for m in ('zmq', 'rospy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
