@@ -93,13 +93,13 @@ class Engine:
 
     @property
     def finished(self) -> bool:
-        """Every robot that is not out has completed all its actions."""
-        return self.run.finished
+        """The strategy's verdict: by default, every robot not out has completed its actions."""
+        return self.strategy.finished()
 
     @property
     def stalled(self) -> bool:
         """Running, not finished, and nothing moving: only an out robot can cause this."""
-        return not self.paused and not self.run.finished and not self.run.moving
+        return not self.paused and not self.finished and not self.run.moving
 
     def out_robots(self) -> List[int]:
         return [r for r, why in enumerate(self.run.out) if why is not None]

@@ -13,7 +13,9 @@ questions from the shared `RunState`:
   `hold_reason(a)`: why, for the console;
 - `on_completed`, `on_out`, `on_back`: which robots may now start something
   besides those the dependency graph names (the robot itself, the waiter);
-- `round()`: how far each robot may go in one "step" of a paused run.
+- `round()`: how far each robot may go in one "step" of a paused run;
+- `finished()`: is the run over (by default: every robot that is not out
+  has completed its actions).
 
 Adding a strategy is one `Strategy` subclass decorated with `@register`, in a
 module that `execution/__init__.py` imports. `attach` is called when the
@@ -71,6 +73,10 @@ class Strategy:
     def on_back(self, robot: int) -> Sequence[int]:
         """`robot` takes part again: robots that may now start an action."""
         return ()
+
+    def finished(self) -> bool:
+        """Is the run finished: every robot that is not out has completed its actions."""
+        return self._attached().finished
 
     def round(self) -> List[int]:
         """Per robot, how many of its actions may have been sent after one round."""
