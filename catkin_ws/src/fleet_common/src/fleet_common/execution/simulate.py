@@ -60,7 +60,7 @@ class SimResult:
 def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] = None, seed: int = 0,
              durations: Optional[np.ndarray] = None, disable: Optional[Mapping[int, int]] = None,
              controls: Sequence[object] = (), nominal: float = 1.0, **settings: object) -> SimResult:
-    """Run `plan` under `strategy` with durations drawn from `delays` (or given)."""
+    """Run `plan` under `strategy`; durations drawn from `delays`, or given (none: no delays)."""
     engine = Engine(plan, strategy, **settings)  # type: ignore[arg-type]
     if durations is None:
         durations = (delays or DelayModel()).durations(engine.table, seed, nominal)
