@@ -112,5 +112,17 @@ def scene_from_instance(path: Path, map_path: Optional[Path] = None,
     return scene
 
 
+def scene_from_plan(grid: Grid, plan: Plan, goals: Optional[Sequence[Coord]] = None,
+                    info: Sequence[str] = (), title: str = "",
+                    robots: Optional[Sequence[RobotDefinition]] = None) -> Scene:
+    """A scene for a plan in memory (a solver's result, the manager's plan), validated."""
+    goals = list(plan.goals if goals is None else goals)
+    scene = Scene(grid, plan.starts, goals, plan, info=list(info), title=title)
+    report = validate_plan(plan, grid, goals=goals)
+    scene.findings, scene.following = report.errors, len(report.infos)
+    _style(scene, robots)
+    return scene
+
+
 def _text(value: object) -> str:
     return "-" if value is None else str(value)

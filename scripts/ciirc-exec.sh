@@ -10,7 +10,7 @@ APT_PACKAGES=(
   ros-core python3-rospy catkin python3-catkin-pkg python3-numpy python3-yaml
   ros-std-msgs ros-geometry-msgs ros-nav-msgs ros-sensor-msgs
   python3-std-msgs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
-  python3-tk xvfb python3-venv python3-dev build-essential cmake
+  python3-tk xvfb fonts-dejavu-core python3-venv python3-dev build-essential cmake
   python3-zmq
 )
 

@@ -269,3 +269,21 @@ def test_line_modes_cycle_like_mapf_visualizer() -> None:
     assert options.selected == 4
     options.select_next(5, 1)
     assert options.selected == 0
+
+
+def test_path_corners_keep_turns_and_the_end_and_say_which_is_next() -> None:
+    from console.path_corners import PathCorners
+
+    plan = Plan.from_paths([
+        [(0, 0), (1, 0), (2, 0), (2, 0), (2, 1), (2, 2), (1, 2)],  # right, wait, up, left
+        [(5, 5), (5, 6), (5, 5), (5, 6)],  # shuttles: every cell a corner
+        [(9, 9)],  # never moves
+    ])
+    corners = PathCorners(plan)
+    assert corners.ahead(0, 0, 10).tolist() == [[2, 0], [2, 2], [1, 2]]
+    assert corners.ahead(1, 0, 10).tolist() == [[5, 6], [5, 5], [5, 6]]
+    assert corners.ahead(2, 0, 10).tolist() == [[9, 9]]
+    k = corners.next_index(2.5)  # agent 0 waits on the corner (2, 0), reached at t=2
+    assert k.tolist() == [1, 2, 1]
+    assert corners.targets(k).tolist() == [[2, 2], [5, 6], [9, 9]]
+    assert corners.ahead(0, 1, 1).tolist() == [[2, 2]]

@@ -17,6 +17,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from ..fleet_state import FleetState
+from ..path_corners import PathCorners
 from ..scene import Scene
 from ..view_options import LINE_NONE, LINE_PATH, ViewOptions
 from ..viewport import Viewport
@@ -24,6 +25,8 @@ from ..viewport import Viewport
 OUTLINE = "#1e1e1e"
 SELECTED_OUTLINE = "#000000"
 RING = "#ffffff"
+#: A remaining path shows at most this many turns ahead (a long shuttle would be thousands).
+MAX_TAIL_CORNERS = 64
 
 
 def disc_radius(cell: float) -> float:
@@ -59,7 +62,8 @@ class AgentLayer:
         self._xy = np.full((n, 2), np.nan)
         self._at_goal = np.zeros(n, dtype=bool)
         self._shown = np.ones(n, dtype=bool)
-        self._step: Optional[int] = None
+        self.corners = PathCorners(self.plan) if self.plan is not None else None
+        self._next = np.full(n, -1, dtype=np.int64)  # next corner index each tail was drawn for
         self._state: Optional[FleetState] = None
         self.view: Optional[Viewport] = None
         self.options = ViewOptions()
@@ -96,10 +100,12 @@ class AgentLayer:
             sel = options.selected
             c.itemconfigure(self.disc_items[sel], outline=SELECTED_OUTLINE, width=max(2, round(0.22 * r)))
             c.itemconfigure(self.line_items[sel], width=2)
+            if options.lines != LINE_PATH and self.corners is not None:
+                c.itemconfigure(self.line_items[sel], state=tk.HIDDEN)  # its path replaces the line
             c.tag_raise("a%d" % sel)
         self._sync_ids()
         self._xy[:] = np.nan
-        self._step = None
+        self._next[:] = -1
         if self._state is not None:
             self.update(self._state)
 
@@ -144,15 +150,16 @@ class AgentLayer:
         if view is None:
             return
         xy = view.to_canvas_array(state.positions)
-        step = min(state.step, self.plan.makespan) if self.plan is not None else 0
-        step_changed = step != self._step
         moved = ~(np.abs(xy - self._xy) < 0.05).all(axis=1)
-        if step_changed and self.options.lines == LINE_PATH:
-            moved[:] = True  # every head segment points to a new next cell
+        nxt = self._next
+        if self.corners is not None:
+            nxt = self.corners.next_index(state.time)
+            if self.options.lines == LINE_PATH:
+                moved |= nxt != self._next  # the head segment points to a new corner
         idx = np.nonzero(moved & self._shown)[0]
         script: List[str] = []
         if idx.size:
-            self._move(idx, xy, state, step, script)
+            self._move(idx, xy, state, nxt, script)
             self._xy[idx] = xy[idx]
         at_goal = np.all(state.positions == self.goals, axis=1) & self._shown
         for i in np.nonzero(at_goal != self._at_goal)[0].tolist():
@@ -160,11 +167,9 @@ class AgentLayer:
                 self._w, self.ring_items[i], "normal" if at_goal[i] else "hidden"))
         self._at_goal = at_goal
         self._eval(script)
-        if step_changed:
-            self._step = step
-            self._update_tails(step)
+        self._update_tails(nxt, xy, moved)
 
-    def _move(self, idx: np.ndarray, xy: np.ndarray, state: FleetState, step: int,
+    def _move(self, idx: np.ndarray, xy: np.ndarray, state: FleetState, nxt: np.ndarray,
               script: List[str]) -> None:
         w, r = self._w, self.radius
         pts = xy[idx].tolist()
@@ -172,9 +177,8 @@ class AgentLayer:
         for i, (x, y) in zip(ids, pts):
             script.append("%s coords %d %.1f %.1f %.1f %.1f" % (w, self.disc_items[i], x - r, y - r, x + r, y + r))
         if self.options.lines != LINE_NONE:
-            if self.options.lines == LINE_PATH and self.plan is not None:
-                nxt = self.plan.positions[min(step + 1, self.plan.makespan)]
-                ends = self.view.to_canvas_array(nxt[idx]).tolist()
+            if self.options.lines == LINE_PATH and self.corners is not None:
+                ends = self.view.to_canvas_array(self.corners.targets(nxt)[idx]).tolist()
             else:
                 ends = self.view.to_canvas_array(self.goals[idx]).tolist()
             for i, (x, y), (ex, ey) in zip(ids, pts, ends):
@@ -192,25 +196,35 @@ class AgentLayer:
                 script.append("%s coords %d %.1f %.1f %.1f %.1f" % (
                     w, self.heading_items[i], x + 0.3 * r * dx, y + 0.3 * r * dy, x + r * dx, y + r * dy))
 
-    def _update_tails(self, step: int) -> None:
-        if self.plan is None or self.view is None:
+    def _update_tails(self, nxt: np.ndarray, xy: np.ndarray, moved: np.ndarray) -> None:
+        """Redraw the polylines of the agents that passed a corner since they were drawn.
+
+        In path mode the agent's line item is the segment to its next corner; a
+        highlighted agent in the other modes gets that segment in its polyline,
+        which then follows the agent every frame.
+        """
+        if self.corners is None or self.view is None:
             return
         c = self.canvas
-        for i in range(self.scene.num_agents):
+        redraw = set(np.nonzero(nxt != self._next)[0].tolist())
+        sel = self.options.selected
+        own_head = sel is not None and self.options.lines != LINE_PATH and 0 <= sel < len(nxt)
+        if own_head and moved[sel]:
+            redraw.add(sel)
+        for i in sorted(redraw):
             if not self._wants_tail(i):
                 continue
-            path = self.plan.positions[step + 1:, i]
-            if len(path) > 1:
-                keep = np.concatenate(([True], np.any(path[1:] != path[:-1], axis=1)))
-                path = path[keep]
+            points = self.view.to_canvas_array(self.corners.ahead(i, int(nxt[i]), MAX_TAIL_CORNERS))
+            if own_head and i == sel:
+                points = np.vstack([xy[i:i + 1], points])
             item = self.tail_items.get(i)
-            if len(path) < 2:
+            if len(points) < 2:
                 if item is not None:
                     c.itemconfigure(item, state=tk.HIDDEN)
                 continue
-            flat = self.view.to_canvas_array(path).ravel().tolist()
+            flat = points.ravel().tolist()
             if item is None:
-                width = 2 if self.options.selected == i else 1
+                width = 2 if sel == i else 1
                 item = c.create_line(*flat, fill=self.scene.colours[i], width=width,
                                      tags=("tail", "a%d" % i))
                 c.tag_lower(item, "disc")
@@ -218,6 +232,7 @@ class AgentLayer:
             else:
                 c.coords(item, *flat)
                 c.itemconfigure(item, state=tk.NORMAL)
+        self._next = nxt.copy()
 
     # -- hit test ----------------------------------------------------------------------
 

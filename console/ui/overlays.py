@@ -41,6 +41,13 @@ class HeaderBand:
 
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
         self.canvas.coords(self.band, -1, -1, view.canvas_w + 1, HEADER_HEIGHT)
+        for size in (12, 11, 10):  # the largest font that fits the canvas's width
+            font = ("DejaVu Sans", -size)
+            self.canvas.itemconfigure(self.line1, font=font)
+            self.canvas.itemconfigure(self.line2, font=font)
+            box = self.canvas.bbox(self.line1)
+            if box is None or box[2] <= view.canvas_w - 4:
+                break
 
     def set_status(self, status: str, makespan: int) -> None:
         """The right part of line 2 (play state, speed, orientation)."""
