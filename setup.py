@@ -24,7 +24,6 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
     "console": ".",
-    "console": ".",
 }
 
 #: Data files shipped inside packages (globs relative to the package folder).
@@ -62,7 +61,6 @@ setup(
         "numpy>=1.24,<3",
         "pyyaml>=6,<7",
         "networkx>=3,<4",
-        "Pillow>=9.4,<14",
         "Pillow>=9.4,<14",
         "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
     ],
