@@ -304,3 +304,37 @@ def test_instance_shows_agents_on_starts_and_disables_playing(root: tk.Tk, share
     press(app, "Right")
     assert app.clock.time == 0.0
     assert "disabled" in app.controls.time.state()
+
+
+def test_speed_loop_reset_and_the_time_slider(root: tk.Tk, shared_data: Path) -> None:
+    app = open_player(root, scene_from_solution(shared_data / ECBS))
+    speed = app.clock.speed
+    press(app, "Up", 2)
+    assert app.clock.speed == pytest.approx(speed * 2)
+    assert "{:g} steps/s".format(speed * 2) in app.controls.speed_label.cget("text")
+    press(app, "l")
+    assert not app.clock.loop and not app.controls.loop.get()
+    app.controls.time.set(7.0)  # the user drags the time-step slider
+    root.update()
+    assert app.clock.time == pytest.approx(7.0)
+    press(app, "r")
+    assert app.clock.time == 0.0
+    press(app, "End")
+    assert app.clock.time == 43.0
+
+
+def test_headings_are_drawn_as_a_tick_towards_where_the_robot_faces(root: tk.Tk, tmp_path: Path) -> None:
+    from fleet_common.plan import Orientation
+
+    grid = Grid(np.ones((4, 4), dtype=bool))
+    write_map(map_from_grid(grid), str(tmp_path / "four.map"))
+    plan = Plan(np.array([[[1, 1]], [[2, 1]], [[2, 2]]]),
+                np.array([[Orientation.X_PLUS], [Orientation.X_PLUS], [Orientation.Y_PLUS]]))
+    write_solution(make_solution(grid, "four.map", plan, plan.starts, plan.goals, "hand", True, 0),
+                   str(tmp_path / "headings.txt"))
+    app = open_player(root, scene_from_solution(tmp_path / "headings.txt"))
+    x0, y0, x1, y1 = app.canvas.coords(app.agents.heading_items[0])
+    assert x1 > x0 and y1 == pytest.approx(y0)  # facing +x: to the right
+    press(app, "End")
+    x0, y0, x1, y1 = app.canvas.coords(app.agents.heading_items[0])
+    assert y1 < y0 and x1 == pytest.approx(x0)  # facing +y: up the screen in the lab view

@@ -17,6 +17,7 @@ from ..view_options import LINE_LABELS
 from . import capture
 from .help_window import show_keys
 from .map_view import PAN_STEP, ZOOM_STEP
+from .overlays import MIN_ID_CELL
 
 if TYPE_CHECKING:
     from .app import PlayerApp
@@ -123,6 +124,8 @@ class PlayerActions:
     def do_ids(self: "PlayerApp") -> None:
         self.options.ids = not self.options.ids
         self.relayout()
+        if self.options.ids and self.map.view.cell < MIN_ID_CELL:
+            self.status.set("cell ids show when cells are {:g} px or more: zoom in (i)".format(MIN_ID_CELL))
 
     def do_grid(self: "PlayerApp") -> None:
         self.options.grid_lines = not self.options.grid_lines

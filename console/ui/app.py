@@ -144,10 +144,13 @@ class PlayerApp(PlayerActions):
         self.state = state
         for layer in self.layers:
             layer.update(state)
+        self._show_controls()
+        if self.clock is not None and was_playing != self.clock.playing:
+            self._status_changed()
+
+    def _show_controls(self) -> None:
         if self.clock is not None and self.controls is not None:
             self.controls.show(self.clock.time, self.clock.playing, self.clock.speed, self.clock.loop)
-            if was_playing != self.clock.playing:
-                self._status_changed()
 
     def relayout(self) -> None:
         """Place every item again (the view or the options changed)."""
@@ -185,6 +188,7 @@ class PlayerApp(PlayerActions):
                       "loop" if self.clock.loop else "no loop"]
         parts.append(orientation.DESCRIPTIONS[self.options.orientation])
         self.header.set_status(SEPARATOR.join(parts), self.scene.makespan)
+        self._show_controls()
 
     def _fill_conflicts(self) -> None:
         h = self.scene.grid.height
