@@ -10,9 +10,12 @@ split by what changes together:
   plan and a clock, `QueueSource` for states put on a queue by another
   thread), `viewport` and `orientation` (cells to pixels), `view_options`,
   `conflicts`, `palette`, `keys` (the key table the bindings and the Help
-  menu share) and `background` (the map picture as pixels);
+  menu share), `background` (the map picture as pixels) and `path_corners`
+  (remaining paths as polylines);
 - `ui`: the Tk views, small classes on one canvas, run on the main thread
-  only; a 33 ms `after()` loop polls the source and moves canvas items.
+  only; a 33 ms `after()` loop polls the source and moves canvas items;
+- `player` opens the window or renders a PNG (`--screenshot`), on a private
+  X server from `xvfb` when there is no display.
 
 The console imports fleet_common only, never the manager's internals.
 """

@@ -99,8 +99,11 @@ def conflict_solution(tmp_path: Path) -> Path:
 def test_step_to_10_puts_every_agent_on_its_planned_cell(root: tk.Tk, shared_data: Path) -> None:
     scene = scene_from_solution(shared_data / ECBS)
     app = open_player(root, scene)
+    items_before = app.canvas.find_all()
     press(app, "Right", 10)
     assert app.clock.time == 10.0
+    # the same canvas items, moved: nothing was deleted and drawn again
+    assert app.canvas.find_all() == items_before
     centres = disc_centres(app)
     np.testing.assert_allclose(centres, expected_centres(app, scene.plan.positions[10]), atol=0.11)
     assert "t = 10.00 / 43" in app.header.text()

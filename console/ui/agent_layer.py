@@ -6,7 +6,8 @@ picks the agents whose centre moved, and sends the new coordinates to Tk as
 one Tcl script (one `coords` command per item), which is what keeps hundreds
 of moving agents smooth: per-item Python calls into Tk would cost more than
 drawing. The at-goal ring sits still on the goal and is only shown or hidden;
-the remaining-path polylines change only when the time step changes.
+the remaining-path polylines (`console.path_corners`) change only when an
+agent passes a turn.
 """
 from __future__ import annotations
 

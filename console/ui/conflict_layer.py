@@ -29,7 +29,6 @@ class ConflictLayer:
         self._hi = np.array([e.window[1] for e in self.entries], dtype=np.float64)
         self._on = np.zeros(len(self.entries), dtype=bool)
         self._picked: Optional[ConflictEntry] = None
-        self._time = 0.0
         self._width = 2
 
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
