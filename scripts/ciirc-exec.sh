@@ -11,7 +11,7 @@ APT_PACKAGES=(
   ros-std-msgs ros-geometry-msgs ros-nav-msgs ros-sensor-msgs
   python3-std-msgs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
   python3-tk xvfb fonts-dejavu-core python3-venv python3-dev build-essential cmake
-  python3-zmq
+  python3-zmq iproute2
 )
 
 # Debian's interpreter, not whatever python3 is first on PATH: rospy lives in its
