@@ -7,6 +7,7 @@ top), not by calling the code under test to place them.
 """
 from __future__ import annotations
 
+import gc
 import os
 import threading
 import time
@@ -55,6 +56,9 @@ def root(display: str) -> Iterator[tk.Tk]:
     finally:
         if window.winfo_exists():
             window.destroy()
+        # Tk objects left in reference cycles must die on this (Tk's) thread, not in
+        # whatever thread the garbage collector next happens to run on
+        gc.collect()
 
 
 def open_player(root: tk.Tk, scene: Scene, **kw: object) -> PlayerApp:
