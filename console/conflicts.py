@@ -54,7 +54,7 @@ class ConflictEntry:
         if f.cell is not None:
             where = " at ({}, {})".format(*shown_cell(f.cell, height, view, file_orientation))
         who = ", ".join(str(a) for a in f.agents)
-        return "t={:<4d} {:<9s} agents {}{}".format(f.timestep, kind, who, where)
+        return "t={:<4d} {:<7s} {}{}".format(f.timestep, kind, who, where)
 
 
 def conflict_entries(findings: Sequence[Finding]) -> List[ConflictEntry]:

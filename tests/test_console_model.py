@@ -240,7 +240,7 @@ def test_conflicts_are_listed_in_time_order_with_where_to_jump(tmp_path: Path) -
     assert vertex.jump_time == 1.0 and vertex.cell == (1, 1) and vertex.agents == (0, 1)
     h = scene.grid.height
     assert vertex.label(h, orientation.LAB, scene.file_orientation).split() == \
-        ["t=1", "vertex", "agents", "0,", "1", "at", "(1,", "1)"]
+        ["t=1", "vertex", "0,", "1", "at", "(1,", "1)"]
     assert next_entry(entries, 0.5, 1) == 1
     assert next_entry(entries, 1.0, 1) == 0  # wraps around
     assert next_entry(entries, 0.0, -1) == 1

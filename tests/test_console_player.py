@@ -176,7 +176,10 @@ def test_conflicts_are_listed_marked_and_a_click_jumps_there(root: tk.Tk, tmp_pa
     app = open_player(root, scene)
     items = app.conflict_list.items()
     assert len(items) == 2 and "swap" in items[0] and "vertex" in items[1]
-    assert "(1, 1)" in items[1]
+    assert "(1, 1)" in items[1] and items[0].endswith("at (1, 0)")
+    press(app, "m")  # mapf-IR's coordinates: the file's rows count from the top of the 3-row map
+    assert app.conflict_list.items()[0].endswith("at (1, 2)")
+    press(app, "m")
     assert "Conflicts and errors (2)" in app.conflict_list.title.cget("text")
     app.conflict_list.listbox.selection_set(1)
     app.conflict_list.listbox.event_generate("<<ListboxSelect>>")

@@ -48,7 +48,8 @@ class PlayerActions:
             self.map.view.centre_on(*entry.cell)
             self.map.changed()
         self.select(entry.agents[0] if entry.agents else None)
-        self.status.set(entry.finding.message)
+        self.status.set("{}: {}".format(entry.finding.kind, entry.label(
+            self.scene.grid.height, self.options.orientation, self.scene.file_orientation)))
         self._clock_changed()
 
     def _pick_agent(self: "PlayerApp", index: Optional[int]) -> None:
