@@ -1,7 +1,8 @@
 """Action Dependency Graph: actions from plans, type-1/type-2 edges, plan errors.
 
-Random plans come from the built-in solvers on small crowded grids, so they are
-full of following moves and, now and then, rotations. A brute-force oracle
+Random plans come from the built-in solvers on small crowded grids, with
+mapf-IR's semantics (rotations allowed), so they are full of following moves
+and, now and then, rotations. A brute-force oracle
 (all pairs of visits per cell, reachability by search, cycles by walking each
 step's following moves) checks what the per-cell visit index builds.
 """
@@ -19,6 +20,7 @@ from fleet_common.execution.errors import JUMP, ROTATION, SWAP, VERTEX
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import InvalidProblemError, solve
+from fleet_common.validate import ROTATION as VALIDATOR_ROTATION, validate_plan
 
 # the module docstring's worked example
 EXAMPLE = Plan.from_paths([[(0, 0), (1, 0), (2, 0), (3, 0), (3, 0)],
@@ -116,7 +118,9 @@ def crowded_plans(draw):
     starts = [cells[i] for i in rng.permutation(len(cells))[:n]]
     goals = [cells[i] for i in rng.permutation(len(cells))[:n]]
     try:
-        result = solve(draw(st.sampled_from(["pibt", "lacam"])), grid, starts, goals, deadline=2.0)
+        solver = draw(st.sampled_from(["pibt", "lacam"]))
+        limits = {"max_timestep": 300} if solver == "pibt" else {}  # where PIBT cycles, give up soon
+        result = solve(solver, grid, starts, goals, deadline=2.0, rotations=True, **limits)
     except InvalidProblemError:  # a goal walled off from its start
         assume(False)
     assume(result.solved)
@@ -184,6 +188,19 @@ def test_adg_orders_every_pair_of_visits_to_a_cell_and_has_no_cycle(plan):
                 assert leave_u >= 0 and leave_u < arrive_v  # the plan is valid
                 enter_v = action(rv, arrive_v - 1)
                 assert _reaches(succ, action(ru, leave_u), enter_v), (cell, ru, rv)
+
+
+@settings(max_examples=60, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@given(plan=crowded_plans())
+def test_the_engine_refuses_exactly_the_rotations_the_validator_reports(plan):
+    grid = Grid(np.ones((8, 8), dtype=bool))  # crowded plans live on at most 6 x 6 cells
+    reported = {(f.timestep - 1, f.agents) for f in validate_plan(plan, grid).of_kind(VALIDATOR_ROTATION)}
+    try:
+        Engine(plan)
+    except PlanError as err:
+        assert err.kind == ROTATION and (err.step, err.agents) in reported
+        return
+    assert not reported
 
 
 def _assert_acyclic(succ: Dict[int, Set[int]]) -> None:

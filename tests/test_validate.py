@@ -2,16 +2,21 @@
 from __future__ import annotations
 
 import random
+import subprocess
+import sys
 from typing import List
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import HealthCheck, assume, given, settings, strategies as st
 
+from fleet_common.formats.mapfile import map_from_grid, write_map
+from fleet_common.formats.solution import make_solution, write_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
-from fleet_common.validate import (BLOCKED, FOLLOWING, GOAL, JUMP, MAKESPAN, OFF_MAP, SOC, START,
-                                   SWAP, VERTEX, validate_plan)
+from fleet_common.planning import InvalidProblemError, solve
+from fleet_common.validate import (BLOCKED, FOLLOWING, GOAL, JUMP, MAKESPAN, OFF_MAP, ROTATION, SOC,
+                                   START, SWAP, VERTEX, validate_plan)
 
 OPEN = Grid(np.ones((5, 6), dtype=bool))
 
@@ -51,6 +56,48 @@ def test_a_rotation_cycle_is_following_not_swap():
     paths = [[cycle[i], cycle[(i + 1) % 4]] for i in range(4)]
     report = validate_plan(Plan.from_paths(paths), OPEN)
     assert report.ok and len(report.of_kind(FOLLOWING)) == 4
+    assert not report.of_kind(SWAP) and len(report.of_kind(ROTATION)) == 1
+
+
+SQUARE = [(2, 2), (3, 2), (3, 3), (2, 3)]
+
+
+def rotating_plan(t: int = 1) -> Plan:
+    """Agents 3, 1, 4, 2 sit on SQUARE's corners in that order and, from step t, each takes the next one."""
+    owners = [3, 1, 4, 2]
+    paths = [[(0, 0)] * (t + 2)] + [None] * 4  # type: ignore[list-item]
+    for k, agent in enumerate(owners):
+        paths[agent] = [SQUARE[k]] * (t + 1) + [SQUARE[(k + 1) % 4]]
+    return Plan.from_paths(paths)
+
+
+def test_a_rotation_is_information_naming_the_agents_in_cycle_order_and_the_step():
+    report = validate_plan(rotating_plan(t=1), OPEN)
+    assert report.ok and report.count(ROTATION) == 1
+    f = report.of_kind(ROTATION)[0]
+    # agent 1 enters the cell agent 4 leaves, 4 agent 2's, 2 agent 3's, 3 agent 1's: from the smallest
+    assert f.severity == "info" and f.agents == (1, 4, 2, 3) and f.timestep == 2
+    assert f.cell == SQUARE[2]
+    assert f.message == ("rotation at t=1->2: agents 1, 4, 2, 3 each enter the cell the next one leaves "
+                         "((3, 3), (2, 3), (2, 2), (3, 2)); legal in mapf-IR, but robots cannot execute it")
+
+
+def test_a_rotation_is_an_error_when_strict_and_speaks_in_the_callers_frame():
+    for strict in ({"strict_rotations": True}, {"strict_following": True}):
+        report = validate_plan(rotating_plan(), OPEN, show=OPEN.flip_y, **strict)
+        rotation = [f for f in report.errors if f.kind == ROTATION]
+        assert not report.ok and len(rotation) == 1 and rotation[0].agents == (1, 4, 2, 3)
+        assert "((3, 1), (2, 1), (2, 2), (3, 2)); robots cannot execute it" in rotation[0].message
+    relaxed = validate_plan(rotating_plan(), OPEN, strict_rotations=False)
+    assert relaxed.ok and relaxed.infos
+
+
+def test_an_open_chain_and_a_swap_are_not_rotations():
+    chain = Plan.from_paths([[(x, 0), (x + 1, 0)] for x in range(4)])  # the leader enters a free cell
+    report = validate_plan(chain, OPEN, strict_rotations=True)
+    assert report.ok and report.count(FOLLOWING) == 3 and report.count(ROTATION) == 0
+    swap = validate_plan(Plan.from_paths([[(0, 0), (1, 0)], [(1, 0), (0, 0)]]), OPEN, strict_rotations=True)
+    assert [f.kind for f in swap.errors] == [SWAP]
 
 
 def test_cells_off_the_map_blocked_and_jumps():
@@ -216,3 +263,122 @@ def test_large_random_plan_findings_match_a_naive_checker(agents, steps):
                     swaps.add((t + 1, min(i, j), max(i, j)))
     assert {(f.timestep, f.agents) for f in report.of_kind(VERTEX)} == vertex
     assert {(f.timestep,) + f.agents for f in report.of_kind(SWAP)} == swaps
+
+
+# ---- rotations: injected ones are found, a naive checker agrees ------------------------------
+
+def naive_rotations(plan: Plan) -> set:
+    """(step, agents from the smallest, in cycle order) of every rotation, by walking each mover."""
+    found = set()
+    pos = plan.positions
+    for t in range(plan.makespan):
+        at = {tuple(p): i for i, p in enumerate(pos[t].tolist())}
+        follows = {}
+        for i in range(plan.num_agents):
+            j = at.get(tuple(pos[t + 1, i].tolist()))
+            if j is not None and j != i and (pos[t + 1, j] != pos[t, j]).any():
+                follows[i] = j
+        for i in follows:
+            cycle, k = [i], follows[i]
+            while k != i and k in follows and len(cycle) <= plan.num_agents:
+                cycle.append(k)
+                k = follows[k]
+            if k == i and len(cycle) >= 3 and i == min(cycle):
+                found.add((t + 1, tuple(cycle)))
+    return found
+
+
+def ring(x0: int, y0: int, w: int, h: int) -> List[Coord]:
+    """The border cells of a w x h rectangle, in order round it."""
+    return ([(x0 + i, y0) for i in range(w - 1)] + [(x0 + w - 1, y0 + j) for j in range(h - 1)]
+            + [(x0 + w - 1 - i, y0 + h - 1) for i in range(w - 1)] + [(x0, y0 + h - 1 - j) for j in range(h - 1)])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_injected_rotations_are_found_and_a_gap_in_the_ring_makes_none(data):
+    """A full ring of agents each stepping on is one rotation; with one cell empty it is a chain."""
+    gw, gh = data.draw(st.integers(2, 8)), data.draw(st.integers(2, 8))
+    grid = Grid(np.ones((gh, gw), dtype=bool))
+    w, h = data.draw(st.integers(2, gw)), data.draw(st.integers(2, gh))
+    x0, y0 = data.draw(st.integers(0, gw - w)), data.draw(st.integers(0, gh - h))
+    cells = ring(x0, y0, w, h)
+    if data.draw(st.booleans()):
+        cells.reverse()
+    gap = data.draw(st.booleans())
+    k = len(cells)
+    moving = [[cells[i], cells[(i + 1) % k]] for i in range(k - 1 if gap else k)]
+    outside = [c for c in grid.free_cells() if c not in cells]
+    idle = data.draw(st.lists(st.sampled_from(outside), unique=True, max_size=4)) if outside else []
+    paths = moving + [[c, c] for c in idle]
+    order = data.draw(st.permutations(range(len(paths))))  # agent order[m] walks paths[m]
+    plan = Plan.from_paths([paths[order.index(a)] for a in range(len(paths))])
+    report = validate_plan(plan, grid, max_findings_per_kind=10 ** 9)
+    assert report.ok
+    rotations = report.of_kind(ROTATION)
+    if gap:
+        assert not rotations and report.count(FOLLOWING) == k - 2
+        return
+    assert len(rotations) == 1 and rotations[0].timestep == 1
+    agents = rotations[0].agents
+    expected = [order[m] for m in range(k)]  # ring order: each enters the cell the next one leaves
+    start = expected.index(min(expected))
+    assert list(agents) == expected[start:] + expected[:start]
+    assert {(f.timestep, f.agents) for f in rotations} == naive_rotations(plan)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@given(st.integers(0, 2 ** 32 - 1), st.sampled_from(["pibt", "lacam"]))
+def test_rotations_of_crowded_mapf_ir_plans_match_a_naive_checker(seed, solver):
+    """Plans with mapf-IR's semantics on small crowded maps are full of rotations (and some have none)."""
+    rng = np.random.default_rng(seed)
+    w, h = int(rng.integers(3, 7)), int(rng.integers(3, 7))
+    grid = Grid(rng.random((h, w)) > 0.1)
+    cells = list(grid.free_cells())
+    n = int(rng.integers(2, max(3, len(cells))))
+    assume(len(cells) > n)
+    starts = [cells[i] for i in rng.permutation(len(cells))[:n]]
+    goals = [cells[i] for i in rng.permutation(len(cells))[:n]]
+    limits = {"max_timestep": 300} if solver == "pibt" else {}  # where PIBT cycles, give up soon
+    try:
+        result = solve(solver, grid, starts, goals, deadline=2.0, seed=seed, rotations=True, **limits)
+    except InvalidProblemError:
+        assume(False)
+    assume(result.solved)
+    report = validate_plan(result.plan, grid, max_findings_per_kind=10 ** 9)
+    assert report.ok
+    assert {(f.timestep, f.agents) for f in report.of_kind(ROTATION)} == naive_rotations(result.plan)
+    strict = validate_plan(result.plan, grid, strict_rotations=True)
+    assert strict.ok == (report.count(ROTATION) == 0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(valid_plans())
+def test_random_walks_have_the_rotations_a_naive_checker_finds(case):
+    grid, plan = case
+    report = validate_plan(plan, grid, max_findings_per_kind=10 ** 9)
+    assert {(f.timestep, f.agents) for f in report.of_kind(ROTATION)} == naive_rotations(plan)
+
+
+def test_fleetctl_validate_counts_rotations_and_refuses_them_when_strict(tmp_path):
+    grid = Grid(np.ones((5, 6), dtype=bool), name="open.map")
+    write_map(map_from_grid(grid), tmp_path / "open.map")
+    plan = rotating_plan()
+    sol = make_solution(grid, "open.map", plan, plan.starts, plan.goals, solver="hand", solved=True, comp_time=0)
+    path = tmp_path / "plan.txt"
+    write_solution(sol, path)
+
+    def validate(*options: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "fleetctl", "validate", str(path), *options],
+                              capture_output=True, text=True, timeout=60)
+
+    relaxed = validate()
+    assert relaxed.returncode == 0, relaxed.stdout + relaxed.stderr
+    assert relaxed.stdout.strip().endswith(
+        "(4 following moves, legal in mapf-IR; 1 rotations: robots cannot execute these)")
+    strict = validate("--strict-rotations")
+    assert strict.returncode == 1
+    # the file's own frame: y flipped on the 5-row map
+    assert "{}: error: rotation at t=1->2: agents 1, 4, 2, 3 each enter the cell the next one leaves " \
+           "((3, 1), (2, 1), (2, 2), (3, 2))".format(path) in strict.stdout
+    assert "INVALID: 1 problem(s)" in strict.stdout

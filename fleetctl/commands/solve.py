@@ -9,6 +9,7 @@ from typing import List, Tuple
 from fleet_common.errors import FleetError
 from fleet_common.formats.instance import Instance, read_instance
 from fleet_common.formats.solution import format_solution, make_solution, write_solution
+from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import SOLVER_NAMES, solve
 from fleet_common.planning.deadline import Deadline
@@ -16,6 +17,7 @@ from fleet_common.planning.dist_table import lower_bounds
 from fleet_common.planning.mapf_ir import APP_ENV, MapfIrFailed, MapfIrSolver
 from fleet_common.planning.problem import check_problem
 from fleet_common.planning.result import SolveResult
+from fleet_common.validate import ROTATION, validate_plan
 
 from .. import filekinds
 from ..options import add_map_dir, map_dirs
@@ -38,7 +40,10 @@ DESCRIPTION = (
     "(prioritized planning), or mapf-ir:NAME to run mapf-IR's solver NAME (PIBT, CBS, ECBS, "
     "IR_HYBRID, ...) with the binary from --mapf-ir or ${}; options after `--` go to it "
     "unchanged, e.g. `-s mapf-ir:ECBS -- -w 1.2`. The time limit defaults to the instance's "
-    "max_comp_time, else {:.0f} s; the seed to the instance's seed, else 0. Exit 0 with a plan; "
+    "max_comp_time, else {:.0f} s; the seed to the instance's seed, else 0. The built-in solvers "
+    "plan for robots: no rotations (3 or more agents each entering the cell the next one leaves, "
+    "which robots cannot execute) unless --allow-rotations asks for mapf-IR's semantics; a plan "
+    "with rotations (from mapf-IR) says how many in the summary. Exit 0 with a plan; "
     "3 when no plan was found within the limit (a failed output, solved=0 and makespan=-1, is "
     "still written); 1 when mapf-IR failed; 2 for unreadable input (FILE:LINE: message), an "
     "invalid problem (the agent named) or a wrong command line."
@@ -64,6 +69,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds (default: the instance's max_comp_time, else {:.0f})".format(
                             DEFAULT_TIME_LIMIT_S))
     parser.add_argument("--seed", type=int, metavar="N", help="random seed (default: the instance's seed, else 0)")
+    parser.add_argument("--allow-rotations", action="store_true",
+                        help="built-in solvers: allow rotations, as mapf-IR does (robots cannot execute "
+                             "them; default: rotation-free plans)")
     add_map_dir(parser)
     parser.add_argument("--map", type=Path, metavar="MAP", help=".scen input: the map (default: the scen's map name, searched)")
     parser.add_argument("--agents", type=int, metavar="N", help=".scen input: use the first N entries (default: all)")
@@ -110,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
             result.comp_time_ms, " ({})".format(result.message) if result.message else "", where),
             file=sys.stderr)
         return 3
-    print(_summary(result, result.plan, lb_soc, lb_makespan, where),
+    print(_summary(result, result.plan, grid, lb_soc, lb_makespan, where),
           file=sys.stderr if to_stdout else sys.stdout)
     return 0
 
@@ -142,6 +150,9 @@ def _load(args: argparse.Namespace) -> Tuple[Instance, str]:
 
 def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int) -> SolveResult:
     if args.solver.startswith(MAPF_IR_PREFIX):
+        if args.allow_rotations:
+            raise FleetError("--allow-rotations is for the built-in solvers; mapf-IR's solvers always "
+                             "allow rotations")
         adapter = MapfIrSolver(args.mapf_ir, map_dir=args.mapf_ir_map_dir, timeout_s=limit)
         return adapter.solve(inst.grid, inst.starts, inst.goals, args.solver[len(MAPF_IR_PREFIX):],
                              options=args.passthrough, deadline=Deadline(limit), seed=seed,
@@ -149,9 +160,12 @@ def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int) ->
     if args.passthrough:
         raise FleetError("options after `--` ({}) are for mapf-IR solvers; {} takes none".format(
             " ".join(args.passthrough), args.solver))
-    return solve(args.solver, inst.grid, inst.starts, inst.goals, deadline=Deadline(limit), seed=seed)
+    return solve(args.solver, inst.grid, inst.starts, inst.goals, deadline=Deadline(limit), seed=seed,
+                 rotations=args.allow_rotations)
 
 
-def _summary(result: SolveResult, plan: Plan, lb_soc: int, lb_makespan: int, where: str) -> str:
-    return "solved=1, solver={}, comp_time(ms)={:.0f}, soc={} (LB={}), makespan={} (LB={}) -> {}".format(
-        result.solver, result.comp_time_ms, plan.soc, lb_soc, plan.makespan, lb_makespan, where)
+def _summary(result: SolveResult, plan: Plan, grid: Grid, lb_soc: int, lb_makespan: int, where: str) -> str:
+    rotations = validate_plan(plan, grid).count(ROTATION)
+    note = ", {} rotations (robots cannot execute these)".format(rotations) if rotations else ""
+    return "solved=1, solver={}, comp_time(ms)={:.0f}, soc={} (LB={}), makespan={} (LB={}){} -> {}".format(
+        result.solver, result.comp_time_ms, plan.soc, lb_soc, plan.makespan, lb_makespan, note, where)

@@ -5,18 +5,20 @@ import argparse
 from pathlib import Path
 
 from fleet_common.formats.solution import read_solution
-from fleet_common.validate import validate_plan
+from fleet_common.validate import FOLLOWING, ROTATION, validate_plan
 
 from ..options import add_map_dir, map_dirs
 from ..report import print_findings
 
 NAME = "validate"
-HELP = "check a mapf-IR solution: cells, moves, vertex and swap conflicts, header claims"
+HELP = "check a mapf-IR solution: cells, moves, vertex and swap conflicts, rotations, header claims"
 DESCRIPTION = (
     "Check a solution file against its map. Exit 0 and a summary with soc and makespan when "
     "the plan is valid; exit 1 listing what is wrong (or when the file records a failed run); "
-    "exit 2 with FILE:LINE: message when the file cannot be read. Coordinates in messages are "
-    "the file's own (mapf-IR files: origin top-left)."
+    "exit 2 with FILE:LINE: message when the file cannot be read. Following moves and rotations "
+    "(3 or more agents each entering the cell the next one leaves) are legal in mapf-IR and "
+    "counted in the summary; robots cannot execute a rotation (`fleetctl simulate` refuses it). "
+    "Coordinates in messages are the file's own (mapf-IR files: origin top-left)."
 )
 
 
@@ -25,7 +27,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_map_dir(parser)
     parser.add_argument("--strict-following", action="store_true",
                         help="treat following moves (entering a cell another agent leaves in the "
-                             "same step) as errors; mapf-IR allows them")
+                             "same step) as errors, rotations included; mapf-IR allows them")
+    parser.add_argument("--strict-rotations", action="store_true",
+                        help="treat rotations (3 or more agents each entering the cell the next one "
+                             "leaves, which robots cannot execute) as errors; mapf-IR allows them")
     parser.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
 
 
@@ -39,16 +44,20 @@ def run(args: argparse.Namespace) -> int:
     show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
     report = validate_plan(sol.plan, sol.grid, starts=sol.starts, goals=sol.goals,
                            soc=sol.soc, makespan=sol.makespan,
-                           strict_following=args.strict_following, show=show)
+                           strict_following=args.strict_following,
+                           strict_rotations=args.strict_rotations, show=show)
     if not args.quiet:
         print_findings(name, report)
     plan = sol.plan
     if report.ok:
-        notes = ""
-        if report.infos:
-            notes = " ({} following moves, legal in mapf-IR)".format(len(report.infos))
+        notes = []
+        following, rotations = report.count(FOLLOWING), report.count(ROTATION)
+        if following:
+            notes.append("{} following moves, legal in mapf-IR".format(following))
+        if rotations:
+            notes.append("{} rotations: robots cannot execute these".format(rotations))
         print("{}: valid: {} agents, soc={}, makespan={}{}".format(
-            name, plan.num_agents, plan.soc, plan.makespan, notes))
+            name, plan.num_agents, plan.soc, plan.makespan, " ({})".format("; ".join(notes)) if notes else ""))
         return 0
     print("{}: INVALID: {} problem(s) in a plan of {} agents, makespan {}".format(
         name, len(report.errors), plan.num_agents, plan.makespan))

@@ -6,7 +6,10 @@ agents in one cell at one step; swap conflicts: two agents exchanging cells in
 one step) and optionally against the starts, goals, soc and makespan a file
 claims. Following moves (an agent entering a cell that another leaves in the
 same step) are legal in mapf-IR and reported as information unless
-`strict_following` is set.
+`strict_following` is set. So are rotations (3 or more agents each entering
+the cell the next one leaves, a closed chain of following moves; see
+`rotations`), unless `strict_rotations` or `strict_following` is set: robots
+occupy both cells while they move, so they cannot perform one.
 
 Everything is vectorised over the (steps, agents) position array, so plans of
 thousands of agents and steps check in well under a second; Python loops run
@@ -21,6 +24,10 @@ import numpy as np
 
 from .grid import Coord, Grid
 from .plan import Plan
+from .rotations import cycles, follow_links
+
+#: Moves as parallel arrays: (step, from cell, to cell, agent).
+Movers = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 ERROR = "error"
 INFO = "info"
@@ -32,6 +39,7 @@ JUMP = "non-adjacent-move"
 VERTEX = "vertex-conflict"
 SWAP = "swap-conflict"
 FOLLOWING = "following-move"
+ROTATION = "rotation"
 START = "start-mismatch"
 GOAL = "goal-mismatch"
 AGENTS = "agent-count"
@@ -59,6 +67,8 @@ class Report:
     """The findings about one plan, errors first in the order checked."""
 
     findings: List[Finding] = field(default_factory=list)
+    #: findings per kind, including those not listed (past `max_findings_per_kind`)
+    counts: Dict[str, int] = field(default_factory=dict)
 
     @property
     def errors(self) -> List[Finding]:
@@ -74,6 +84,10 @@ class Report:
 
     def of_kind(self, kind: str) -> List[Finding]:
         return [f for f in self.findings if f.kind == kind]
+
+    def count(self, kind: str) -> int:
+        """How many findings of `kind` there are, listed or not."""
+        return self.counts.get(kind, 0)
 
 
 def _cell(pos: np.ndarray) -> Coord:
@@ -92,6 +106,7 @@ def validate_plan(
     soc: Optional[int] = None,
     makespan: Optional[int] = None,
     strict_following: bool = False,
+    strict_rotations: bool = False,
     max_findings_per_kind: int = 1000,
     show: Callable[[Coord], Coord] = _identity,
 ) -> Report:
@@ -118,7 +133,8 @@ def validate_plan(
     if n > 1:
         ids = np.where(inside, pos[:, :, 1].astype(np.int64) * grid.width + pos[:, :, 0], -1 - np.arange(n))
         _check_vertex(ids, pos, add)
-        _check_swaps_and_following(ids, pos, grid, add, strict_following)
+        followers = _check_swaps_and_following(ids, pos, grid, add, strict_following)
+        _check_rotations(followers, pos, n, add, strict_rotations or strict_following)
     _check_endpoints(plan, starts, goals, add)
 
     if makespan is not None and makespan != plan.makespan:
@@ -133,7 +149,7 @@ class _Collector:
         self.show = show
         self.report = report
         self.limit = limit
-        self.counts: Dict[str, int] = {}
+        self.counts = report.counts
 
     def __call__(self, severity: str, kind: str, message: str, timestep: Optional[int] = None,
                  agents: Tuple[int, ...] = (), cell: Optional[Coord] = None) -> None:
@@ -184,10 +200,11 @@ def _check_vertex(ids: np.ndarray, pos: np.ndarray, add: _Collector) -> None:
 
 
 def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add: _Collector,
-                               strict_following: bool) -> None:
+                               strict_following: bool) -> Movers:
+    """Report swaps and following moves; return the following moves (step, from, to, agent)."""
     steps, n = ids.shape
     if steps < 2:
-        return
+        return (np.zeros(0, dtype=np.int64),) * 4
     cells = np.int64(max(grid.num_cells, 1)) + n  # room for the negative off-map ids
     shift = ids + n  # all non-negative
     frm, to = shift[:-1], shift[1:]
@@ -227,6 +244,22 @@ def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add
             continue  # the occupant stayed: already a vertex conflict
         add(severity, FOLLOWING, "following move at t={}->{}: agent {} enters {} as agent {} leaves it".format(
             t, t + 1, i, add.show(_cell(pos[t + 1, i])), j), t + 1, (i, j), _cell(pos[t + 1, i]))
+    chain = follow & ~hit
+    return tm[chain], fm[chain], om[chain], agent_idx[chain]
+
+
+def _check_rotations(followers: Movers, pos: np.ndarray, n: int, add: _Collector, strict: bool) -> None:
+    # only following moves can close a cycle; swaps (2-cycles) are reported above
+    step, src, dst, agent = followers
+    severity, note = (ERROR, "") if strict else (INFO, "legal in mapf-IR, but ")
+    for cycle in cycles(follow_links(step, src, dst), n):
+        if cycle.size < 3:
+            continue
+        t, agents = int(step[cycle[0]]), tuple(int(a) for a in agent[cycle])
+        cells = ", ".join(str(add.show(_cell(pos[t + 1, a]))) for a in agents)
+        add(severity, ROTATION, "rotation at t={}->{}: agents {} each enter the cell the next one leaves "
+            "({}); {}robots cannot execute it".format(t, t + 1, ", ".join(map(str, agents)), cells, note),
+            t + 1, agents, _cell(pos[t + 1, agents[0]]))
 
 
 def _agent_at(row: np.ndarray, cell_id: int, exclude: int) -> int:

@@ -47,7 +47,8 @@ backwards, so a cycle can only join actions of one step through type-2 edges:
 a swap (2 robots) or a rotation (3 or more robots each entering the cell the
 next one leaves). mapf-IR allows rotations, but robots that occupy both cells
 while moving cannot perform one, so either is a `PlanError`. As each action has
-at most one type-2 predecessor, those cycles are found by pointer doubling.
+at most one type-2 predecessor, those cycles are found by pointer doubling,
+by the validator's own cycle finder (`fleet_common.rotations`).
 """
 from __future__ import annotations
 
@@ -56,6 +57,7 @@ from typing import Callable, List
 import numpy as np
 
 from ..grid import Coord
+from ..rotations import cycles
 from .actions import ActionTable
 from .errors import ROTATION, SWAP, VERTEX, PlanError
 
@@ -150,26 +152,14 @@ def _raise_vertex(table: ActionTable, p: np.ndarray, q: np.ndarray, v_robot: np.
 
 def _check_cycles(table: ActionTable, dep: np.ndarray, show: Callable[[Coord], Coord]) -> None:
     step = table.step
-    same = np.nonzero((dep >= 0) & (step[np.maximum(dep, 0)] == step))[0]
-    if same.size == 0:
+    # same-step type-2 edges are following moves: a follows dep[a]; their cycles are swaps and
+    # rotations, found as the validator finds them (fleet_common.rotations)
+    links = np.where((dep >= 0) & (step[np.maximum(dep, 0)] == step), dep, -1)
+    found = cycles(links, table.num_robots)
+    if not found:
         return
-    sink = table.num_actions
-    jump = np.full(sink + 1, sink, dtype=np.int64)
-    jump[same] = dep[same]
-    # a same-step chain has at most one action per robot: after squaring the jump k times
-    # (2^k > robots jumps) every action that is not on a cycle has reached the sink
-    for _ in range(int(table.num_robots).bit_length()):
-        jump = jump[jump]
-    on_cycle = same[jump[same] != sink]
-    if on_cycle.size == 0:
-        return
-    start = int(on_cycle[0])
-    cycle = [start]
-    a = int(dep[start])
-    while a != start:
-        cycle.append(a)
-        a = int(dep[a])
-    t = int(step[start])
+    cycle = found[0].tolist()  # the one with the smallest action: the lowest robot's first
+    t = int(step[cycle[0]])
     agents = [int(table.robot[a]) for a in cycle]
     cells = [table.coord(table.dst[a]) for a in cycle]
     if len(cycle) == 2:

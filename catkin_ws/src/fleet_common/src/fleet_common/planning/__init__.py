@@ -8,6 +8,11 @@ unusable problems before any search (`InvalidProblemError`, naming the agent),
 times the run, and checks every plan with the foundation validator, so a
 solver bug surfaces as a `SolverError`, never as a bad plan.
 
+The solvers plan for robots: their plans have no rotations (3 or more agents
+each entering the cell the next one leaves, which robots occupying both cells
+of a move cannot perform) unless `rotations=True` asks for mapf-IR's
+semantics, where rotations are legal.
+
     pibt   PIBT: fast, hundreds of agents; incomplete
     lacam  LaCAM with PIBT as configuration generator: complete, not optimal
     cbs    Conflict-Based Search: optimal sum of costs, small instances
@@ -41,8 +46,12 @@ class UnknownSolverError(FleetError, ValueError):
 
 
 def solve(name: str, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
-          deadline: Union[None, float, Deadline] = None, seed: int = 0, **options: Any) -> SolveResult:
-    """Run built-in solver `name`; see the module docstring for what is guaranteed."""
+          deadline: Union[None, float, Deadline] = None, seed: int = 0, rotations: bool = False,
+          **options: Any) -> SolveResult:
+    """Run built-in solver `name`; see the module docstring for what is guaranteed.
+
+    `rotations` (default False: plans robots can execute) and `options` go to the solver.
+    """
     solver = SOLVERS.get(name)
     if solver is None:
         raise UnknownSolverError("unknown solver '{}'; built-in solvers are: {}".format(
@@ -53,17 +62,21 @@ def solve(name: str, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]
     check_size(grid, len(set(goals)))
     budget = as_deadline(deadline)
     began = time.perf_counter()
-    result = solver(grid, starts, goals, budget, seed, **options)
+    result = solver(grid, starts, goals, budget, seed, rotations=rotations, **options)
     result.comp_time_ms = (time.perf_counter() - began) * 1000.0
     if result.plan is not None:
-        check_plan(result, grid, starts, goals)
+        check_plan(result, grid, starts, goals, rotations=rotations)
     return result
 
 
 def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
-               label: Optional[str] = None) -> None:
-    """Raise `SolverError` unless `result.plan` is valid and goes from `starts` to `goals`."""
-    report = validate_plan(result.plan, grid, starts=starts, goals=goals)  # type: ignore[arg-type]
+               label: Optional[str] = None, rotations: bool = False) -> None:
+    """Raise `SolverError` unless `result.plan` is valid and goes from `starts` to `goals`.
+
+    With `rotations` False, a rotation in the plan is an error too.
+    """
+    report = validate_plan(result.plan, grid, starts=starts, goals=goals,  # type: ignore[arg-type]
+                           strict_rotations=not rotations)
     if not report.ok:
         errors = report.errors
         raise SolverError("solver '{}' returned an invalid plan ({} problems), first: {}".format(

@@ -11,13 +11,23 @@ cost is the step from which it stays at its goal for good, so a vertex
 constraint on a goal after an agent arrived forces it to arrive later (the
 low level only finishes after the last constraint on the goal). Exponential
 in the number of conflicts: for small instances, within a deadline.
+
+Unless `rotations` is set, a rotation (k >= 3 agents each entering the cell
+the next one leaves in one step; robots cannot perform one) is a conflict
+too. It splits the node in k children, each forbidding one of the agents its
+move of that step (an edge constraint). Every rotation-free plan leaves out at
+least one of those k moves, so it satisfies some child's constraints: CBS
+stays optimal among rotation-free plans.
 """
 from __future__ import annotations
 
 import heapq
 from typing import Dict, List, Optional, Sequence, Tuple
 
+import numpy as np
+
 from ..grid import Coord, Grid
+from ..rotations import step_cycles
 from .cells import moves, plan_from_paths, to_ids
 from .deadline import Deadline
 from .dist_table import dist_lists
@@ -40,7 +50,7 @@ class _Node:
 
 
 def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-        seed: int = 0) -> SolveResult:
+        seed: int = 0, rotations: bool = False) -> SolveResult:
     """Optimal (sum of costs) plan, or "timeout" at the deadline. `seed` is unused: CBS is deterministic."""
     n = len(starts)
     start_ids, goal_ids = to_ids(grid, starts), to_ids(grid, goals)
@@ -55,7 +65,7 @@ def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: D
             else:
                 res.block_move(a, b, t)
         # the other agents' paths are soft: among optimal paths, prefer one that meets them less
-        soft = Reservations(grid.num_cells)
+        soft = Reservations(grid.num_cells, rotations=True)  # cells only: no move chains needed
         for j, p in enumerate(others):
             if j != i and p:
                 soft.add_path(p)
@@ -77,7 +87,7 @@ def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: D
                 return failed(NAME, TIMEOUT, "time limit reached after {} constraint-tree nodes".format(
                     expanded), expanded=expanded)
             _, _, _, node = heapq.heappop(heap)
-            conflict, count = _first_conflict(node.paths)
+            conflict, count = _first_conflict(node.paths, rotations)
             if conflict is None:
                 return solved(plan_from_paths(grid, node.paths), NAME, expanded=expanded)
             expanded += 1
@@ -91,17 +101,32 @@ def cbs(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: D
                 paths[agent] = path
                 child = _Node(cons, paths)
                 counter += 1
-                heapq.heappush(heap, (child.cost, _first_conflict(paths)[1], counter, child))
+                heapq.heappush(heap, (child.cost, _first_conflict(paths, rotations)[1], counter, child))
     except DeadlineReached:
         return failed(NAME, TIMEOUT, "time limit reached after {} constraint-tree nodes".format(expanded),
                       expanded=expanded)
     return failed(NAME, NO_SOLUTION, "every constraint set was tried: no plan exists", expanded=expanded)
 
 
-def _first_conflict(paths: List[List[int]]) -> Tuple[Optional[List[Tuple[int, Constraint]]], int]:
-    """The earliest conflict as (agent, constraint) per side, and how many conflicts there are."""
+def _first_conflict(paths: List[List[int]], rotations: bool) -> Tuple[Optional[List[Tuple[int, Constraint]]], int]:
+    """The earliest conflict as (agent, constraint) per branch, and how many conflicts there are."""
+    first, when, count = _first_vertex_or_swap(paths)
+    if rotations or len(paths) < 3:
+        return first, count
+    steps = max(len(p) for p in paths)
+    ids = np.array([p + [p[-1]] * (steps - len(p)) for p in paths], dtype=np.int64).T
+    found = step_cycles(ids, min_length=3)
+    if found and found[0][0] + 1 < when:
+        t, agents = found[0]
+        first = [(i, (t + 1, int(ids[t, i]), int(ids[t + 1, i]))) for i in agents]
+    return first, count + len(found)
+
+
+def _first_vertex_or_swap(paths: List[List[int]]) -> Tuple[Optional[List[Tuple[int, Constraint]]], int, int]:
+    """The earliest vertex or swap conflict (None if none), its step, and how many there are."""
     steps = max((len(p) for p in paths), default=0)
     first: Optional[List[Tuple[int, Constraint]]] = None
+    when = steps
     count = 0
     prev: List[int] = []
     for t in range(steps):
@@ -114,7 +139,7 @@ def _first_conflict(paths: List[List[int]]) -> Tuple[Optional[List[Tuple[int, Co
                 continue
             count += 1
             if first is None:
-                first = [(j, (t, c, -1)), (i, (t, c, -1))]
+                first, when = [(j, (t, c, -1)), (i, (t, c, -1))], t
         if t > 0:
             came: Dict[Tuple[int, int], int] = {}
             for i, (a, b) in enumerate(zip(prev, now)):
@@ -125,6 +150,6 @@ def _first_conflict(paths: List[List[int]]) -> Tuple[Optional[List[Tuple[int, Co
                 if j is not None and i < j:
                     count += 1
                     if first is None:
-                        first = [(i, (t, a, b)), (j, (t, b, a))]
+                        first, when = [(i, (t, a, b)), (j, (t, b, a))], t
         prev = now
-    return first, count
+    return first, when, count

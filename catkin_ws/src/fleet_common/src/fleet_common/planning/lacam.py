@@ -11,6 +11,14 @@ constraint. Every configuration is visited once, and every successor of it can
 be forced by some constraint set, so the search is complete: it finds a plan
 whenever one exists, and reports "no-solution" when every reachable
 configuration has been tried. Plans are feasible, not optimal.
+
+Unless `rotations` is set, successors have no rotation (robots cannot
+perform one): PIBT avoids them and undoes any that a constraint set closes
+(`pibt_step`). Completeness carries over to rotation-free plans: a
+constraint set that fixes every agent to a rotation-free successor leaves
+PIBT nothing to plan and nothing to undo, so that successor is generated, and
+the fully grown constraint tree holds one such set per successor; an undone
+cycle only yields another valid successor, explored like any other.
 """
 from __future__ import annotations
 
@@ -53,13 +61,13 @@ class _Node:
 
 
 def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-          seed: int = 0) -> SolveResult:
+          seed: int = 0, rotations: bool = False) -> SolveResult:
     """Search until a plan is found, every configuration is exhausted, or the deadline."""
     rng = random.Random(seed)
     n = len(starts)
     goal_cfg: Config = tuple(to_ids(grid, goals))
     start_cfg: Config = tuple(to_ids(grid, starts))
-    stepper = PIBTStep(grid, goals)
+    stepper = PIBTStep(grid, goals, rotations=rotations)
     tie = initial_ties(stepper, start_cfg, rng)
     root = _Node(start_cfg, None, list(tie))
     open_: List[_Node] = [root]
@@ -74,7 +82,7 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         node = open_[-1]
         if node.config == goal_cfg:
             return solved(plan_from_configs(grid, _backtrack(node), n), NAME,
-                          explored=len(explored), loops=loops)
+                          explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
         if not node.tree:
             open_.pop()
             continue

@@ -4,7 +4,8 @@ Priorities follow mapf-IR: an agent's priority is the number of steps since it
 was last at its goal, ties broken by a larger start-to-goal distance, then at
 random (from the seed). An agent stuck behind others soon outranks them. PIBT
 is incomplete: it stops at `max_timestep` or at the deadline ("timeout"); use
-LaCAM where it cycles.
+LaCAM where it cycles. Plans have no rotations unless `rotations` is set
+(see `pibt_step`).
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> Lis
 
 
 def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-         seed: int = 0, max_timestep: int = MAX_TIMESTEP) -> SolveResult:
+         seed: int = 0, max_timestep: int = MAX_TIMESTEP, rotations: bool = False) -> SolveResult:
     """Run PIBT until every agent is at its goal, `max_timestep` steps, or the deadline."""
     rng = random.Random(seed)
     n = len(starts)
@@ -43,7 +44,7 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
     configs = [q]
     if q == goal_ids:
         return solved(plan_from_configs(grid, configs, n), NAME, timesteps=0)
-    stepper = PIBTStep(grid, goals)
+    stepper = PIBTStep(grid, goals, rotations=rotations)
     tie = initial_ties(stepper, q, rng)
     prio = list(tie)
     for t in range(1, max_timestep + 1):
@@ -61,7 +62,8 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
         q = nxt
         configs.append(q)
         if q == goal_ids:
-            return solved(plan_from_configs(grid, configs, n), NAME, timesteps=t)
+            return solved(plan_from_configs(grid, configs, n), NAME, timesteps=t,
+                          undone_rotations=stepper.reverted)
     at_goal = sum(1 for a, b in zip(q, goal_ids) if a == b)
     return failed(NAME, TIMEOUT, "{} of {} agents not at their goals after max_timestep={} steps".format(
         n - at_goal, n, max_timestep), timesteps=max_timestep)

@@ -14,6 +14,21 @@ holds an agent going the other way and no side exit lets one step aside, the
 first agent walks away from its goal and pulls the other one along, until a
 branching cell lets them pass.
 
+Rotations (3 or more agents each entering the cell the next one leaves) are
+legal in mapf-IR but not for robots, which occupy both cells while moving;
+unless `rotations` is set, a step makes none. An agent that takes the cell of
+an unplanned agent makes it inherit at once, so the chain of agents moving
+into each other's cells ending at the agent being planned is exactly the
+inheritance stack, and a move closes a cycle exactly when it enters the cell
+of an agent on the stack. Every such cell but the bottom agent's is already
+claimed by the agent below it, so the one new check is "not the bottom
+agent's cell": skipped like a swap, the agent tries its next candidate (O(1);
+the highest-priority agent still gets the best move that is left). Cells
+fixed in advance (LaCAM's constraints) can close a cycle outside the stack;
+after the step, any cycle left is found (`fleet_common.rotations`) and its
+agents stay: each cell of a cycle is entered only by a cycle member, so
+reverting the whole cycle is vertex-safe.
+
 Inheritance is an explicit stack, not recursion, so chains of thousands of
 agents do not reach Python's recursion limit. `step` also accepts next cells
 fixed in advance: LaCAM uses it as its configuration generator.
@@ -22,7 +37,10 @@ from __future__ import annotations
 
 from typing import List, Sequence, Tuple
 
+import numpy as np
+
 from ..grid import Coord, Grid
+from ..rotations import step_cycles
 from .cells import NIL, moves, to_ids
 from .dist_table import dist_lists
 
@@ -30,12 +48,15 @@ from .dist_table import dist_lists
 class PIBTStep:
     """Next configurations by PIBT, for one grid and one set of goals."""
 
-    def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True) -> None:
+    def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False) -> None:
         self.moves = moves(grid)
         self.adj = grid.adjacency()
         self.dist = dist_lists(grid, goals, unreachable=grid.num_cells + 1)
         self.goals = to_ids(grid, goals)
         self.swap = swap
+        self.rotations = rotations
+        #: cycles reverted after steps (only cells fixed in advance can close one)
+        self.reverted = 0
         self.occ_now = [NIL] * grid.num_cells
         self.occ_nxt = [NIL] * grid.num_cells
 
@@ -44,6 +65,8 @@ class PIBTStep:
 
         Returns False when the fixed entries conflict (two in one cell, or a
         swap) or leave some agent nowhere to go; `q_to` is then meaningless.
+        Unless `rotations` is set, the step has no rotation: one closed through
+        fixed entries is undone by making its agents stay (fixed or not).
         """
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
@@ -68,7 +91,15 @@ class PIBTStep:
             occ_now[v] = NIL
         for v in claimed:
             occ_nxt[v] = NIL
+        if ok and not self.rotations:
+            self._revert_cycles(q_from, q_to)
         return ok
+
+    def _revert_cycles(self, q_from: Sequence[int], q_to: List[int]) -> None:
+        for _, agents in step_cycles(np.array([q_from, q_to], dtype=np.int64), min_length=2):
+            self.reverted += 1
+            for i in agents:
+                q_to[i] = q_from[i]
 
     def _candidates(self, i: int, v: int, salt: int) -> List[int]:
         m = self.moves[v]
@@ -81,6 +112,7 @@ class PIBTStep:
                     claimed: List[int]) -> bool:
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         stack = []  # frames of agents waiting on an inheritor: (agent, candidates, next, partner)
+        bottom = NIL if self.rotations else agent  # entering its cell would close a rotation
         cands, partner = self._open(agent, q_from, q_to, salt)
         k = 0
         while True:
@@ -94,6 +126,8 @@ class PIBTStep:
                 j = occ_now[v]
                 if j != NIL and q_to[j] == here:
                     continue  # j is moving into our cell: taking its cell would be a swap
+                if j == bottom and j != NIL and stack:
+                    continue  # the stack moves into each other's cells up to ours: a rotation
                 q_to[agent] = v
                 occ_nxt[v] = agent
                 claimed.append(v)

@@ -7,7 +7,9 @@ then parks at its goal for good. It is fast and its plans are short, but it
 is incomplete: an agent planned early can wall in a later one (classically,
 by parking on a cell the later one must cross). When an agent finds no path
 it is moved to the front of the order and planning starts over, up to
-`max_restarts` times.
+`max_restarts` times. Unless `rotations` is set, no agent's path closes a
+rotation with the paths reserved before it (`reservations`); a rotation's
+last-planned agent would close it, so plans have none.
 
 `plan_with_reservations` plans a subset of agents around the fixed paths of
 the others: the engine of replanning (robots that are out stay where they
@@ -34,14 +36,15 @@ MAX_RESTARTS = 20
 
 
 def pp(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-       seed: int = 0, max_restarts: int = MAX_RESTARTS) -> SolveResult:
+       seed: int = 0, max_restarts: int = MAX_RESTARTS, rotations: bool = False) -> SolveResult:
     """Prioritized planning for all agents (no fixed paths)."""
-    return plan_with_reservations(grid, starts, goals, (), deadline, seed, max_restarts)
+    return plan_with_reservations(grid, starts, goals, (), deadline, seed, max_restarts, rotations)
 
 
 def plan_with_reservations(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
                            fixed_paths: Sequence[Sequence[Coord]], deadline: Deadline,
-                           seed: int = 0, max_restarts: int = MAX_RESTARTS) -> SolveResult:
+                           seed: int = 0, max_restarts: int = MAX_RESTARTS,
+                           rotations: bool = False) -> SolveResult:
     """Paths for the agents of `starts`/`goals` that avoid `fixed_paths` (which stay as given).
 
     Each fixed path holds its last cell forever after its end. The plan covers
@@ -62,7 +65,7 @@ def plan_with_reservations(grid: Grid, starts: Sequence[Coord], goals: Sequence[
     failed_agent = -1
     try:
         for attempt in range(max_restarts + 1):
-            paths = _plan_in_order(grid, mv, h, start_ids, goal_ids, fixed, order, deadline)
+            paths = _plan_in_order(grid, mv, h, start_ids, goal_ids, fixed, order, deadline, rotations)
             if isinstance(paths, int):
                 failed_agent = paths
                 order.remove(failed_agent)
@@ -80,9 +83,9 @@ def plan_with_reservations(grid: Grid, starts: Sequence[Coord], goals: Sequence[
 
 def _plan_in_order(grid: Grid, mv: List[List[int]], h: List[List[int]], starts: List[int],
                    goals: List[int], fixed: List[List[int]], order: List[int],
-                   deadline: Deadline) -> Union[List[List[int]], int]:
+                   deadline: Deadline, rotations: bool) -> Union[List[List[int]], int]:
     """Paths per agent, or the index of the first agent that found none."""
-    res = Reservations(grid.num_cells)
+    res = Reservations(grid.num_cells, rotations)
     for p in fixed:
         res.add_path(p)
     # agents not planned yet sit on their starts at step 0: nobody may enter those at step 1

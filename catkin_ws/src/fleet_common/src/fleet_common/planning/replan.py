@@ -9,7 +9,8 @@ of the map with the stationary robots as walls, repeated until nothing
 changes (a stranded robot is a wall for the others too); they stay put and
 are reported in `unreachable`. The others are planned from their current
 cells, by prioritized planning around the stationary robots ("pp", fast;
-when it gives up, LaCAM, complete) or by LaCAM directly ("lacam").
+when it gives up, LaCAM, complete) or by LaCAM directly ("lacam"). Like
+every built-in solver, replanning makes no rotations unless `rotations` is set.
 """
 from __future__ import annotations
 
@@ -49,7 +50,7 @@ class ReplanResult:
 
 def replan(grid: Grid, current: Sequence[Coord], goals: Sequence[Coord], out: Set[int],
            deadline: Union[None, float, Deadline] = None, seed: int = 0,
-           method: str = "pp") -> ReplanResult:
+           method: str = "pp", rotations: bool = False) -> ReplanResult:
     """Plan every agent that is not out from `current` to its goal; see the module docstring."""
     began = time.perf_counter()
     if method not in METHODS:
@@ -62,14 +63,14 @@ def replan(grid: Grid, current: Sequence[Coord], goals: Sequence[Coord], out: Se
     unreachable = _stranded(grid, current, goals, still)
     still |= unreachable
     active = [i for i in range(len(current)) if i not in still]
-    sub = _plan_active(grid, current, goals, active, sorted(still), budget, seed, method)
+    sub = _plan_active(grid, current, goals, active, sorted(still), budget, seed, method, rotations)
     ms = (time.perf_counter() - began) * 1000.0
     note = _describe(unreachable)
     if sub.plan is None:
         return ReplanResult(None, unreachable, (sub.message + note).strip(), sub.status, ms)
     plan = _merge(sub.plan, current, active)
     targets = [goals[i] if i in set(active) else current[i] for i in range(len(current))]
-    report = validate_plan(plan, grid, starts=current, goals=targets)
+    report = validate_plan(plan, grid, starts=current, goals=targets, strict_rotations=not rotations)
     if not report.ok:
         raise SolverError("replanning ({}) produced an invalid plan: {}".format(sub.solver, report.errors[0]))
     return ReplanResult(plan, unreachable, ("planned by {}".format(sub.solver) + note + sub.message).strip(),
@@ -117,11 +118,13 @@ def _stranded(grid: Grid, current: List[Coord], goals: List[Coord], still: Set[i
 
 
 def _plan_active(grid: Grid, current: List[Coord], goals: List[Coord], active: List[int],
-                 still: List[int], deadline: Deadline, seed: int, method: str) -> SolveResult:
+                 still: List[int], deadline: Deadline, seed: int, method: str,
+                 rotations: bool) -> SolveResult:
     starts = [current[i] for i in active]
     ends = [goals[i] for i in active]
     if method == "pp":
-        result = plan_with_reservations(grid, starts, ends, [[current[j]] for j in still], deadline, seed)
+        result = plan_with_reservations(grid, starts, ends, [[current[j]] for j in still], deadline, seed,
+                                        rotations=rotations)
         if result.solved or result.status == TIMEOUT:
             return result
         fallback = "; prioritized planning gave up ({}), LaCAM used".format(result.message)
@@ -130,7 +133,7 @@ def _plan_active(grid: Grid, current: List[Coord], goals: List[Coord], active: L
     walled = grid.free.copy()
     for j in still:
         walled[current[j][1], current[j][0]] = False
-    result = lacam(Grid(walled, name=grid.name), starts, ends, deadline, seed)
+    result = lacam(Grid(walled, name=grid.name), starts, ends, deadline, seed, rotations=rotations)
     result.message = (result.message + fallback).strip("; ")
     return result
 

@@ -7,6 +7,8 @@ finish at its goal at a step after the last reservation of that cell, since
 it stays there for good. After the reservations' horizon nothing changes any
 more but parked agents, so all later steps of a cell are one state: the
 search is finite and reports "no path" when the goal cannot be reached.
+A move that would close a rotation with reserved moves (see `reservations`)
+is forbidden like a reserved cell, unless the reservations allow rotations.
 """
 from __future__ import annotations
 
@@ -39,6 +41,7 @@ def space_time_astar(moves: Sequence[Sequence[int]], start: int, goal: int, h: S
     """
     nv = res.num_cells
     vertex, edge, parked = res.vertex, res.edge, res.parked
+    follow = res.follow  # empty when rotations are allowed or no path is reserved
     if parked[goal] != NEVER:
         return None
     soft, soft_parked = (avoid.vertex, avoid.parked) if avoid is not None else (_EMPTY, None)
@@ -66,13 +69,15 @@ def space_time_astar(moves: Sequence[Sequence[int]], start: int, goal: int, h: S
         if pops % _CHECK_EVERY == 0 and deadline.expired():
             raise DeadlineReached()
         nt = t + 1
+        t_base = t * nv
         nt_base = nt * nv
         move_base = (nt_base + cell) * nv
         nkey_base = (nt if nt < cap else cap) * nv
         for v in moves[cell]:
             if nt_base + v in vertex or parked[v] <= nt:
                 continue
-            if v != cell and move_base + v in edge:
+            if v != cell and (move_base + v in edge or (
+                    follow and t_base + v in follow and res.closes_cycle(cell, v, t))):
                 continue
             nhits = hits
             if nt_base + v in soft or (soft_parked is not None and soft_parked[v] <= nt):
