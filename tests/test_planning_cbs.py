@@ -1,9 +1,12 @@
 """CBS is optimal for sum of costs (counted as mapf-IR counts it); LaCAM is complete.
 
-The oracle is an exhaustive search over joint configurations of 2-3 agents on
+The oracle is an exhaustive search over joint configurations of 2-4 agents on
 maps of at most 4x4 cells. A state is the configuration plus which agents have
 "finished" (are at their goals and will never move again); each step costs
-the number of unfinished agents, which sums to mapf-IR's sum of costs.
+the number of unfinished agents, which sums to mapf-IR's sum of costs. In
+rotation-free mode (the solvers' default, for robots) a step in which agents
+each enter the cell the next one leaves round a closed chain is not a move;
+on a grid such a chain has an even length, so it takes 4 agents.
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -24,8 +28,25 @@ from fleet_common.planning.components import component_labels
 from fleet_common.validate import validate_plan
 
 
-def optimal_soc(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> Optional[int]:
-    """Minimum mapf-IR sum of costs by Dijkstra over (configuration, finished set); None if unsolvable."""
+def has_rotation(cfg: Sequence[int], nxt: Sequence[int]) -> bool:
+    """Do some agents each enter the cell the next one leaves, round a closed chain of 3 or more?"""
+    at = {c: i for i, c in enumerate(cfg)}
+    follows = {i: at[nxt[i]] for i in range(len(cfg)) if nxt[i] != cfg[i] and nxt[i] in at}
+    for i in follows:
+        k, seen = i, 0
+        while k in follows and seen <= len(cfg):
+            k, seen = follows[k], seen + 1
+            if k == i:
+                return seen >= 3
+    return False
+
+
+def optimal_soc(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
+                rotations: bool = True) -> Optional[int]:
+    """Minimum mapf-IR sum of costs by Dijkstra over (configuration, finished set); None if unsolvable.
+
+    With `rotations` False, steps with a rotation are not allowed.
+    """
     n = len(starts)
     adj = grid.adjacency()
     s = tuple(grid.index(c) for c in starts)
@@ -57,6 +78,8 @@ def optimal_soc(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> 
             if any(nxt[i] == cfg[j] and nxt[j] == cfg[i] for i in range(n) for j in range(i + 1, n)
                    if cfg[i] != nxt[i]):
                 continue
+            if not rotations and has_rotation(cfg, nxt):
+                continue
             for d in finish_options(nxt, done):
                 key = (nxt, d)
                 if cost + step < best.get(key, 1 << 30):
@@ -66,9 +89,9 @@ def optimal_soc(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> 
 
 
 @st.composite
-def tiny_instances(draw, max_agents: int = 3):
-    w = draw(st.integers(2, 4))
-    h = draw(st.integers(1, 4))
+def tiny_instances(draw, max_agents: int = 3, max_side: int = 4):
+    w = draw(st.integers(2, max_side))
+    h = draw(st.integers(1, max_side))
     cell = st.sampled_from([True, True, True, False])  # about one cell in four blocked
     grid = Grid(np.array(draw(st.lists(st.lists(cell, min_size=w, max_size=w), min_size=h, max_size=h))))
     cells = list(grid.free_cells())
@@ -104,13 +127,90 @@ SETTINGS = settings(max_examples=60, derandomize=True,
 def test_cbs_sum_of_costs_equals_the_exhaustive_optimum(problem) -> None:
     grid, starts, goals = problem
     best = optimal_soc(grid, starts, goals)
-    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0)
+    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0, rotations=True)
     if best is None:
         assert not result.solved  # no plan exists: CBS can only run out of time
         return
     assert result.solved or result.status == "timeout", result.summary()
     if result.solved:
         assert result.plan.soc == best
+
+
+@st.composite
+def square_instances(draw):
+    """Four agents on a 2x2 block of a map of at most 3x3 cells, most going round it: rotations tempt."""
+    w, h = draw(st.integers(2, 3)), draw(st.integers(2, 3))
+    bx, by = draw(st.integers(0, w - 2)), draw(st.integers(0, h - 2))
+    block = [(bx, by), (bx + 1, by), (bx + 1, by + 1), (bx, by + 1)]
+    free = np.array([[(x, y) in block or draw(st.sampled_from([True, True, True, False]))
+                      for x in range(w)] for y in range(h)])
+    grid = Grid(free)
+    turn = draw(st.sampled_from([1, -1, 2]))
+    goals = [block[(i + turn) % 4] for i in range(4)]
+    others = [c for c in grid.free_cells() if c not in goals]
+    if others and draw(st.booleans()):  # one agent leaves the block instead
+        goals[draw(st.integers(0, 3))] = draw(st.sampled_from(others))
+    return grid, block, goals
+
+
+# four agents on at most 3x3 cells: room for a rotation, and the oracle stays fast
+CROWDED = settings(max_examples=40, derandomize=True,
+                   suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+
+
+@CROWDED
+@given(problem=st.one_of(square_instances(), tiny_instances(max_agents=4, max_side=3)))
+def test_rotation_free_cbs_equals_the_rotation_free_exhaustive_optimum(problem) -> None:
+    grid, starts, goals = problem
+    best = optimal_soc(grid, starts, goals, rotations=False)
+    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0)
+    if best is None:
+        assert not result.solved
+        return
+    assert result.solved or result.status == "timeout", result.summary()
+    if result.solved:
+        assert result.plan.soc == best
+        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=True).ok
+
+
+@pytest.mark.parametrize("rotations", [True, False])
+def test_a_full_square_turns_only_where_rotations_are_allowed(rotations: bool) -> None:
+    # four agents on a 2x2 block, each going to the next corner: one rotation, or no plan at all
+    grid = Grid(np.ones((2, 2), dtype=bool))
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    goals = square[1:] + square[:1]
+    assert optimal_soc(grid, square, goals, rotations=rotations) == (4 if rotations else None)
+    lacam = solve("lacam", grid, square, goals, deadline=5.0, rotations=rotations)
+    cbs = solve("cbs", grid, square, goals, deadline=0.5, rotations=rotations)
+    if rotations:
+        assert lacam.solved and cbs.solved and cbs.plan.soc == 4
+    else:
+        assert lacam.status == "no-solution" and cbs.status == "timeout"
+
+
+def test_with_room_beside_the_square_cbs_finds_the_cheapest_plan_without_rotation() -> None:
+    grid = Grid(np.ones((2, 3), dtype=bool))  # 3 wide, 2 high: a free column beside the square
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    goals = square[1:] + square[:1]
+    best = optimal_soc(grid, square, goals, rotations=False)
+    assert best is not None and best > 4 == optimal_soc(grid, square, goals)
+    result = solve("cbs", grid, square, goals, deadline=10.0)
+    assert result.solved and result.plan.soc == best
+    assert solve("cbs", grid, square, goals, deadline=10.0, rotations=True).plan.soc == 4
+
+
+@pytest.mark.parametrize("rotations", [True, False])
+@CROWDED
+@given(problem=st.one_of(square_instances(), tiny_instances(max_agents=4, max_side=3)))
+def test_lacam_with_four_agents_finds_a_plan_exactly_when_one_exists(rotations: bool, problem) -> None:
+    grid, starts, goals = problem
+    best = optimal_soc(grid, starts, goals, rotations=rotations)
+    result = solve("lacam", grid, starts, goals, deadline=10.0, rotations=rotations)
+    assert result.solved == (best is not None), result.summary()
+    if best is not None:
+        assert result.plan.soc >= best
+    else:
+        assert result.status == "no-solution"
 
 
 @SETTINGS

@@ -92,12 +92,26 @@ def test_unknown_solver_names_the_built_in_ones() -> None:
 
 
 def test_a_solver_bug_surfaces_as_an_error_not_as_a_bad_plan(monkeypatch) -> None:
-    def teleporting(grid, starts, goals, deadline, seed):
+    def teleporting(grid, starts, goals, deadline, seed, rotations=False):
         return SolveResult(Plan.from_paths([[starts[0], goals[0]]]), "teleport", "solved")
 
     monkeypatch.setitem(SOLVERS, "pibt", teleporting)
     with pytest.raises(SolverError, match="non-adjacent|jumps"):
         solve("pibt", ROOMS, [(0, 0)], [(2, 2)])
+
+
+def test_a_plan_with_a_rotation_is_a_solver_bug_unless_rotations_are_allowed(monkeypatch) -> None:
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    turned = square[1:] + square[:1]
+
+    def turning(grid, starts, goals, deadline, seed, rotations=False):
+        return SolveResult(Plan.from_paths([[a, b] for a, b in zip(starts, goals)]), "turn", "solved")
+
+    monkeypatch.setitem(SOLVERS, "pibt", turning)
+    grid = Grid.from_rows(["..", ".."])
+    with pytest.raises(SolverError, match="rotation at t=0->1: agents 0, 1, 2, 3"):
+        solve("pibt", grid, square, turned)
+    assert solve("pibt", grid, square, turned, rotations=True).plan.soc == 4
 
 
 def test_result_has_a_plan_exactly_when_solved() -> None:

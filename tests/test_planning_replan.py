@@ -115,3 +115,22 @@ def test_replanning_300_agents_mid_plan_on_arena(method: str, shared_data: Path)
     assert validate_plan(plan, inst.grid, starts=now, goals=ends).ok
     for i in out:
         assert stays(plan, i, now[i])
+
+
+@pytest.mark.parametrize("method", ["pp", "lacam"])
+def test_replanned_plans_have_no_rotation_unless_asked(method: str) -> None:
+    from fleet_common.validate import ROTATION
+
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    turned = square[1:] + square[:1]
+    full = Grid.from_rows(["..", ".."])
+    stuck = replan(full, square, turned, out=set(), method=method, deadline=2.0)
+    assert not stuck.solved  # the only way is a rotation, which robots cannot perform
+    free = replan(full, square, turned, out=set(), method=method, deadline=2.0, rotations=True)
+    assert free.solved and validate_plan(free.plan, full).count(ROTATION) == 1
+    # with a robot out beside the square, the others still turn, without a rotation
+    roomy = Grid.from_rows(["...", "...", "..."])
+    current = square + [(2, 2)]
+    result = replan(roomy, current, turned + [(0, 2)], out={4}, method=method, deadline=5.0)
+    assert result.solved and result.plan.config(result.plan.makespan)[:4] == turned
+    assert validate_plan(result.plan, roomy, strict_rotations=True).ok

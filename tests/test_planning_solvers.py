@@ -9,14 +9,19 @@ import random
 from pathlib import Path
 from typing import List, Tuple
 
+import numpy as np
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Coord, Grid
 from fleet_common.lab import lab_instance_path, lab_map_path
-from fleet_common.planning import SOLVER_NAMES, solve
+from fleet_common.planning import SOLVER_NAMES, InvalidProblemError, solve
+from fleet_common.planning.cells import NIL, to_ids
+from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.planning.result import SolveResult
-from fleet_common.validate import validate_plan
+from fleet_common.validate import ROTATION, validate_plan
 
 Problem = Tuple[Grid, List[Coord], List[Coord]]
 
@@ -163,3 +168,73 @@ def test_solvers_solve_shipped_instances(name: str, instance: str, shared_data: 
                          map_dirs=[shared_data / "maps"])
     problem = (inst.grid, inst.starts, inst.goals)
     assert_solved(solve(name, *problem, deadline=30.0), problem)
+
+
+# ---- rotations: plans for robots have none; rotations=True gives mapf-IR's semantics ----------
+
+SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]
+TURNED = SQUARE[1:] + SQUARE[:1]  # each agent's goal is the next corner
+
+
+@pytest.mark.parametrize("name", SOLVER_NAMES)
+def test_a_full_square_turns_only_with_mapf_ir_semantics(name: str) -> None:
+    grid = Grid.from_rows(["..", ".."])
+    limits = {"max_timestep": 50} if name == "pibt" else {}
+    turned = solve(name, grid, SQUARE, TURNED, deadline=2.0, rotations=True, **limits)
+    assert turned.solved and validate_plan(turned.plan, grid).count(ROTATION) == 1
+    # pp keeps agents not yet planned on their starts at step 1, so it turns a step later
+    assert turned.plan.soc == (8 if name == "pp" else 4)
+    stuck = solve(name, grid, SQUARE, TURNED, deadline=0.5, **limits)
+    assert not stuck.solved and stuck.status in ("timeout", "no-solution")
+
+
+@pytest.mark.parametrize("name", SOLVER_NAMES)
+def test_beside_a_free_column_the_square_turns_without_a_rotation(name: str) -> None:
+    grid = Grid.from_rows(["...", "..."])
+    result = solve(name, grid, SQUARE, TURNED, deadline=10.0)
+    assert_solved(result, (grid, SQUARE, TURNED))
+    report = validate_plan(result.plan, grid, strict_rotations=True)
+    assert report.ok and report.count(ROTATION) == 0 and result.plan.soc > 4
+
+
+@st.composite
+def crowded_problems(draw) -> Problem:
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    w, h = draw(st.integers(3, 7)), draw(st.integers(3, 7))
+    grid = Grid(rng.random((h, w)) > draw(st.sampled_from([0.0, 0.1, 0.2])))
+    cells = list(grid.free_cells())
+    n = draw(st.integers(4, max(4, len(cells) - 1)))
+    assume(len(cells) > n)
+    starts = [cells[i] for i in rng.permutation(len(cells))[:n]]
+    goals = [cells[i] for i in rng.permutation(len(cells))[:n]]
+    return grid, starts, goals
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@given(problem=crowded_problems(), name=st.sampled_from(["pibt", "lacam", "pp"]))
+def test_plans_on_crowded_maps_have_no_rotation(problem: Problem, name: str) -> None:
+    grid, starts, goals = problem
+    limits = {"max_timestep": 300} if name == "pibt" else {}
+    try:
+        result = solve(name, grid, starts, goals, deadline=2.0, **limits)
+    except InvalidProblemError:
+        assume(False)
+    assume(result.solved)
+    report = validate_plan(result.plan, grid, starts, goals, strict_rotations=True)
+    assert report.ok, [str(e) for e in report.errors[:3]]
+    if name == "pibt":  # PIBT alone never closes a rotation: nothing was undone after the fact
+        assert result.stats["undone_rotations"] == 0
+
+
+def test_pibt_undoes_a_rotation_closed_by_cells_fixed_in_advance() -> None:
+    grid = Grid.from_rows(["...", "..."])
+    stepper = PIBTStep(grid, TURNED)
+    q = to_ids(grid, SQUARE)
+    nxt = to_ids(grid, TURNED)
+    nxt[3] = NIL  # three agents fixed to the next corner; PIBT plans the fourth, whose goal is agent 0's cell
+    assert stepper.step(q, nxt, [3, 0, 1, 2], 0)
+    assert nxt == q and stepper.reverted == 1  # the whole cycle stays: no vertex conflict either
+    free = PIBTStep(grid, TURNED, rotations=True)
+    nxt = to_ids(grid, TURNED)
+    nxt[3] = NIL
+    assert free.step(q, nxt, [3, 0, 1, 2], 0) and nxt == to_ids(grid, TURNED) and free.reverted == 0

@@ -1,7 +1,7 @@
 """Planning inside FleetControl: built-in MAPF solvers behind one interface.
 
 Every solver is a pure function `solver(grid, starts, goals, deadline, seed,
-**options) -> SolveResult`: base-frame cells in, a `Plan` (or the reason there
+rotations=False, **options) -> SolveResult`: base-frame cells in, a `Plan` (or the reason there
 is none) out; no printing, no files, no global random state, so a fixed seed
 gives the same plan. `solve` is the one entry point for callers: it rejects
 unusable problems before any search (`InvalidProblemError`, naming the agent),
