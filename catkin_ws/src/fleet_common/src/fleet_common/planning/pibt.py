@@ -62,8 +62,7 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
         q = nxt
         configs.append(q)
         if q == goal_ids:
-            return solved(plan_from_configs(grid, configs, n), NAME, timesteps=t,
-                          undone_rotations=stepper.reverted)
+            return solved(plan_from_configs(grid, configs, n), NAME, timesteps=t)
     at_goal = sum(1 for a, b in zip(q, goal_ids) if a == b)
     return failed(NAME, TIMEOUT, "{} of {} agents not at their goals after max_timestep={} steps".format(
         n - at_goal, n, max_timestep), timesteps=max_timestep)

@@ -24,10 +24,10 @@ of an agent on the stack. Every such cell but the bottom agent's is already
 claimed by the agent below it, so the one new check is "not the bottom
 agent's cell": skipped like a swap, the agent tries its next candidate (O(1);
 the highest-priority agent still gets the best move that is left). Cells
-fixed in advance (LaCAM's constraints) can close a cycle outside the stack;
-after the step, any cycle left is found (`fleet_common.rotations`) and its
-agents stay: each cell of a cycle is entered only by a cycle member, so
-reverting the whole cycle is vertex-safe.
+fixed in advance (LaCAM's constraints) can close a cycle outside the stack:
+after such a step, any cycle is found (`fleet_common.rotations`) and its
+agents stay. Each cell of a cycle is entered only by a cycle member, so
+reverting the whole cycle is vertex-safe, and it leaves no new cycle.
 
 Inheritance is an explicit stack, not recursion, so chains of thousands of
 agents do not reach Python's recursion limit. `step` also accepts next cells
@@ -55,7 +55,7 @@ class PIBTStep:
         self.goals = to_ids(grid, goals)
         self.swap = swap
         self.rotations = rotations
-        #: cycles reverted after steps (only cells fixed in advance can close one)
+        #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
         self.occ_now = [NIL] * grid.num_cells
         self.occ_nxt = [NIL] * grid.num_cells
@@ -82,6 +82,7 @@ class PIBTStep:
                 break
             occ_nxt[v] = i
             claimed.append(v)
+        fixed = len(claimed)
         if ok:
             for i in order:
                 if q_to[i] == NIL and not self._plan_agent(i, q_from, q_to, salt, claimed):
@@ -91,7 +92,7 @@ class PIBTStep:
             occ_now[v] = NIL
         for v in claimed:
             occ_nxt[v] = NIL
-        if ok and not self.rotations:
+        if ok and fixed and not self.rotations:
             self._revert_cycles(q_from, q_to)
         return ok
 
