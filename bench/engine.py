@@ -12,9 +12,9 @@
    simulated run with moderate random delays: on the shipped mapf-IR plan
    pibt_sample.txt (100 robots, 218 following moves), and on rings at 300
    robots (1,000 steps) and 1,500 robots (200 steps), under both strategies.
-   Median and 99th percentile. (The built-in solvers' plans for the 300-agent
-   instances contain rotations, which real robots cannot execute: the engine
-   refuses them, so they cannot serve here.)
+   Median and 99th percentile. (When this was written, the built-in solvers'
+   plans for the 300-agent instances contained rotations, which the engine
+   refuses; they are rotation-free now, rings stay for comparable figures.)
 
     .venv/bin/python bench/engine.py [--repeat 3]
 """

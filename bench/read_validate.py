@@ -4,6 +4,10 @@ The solution is made with our own writer (agents shuttle along their own
 columns of a 1,500 x 12 map, every agent moving every step, so the validator
 sees the full workload and no conflict), written to a temporary folder, then
 read and validated several times. Prints the best and median wall times.
+Then the validator alone on the worst case for its following and rotation
+checks: agents in groups of four turning round 2x2 squares, every move a
+following move and every group a rotation in every step (mapf-IR allows it;
+the report lists the first 1,000 of each kind and counts them all).
 
     .venv/bin/python bench/read_validate.py [--agents 1500] [--steps 1000] [--repeat 5]
 """
@@ -21,7 +25,7 @@ from fleet_common.formats.mapfile import map_from_grid, write_map
 from fleet_common.formats.solution import make_solution, read_solution, write_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
-from fleet_common.validate import validate_plan
+from fleet_common.validate import FOLLOWING, ROTATION, validate_plan
 
 
 def shuttle_plan(agents: int, steps: int, height: int = 12) -> Plan:
@@ -31,6 +35,15 @@ def shuttle_plan(agents: int, steps: int, height: int = 12) -> Plan:
     pos = np.empty((steps + 1, agents, 2), dtype=np.int32)
     pos[:, :, 0] = np.arange(agents)[None, :]
     pos[:, :, 1] = y
+    return Plan(pos)
+
+
+def squares_plan(agents: int, steps: int) -> Plan:
+    """Groups of 4 agents on 2x2 squares (3 cells apart), each agent taking the next corner every step."""
+    corners = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], dtype=np.int32)
+    t = np.arange(steps + 1)[:, None]
+    pos = corners[(np.arange(agents)[None, :] % 4 + t) % 4]
+    pos[:, :, 0] += (np.arange(agents) // 4 * 3)[None, :].astype(np.int32)
     return Plan(pos)
 
 
@@ -74,6 +87,18 @@ def main() -> None:
     for label, xs in (("read", reads), ("validate", validates), ("read+validate", totals)):
         print("{:>14}: best {:.3f} s, median {:.3f} s over {} runs".format(
             label, min(xs), statistics.median(xs), len(xs)))
+
+    turning = squares_plan(args.agents, args.steps)
+    squares = Grid(np.ones((2, -(-args.agents // 4) * 3), dtype=bool))
+    times = []
+    for _ in range(args.repeat):
+        t0 = time.perf_counter()
+        report = validate_plan(turning, squares)
+        times.append(time.perf_counter() - t0)
+    print("turning squares: {} agents x {} steps, {:,} following moves, {:,} rotations".format(
+        args.agents, args.steps, report.count(FOLLOWING), report.count(ROTATION)))
+    print("{:>14}: best {:.3f} s, median {:.3f} s over {} runs".format(
+        "validate", min(times), statistics.median(times), len(times)))
 
 
 if __name__ == "__main__":

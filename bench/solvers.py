@@ -1,7 +1,9 @@
 """Benchmark: the built-in solvers (and mapf-IR, when available) on shipped mapf-IR instances.
 
 Prints one table row per solver and instance: status, best wall time of the
-repeats, soc and makespan. pibt, lacam and pp run on every instance, cbs
+repeats, soc, makespan and the plan's rotations (3 or more agents each
+entering the cell the next one leaves: robots cannot execute them; the
+built-in solvers plan without them, mapf-IR's allow them). pibt, lacam and pp run on every instance, cbs
 (optimal, for small instances) only on the 30-agent one with a short limit. With $MAPF_IR_APP set, mapf-IR's PIBT (and
 each solver named with --baseline) runs on the same instances in the same run,
 and the last column is our time over mapf-IR PIBT's wall time (its process,
@@ -25,6 +27,7 @@ from fleet_common.planning import solve
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.mapf_ir import APP_ENV, MapfIrSolver
 from fleet_common.planning.result import SolveResult
+from fleet_common.validate import ROTATION, validate_plan
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
 ARENA = "arena_300agents_1"
@@ -41,7 +44,7 @@ PLAN: Dict[str, Tuple[str, ...]] = {
 CBS_LIMIT_S = 10.0
 DISABLED = (0, 100, 200)
 
-Row = Tuple[str, int, str, str, Optional[float], Optional[int], Optional[int], str]
+Row = Tuple[str, int, str, str, Optional[float], Optional[int], Optional[int], Optional[int], str]
 
 
 def load(name: str) -> Instance:
@@ -79,14 +82,17 @@ def theirs(adapter: MapfIrSolver, name: str, solver: str, limit: float, seed: in
 
 def row(name: str, agents: int, label: str, result: SolveResult, ms: float, ratio: str) -> Row:
     plan = result.plan
+    rotations = validate_plan(plan, load(name).grid).count(ROTATION) if plan else None
     return (name, agents, label, result.status, ms, plan.soc if plan else None,
-            plan.makespan if plan else None, ratio)
+            plan.makespan if plan else None, rotations, ratio)
 
 
 def print_table(rows: Sequence[Row]) -> None:
-    head = ("instance", "agents", "solver", "status", "best ms", "soc", "makespan", "/ mapf-IR PIBT")
+    head = ("instance", "agents", "solver", "status", "best ms", "soc", "makespan", "rotations",
+            "/ mapf-IR PIBT")
     text = [head] + [(r[0], str(r[1]), r[2], r[3], "-" if r[4] is None else "{:.1f}".format(r[4]),
-                      "-" if r[5] is None else str(r[5]), "-" if r[6] is None else str(r[6]), r[7])
+                      "-" if r[5] is None else str(r[5]), "-" if r[6] is None else str(r[6]),
+                      "-" if r[7] is None else str(r[7]), r[8])
                      for r in rows]
     widths = [max(len(t[i]) for t in text) for i in range(len(head))]
     for k, t in enumerate(text):
@@ -120,7 +126,8 @@ def replanning(seed: int, repeats: int) -> str:
             best = min(best, (time.perf_counter() - t0) * 1000)
         times[kind] = best
     what = "no new plan ({})".format(result.message) if result.plan is None else \
-        "new plan soc={} makespan={}".format(result.plan.soc, result.plan.makespan)
+        "new plan soc={} makespan={}, {} rotations".format(
+            result.plan.soc, result.plan.makespan, validate_plan(result.plan, inst.grid).count(ROTATION))
     return ("replanning {} agents on {} at t={} of {}, agents {} out: best {:.1f} ms warm, {:.1f} ms "
             "cold; {}; {} cannot reach their goals; {}").format(
         len(current), ARENA, t, first.plan.makespan, ", ".join(map(str, DISABLED)), times["warm"],

@@ -382,3 +382,20 @@ def test_fleetctl_validate_counts_rotations_and_refuses_them_when_strict(tmp_pat
     assert "{}: error: rotation at t=1->2: agents 1, 4, 2, 3 each enter the cell the next one leaves " \
            "((3, 1), (2, 1), (2, 2), (3, 2))".format(path) in strict.stdout
     assert "INVALID: 1 problem(s)" in strict.stdout
+
+
+def test_counts_include_findings_past_the_listing_cap():
+    # 12 squares of 4 agents side by side, every square turning every step for 5 steps
+    squares, steps = 12, 5
+    paths = []
+    for s in range(squares):
+        corners = [(3 * s + x, y) for x, y in SQUARE]
+        corners = [(x - 2, y - 2) for x, y in corners]  # SQUARE sits at (2, 2); move it to the origin
+        for c in range(4):
+            paths.append([corners[(c + t) % 4] for t in range(steps + 1)])
+    grid = Grid(np.ones((2, 3 * squares), dtype=bool))
+    report = validate_plan(Plan.from_paths(paths), grid, max_findings_per_kind=2)
+    assert report.count(ROTATION) == squares * steps and report.count(FOLLOWING) == 4 * squares * steps
+    listed = report.of_kind(ROTATION)
+    assert len(listed) == 3 and "more findings of kind 'rotation' not listed" in listed[2].message
+    assert [f.agents for f in listed[:2]] == [(0, 1, 2, 3), (4, 5, 6, 7)] and listed[0].timestep == 1

@@ -12,11 +12,12 @@ Cycles come from pointer jumping over numpy arrays: after squaring the
 successor map k times (2^k longer than any chain), every node has walked off
 its chain's end (into the sink) or into a cycle, so the nodes still reached
 are exactly the cycle nodes. A second doubling pass labels each cycle with its
-smallest node. Python loops only over the members of the cycles found.
+smallest node, so cycles are counted without a loop; Python loops only over
+the members of the cycles a caller asks to see.
 """
 from __future__ import annotations
 
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 
@@ -40,16 +41,15 @@ def follow_links(step: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarr
     return np.where(keys[at] == probe, order[at], -1)
 
 
-def cycles(links: np.ndarray, max_length: int) -> List[np.ndarray]:
-    """The cycles of the functional graph `links` (node -> node, -1: none).
+def cycle_leaders(links: np.ndarray, max_length: int) -> np.ndarray:
+    """The smallest node of each cycle of the functional graph `links` (node -> node, -1: none).
 
     `max_length` bounds every chain (e.g. the number of agents, for links
-    within one step). Each cycle is an array of nodes in link order, starting
-    at its smallest node; cycles are ordered by their smallest node.
+    within one step). Ascending; as many as there are cycles.
     """
     m = int(links.shape[0])
     if m == 0:
-        return []
+        return np.zeros(0, dtype=np.int64)
     rounds = max(int(max_length), 1).bit_length()
     jump = np.append(np.where(links >= 0, links, m), m)  # node m is the sink
     for _ in range(rounds):
@@ -58,7 +58,7 @@ def cycles(links: np.ndarray, max_length: int) -> List[np.ndarray]:
     on[jump[:m]] = True
     nodes = np.nonzero(on[:m])[0]
     if nodes.size == 0:
-        return []
+        return nodes
     # smallest node of each cycle: min-label doubling over the cycle nodes only
     where = np.full(m, -1, dtype=np.int64)
     where[nodes] = np.arange(nodes.size)
@@ -67,15 +67,26 @@ def cycles(links: np.ndarray, max_length: int) -> List[np.ndarray]:
     for _ in range(rounds):
         label = np.minimum(label, label[nxt])
         nxt = nxt[nxt]
-    out = []
-    for first in nodes[label == nodes].tolist():
-        cycle = [first]
-        k = int(links[first])
-        while k != first:
-            cycle.append(k)
-            k = int(links[k])
-        out.append(np.asarray(cycle, dtype=np.int64))
-    return out
+    return nodes[label == nodes]
+
+
+def walk_cycle(links: np.ndarray, first: int) -> np.ndarray:
+    """The cycle through node `first`, in link order from it."""
+    cycle = [int(first)]
+    k = int(links[first])
+    while k != cycle[0]:
+        cycle.append(k)
+        k = int(links[k])
+    return np.asarray(cycle, dtype=np.int64)
+
+
+def cycles(links: np.ndarray, max_length: int, limit: Optional[int] = None) -> List[np.ndarray]:
+    """The cycles of `links` (see `cycle_leaders`), each from its smallest node, in that order.
+
+    With `limit`, only the first `limit` are walked (a broken plan may have
+    hundreds of thousands; Python loops only over those returned).
+    """
+    return [walk_cycle(links, first) for first in cycle_leaders(links, max_length)[:limit].tolist()]
 
 
 def step_cycles(ids: np.ndarray, min_length: int = 3) -> List[Tuple[int, Tuple[int, ...]]]:

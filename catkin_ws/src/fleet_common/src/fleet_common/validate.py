@@ -9,7 +9,8 @@ same step) are legal in mapf-IR and reported as information unless
 `strict_following` is set. So are rotations (3 or more agents each entering
 the cell the next one leaves, a closed chain of following moves; see
 `rotations`), unless `strict_rotations` or `strict_following` is set: robots
-occupy both cells while they move, so they cannot perform one.
+occupy both cells while they move, so they cannot perform one. Findings and
+their kinds are in `findings`.
 
 Everything is vectorised over the (steps, agents) position array, so plans of
 thousands of agents and steps check in well under a second; Python loops run
@@ -17,77 +18,25 @@ only over the findings.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .findings import (
+    AGENTS, BLOCKED, ERROR, FOLLOWING, GOAL, INFO, JUMP, MAKESPAN, OFF_MAP, ROTATION, SOC, START, SWAP,
+    VERTEX, Finding, Report,
+)
 from .grid import Coord, Grid
 from .plan import Plan
-from .rotations import cycles, follow_links
+from .rotations import cycle_leaders, follow_links, walk_cycle
+
+__all__ = [
+    "validate_plan", "Finding", "Report", "ERROR", "INFO", "OFF_MAP", "BLOCKED", "JUMP", "VERTEX", "SWAP",
+    "FOLLOWING", "ROTATION", "START", "GOAL", "AGENTS", "SOC", "MAKESPAN",
+]
 
 #: Moves as parallel arrays: (step, from cell, to cell, agent).
 Movers = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-
-ERROR = "error"
-INFO = "info"
-
-#: Finding kinds, stable strings that tests and tools may match on.
-OFF_MAP = "off-map"
-BLOCKED = "blocked"
-JUMP = "non-adjacent-move"
-VERTEX = "vertex-conflict"
-SWAP = "swap-conflict"
-FOLLOWING = "following-move"
-ROTATION = "rotation"
-START = "start-mismatch"
-GOAL = "goal-mismatch"
-AGENTS = "agent-count"
-SOC = "soc-mismatch"
-MAKESPAN = "makespan-mismatch"
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One problem (or remark) about a plan; `str()` is a line for people."""
-
-    severity: str
-    kind: str
-    message: str
-    timestep: Optional[int] = None
-    agents: Tuple[int, ...] = ()
-    cell: Optional[Coord] = None
-
-    def __str__(self) -> str:
-        return self.message
-
-
-@dataclass
-class Report:
-    """The findings about one plan, errors first in the order checked."""
-
-    findings: List[Finding] = field(default_factory=list)
-    #: findings per kind, including those not listed (past `max_findings_per_kind`)
-    counts: Dict[str, int] = field(default_factory=dict)
-
-    @property
-    def errors(self) -> List[Finding]:
-        return [f for f in self.findings if f.severity == ERROR]
-
-    @property
-    def infos(self) -> List[Finding]:
-        return [f for f in self.findings if f.severity == INFO]
-
-    @property
-    def ok(self) -> bool:
-        return not self.errors
-
-    def of_kind(self, kind: str) -> List[Finding]:
-        return [f for f in self.findings if f.kind == kind]
-
-    def count(self, kind: str) -> int:
-        """How many findings of `kind` there are, listed or not."""
-        return self.counts.get(kind, 0)
 
 
 def _cell(pos: np.ndarray) -> Coord:
@@ -98,25 +47,18 @@ def _identity(c: Coord) -> Coord:
     return c
 
 
-def validate_plan(
-    plan: Plan,
-    grid: Grid,
-    starts: Optional[Sequence[Coord]] = None,
-    goals: Optional[Sequence[Coord]] = None,
-    soc: Optional[int] = None,
-    makespan: Optional[int] = None,
-    strict_following: bool = False,
-    strict_rotations: bool = False,
-    max_findings_per_kind: int = 1000,
-    show: Callable[[Coord], Coord] = _identity,
-) -> Report:
+def validate_plan(plan: Plan, grid: Grid, starts: Optional[Sequence[Coord]] = None,
+                  goals: Optional[Sequence[Coord]] = None, soc: Optional[int] = None,
+                  makespan: Optional[int] = None, strict_following: bool = False,
+                  strict_rotations: bool = False, max_findings_per_kind: int = 1000,
+                  show: Callable[[Coord], Coord] = _identity) -> Report:
     """Check `plan` on `grid`; see the module docstring for what is checked.
 
     Coordinates in messages are base-grid cells passed through `show` (give
     `grid.flip_y` to speak in a mapf-IR file's own coordinates); `Finding.cell`
-    is always the base cell. At most `max_findings_per_kind`
-    findings of each kind are listed (a broken 1,000-step plan would otherwise
-    bury the first, most useful ones).
+    is always the base cell. At most `max_findings_per_kind` findings of each
+    kind are listed (a broken 1,000-step plan would otherwise bury the first,
+    most useful ones); `Report.count` counts them all.
     """
     report = Report()
     add = _Collector(report, max_findings_per_kind, show)
@@ -230,43 +172,38 @@ def _check_swaps_and_following(ids: np.ndarray, pos: np.ndarray, grid: Grid, add
                 t, t + 1, pair[0], pair[1], add.show(_cell(pos[t, pair[0]])),
                 add.show(_cell(pos[t, pair[1]]))), t + 1, (pair[0], pair[1]), _cell(pos[t + 1, pair[0]]))
 
-    # following: a mover enters a cell that another agent occupied at the previous step
-    occupied = np.sort((t_idx * cells + frm).ravel())
-    probe = tm * cells + om
-    idx = np.searchsorted(occupied, probe)
-    idx[idx >= occupied.size] = 0
-    follow = occupied[idx] == probe
+    # following: a mover enters a cell that another agent occupied at the previous step and leaves
+    keys = (t_idx * cells + frm).ravel()
+    order = np.argsort(keys, kind="stable")  # one cell held by several (a vertex conflict): lowest agent
+    at = order[np.minimum(np.searchsorted(keys[order], tm * cells + om), keys.size - 1)]
+    enters = (keys[at] == tm * cells + om) & ~hit
+    # an occupant that stays is a vertex conflict, reported above
+    found = np.nonzero(enters & (to.ravel()[at] != frm.ravel()[at]))[0]
     severity = ERROR if strict_following else INFO
-    for k in np.nonzero(follow & ~hit)[0]:
-        t, i = int(tm[k]), int(agent_idx[k])
-        j = _agent_at(ids[t], ids[t + 1][i], exclude=i)
-        if j < 0 or ids[t + 1][j] == ids[t][j]:
-            continue  # the occupant stayed: already a vertex conflict
+    for k in found[: add.limit + 1].tolist():  # the rest are only counted
+        t, i, j = int(tm[k]), int(agent_idx[k]), int(at[k] % n)
         add(severity, FOLLOWING, "following move at t={}->{}: agent {} enters {} as agent {} leaves it".format(
             t, t + 1, i, add.show(_cell(pos[t + 1, i])), j), t + 1, (i, j), _cell(pos[t + 1, i]))
-    chain = follow & ~hit
-    return tm[chain], fm[chain], om[chain], agent_idx[chain]
+    if found.size:
+        add.counts[FOLLOWING] = int(found.size)
+    return tm[enters], fm[enters], om[enters], agent_idx[enters]
 
 
 def _check_rotations(followers: Movers, pos: np.ndarray, n: int, add: _Collector, strict: bool) -> None:
-    # only following moves can close a cycle; swaps (2-cycles) are reported above
+    # only following moves can close a cycle; swaps (the 2-cycles) are not among them
     step, src, dst, agent = followers
+    links = follow_links(step, src, dst)
+    leaders = cycle_leaders(links, n)
     severity, note = (ERROR, "") if strict else (INFO, "legal in mapf-IR, but ")
-    for cycle in cycles(follow_links(step, src, dst), n):
-        if cycle.size < 3:
-            continue
-        t, agents = int(step[cycle[0]]), tuple(int(a) for a in agent[cycle])
+    for first in leaders[: add.limit + 1].tolist():  # the rest are only counted
+        cycle = walk_cycle(links, first)
+        t, agents = int(step[first]), tuple(int(a) for a in agent[cycle])
         cells = ", ".join(str(add.show(_cell(pos[t + 1, a]))) for a in agents)
         add(severity, ROTATION, "rotation at t={}->{}: agents {} each enter the cell the next one leaves "
             "({}); {}robots cannot execute it".format(t, t + 1, ", ".join(map(str, agents)), cells, note),
             t + 1, agents, _cell(pos[t + 1, agents[0]]))
-
-
-def _agent_at(row: np.ndarray, cell_id: int, exclude: int) -> int:
-    for j in np.nonzero(row == cell_id)[0].tolist():
-        if j != exclude:
-            return int(j)
-    return -1
+    if leaders.size:
+        add.counts[ROTATION] = int(leaders.size)
 
 
 def _check_endpoints(plan: Plan, starts: Optional[Sequence[Coord]], goals: Optional[Sequence[Coord]],

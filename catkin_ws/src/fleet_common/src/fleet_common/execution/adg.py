@@ -155,7 +155,7 @@ def _check_cycles(table: ActionTable, dep: np.ndarray, show: Callable[[Coord], C
     # same-step type-2 edges are following moves: a follows dep[a]; their cycles are swaps and
     # rotations, found as the validator finds them (fleet_common.rotations)
     links = np.where((dep >= 0) & (step[np.maximum(dep, 0)] == step), dep, -1)
-    found = cycles(links, table.num_robots)
+    found = cycles(links, table.num_robots, limit=1)
     if not found:
         return
     cycle = found[0].tolist()  # the one with the smallest action: the lowest robot's first
