@@ -196,3 +196,7 @@ def test_command_line_mistakes_exit_2(shared_data):
     assert unknown.returncode == 2 and "unknown solver 'astar'" in unknown.stderr
     extra = fleetctl(instance, "-s", "pibt", "--", "-w", "1.2")
     assert extra.returncode == 2 and "for mapf-IR solvers" in one_line(extra.stderr)
+    rotations = fleetctl(instance, "-s", "mapf-ir:PIBT", "--allow-rotations")
+    assert rotations.returncode == 2
+    assert one_line(rotations.stderr) == ("fleetctl solve: --allow-rotations is for the built-in solvers; "
+                                          "mapf-IR's solvers always allow rotations")

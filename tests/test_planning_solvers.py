@@ -217,7 +217,7 @@ def test_plans_on_crowded_maps_have_no_rotation(problem: Problem, name: str) -> 
     grid, starts, goals = problem
     limits = {"max_timestep": 300} if name == "pibt" else {}
     try:
-        result = solve(name, grid, starts, goals, deadline=2.0, **limits)
+        result = solve(name, grid, starts, goals, deadline=0.5, **limits)
     except InvalidProblemError:
         assume(False)
     assume(result.solved)

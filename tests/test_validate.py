@@ -341,7 +341,7 @@ def test_rotations_of_crowded_mapf_ir_plans_match_a_naive_checker(seed, solver):
     goals = [cells[i] for i in rng.permutation(len(cells))[:n]]
     limits = {"max_timestep": 300} if solver == "pibt" else {}  # where PIBT cycles, give up soon
     try:
-        result = solve(solver, grid, starts, goals, deadline=2.0, seed=seed, rotations=True, **limits)
+        result = solve(solver, grid, starts, goals, deadline=0.5, seed=seed, rotations=True, **limits)
     except InvalidProblemError:
         assume(False)
     assume(result.solved)
