@@ -20,7 +20,7 @@ from fleet_common.formats.solution import read_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.robots import RobotDefinition, read_robot_definitions
-from fleet_common.validate import Finding, validate_plan
+from fleet_common.validate import FOLLOWING, ROTATION, Finding, validate_plan
 
 from .palette import agent_colours
 
@@ -39,8 +39,9 @@ class Scene:
     info: List[str] = field(default_factory=list)
     #: the validator's errors (conflicts, off-map, jumps, ...), listed and marked
     findings: List[Finding] = field(default_factory=list)
-    #: following moves: legal in mapf-IR, counted in the list's title
+    #: following moves and rotations: legal in mapf-IR, counted in the list's title
     following: int = 0
+    rotations: int = 0
     file_orientation: str = MAPF_IR
     title: str = ""
 
@@ -91,7 +92,7 @@ def scene_from_solution(path: Path, map_path: Optional[Path] = None,
         report = validate_plan(plan, sol.grid, starts=sol.starts, goals=sol.goals, soc=sol.soc,
                                makespan=sol.makespan, strict_following=strict_following)
         scene.findings = report.errors
-        scene.following = len(report.infos)
+        scene.following, scene.rotations = report.count(FOLLOWING), report.count(ROTATION)
     _style(scene, robots)
     return scene
 
@@ -119,7 +120,8 @@ def scene_from_plan(grid: Grid, plan: Plan, goals: Optional[Sequence[Coord]] = N
     goals = list(plan.goals if goals is None else goals)
     scene = Scene(grid, plan.starts, goals, plan, info=list(info), title=title)
     report = validate_plan(plan, grid, goals=goals)
-    scene.findings, scene.following = report.errors, len(report.infos)
+    scene.findings = report.errors
+    scene.following, scene.rotations = report.count(FOLLOWING), report.count(ROTATION)
     _style(scene, robots)
     return scene
 

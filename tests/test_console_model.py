@@ -17,7 +17,7 @@ from console.conflicts import conflict_entries, next_entry
 from console.fleet_state import FleetState, state_at
 from console.keys import KEYS, help_lines
 from console.palette import agent_colours, distinct_colours
-from console.scene import scene_from_instance, scene_from_solution
+from console.scene import scene_from_instance, scene_from_plan, scene_from_solution
 from console.sources import MAX_SPEED, PlanClock, QueueSource
 from console.view_options import LINE_MODES, ViewOptions
 from console.viewport import Viewport
@@ -287,3 +287,11 @@ def test_path_corners_keep_turns_and_the_end_and_say_which_is_next() -> None:
     assert k.tolist() == [1, 2, 1]
     assert corners.targets(k).tolist() == [[2, 2], [5, 6], [9, 9]]
     assert corners.ahead(0, 1, 1).tolist() == [[2, 2]]
+
+
+def test_following_moves_and_rotations_are_counted_not_listed() -> None:
+    ring = [(0, 0), (1, 0), (1, 1), (0, 1)]  # four agents turn once round a 2x2 square
+    paths = [[ring[i], ring[(i + 1) % 4]] for i in range(4)]
+    paths.append([(3, 0), (3, 1)])  # a fifth follows nobody
+    scene = scene_from_plan(Grid(np.ones((3, 4), dtype=bool)), Plan.from_paths(paths))
+    assert scene.findings == [] and scene.rotations == 1 and scene.following == 4

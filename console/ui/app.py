@@ -193,7 +193,7 @@ class PlayerApp(PlayerActions):
     def _fill_conflicts(self) -> None:
         h = self.scene.grid.height
         labels = [e.label(h, self.options.orientation, self.scene.file_orientation) for e in self.entries]
-        self.conflict_list.fill(labels, self.scene.following)
+        self.conflict_list.fill(labels, self.scene.following, self.scene.rotations)
 
     def _guarded(self, fn: Callable[[], None]) -> Callable[[], None]:
         def run() -> None:

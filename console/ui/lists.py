@@ -62,11 +62,13 @@ class ConflictList(_PickList):
                  focus_back: Callable[[], None]) -> None:
         super().__init__(master, "Conflicts", on_pick, 12, focus_back)
 
-    def fill(self, labels: Sequence[str], following: int) -> None:
+    def fill(self, labels: Sequence[str], following: int, rotations: int = 0) -> None:
         self.listbox.delete(0, tk.END)
         for label in labels:
             self.listbox.insert(tk.END, label)
         title = "Conflicts and errors ({})".format(len(labels)) if labels else "No conflicts: the plan is valid"
         if following:
             title += "\n{} following moves (legal in mapf-IR)".format(following)
+        if rotations:
+            title += "\n{} rotations (legal in mapf-IR; robots cannot execute them)".format(rotations)
         self.title.configure(text=title)
