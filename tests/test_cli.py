@@ -4,16 +4,13 @@ from __future__ import annotations
 import importlib
 import re
 import subprocess
-import sys
 from pathlib import Path
 from typing import List
 
 import pytest
+from helpers import fleetctl
 
 
-def fleetctl(*args: str, cwd: Path = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)], capture_output=True,
-                          text=True, timeout=120, cwd=cwd)
 
 
 def assert_one_line_error(proc: subprocess.CompletedProcess, path: Path, line: int, fragment: str) -> None:

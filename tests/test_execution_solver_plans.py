@@ -10,8 +10,6 @@ default is what makes the difference.
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -22,6 +20,7 @@ from fleet_common.execution.errors import ROTATION
 from fleet_common.execution.simulate import simulate
 from fleet_common.formats.instance import read_instance
 from fleet_common.planning import solve
+from helpers import fleetctl
 
 CASES = [("pibt", "random-32-32-20_70agents_1"), ("lacam", "random-32-32-20_110agents_1"),
          ("pp", "random-32-32-20_70agents_1"), ("lacam", "arena_300agents_1"),
@@ -53,9 +52,6 @@ def test_with_mapf_ir_semantics_the_same_instances_give_plans_the_engine_refuses
         assert err.value.kind == ROTATION, solver
 
 
-def fleetctl(*args: object, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)], capture_output=True, text=True,
-                          timeout=120, cwd=cwd)
 
 
 def test_fleetctl_solve_then_simulate_runs_with_no_collision(shared_data: Path, tmp_path: Path) -> None:

@@ -19,7 +19,6 @@ import os
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -40,6 +39,7 @@ from fleet_common.wire import (Connection, DriveToPosition, GetStatus, Heartbeat
                                Stop, Turn)
 from fleet_common.wire.codec import decode
 from fleet_common.wire.curve_keys import ManagerKeys, load_manager_keys, make_keys
+from helpers import free_port
 
 pytestmark = pytest.mark.slow
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -71,10 +71,6 @@ def test_ros_in_own_network_namespace() -> None:
 
 
 
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
 
 
 def ros_environment(master_port: int, home: Path) -> Dict[str, str]:

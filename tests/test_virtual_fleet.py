@@ -4,7 +4,6 @@ from __future__ import annotations
 import itertools
 import math
 import random
-import socket
 import time
 from pathlib import Path
 from typing import Iterator, List
@@ -21,6 +20,7 @@ from fleet_manager.robot_link import LinkUp, RobotLink, RobotReply
 from virtual_fleet.delays import DelayModel, parse_delay_model
 from virtual_fleet.fleet import FleetThread, VirtualFleet
 from virtual_fleet.kinematics import VirtualNavigator
+from helpers import free_ports
 
 
 class FakeClock:
@@ -127,16 +127,6 @@ def test_delay_model_errors_name_the_term(spec: str, message: str) -> None:
 
 # ---- fleets over TCP -----------------------------------------------------------------
 
-def free_ports(n: int) -> List[int]:
-    socks = []
-    for _ in range(n):
-        s = socket.socket()
-        s.bind(("127.0.0.1", 0))
-        socks.append(s)
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
 
 
 @pytest.fixture

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import stat
 import subprocess
 import sys
@@ -19,23 +18,11 @@ from fleet_common.wire import Completed
 from fleet_common.wire.curve_keys import load_manager_keys
 from fleet_manager.links import LinkSet
 from fleet_manager.robot_link import RobotLink, RobotReply
+from helpers import fleetctl, free_ports
 
 
-def fleetctl(*args: object, **kwargs: object) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)],
-                          capture_output=True, text=True, timeout=60, **kwargs)
 
 
-def free_ports(n: int) -> List[int]:
-    socks = []
-    for _ in range(n):
-        s = socket.socket()
-        s.bind(("127.0.0.1", 0))
-        socks.append(s)
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
 
 
 def test_keys_are_made_once_with_private_secrets(tmp_path: Path) -> None:

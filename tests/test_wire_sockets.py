@@ -6,7 +6,6 @@ thread; the manager side is fleet_manager's RobotLink, polled here.
 from __future__ import annotations
 
 import logging
-import socket
 import time
 from pathlib import Path
 from typing import Callable, Iterator, List
@@ -22,18 +21,9 @@ from fleet_common.wire.curve_keys import (ManagerKeys, load_manager_keys, load_r
 from fleet_manager.links import LinkSet
 from fleet_manager.robot_link import LinkDown, LinkEvent, LinkUp, RobotLink, RobotReply
 from virtual_fleet.fleet import FleetThread, VirtualFleet
+from helpers import free_ports
 
 
-def free_ports(n: int) -> List[int]:
-    socks = []
-    for _ in range(n):
-        s = socket.socket()
-        s.bind(("127.0.0.1", 0))
-        socks.append(s)
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
 
 
 @pytest.fixture
