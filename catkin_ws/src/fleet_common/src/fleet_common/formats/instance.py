@@ -33,11 +33,10 @@ from .header import (
     BASE, MAPF_IR, Header, check_orientation, file_orientation, header_for_orientation,
     join_lines, read_text, split_lines, write_text,
 )
+from .agent_lines import AGENT_LINE, agent_line_error, agents_to_base, looks_like_agent_line
 from .mapsearch import load_map_grid
 
-_AGENT = re.compile(r"(\d+),(\d+),(\d+),(\d+)")
 _KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_FIELDS = ("sx", "sy", "gx", "gy")
 #: Keys mapf-IR understands; each may appear once.
 KNOWN_KEYS = ("map_file", "agents", "seed", "random_problem", "max_timestep",
               "max_comp_time", "well_formed")
@@ -110,33 +109,6 @@ class Instance:
         return "Instance({!r}, map={!r}, agents={})".format(self.path, self.map_file, self.num_agents)
 
 
-def _agent_line_error(line: str, path: Optional[str], no: int) -> InstanceFormatError:
-    """Say where an agent line leaves the `sx,sy,gx,gy` shape (digits only)."""
-    pos = 0
-    for k, field in enumerate(_FIELDS):
-        if pos >= len(line):
-            what = "line ends early: expected {} ('sx,sy,gx,gy')".format(field)
-            return InstanceFormatError(what, path, no, pos + 1)
-        if not line[pos].isdigit():
-            what = "expected a digit for {}, got {!r} (agent lines are 'sx,sy,gx,gy', " \
-                   "digits only, no spaces)".format(field, line[pos])
-            return InstanceFormatError(what, path, no, pos + 1)
-        while pos < len(line) and line[pos].isdigit():
-            pos += 1
-        if k < 3 and (pos >= len(line) or line[pos] != ","):
-            got = "the end of the line" if pos >= len(line) else repr(line[pos])
-            what = "expected ',' after {}, got {} ('sx,sy,gx,gy')".format(field, got)
-            return InstanceFormatError(what, path, no, pos + 1)
-        pos += 1 if k < 3 else 0
-    what = "unexpected {!r} after gy; an agent line is exactly 'sx,sy,gx,gy'".format(line[pos])
-    return InstanceFormatError(what, path, no, pos + 1)
-
-
-def _looks_like_agent_line(line: str) -> bool:
-    first = line.lstrip()[:1]
-    return "," in line and (first.isdigit() or first in "-+(")
-
-
 def parse_instance(
     text: str, path: Optional[str] = None, map_dirs: Optional[Sequence[Path]] = (),
     grid: Optional[Grid] = None,
@@ -154,7 +126,7 @@ def parse_instance(
         if line.startswith("#") or not line.strip():
             layout.append(("text", line))
             continue
-        m = _AGENT.fullmatch(line)
+        m = AGENT_LINE.fullmatch(line)
         if m is not None:
             agent_lines.append((no, m))
             layout.append(_AGENT_SLOT)
@@ -167,8 +139,8 @@ def parse_instance(
             header.append(key, value, no)
             layout.append(_KEY_SLOT)
             continue
-        if _looks_like_agent_line(line):
-            raise _agent_line_error(line, path, no)
+        if looks_like_agent_line(line):
+            raise agent_line_error(line, path, no)
         raise InstanceFormatError(
             "expected a comment ('# ...'), a 'key=value' line or an agent line 'sx,sy,gx,gy'; "
             "got {!r}".format(line), path, no, 1)
@@ -177,7 +149,7 @@ def parse_instance(
     orientation = file_orientation(header, InstanceFormatError)
     if grid is None:
         grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
-    starts, goals = _agents_to_base(agent_lines, grid, orientation, path)
+    starts, goals = agents_to_base(agent_lines, grid, orientation, path)
     return Instance(map_file, grid, starts, goals, header, path, orientation, layout,
                     newline, final_newline)
 
@@ -220,38 +192,6 @@ def _check_header(header: Header, agent_lines: List[Tuple[int, "re.Match[str]"]]
             "agents={} but {} agent line(s) 'sx,sy,gx,gy' follow".format(agents, len(agent_lines)),
             path, header.line_of("agents"))
     return map_file
-
-
-def _agents_to_base(agent_lines: List[Tuple[int, "re.Match[str]"]], grid: Grid,
-                    orientation: str, path: Optional[str]) -> Tuple[List[Coord], List[Coord]]:
-    """Check every cell (as written in the file) and return base-frame starts, goals."""
-    w, h = grid.width, grid.height
-    flip = orientation == MAPF_IR
-    starts: List[Coord] = []
-    goals: List[Coord] = []
-    taken: Tuple[Dict[Coord, Tuple[int, int]], Dict[Coord, Tuple[int, int]]] = ({}, {})
-    for agent, (no, m) in enumerate(agent_lines):
-        sx, sy, gx, gy = (int(v) for v in m.groups())
-        for k, (x, y), out in ((0, (sx, sy), starts), (1, (gx, gy), goals)):
-            what = ("start", "goal")[k]
-            col = m.start(1 + 2 * k) + 1
-            if not (x < w and y < h):
-                raise InstanceFormatError(
-                    "{} ({},{}) of agent {} is off the map ({} wide, {} high)".format(
-                        what, x, y, agent, w, h), path, no, col)
-            base = (x, h - 1 - y) if flip else (x, y)
-            if not grid.free[base[1], base[0]]:
-                raise InstanceFormatError("{} ({},{}) of agent {} is on a blocked cell".format(
-                    what, x, y, agent), path, no, col)
-            if base in taken[k]:
-                other, other_line = taken[k][base]
-                raise InstanceFormatError(
-                    "agent {} {}s at ({},{}), where agent {} {}s too (line {})".format(
-                        agent, ("start", "end")[k], x, y, other, ("start", "end")[k], other_line),
-                    path, no, col)
-            taken[k][base] = (agent, no)
-            out.append(base)
-    return starts, goals
 
 
 def read_instance(path: str, map_dirs: Optional[Sequence[Path]] = ()) -> Instance:
