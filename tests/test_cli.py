@@ -161,6 +161,9 @@ def test_demo_plans_the_lab_scenario():
     assert "13x14 marker grid" in proc.stdout
     assert re.search(r"plan: \S+ in \d+ ms, soc=\d+, makespan=\d+, valid", proc.stdout)
     assert len(re.findall(r"^  robot \d+ ", proc.stdout, flags=re.M)) == 5
+    for strategy in ("adg", "step"):
+        assert re.search(r"^  {}: executed makespan [\d.]+ \(plan \d+\), \d+ waits, collisions: 0, "
+                         r"robots at goal: 5 of 5$".format(strategy), proc.stdout, flags=re.M), proc.stdout
 
 
 def test_legacy_plan_converts_to_a_mapf_ir_solution_that_validates(repo_root, tmp_path):

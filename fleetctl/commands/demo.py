@@ -3,8 +3,10 @@
 Loads the embedded lab (the thesis's 13 x 14 marker grid, its node ids), the
 fleet from robot_definitions.txt and the lab's default instance, checks that
 they agree, plans the run with a built-in solver, validates the plan with the
-one validator and prints what each robot will do. Later issues turn this into
-the virtual run.
+one validator, prints what each robot will do, and executes the plan on
+simulated robots with moderate random delays under both synchronization
+strategies (the execution engine the manager uses), reporting collisions.
+Later issues turn this into the virtual run on the robots' own ports.
 """
 from __future__ import annotations
 
@@ -28,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "lacam if cbs runs out of time)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--time-limit", type=float, default=10.0, metavar="S")
+    parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
+                        help="delays for the simulated execution, as `fleetctl simulate` takes "
+                             "them (default: moderate random delays)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,7 +73,29 @@ def run(args: argparse.Namespace) -> int:
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
     for line in _robot_lines(robots, plan, nodes):
         print("  " + line)
-    return 0 if report.ok else 1
+    if not report.ok:
+        return 1
+    return _execute(plan, args)
+
+
+def _execute(plan, args: argparse.Namespace) -> int:
+    """The plan on simulated robots under each strategy: what delays do to it."""
+    from fleet_common.execution import STRATEGIES
+    from fleet_common.execution.delays import parse_delay_model
+    from fleet_common.execution.simulate import simulate
+
+    delays = parse_delay_model(args.delay_model)
+    print("execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
+    clean = True
+    for name in sorted(STRATEGIES):
+        result = simulate(plan, name, delays, seed=args.seed)
+        missing = result.unfinished()
+        clean = clean and not result.collisions and not missing
+        print("  {}: executed makespan {:.1f} (plan {}), {} waits, collisions: {}, "
+              "robots at goal: {} of {}".format(
+                  name, result.metrics.makespan, plan.makespan, result.metrics.total_waits,
+                  len(result.collisions), plan.num_agents - len(missing), plan.num_agents))
+    return 0 if clean else 1
 
 
 def _robot_lines(robots, plan, nodes) -> List[str]:
