@@ -191,3 +191,43 @@ def test_problems_too_large_for_distance_tables_are_refused_before_any_search(mo
     assert solve("pibt", grid, [(0, 0)], [(6, 2)]).solved
     with pytest.raises(ProblemTooLargeError, match="2 agents on a 7x3 map need .* run a mapf-IR solver"):
         solve("pibt", grid, [(0, 0), (1, 0)], [(6, 2), (5, 2)])
+
+
+@settings(max_examples=60)
+@given(rows=grids, data=st.data())
+def test_large_map_search_and_compact_tables_equal_a_plain_bfs(rows, data) -> None:
+    # the frontier search and memoryview tables are what maps of 65535+ cells get; force them here
+    from fleet_common.planning import dist_table
+
+    grid = Grid(np.array(rows, dtype=bool))
+    cells = [(x, y) for y in range(grid.height) for x in range(grid.width)]
+    goals = data.draw(st.lists(st.sampled_from(cells), min_size=1, max_size=70))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(dist_table, "BITS_MAX_CELLS", 0)
+        mp.setattr(dist_table, "LIST_ENTRIES", 0)
+        views = dist_table.dist_lists(grid, goals, unreachable=grid.num_cells + 1)
+    for goal, view in zip(goals, views):
+        # unreachable cells read as the caller's `unreachable`, capped at uint16's UNREACHED
+        far = min(grid.num_cells + 1, dist_table.UNREACHED)
+        want = [far if d < 0 else d for d in python_bfs(grid, goal)]
+        assert isinstance(view, memoryview) and view.tolist() == want
+        assert dist_array(grid, goal).tolist() == python_bfs(grid, goal)
+
+
+def test_many_agents_on_a_large_sparse_map_solve_where_they_were_once_refused() -> None:
+    # 250 goals x 180,000 cells = 45 M table entries: over the old 40 M cap, about 90 MB now
+    rows = ["@" * 600] * 297 + ["." * 600] * 3
+    grid = Grid.from_rows(rows)
+    starts = [(x, 0) for x in range(250)]
+    goals = [(x, 2) for x in range(250)]
+    result = solve("pibt", grid, starts, goals, deadline=20.0)
+    assert result.solved and result.plan is not None and result.plan.makespan == 2
+    assert lower_bounds(grid, starts, goals) == (500, 2)
+
+
+def test_too_large_problems_are_refused_with_their_memory_estimate() -> None:
+    grid = Grid.from_rows(["." * 1000] * 1000)  # a million cells: 1,601 goals would need 3.2 GB
+    goals = [(x, y) for y in range(2) for x in range(1000)][:1601]
+    with pytest.raises(ProblemTooLargeError, match=r"1601 agents on a 1000x1000 map need 1601 million "
+                       r"distance-table entries \(about 3.2 GB of memory\), more than .*\(1600 million, 3.2 GB\)"):
+        solve("pibt", grid, goals, goals)

@@ -1,29 +1,52 @@
 """Shortest-path distances to goals, by breadth-first search in numpy.
 
 `dist_array(grid, goal)[cell id]` is the number of moves from that cell to
-`goal` (cell id = y * width + x), -1 where the goal cannot be reached. Many
-goals are searched at once: each wavefront step grows every goal's reached set
-by one cell with four shifted ORs, so 300 goals cost about as much as a few. Goals are bits of uint64 words (64
-goals a word), so a step is a handful of vector operations on
-(height, width, goals/64) words; the distance itself is counted in
-bit-sliced binary counters (one uint64 plane per bit of the count) and
-unpacked into the int32 table once at the end. Results are cached on the grid
-(`grid.derived[("dist", goal)]`), so a map's tables are built once per goal.
+`goal` (cell id = y * width + x), -1 where the goal cannot be reached.
+
+Tables are kept once per map and goal (cached on the grid) as uint16, with
+`UNREACHED` (65535) for cells the goal cannot be reached from: 2 bytes a cell
+instead of int32's 4 and far less than a Python list's, which is what lets
+1,500 agents on a 530x481 map fit in under a GB. A shortest path of 65535
+moves or more is refused (`dist_codes` raises), never wrapped around.
+
+Two searches fill them, whichever is cheaper for the map:
+- small maps (fewer than 65535 cells, e.g. the lab's and the benchmark's): all
+  goals at once, bit-parallel. Goals are bits of uint64 words (64 goals a
+  word); each wavefront step grows every goal's reached set with four shifted
+  ORs, and distances are counted in bit-sliced binary counters (one uint64
+  plane per bit of the count). Its cost grows with cells x diameter, cheap here.
+- large maps: 64 goals at a time over the free cells only, one frontier of
+  (goal, cell) pairs per step, so the work is goals x free cells whatever the
+  diameter and the temporary arrays stay a few tens of MB.
+
+`dist_lists` hands solvers' inner loops plain Python lists while all tables
+together stay under `LIST_ENTRIES` entries (fastest to index); above that,
+read-only memoryviews of the uint16 tables (a little slower to index, no copy).
 """
 from __future__ import annotations
 
-from typing import Dict, List, Sequence, Tuple
+from typing import Dict, List, Sequence, Tuple, Union
 
 import numpy as np
 
 from ..grid import Coord, Grid
 
-#: Goals searched together; bounds the temporary arrays to a few tens of MB.
+#: Marks "unreachable" in the uint16 tables; larger than any distance they hold.
+UNREACHED = 65535
+#: Maps with fewer cells use the bit-parallel search (all distances then fit below UNREACHED).
+BITS_MAX_CELLS = 65535
+#: Goals x cells up to which `dist_lists` returns Python lists (about 0.1-0.3 GB at this size).
+LIST_ENTRIES = 10_000_000
+#: Goals searched together by the bit-parallel search; bounds its temporaries to tens of MB.
 _CELLS_PER_BATCH = 64_000_000
+#: Goals searched together by the frontier search.
+_FRONTIER_BATCH = 64
+
+DistList = Union[List[int], memoryview]
 
 
-def _key(goal: Coord) -> Tuple[str, Coord]:
-    return ("dist", (int(goal[0]), int(goal[1])))
+def _key(goal: Coord, kind: str = "dist") -> Tuple[str, Coord]:
+    return (kind, (int(goal[0]), int(goal[1])))
 
 
 def dist_array(grid: Grid, goal: Coord) -> np.ndarray:
@@ -32,25 +55,53 @@ def dist_array(grid: Grid, goal: Coord) -> np.ndarray:
 
 
 def dist_arrays(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
-    """`dist_array` for each goal, computing the missing ones in batches."""
-    missing = sorted({_key(g)[1] for g in goals if _key(g) not in grid.derived})
-    batch = max(1, _CELLS_PER_BATCH // max(grid.num_cells, 1))
+    """`dist_array` for each goal (cached; 4 bytes a cell each: prefer `dist_codes` for many goals)."""
+    out = []
+    for g, codes in zip(goals, dist_codes(grid, goals)):
+        key = _key(g)
+        if key not in grid.derived:
+            table = codes.astype(np.int32)
+            table[codes == UNREACHED] = -1
+            table.setflags(write=False)
+            grid.derived[key] = table
+        out.append(grid.derived[key])
+    return out  # type: ignore[return-value]
+
+
+def dist_codes(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
+    """Distances to each goal as uint16 per cell, `UNREACHED` where unreachable (cached, read-only)."""
+    missing = sorted({_key(g)[1] for g in goals if _key(g, "dist16") not in grid.derived})
+    if grid.num_cells < BITS_MAX_CELLS:
+        search, batch = _bfs, max(1, _CELLS_PER_BATCH // max(grid.num_cells, 1))
+    else:
+        search, batch = _frontier_bfs, _FRONTIER_BATCH
     for k in range(0, len(missing), batch):
         chunk = missing[k:k + batch]
-        for goal, table in zip(chunk, _bfs(grid, chunk)):
+        for goal, table in zip(chunk, search(grid, chunk)):
             table.setflags(write=False)
-            grid.derived[_key(goal)] = table
-    return [grid.derived[_key(g)] for g in goals]  # type: ignore[misc]
+            grid.derived[_key(goal, "dist16")] = table
+    return [grid.derived[_key(g, "dist16")] for g in goals]  # type: ignore[misc]
 
 
-def dist_lists(grid: Grid, goals: Sequence[Coord], unreachable: int) -> List[List[int]]:
-    """Distances as plain lists for solvers' inner loops, with -1 replaced by `unreachable`."""
-    out = []
-    cache: Dict[Coord, List[int]] = {}
-    for g, arr in zip(goals, dist_arrays(grid, goals)):
-        key = (int(g[0]), int(g[1]))
+def dist_lists(grid: Grid, goals: Sequence[Coord], unreachable: int) -> List[DistList]:
+    """Distances for solvers' inner loops, indexed by cell id, unreachable cells reading `unreachable`.
+
+    Lists while goals x cells <= `LIST_ENTRIES`; else memoryviews of uint16
+    tables, where an `unreachable` above 65535 reads as 65535 (still larger
+    than every distance, which is all solvers use it for).
+    """
+    big = len({_key(g) for g in goals}) * grid.num_cells > LIST_ENTRIES
+    out: List[DistList] = []
+    cache: Dict[Coord, DistList] = {}
+    for g, codes in zip(goals, dist_codes(grid, goals)):
+        key = _key(g)[1]
         if key not in cache:
-            cache[key] = np.where(arr < 0, unreachable, arr).tolist()
+            if not big:
+                cache[key] = np.where(codes == UNREACHED, unreachable, codes).tolist()
+            elif unreachable >= UNREACHED:
+                cache[key] = memoryview(codes)
+            else:
+                cache[key] = memoryview(np.where(codes == UNREACHED, unreachable, codes).astype(np.uint16))
         out.append(cache[key])
     return out
 
@@ -59,8 +110,8 @@ def lower_bounds(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) ->
     """(sum, max) of start-to-goal distances: mapf-IR's lb_soc and lb_makespan."""
     if not starts:
         return 0, 0
-    d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_arrays(grid, goals))]
-    if min(d) < 0:
+    d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_codes(grid, goals))]
+    if max(d) == UNREACHED:
         raise ValueError("a goal is unreachable from its start; check the problem first")
     return sum(d), max(d)
 
@@ -91,8 +142,63 @@ def _bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     dist = np.zeros((h * w, words * 64), dtype=np.int32)
     for k, plane in enumerate(planes):
         dist += _unpack(plane, h * w).astype(np.int32) << k
-    dist[_unpack(reached, h * w) == 0] = -1
-    return list(np.ascontiguousarray(dist[:, :n].T))
+    dist[_unpack(reached, h * w) == 0] = UNREACHED
+    return list(np.ascontiguousarray(dist[:, :n].T.astype(np.uint16)))
+
+
+def _free_neighbours(grid: Grid) -> Tuple[np.ndarray, List[np.ndarray]]:
+    """Cell ids of the free cells, and per direction each free cell's neighbour (free index, -1 none)."""
+    ids = np.flatnonzero(grid.free.ravel())
+    index = np.full(grid.num_cells, -1, dtype=np.int64)
+    index[ids] = np.arange(ids.size)
+    w, h = grid.width, grid.height
+    x, y = ids % w, ids // w
+    out = []
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        nx, ny = x + dx, y + dy
+        inside = (nx >= 0) & (nx < w) & (ny >= 0) & (ny < h)
+        nb = np.full(ids.size, -1, dtype=np.int64)
+        nb[inside] = index[(ny * w + nx)[inside]]
+        out.append(nb)
+    return ids, out
+
+
+def _frontier_bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
+    ids, neighbours = _free_neighbours(grid)
+    f = ids.size
+    # one row of free-cell distances per goal, flattened: entry g * f + c
+    dist = np.full(len(goals) * f, UNREACHED, dtype=np.uint16)
+    slot = np.zeros(len(goals) * f, dtype=np.int64)  # scratch for dropping duplicate pairs
+    goal_ids = np.array([y * grid.width + x for x, y in goals], dtype=np.int64)
+    start = np.minimum(np.searchsorted(ids, goal_ids), max(f - 1, 0))
+    on_free = ids[start] == goal_ids if f else np.zeros(len(goals), dtype=bool)
+    frontier = (np.arange(len(goals), dtype=np.int64) * f + start)[on_free]  # a blocked goal reaches nothing
+    dist[frontier] = 0
+    level = 0
+    while frontier.size:
+        level += 1
+        if level >= UNREACHED:
+            raise ValueError("a shortest path on this map is {} moves or longer; distance tables "
+                             "hold at most {}".format(UNREACHED, UNREACHED - 1))
+        row = frontier // f * f
+        cell = frontier % f
+        parts = []
+        for nb in neighbours:
+            n = nb[cell]
+            ok = n >= 0
+            parts.append(row[ok] + n[ok])
+        cand = np.concatenate(parts)
+        cand = cand[dist[cand] == UNREACHED]
+        order = np.arange(cand.size)
+        slot[cand] = order
+        frontier = cand[slot[cand] == order]
+        dist[frontier] = level
+    out = []
+    for k in range(len(goals)):
+        table = np.full(grid.num_cells, UNREACHED, dtype=np.uint16)
+        table[ids] = dist[k * f:(k + 1) * f]
+        out.append(table)
+    return out
 
 
 def _increment(planes: List[np.ndarray], mask: np.ndarray) -> None:

@@ -17,9 +17,12 @@ from .components import component_labels
 
 #: At most this many problems are named in one message; the rest are counted.
 MAX_LISTED = 5
-#: Largest agents x cells the built-in solvers accept: they keep a full distance
-#: table per agent (int32 arrays plus Python lists), about 1.5 GB at this size.
-MAX_TABLE_ENTRIES = 40_000_000
+#: Largest goals x cells the built-in solvers accept: they keep one uint16
+#: distance table per goal over the whole map (2 bytes an entry, see dist_table),
+#: so this is about 3.2 GB of tables; the search itself needs tens of MB more.
+MAX_TABLE_ENTRIES = 1_600_000_000
+#: Bytes a distance-table entry takes.
+TABLE_ENTRY_BYTES = 2
 
 
 class InvalidProblemError(FleetError, ValueError):
@@ -39,14 +42,20 @@ class ProblemTooLargeError(FleetError):
 
 
 def check_size(grid: Grid, num_agents: int) -> None:
-    """Refuse, before allocating anything, problems whose distance tables would not fit."""
+    """Refuse, before allocating anything, problems whose distance tables would not fit.
+
+    `num_agents` counts distinct goals: agents sharing a goal share its table.
+    """
     goals = min(num_agents, int(grid.free.sum()))
-    if goals * grid.num_cells > MAX_TABLE_ENTRIES:
+    entries = goals * grid.num_cells
+    if entries > MAX_TABLE_ENTRIES:
         raise ProblemTooLargeError(
-            "{} agents on a {}x{} map need {} million distance-table entries, more than the "
-            "built-in solvers allow ({} million); run a mapf-IR solver for instances this "
-            "large".format(num_agents, grid.width, grid.height, goals * grid.num_cells // 1_000_000,
-                           MAX_TABLE_ENTRIES // 1_000_000))
+            "{} agents on a {}x{} map need {} million distance-table entries (about {:.1f} GB of "
+            "memory), more than the built-in solvers allow ({} million, {:.1f} GB); run a mapf-IR "
+            "solver for instances this large".format(
+                num_agents, grid.width, grid.height, entries // 1_000_000,
+                entries * TABLE_ENTRY_BYTES / 1e9, MAX_TABLE_ENTRIES // 1_000_000,
+                MAX_TABLE_ENTRIES * TABLE_ENTRY_BYTES / 1e9))
 
 
 def cell_problem(grid: Grid, cell: Coord, what: str, agent: int) -> Optional[str]:
