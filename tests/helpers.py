@@ -1,11 +1,15 @@
-"""What several test modules need: `fleetctl` run as a user runs it, free loopback ports."""
+"""What several test modules need: `fleetctl` run as a user runs it, free loopback ports,
+a naive rotation checker (the oracle for the vectorised one).
+"""
 from __future__ import annotations
 
 import socket
 import subprocess
 import sys
 from pathlib import Path
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Set, Tuple
+
+from fleet_common.plan import Plan
 
 
 def fleetctl(*args: object, cwd: Optional[Path] = None, env: Optional[Dict[str, str]] = None,
@@ -30,3 +34,25 @@ def free_ports(n: int) -> List[int]:
 
 def free_port() -> int:
     return free_ports(1)[0]
+
+
+def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int, ...]]]:
+    """(step, agents from the smallest, in cycle order) of every cycle of movers each entering
+    the cell the next one leaves, found by walking each mover; `min_length=2` counts swaps too."""
+    found = set()
+    pos = plan.positions
+    for t in range(plan.makespan):
+        at = {tuple(p): i for i, p in enumerate(pos[t].tolist())}
+        follows = {}
+        for i in range(plan.num_agents):
+            j = at.get(tuple(pos[t + 1, i].tolist()))
+            if j is not None and j != i and (pos[t + 1, j] != pos[t, j]).any():
+                follows[i] = j
+        for i in follows:
+            cycle, k = [i], follows[i]
+            while k != i and k in follows and len(cycle) <= plan.num_agents:
+                cycle.append(k)
+                k = follows[k]
+            if k == i and len(cycle) >= min_length and i == min(cycle):
+                found.add((t + 1, tuple(cycle)))
+    return found

@@ -17,6 +17,7 @@ from fleet_common.plan import Plan
 from fleet_common.planning import InvalidProblemError, solve
 from fleet_common.validate import (BLOCKED, FOLLOWING, GOAL, JUMP, MAKESPAN, OFF_MAP, ROTATION, SOC,
                                    START, SWAP, VERTEX, validate_plan)
+from helpers import naive_rotations
 
 OPEN = Grid(np.ones((5, 6), dtype=bool))
 
@@ -266,27 +267,6 @@ def test_large_random_plan_findings_match_a_naive_checker(agents, steps):
 
 
 # ---- rotations: injected ones are found, a naive checker agrees ------------------------------
-
-def naive_rotations(plan: Plan) -> set:
-    """(step, agents from the smallest, in cycle order) of every rotation, by walking each mover."""
-    found = set()
-    pos = plan.positions
-    for t in range(plan.makespan):
-        at = {tuple(p): i for i, p in enumerate(pos[t].tolist())}
-        follows = {}
-        for i in range(plan.num_agents):
-            j = at.get(tuple(pos[t + 1, i].tolist()))
-            if j is not None and j != i and (pos[t + 1, j] != pos[t, j]).any():
-                follows[i] = j
-        for i in follows:
-            cycle, k = [i], follows[i]
-            while k != i and k in follows and len(cycle) <= plan.num_agents:
-                cycle.append(k)
-                k = follows[k]
-            if k == i and len(cycle) >= 3 and i == min(cycle):
-                found.add((t + 1, tuple(cycle)))
-    return found
-
 
 def ring(x0: int, y0: int, w: int, h: int) -> List[Coord]:
     """The border cells of a w x h rectangle, in order round it."""
