@@ -72,7 +72,7 @@ def test_cells_and_metres_round_trip_through_the_lab_transform() -> None:
 
 
 def test_lab_frames_file_holds_the_figure_5_8_transform() -> None:
-    assert set(lab_transforms()) == {"base_to_robot"}
+    assert set(lab_transforms()) == {"base_to_robot", "vicon_to_base"}
     assert base_to_robot().is_close(scale_translate(0.7, 0.7, 2.1, "base", "robot"))
 
 

@@ -22,11 +22,14 @@ or as the top rows of the homogeneous matrix (x' = a x + b y + tx, ...):
 
 Inverses need no entry: `find_transform` chains entries and their inverses.
 Errors are `TransformError`s naming the file, line and column.
-`fit_similarity` calibrates a frame from measured point pairs (Umeyama 1991).
+`fit_similarity` calibrates a frame from measured point pairs (Umeyama 1991);
+`write_transform` puts the result into a file, keeping its other entries and comments.
 """
 from __future__ import annotations
 
 import math
+import os
+import re
 from collections import deque
 from pathlib import Path
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
@@ -41,7 +44,7 @@ from .yaml_lines import load_marked, where
 __all__ = [
     "FRAMES", "Transform2D", "mapf_ir_to_base", "similarity", "scale_translate",
     "find_transform", "parse_transforms", "load_transforms", "dump_transforms",
-    "fit_similarity", "check_frame",
+    "fit_similarity", "check_frame", "set_transform", "write_transform",
 ]
 
 _HEADER = (
@@ -127,6 +130,58 @@ def dump_transforms(transforms: Mapping[str, Transform2D],
     if path is not None:
         Path(path).write_text(text, encoding="utf-8")
     return text
+
+
+def set_transform(text: str, name: str, transform: Transform2D, note: str = "",
+                  path: Optional[str] = None) -> str:
+    """Transforms-file `text` with entry `name` replaced by `transform` (added at the end
+    if absent), every other entry and comment kept; `note` becomes a comment inside it."""
+    before = parse_transforms(text, path)
+    block = yaml.safe_dump({name: transform.to_dict()}, sort_keys=False,
+                           default_flow_style=None)
+    if note:
+        head, rest = block.split("\n", 1)
+        block = head + "\n" + "".join("  # {}\n".format(n) for n in note.splitlines()) + rest
+    lines = text.splitlines(keepends=True)
+    key = re.compile(r"{}\s*:".format(re.escape(name)))
+    start = next((i for i, line in enumerate(lines) if key.match(line)), None)
+    if start is None:
+        lines += ([] if not lines or lines[-1].endswith("\n") else ["\n"]) + [block]
+    else:
+        end = start + 1  # the entry: its key line and the indented (or blank) lines after it
+        while end < len(lines) and (lines[end][:1] in (" ", "\t") or not lines[end].strip()):
+            end += 1
+        while end > start + 1 and not lines[end - 1].strip():
+            end -= 1
+        lines[start:end] = [block]
+    out = "".join(lines)
+    kept = {k: v for k, v in before.items() if k != name}
+    try:
+        after = parse_transforms(out, path)
+    except TransformError:
+        after = {}
+    if {k: v for k, v in after.items() if k != name} != kept or name not in after or not \
+            after[name].is_close(transform, atol=1e-12 * float(np.abs(transform.matrix).max())):
+        # a layout this line-based edit does not understand (flow style, quoted keys)
+        return dump_transforms({**kept, name: transform})
+    return out
+
+
+def write_transform(path: Union[str, Path], name: str, transform: Transform2D,
+                    note: str = "") -> None:
+    """Replace or add entry `name` in transforms file `path` (see set_transform), atomically."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8") if path.exists() else ""
+    except OSError as err:
+        raise TransformError("cannot read: {}".format(err.strerror), str(path)) from err
+    new = set_transform(text, name, transform, note, str(path))
+    temporary = path.with_name(path.name + ".tmp")
+    try:
+        temporary.write_text(new, encoding="utf-8")
+        os.replace(str(temporary), str(path))
+    except OSError as err:
+        raise TransformError("cannot write: {}".format(err.strerror), str(path)) from err
 
 
 # ---- calibration -------------------------------------------------------------

@@ -83,6 +83,11 @@ class Transform2D:
         raise ValueError("expected a point (x, y) or an (N, 2) array, got shape {}".format(
             arr.shape))
 
+    def apply_heading(self, theta: float) -> float:
+        """The heading (radians from +x, counter-clockwise) that direction `theta` maps to."""
+        dx, dy = self.matrix[:2, :2] @ (math.cos(theta), math.sin(theta))
+        return math.atan2(float(dy), float(dx))
+
     def inverse(self) -> "Transform2D":
         inv = np.linalg.inv(self.matrix)
         inv[2] = (0.0, 0.0, 1.0)  # exact, so the result is affine again

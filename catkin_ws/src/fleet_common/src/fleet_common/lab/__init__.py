@@ -6,7 +6,7 @@ bottom (Y = 2.1 m) to the top (Y = 11.2 m); one bar-code node per free cell,
 
 - `lab.map`          the grid in mapf-IR map format (rows top to bottom, '@' = no node)
 - `nodes.yaml`       every node: id, base cell, robot-frame position in metres
-- `frames.yaml`      base -> robot transform (Vicon is calibrated at the lab)
+- `frames.yaml`      base -> robot and vicon -> base (`fleetctl vicon calibrate`)
 - `lab_instance.txt` the default 5-robot demo, a mapf-IR instance (top-left origin)
 """
 from __future__ import annotations
