@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from fleet_common.frames import similarity
 from fleet_common.lab import lab_transforms
 from fleet_common.vicon import ViconObject, ViconStream, encode_frame
-from fleet_common.vicon.base_grid import (from_base, load_vicon_to_base, object_state, to_base,
+from fleet_common.vicon.base_grid import (from_base, load_vicon_to_base, fix_of, to_base,
                                           vicon_to_base)
 from fleet_common.vicon.stream import MAX_FRAME_GAP
 from fleet_common.wire.messages import Pose
@@ -107,8 +107,8 @@ def test_an_object_not_seen_for_longer_than_the_limit_is_stale() -> None:
     stream = ViconStream()
     feed(stream, frame(1, obj("a", 700.0, 2100.0)), now=10.0)
     to_base_t = vicon_to_base(lab_transforms())
-    fresh = object_state(to_base_t, stream.sightings["a"], now=10.4, stale_after=0.5)
-    stale = object_state(to_base_t, stream.sightings["a"], now=10.6, stale_after=0.5)
+    fresh = fix_of(to_base_t, stream.sightings["a"], now=10.4, stale_after=0.5)
+    stale = fix_of(to_base_t, stream.sightings["a"], now=10.6, stale_after=0.5)
     assert not fresh.stale and stale.stale
     assert stale.age == pytest.approx(0.6) and stale.frame == 1
     assert (stale.pose.x, stale.pose.y) == pytest.approx((0.0, 0.0), abs=1e-12)

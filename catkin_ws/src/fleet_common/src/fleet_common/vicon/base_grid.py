@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Union
+from typing import Mapping, Optional, Union
 
 from ..frames import find_transform, load_transforms
 from ..transform2d import Transform2D
@@ -18,8 +18,8 @@ from ..wire.messages import Pose
 from .packet import ViconObject
 from .stream import Sighting
 
-__all__ = ["VICON_TRANSFORM", "ObjectState", "load_vicon_to_base", "vicon_to_base",
-           "to_base", "from_base", "object_state", "DEFAULT_HEIGHT_MM"]
+__all__ = ["VICON_TRANSFORM", "ViconFix", "load_vicon_to_base", "vicon_to_base",
+           "to_base", "from_base", "fix_of", "DEFAULT_HEIGHT_MM"]
 
 #: The frames-file entry calibration writes.
 VICON_TRANSFORM = "vicon_to_base"
@@ -54,18 +54,20 @@ def from_base(base_to_vicon: Transform2D, name: str, pose: Pose,
 
 
 @dataclass(frozen=True)
-class ObjectState:
-    """An object as a reader shows it: base-grid pose, frame, age (s) and whether stale."""
+class ViconFix:
+    """An object as readers show it: base-grid pose, Tracker frame, age (s), whether stale,
+    and the robot it is (None for an object no robot definition names)."""
 
     name: str
     pose: Pose
     frame: int
     age: float
     stale: bool
+    robot_id: Optional[int] = None
 
 
-def object_state(transform: Transform2D, sighting: Sighting, now: float,
-                 stale_after: float) -> ObjectState:
+def fix_of(transform: Transform2D, sighting: Sighting, now: float, stale_after: float,
+           robot_id: Optional[int] = None) -> ViconFix:
     age = sighting.age(now)
-    return ObjectState(sighting.obj.name, to_base(transform, sighting.obj),
-                       sighting.frame, age, age > stale_after)
+    return ViconFix(sighting.obj.name, to_base(transform, sighting.obj), sighting.frame, age,
+                    age > stale_after, robot_id)

@@ -110,6 +110,11 @@ class ViconStream:
             updated.append(sighting)
         return updated
 
+    def refuse(self, cause: str) -> None:
+        """Count a datagram its reader refused before decoding (e.g. from a foreign host)."""
+        self.counters.packets += 1
+        _bump(self.counters.rejected, cause)
+
     def _count_frame(self, frame: int) -> None:
         c = self.counters
         newest = self.newest
