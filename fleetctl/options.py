@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import List, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from fleet_common.formats.mapsearch import default_map_dirs
 
@@ -44,3 +44,32 @@ def legacy_units(args: argparse.Namespace) -> Tuple[float, Tuple[float, float]]:
     if args.legacy_origin is not None:
         origin = (args.legacy_origin[0], args.legacy_origin[1])
     return scale, origin
+
+
+def positive(text: str) -> float:
+    """argparse type: a number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError("expected a positive number, got {!r}".format(text))
+    return value
+
+
+def start_poses(instance: Optional[Path], robots: Sequence) -> Optional[Dict]:
+    """robot id -> Pose at agent i's start of `instance` (default: the lab instance) for
+    robot i; None when the lab instance has fewer agents than there are robots."""
+    from fleet_common.errors import FleetError
+    from fleet_common.formats.instance import read_instance
+    from fleet_common.lab import lab_instance_path, lab_map_path
+    from fleet_common.wire.messages import Pose
+
+    path = instance or lab_instance_path()
+    inst = read_instance(str(path), map_dirs=[lab_map_path().parent, Path(path).parent])
+    if len(inst.starts) < len(robots):
+        if instance is not None:
+            raise FleetError("{} has {} agents, fewer than the {} robots".format(
+                instance, len(inst.starts), len(robots)))
+        return None  # rows from (0, 0)
+    return {r.id: Pose(float(s[0]), float(s[1]), 0.0) for r, s in zip(robots, inst.starts)}

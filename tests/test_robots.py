@@ -90,6 +90,8 @@ def test_trailing_comment_token_does_not_count_as_a_field() -> None:
         ("1 192.168.2.11 10001 tu@rtle tb1 red\n", 1, 22, "bad ssh_user 'tu@rtle'"),
         (GOOD + "2 192.168.2.12 10002 turtlebot turtlebot1 red\n", 2, 32,
          "Vicon name turtlebot1 is already used by robot 1 on line 1"),
+        ("1 192.168.2.11 10001 turtlebot " + "t" * 25 + " red\n", 1, 32,
+         "bad vicon_name '" + "t" * 25 + "': expected a name of at most 24 bytes"),
         ("1 192.168.2.11 10001 turtlebot tb1 reddish\n", 1, 36,
          "bad colour 'reddish': expected a Tk colour name"),
         ("1 192.168.2.11 10001 turtlebot tb1 #ffff\n", 1, 36, "bad colour '#ffff'"),

@@ -11,7 +11,8 @@ import argparse
 import logging
 import signal
 from pathlib import Path
-from typing import Dict, Optional
+
+from ..options import positive, start_poses
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
@@ -22,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
                         help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
                              "repository's robot_definitions.txt)")
-    parser.add_argument("--time-scale", type=_positive, default=1.0, metavar="K",
+    parser.add_argument("--time-scale", type=positive, default=1.0, metavar="K",
                         help="run K times faster than real time (default 1)")
     parser.add_argument("--delay-model", default="none", metavar="SPEC",
                         help="what goes wrong: comma-separated delay=D, slow=P:F, stall=P:S, "
@@ -32,9 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
-    parser.add_argument("--speed", type=_positive, default=0.5, metavar="CELLS_PER_S",
+    parser.add_argument("--speed", type=positive, default=0.5, metavar="CELLS_PER_S",
                         help="driving speed (default 0.5 cells/s, about 0.35 m/s in the lab)")
-    parser.add_argument("--turn-speed", type=_positive, default=1.5, metavar="RAD_PER_S",
+    parser.add_argument("--turn-speed", type=positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
                         help="start robot i at agent i's start of this instance (default: the "
@@ -46,16 +47,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="accept commands from anyone (no CurveZMQ); for local experiments")
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError("expected a positive number, got {!r}".format(text))
-    return value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -77,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
                          time_scale=args.time_scale, model=model, seed=args.seed,
                          speed=args.speed, turn_speed=args.turn_speed,
-                         start_poses=_start_poses(args.instance, robots), path=str(path))
+                         start_poses=start_poses(args.instance, robots), path=str(path))
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
@@ -93,19 +84,3 @@ def run(args: argparse.Namespace) -> int:
         fleet.close()
     print("virtual fleet stopped ({} dropouts)".format(fleet.dropouts), flush=True)
     return 0
-
-
-def _start_poses(instance: Optional[Path], robots: list) -> Optional[Dict]:
-    from fleet_common.errors import FleetError
-    from fleet_common.formats.instance import read_instance
-    from fleet_common.lab import lab_instance_path, lab_map_path
-    from fleet_common.wire.messages import Pose
-
-    path = instance or lab_instance_path()
-    inst = read_instance(str(path), map_dirs=[lab_map_path().parent, Path(path).parent])
-    if len(inst.starts) < len(robots):
-        if instance is not None:
-            raise FleetError("{} has {} agents, fewer than the {} robots".format(
-                instance, len(inst.starts), len(robots)))
-        return None  # rows from (0, 0)
-    return {r.id: Pose(float(s[0]), float(s[1]), 0.0) for r, s in zip(robots, inst.starts)}

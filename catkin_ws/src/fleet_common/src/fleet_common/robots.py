@@ -97,7 +97,9 @@ def _check_field(name: str, token: str) -> Optional[str]:
         )
     if name == "colour":
         return None if is_tk_colour(token) else COLOUR_FORMS
-    return None  # vicon_name: any token
+    if name == "vicon_name":  # Tracker's UDP stream carries at most 24 bytes of name
+        return None if len(token.encode("utf-8")) <= 24 else "a name of at most 24 bytes"
+    return None
 
 
 def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[RobotDefinition]:
