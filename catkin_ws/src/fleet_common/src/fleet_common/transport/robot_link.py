@@ -26,12 +26,11 @@ from typing import Callable, List, Optional, Tuple
 
 import zmq
 
-from fleet_common.robots import RobotDefinition
-from fleet_common.wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed,
-                               GetStatus, Heartbeat, Hello, Liveness, RemoteProtocolError, Role,
-                               Status, Stop, Turn, VersionMismatchError, Welcome)
-from fleet_common.wire.curve_keys import ManagerKeys
-
+from ..robots import RobotDefinition
+from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed, GetStatus,
+                    Heartbeat, Hello, Liveness, RemoteProtocolError, Role, Status, Stop, Turn,
+                    VersionMismatchError, Welcome)
+from .curve_keys import ManagerKeys
 from .link_events import LinkDown, LinkEvent, LinkUp, RobotReply
 from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
