@@ -12,8 +12,9 @@ from . import fleet, frames_path, robot_named, stop_on_signals
 
 
 def simulate(args: argparse.Namespace) -> int:
+    from fleet_common.transport.truth_feed import TruthSubscriber
     from virtual_fleet.fleet import row_poses
-    from virtual_fleet.truth_sources import CircleTruth, StillTruth, TruthSource, TruthSubscriber
+    from virtual_fleet.truth_sources import CircleTruth, StillTruth, TruthSource
     from virtual_fleet.vicon_tracker import (Occlusion, TrackerSettings, TrackerSimulator,
                                              run_tracker)
 
