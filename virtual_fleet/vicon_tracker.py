@@ -115,16 +115,17 @@ def run_tracker(sim: TrackerSimulator, source: TruthSource, sock: socket.socket,
                 clock: Callable[[], float] = time.monotonic,
                 sent: Callable[[int, float], None] = lambda frame, when: None) -> None:
     """Send a frame every 1/rate seconds until `should_stop()`; `sent(frame, time)` is told
-    when each frame has gone (a benchmark's clock)."""
+    when each frame began to go out (a benchmark's clock)."""
     period = 1.0 / sim.settings.rate
     start = clock()
     tick = 0
     while not should_stop():
         now = clock()
         number = sim.frame_number
-        for data in sim.frame(source.poses(now), now - start):
-            sock.sendto(data, destination)
+        packets = sim.frame(source.poses(now), now - start)
         sent(number, clock())
+        for data in packets:
+            sock.sendto(data, destination)
         tick += 1
         # on a fixed schedule, so the rate holds whatever each frame costs; a late
         # frame is sent at once rather than skipped (Tracker does not skip either)
