@@ -115,7 +115,7 @@ def run_tracker(sim: TrackerSimulator, source: TruthSource, sock: socket.socket,
                 clock: Callable[[], float] = time.monotonic,
                 sent: Callable[[int, float], None] = lambda frame, when: None) -> None:
     """Send a frame every 1/rate seconds until `should_stop()`; `sent(frame, time)` is told
-    when each frame began to go out (a benchmark's clock)."""
+    when each frame not lost whole began to go out (a benchmark's clock)."""
     period = 1.0 / sim.settings.rate
     start = clock()
     tick = 0
@@ -123,7 +123,8 @@ def run_tracker(sim: TrackerSimulator, source: TruthSource, sock: socket.socket,
         now = clock()
         number = sim.frame_number
         packets = sim.frame(source.poses(now), now - start)
-        sent(number, clock())
+        if packets:
+            sent(number, clock())
         for data in packets:
             sock.sendto(data, destination)
         tick += 1

@@ -78,6 +78,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-time-limit", type=float, default=10.0, metavar="S",
                         help="how long planning an instance may take (default 10 s)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--vicon", type=int, default=None, metavar="PORT",
+                        help="read Vicon Tracker's UDP stream on PORT (51001 in the lab): a "
+                             "second position source, compared with the robots' own")
+    parser.add_argument("--vicon-bind", default="0.0.0.0", metavar="ADDRESS",
+                        help="local address for --vicon (default 0.0.0.0, every interface)")
+    parser.add_argument("--frames", type=Path, default=None, metavar="FILE",
+                        help="frames file holding vicon_to_base (default: the lab's frames.yaml)")
     add_map_dir(parser)
     parser.add_argument("--log-level", default="warning",
                         choices=["debug", "info", "warning", "error"])
@@ -126,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
         strategy=args.strategy, lookahead=args.lookahead, bind=args.bind,
         log_dir=None if args.no_log else (args.log or default_runs_dir()),
         step_time=args.step_time, state_rate=args.state_rate, preturn=not args.no_preturn,
-        definitions=definitions, map_dirs=map_dirs(args))
+        definitions=definitions, map_dirs=map_dirs(args), vicon_port=args.vicon,
+        vicon_bind=args.vicon_bind, frames=args.frames)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -134,7 +142,9 @@ def run(args: argparse.Namespace) -> int:
     print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}; consoles on {} ({}){}".format(
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
         loaded.plan.makespan, manager.engine.strategy.describe(), manager.consoles.endpoint,
-        "CURVE" if keys is not None else "no CURVE",
+        ("CURVE" if keys is not None else "no CURVE") + (
+            "; Vicon on UDP {}:{}".format(*manager.vicon.provider.address)
+            if manager.vicon is not None else ""),
         "; run folder {}".format(manager.folder) if manager.folder else ""), flush=True)
     outcome: Optional[str] = None
     try:

@@ -47,13 +47,8 @@ def open_provider(args: argparse.Namespace, robots: Sequence[RobotDefinition],
     from fleet_common.vicon.base_grid import load_vicon_to_base
     from fleet_manager.vicon_provider import ViconProvider
 
-    to_base = load_vicon_to_base(frames_path(args))
-    try:
-        return ViconProvider(robots, to_base, port=args.port, bind=args.bind,
-                             stale_after=stale_after)
-    except OSError as err:
-        raise FleetError("cannot listen on UDP {}:{}: {}".format(
-            args.bind, args.port, err.strerror or err)) from err
+    return ViconProvider(robots, load_vicon_to_base(frames_path(args)), port=args.port,
+                         bind=args.bind, stale_after=stale_after)
 
 
 def watch(provider: ViconProvider, seconds: float, should_stop: Callable[[], bool],

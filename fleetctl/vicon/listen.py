@@ -4,9 +4,12 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from typing import List
+from typing import TYPE_CHECKING, List
 
 from . import fleet, open_provider, stop_on_signals, watch
+
+if TYPE_CHECKING:
+    from fleet_manager.vicon_provider import ViconProvider
 
 
 def listen(args: argparse.Namespace) -> int:
@@ -15,20 +18,17 @@ def listen(args: argparse.Namespace) -> int:
     should_stop = stop_on_signals()
     started = time.monotonic()
     try:
-        if args.seconds is not None:
-            watch(provider, args.seconds, should_stop)
-        else:
-            while not should_stop():
-                watch(provider, args.every, should_stop)
-                print("\n".join(report(provider, time.monotonic() - started)), flush=True)
+        watch(provider, args.every if args.seconds is None else args.seconds, should_stop)
+        while args.seconds is None and not should_stop():  # until Ctrl-C: every interval
+            print("\n".join(report(provider, time.monotonic() - started)), flush=True)
+            watch(provider, args.every, should_stop)
+        print("\n".join(report(provider, time.monotonic() - started)), flush=True)
     finally:
         provider.close()
-    if args.seconds is not None or not provider.counters.packets:
-        print("\n".join(report(provider, time.monotonic() - started)), flush=True)
     return 0
 
 
-def report(provider, elapsed: float) -> List[str]:  # provider: ViconProvider
+def report(provider: ViconProvider, elapsed: float) -> List[str]:
     host, port = provider.address
     c = provider.counters
     if not c.packets:

@@ -54,6 +54,7 @@ from .positions import Positions
 from .replanning import Replanner
 from .snapshot import build_state, robot_waits
 from .steering import Steering
+from .vicon_watch import ViconWatch
 
 __all__ = ["Manager", "ManagerSettings"]
 
@@ -79,6 +80,9 @@ class ManagerSettings:
     preturn: bool = True         # robots turn towards their next cell while they wait
     definitions: Optional[Path] = None
     map_dirs: List[Path] = field(default_factory=list)  # where `load` looks for map files
+    vicon_port: Optional[int] = None  # Vicon Tracker's UDP stream (None: no Vicon)
+    vicon_bind: str = "0.0.0.0"
+    frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)
 
 
 class Manager:
@@ -122,6 +126,9 @@ class Manager:
                                             log=self.log) for r in self.robots], clock=clock)
             self.consoles = ConsoleServer(self.context, settings.bind, keys=keys, zap=self.zap,
                                           log=self.log)
+            self.vicon = None if settings.vicon_port is None else ViconWatch(
+                self.robots, self.positions, settings.vicon_port, settings.vicon_bind,
+                settings.frames, self.now, self.note, self.tell, clock, self.log)
         except BaseException:
             self._close_sockets()
             if self.runlog is not None:
@@ -130,6 +137,8 @@ class Manager:
         self.links.watch(self.consoles.socket, self._console_frames)
         if self.zap is not None:
             self.links.watch(self.zap.socket, self.zap.handle)
+        if self.vicon is not None:
+            self.links.watch(self.vicon.provider.fileno(), self.vicon.readable)
         self.desk = ControlDesk(secrets.token_hex(8), self.now())
         self.engine = self._new_engine(self.plan)
         self.driver = self._new_driver(self.engine, None)
@@ -247,6 +256,8 @@ class Manager:
         if now >= self._next_poses:
             self._next_poses = now + _POSE_LOG_PERIOD
             self._log_poses(now)
+            if self.vicon is not None:
+                self.vicon.check(now)
         if now >= self._next_state:
             self._next_state = now + 1.0 / self.settings.state_rate
             self._publish(now)
@@ -459,7 +470,7 @@ class Manager:
         self._close_sockets()
 
     def _close_sockets(self) -> None:
-        for name in ("links", "consoles"):
+        for name in ("links", "consoles", "vicon"):
             part = getattr(self, name, None)
             if part is not None:
                 part.close()

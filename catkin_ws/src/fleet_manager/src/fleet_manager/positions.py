@@ -11,15 +11,17 @@ age of its last pose (never silently dropped).
 When both sources see a robot, they are compared: a robot whose own pose and
 Vicon's differ by more than `disagree_after` cells is flagged (a lost robot
 is caught before it drives into another), and cleared again under
-`agree_below` (hysteresis, so a robot at the threshold does not flicker).
+`agree_below` (hysteresis, so a robot at the threshold does not flicker; the
+`pose_disagreement.DisagreementDetector` also wants it to last a moment).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Dict, Iterable, List, Optional, Tuple
 
 from fleet_common.wire import Pose
+
+from .pose_disagreement import DisagreementDetector
 
 __all__ = ["Positions", "Seen", "ROBOT", "VICON"]
 
@@ -45,6 +47,7 @@ class Positions:
         self.disagree_after = disagree_after
         self.agree_below = agree_below
         self.disagreeing: Dict[int, bool] = {r: False for r in self.robot}
+        self.detector = DisagreementDetector(disagree_after, agree_below)
         self.vicon_enabled = False
 
     def from_robot(self, robot: int, pose: Pose, now: float) -> None:
@@ -88,10 +91,8 @@ class Positions:
             if own is None or seen is None or now - own.at > self.stale_after \
                     or now - seen.at > self.stale_after:
                 continue
-            d = math.hypot(own.pose.x - seen.pose.x, own.pose.y - seen.pose.y)
-            was = self.disagreeing[r]
-            now_disagrees = d > self.disagree_after if not was else d >= self.agree_below
-            if now_disagrees != was:
-                self.disagreeing[r] = now_disagrees
-                changes.append((r, now_disagrees, d))
+            event = self.detector.update(r, own.pose, own.at, seen.pose, seen.at, now)
+            if event is not None:
+                self.disagreeing[r] = event.disagree
+                changes.append((r, event.disagree, event.distance))
         return changes

@@ -16,6 +16,7 @@ import socket
 import time
 from typing import Callable, Collection, Dict, List, Optional, Sequence
 
+from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition
 from fleet_common.transform2d import Transform2D
 from fleet_common.vicon.base_grid import ViconFix, fix_of
@@ -56,9 +57,10 @@ class ViconProvider:
             self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
             self.sock.setblocking(False)
             self.sock.bind((bind, port))
-        except OSError:
+        except OSError as err:
             self.sock.close()
-            raise
+            raise FleetError("cannot listen on UDP {}:{}: {}".format(
+                bind, port, err.strerror or err)) from err
         self.address = self.sock.getsockname()
 
     @property
