@@ -59,6 +59,9 @@ class VirtualNavigator:
         self._rest = pose
         self._segments: List[_Segment] = []
         self.dropout_time: Optional[float] = None  # fleet seconds; the fleet acts on it
+        #: (cells/s along x, along y, since fleet second): the robot's own localization drifts
+        #: away from the truth at this rate (a lost robot, for tests of the Vicon cross-check)
+        self.drift: Optional[Tuple[float, float, float]] = None
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -67,7 +70,7 @@ class VirtualNavigator:
     # ---- Navigator -------------------------------------------------------------------
 
     def start_drive(self, x: float, y: float, time: float) -> None:
-        start = self.pose()
+        start = self.true_pose()
         dx, dy = x - start.x, y - start.y
         dist = math.hypot(dx, dy)
         heading = math.atan2(dy, dx) if dist > 1e-9 else start.theta
@@ -76,12 +79,12 @@ class VirtualNavigator:
         self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
 
     def start_turn(self, angle: float) -> None:
-        start = self.pose()
+        start = self.true_pose()
         turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
         self._lay_out(start, wrap_angle(angle), turn, None, 0.0)
 
     def halt(self) -> None:
-        self._rest = self.pose()
+        self._rest = self.true_pose()
         self._segments = []
         self.dropout_time = None
 
@@ -94,6 +97,19 @@ class VirtualNavigator:
         return MotionOutcome(True)
 
     def pose(self) -> Pose:
+        """Where the robot believes it is: the truth, unless its localization drifts."""
+        truth = self.true_pose()
+        if self.drift is None:
+            return truth
+        vx, vy, since = self.drift
+        dt = max(0.0, self.now() - since)
+        return Pose(truth.x + vx * dt, truth.y + vy * dt, truth.theta)
+
+    def start_drifting(self, vx: float, vy: float = 0.0) -> None:
+        self.drift = (vx, vy, self.now())
+
+    def true_pose(self) -> Pose:
+        """Where the robot really is."""
         if not self._segments:
             return self._rest
         t = self.now()
@@ -105,6 +121,10 @@ class VirtualNavigator:
                 return Pose(seg.a.x + (seg.b.x - seg.a.x) * f, seg.a.y + (seg.b.y - seg.a.y) * f,
                             wrap_angle(seg.a.theta + wrap_angle(seg.b.theta - seg.a.theta) * f))
         return self._segments[-1].b
+
+    @property
+    def moving(self) -> bool:
+        return bool(self._segments)
 
     def faults(self) -> Tuple[str, ...]:
         return ()
