@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -25,29 +24,9 @@ import zmq
 from fleet_common.control import Answer
 from fleet_common.control.session import ConsoleSession
 from fleet_common.transport.console_channel import ConsoleClient
+from helpers import free_port_block
 
 COLOURS = ("red", "green", "blue", "orange", "magenta", "cyan", "brown", "purple")
-
-
-def free_port_block(count: int) -> int:
-    """`count` consecutive ports free now, below the kernel's ephemeral range (32768 and up,
-    where the processes' own outgoing connections would take them), from a per-process
-    offset so that test runs side by side rarely meet."""
-    base = 10000 + (os.getpid() * 37) % 20000
-    while base + count < 32768:
-        socks = []
-        try:
-            for port in range(base, base + count):
-                s = socket.socket()
-                socks.append(s)
-                s.bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            base += count
-        finally:
-            for s in socks:
-                s.close()
-    raise RuntimeError("no {} consecutive free ports".format(count))
 
 
 def fleet_definitions(folder: Path, n: int) -> Tuple[Path, int, int]:
