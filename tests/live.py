@@ -15,6 +15,7 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable, List, Optional, Sequence, Tuple
@@ -117,53 +118,72 @@ def start_manager(folder: Path, plan: object, definitions: Path, bind_port: int,
 
 
 class ScriptedConsole:
-    """A console without a window: the protocol over a real socket, driven by the test."""
+    """A console without a window: the protocol over a real socket, driven by the test.
+
+    A background thread keeps the session alive (frames in, heartbeats out, hello again
+    when the manager forgot it), as a console's network thread does; the test reads
+    what the console saw and asks through the methods below, under one lock."""
 
     def __init__(self, port: int, name: str = "test console") -> None:
         self.context = zmq.Context()
         self.client = ConsoleClient(self.context, "tcp://127.0.0.1:{}".format(port))
         self.session = ConsoleSession(name, time.monotonic())
         self.answers: List[Tuple[Answer, Any]] = []
-        self.client.send(self.session.hello(time.monotonic()))
+        self.lock = threading.Lock()
+        self._outbox: List[bytes] = [self.session.hello(time.monotonic())]
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, name="scripted-console", daemon=True)
+        self._thread.start()
 
     @property
     def state(self):
         return self.session.state
 
+    def _serve(self) -> None:
+        while not self._stop.is_set():
+            with self.lock:
+                now = time.monotonic()
+                for frame in self._outbox:
+                    self.client.send(frame)
+                self._outbox.clear()
+                for frame in self.client.receive():
+                    got = self.session.receive(frame, now)
+                    if isinstance(got, tuple):
+                        self.answers.append(got)
+                if not self.session.connected and self.session.live.heartbeat_due(now):
+                    self.client.send(self.session.hello(now))
+                beat = self.session.heartbeat(now)
+                if beat is not None:
+                    self.client.send(beat)
+            self.client.socket.poll(20)
+
     def pump(self, seconds: float = 0.05) -> None:
-        end = time.monotonic() + seconds
-        while True:
-            now = time.monotonic()
-            for frame in self.client.receive():
-                got = self.session.receive(frame, now)
-                if isinstance(got, tuple):
-                    self.answers.append(got)
-            beat = self.session.heartbeat(now)
-            if beat is not None:
-                self.client.send(beat)
-            if now >= end:
-                return
-            self.client.socket.poll(max(1, int((end - now) * 1000)))
+        """Let `seconds` pass (the thread keeps receiving)."""
+        time.sleep(seconds)
 
     def wait_for(self, what: Callable[["ScriptedConsole"], Any], timeout: float = 30.0,
                  why: str = "") -> Any:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            self.pump(0.05)
-            value = what(self)
+            with self.lock:
+                value = what(self)
             if value:
                 return value
+            time.sleep(0.02)
         raise AssertionError("console: not seen in {:g} s: {}; last state: {}".format(
             timeout, why or what, self.session.state and self.session.state.run))
 
-    def ask(self, action: str, timeout: float = 10.0, **args: Any) -> Answer:
-        """Send a request based on the newest version seen; the manager's answer."""
-        request, frame = self.session.request(action, time.monotonic(), **args)
-        self.client.send(frame)
-        got = self.wait_for(lambda c: next((a for a, r in c.answers if a.id == request.id), None),
-                            timeout, "an answer to {}".format(action))
-        return got
+    def ask(self, action: str, timeout: float = 10.0, based_on: Optional[int] = None,
+            **args: Any) -> Answer:
+        """Send a request (based on the newest version seen, or `based_on`); the answer."""
+        with self.lock:
+            request, frame = self.session.request(action, time.monotonic(), based_on, **args)
+            self._outbox.append(frame)
+        return self.wait_for(lambda c: next((a for a, r in c.answers if a.id == request.id), None),
+                             timeout, "an answer to {}".format(action))
 
     def close(self) -> None:
+        self._stop.set()
+        self._thread.join(5)
         self.client.close()
         self.context.term()

@@ -54,12 +54,14 @@ class VirtualFleet:
                  clock: Callable[[], float] = time.monotonic,
                  log: Optional[logging.Logger] = None, truth: Optional[Path] = None,
                  state: Optional[Path] = None, truth_port: Optional[int] = None,
-                 drift: Optional[Dict[int, float]] = None) -> None:
+                 drift: Optional[Dict[int, float]] = None,
+                 bumps: Sequence[Tuple[int, int]] = ()) -> None:
         self.robots = on_localhost(robots, path)
         self.ports = feedback_ports(self.robots, feedback_base, path)
-        unknown = sorted(set(drift or {}) - {r.id for r in self.robots})
-        if unknown:
-            raise FleetError("--drift names robot {}, which is not in {}".format(unknown[0], path))
+        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps})):
+            unknown = sorted(named - {r.id for r in self.robots})
+            if unknown:
+                raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path))
         self.keys = keys
         self.model = model or DelayModel()
         self.clock = clock
@@ -87,6 +89,8 @@ class VirtualFleet:
             for r in self.robots}
         for robot_id, rate in (drift or {}).items():
             self.navigators[robot_id].start_drifting(rate)
+        for robot_id, drive in bumps:
+            self.navigators[robot_id].bumps.add(drive)
         self.recorder.started({r: n.true_pose() for r, n in self.navigators.items()}, bool(resumed))
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back

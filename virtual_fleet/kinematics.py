@@ -16,7 +16,7 @@ import math
 import random
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, List, Optional, Set, Tuple
 
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
@@ -62,6 +62,13 @@ class VirtualNavigator:
         #: (cells/s along x, along y, since fleet second): the robot's own localization drifts
         #: away from the truth at this rate (a lost robot, for tests of the Vicon cross-check)
         self.drift: Optional[Tuple[float, float, float]] = None
+        #: drives (1-based) during which the bumper is pressed halfway, as by a visitor's foot
+        self.bumps: Set[int] = set()
+        self.bump_seconds = 1.0
+        self._drives = 0
+        self._bump_at: Optional[float] = None       # fleet second the bumper is hit in this drive
+        self._pressed_until: Optional[float] = None  # fleet second the foot goes away
+        self._fault = False
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -77,6 +84,10 @@ class VirtualNavigator:
         turn = abs(wrap_angle(heading - start.theta)) / self.turn_speed
         drive = max(dist / self.speed, time - turn)
         self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
+        self._drives += 1
+        if self._drives in self.bumps and self._segments:
+            first, last = self._segments[0].start, self._segments[-1].end
+            self._bump_at = first + 0.5 * (last - first)
 
     def start_turn(self, angle: float) -> None:
         start = self.true_pose()
@@ -87,8 +98,19 @@ class VirtualNavigator:
         self._rest = self.true_pose()
         self._segments = []
         self.dropout_time = None
+        self._bump_at = None
+        if not self._pressed():
+            self._fault = False  # a stop clears the fault once the bumper is free, as on the robot
 
     def poll(self) -> Optional[MotionOutcome]:
+        if self._bump_at is not None and self._segments and self.now() >= self._bump_at:
+            self._rest = self.true_pose()  # stops where the foot hit it, mid-move
+            self._segments = []
+            self._bump_at = None
+            self.dropout_time = None
+            self._fault = True
+            self._pressed_until = self.now() + self.bump_seconds
+            return MotionOutcome(False, "bumper pressed")
         if not self._segments or self.now() < self._segments[-1].end:
             return None
         self._rest = self._segments[-1].b
@@ -127,7 +149,10 @@ class VirtualNavigator:
         return bool(self._segments)
 
     def faults(self) -> Tuple[str, ...]:
-        return ()
+        return ("bumper",) if self._fault else ()
+
+    def _pressed(self) -> bool:
+        return self._pressed_until is not None and self.now() < self._pressed_until
 
     def seconds_to_change(self) -> float:
         """Wall seconds until poll() or the dropout may change (the loop sleeps that long)."""
@@ -136,6 +161,8 @@ class VirtualNavigator:
         due = self._segments[-1].end
         if self.dropout_time is not None:
             due = min(due, self.dropout_time)
+        if self._bump_at is not None:
+            due = min(due, self._bump_at)
         return max(0.0, (due - self.now()) / self.time_scale)
 
     # ---- internals -------------------------------------------------------------------

@@ -52,6 +52,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--drift", action="append", default=[], type=_drift, metavar="ID:RATE",
                         help="robot ID's own localization drifts RATE cells/s along x away "
                              "from the truth (repeatable; to test the Vicon cross-check)")
+    parser.add_argument("--bump", action="append", default=[], type=_bump, metavar="ID@K",
+                        help="robot ID's bumper is pressed halfway through its K-th drive, for "
+                             "1 s: it stops with a 'bumper' fault until a stop clears it "
+                             "(repeatable)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder from `fleetctl keys` (default: "
                              "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
@@ -67,6 +71,17 @@ def _drift(text: str) -> tuple:
         return int(robot), float(rate)
     except ValueError:
         raise argparse.ArgumentTypeError("expected ID:CELLS_PER_S (e.g. 3:0.2), got {!r}".format(text))
+
+
+def _bump(text: str) -> tuple:
+    robot, _, drive = text.partition("@")
+    try:
+        pair = int(robot), int(drive)
+    except ValueError:
+        pair = (0, 0)
+    if pair[1] < 1:
+        raise argparse.ArgumentTypeError("expected ID@K with K >= 1 (e.g. 3@2), got {!r}".format(text))
+    return pair
 
 
 def _positive(text: str) -> float:
@@ -100,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                          speed=args.speed, turn_speed=args.turn_speed,
                          start_poses=_start_poses(args.instance, robots), path=str(path),
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
-                         drift=dict(args.drift))
+                         drift=dict(args.drift), bumps=args.bump)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
