@@ -58,15 +58,16 @@ def positive(text: str) -> float:
 
 
 def start_poses(instance: Optional[Path], robots: Sequence) -> Optional[Dict]:
-    """robot id -> Pose at agent i's start of `instance` (default: the lab instance) for
-    robot i; None when the lab instance has fewer agents than there are robots."""
+    """robot id -> Pose at agent i's start of `instance` (an instance or a solution; default:
+    the lab instance) for robot i; None when the lab instance has fewer agents than robots."""
     from fleet_common.errors import FleetError
-    from fleet_common.formats.instance import read_instance
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.problem_file import read_problem
     from fleet_common.lab import lab_instance_path, lab_map_path
     from fleet_common.wire.messages import Pose
 
     path = instance or lab_instance_path()
-    inst = read_instance(str(path), map_dirs=[lab_map_path().parent, Path(path).parent])
+    inst = read_problem(path, [lab_map_path().parent, *default_map_dirs()])
     if len(inst.starts) < len(robots):
         if instance is not None:
             raise FleetError("{} has {} agents, fewer than the {} robots".format(
