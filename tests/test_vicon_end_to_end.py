@@ -2,8 +2,9 @@
 packet loss, one robot occluded) -> UDP -> the manager's ViconProvider, polled as the manager
 polls it, and the disagreement detector fed with a robot whose reported pose drifts.
 
-The fleet here is a stand-in speaking the virtual fleet's truth frame format
-(fleet_common.transport.truth_feed), so this test does not need a manager.
+The fleet here is a stand-in publishing the virtual fleet's truth stream
+(fleet_common.transport.truth_stream) along a scripted path, so that each pose
+can be checked; tests/test_vicon_manager.py runs the real fleet and manager.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import zmq
 
 from fleet_common.lab import lab_transforms
 from fleet_common.robots import read_robot_definitions
-from fleet_common.transport.truth_feed import encode_truth
+from fleet_common.transport.truth_stream import TruthPublisher
 from fleet_common.vicon.base_grid import vicon_to_base
 from fleet_common.wire.messages import Pose
 from fleet_manager.pose_disagreement import DisagreementDetector, DisagreementEvent
@@ -52,14 +53,13 @@ class StandInFleet(threading.Thread):
 
     def run(self) -> None:
         context = zmq.Context()
-        pub = context.socket(zmq.PUB)
-        pub.linger = 0
-        pub.bind("tcp://127.0.0.1:{}".format(self.port))
+        pub = TruthPublisher(context, self.port)
         try:
             while not self.stop.wait(0.02):
                 t = time.monotonic() - self.t0
                 for rid in self.ids:
-                    pub.send(encode_truth(rid, true_pose(rid, t), time.time()))
+                    p = true_pose(rid, t)
+                    pub.publish(rid, time.time(), p.x, p.y, p.theta)
         finally:
             pub.close()
             context.term()

@@ -1,22 +1,19 @@
 """Vicon in the manager, end to end on 127.0.0.1, every part a real process:
 
-    truth PUB -> fleetctl vicon simulate (20 % loss, robot 4 occluded after 2 s) -> UDP ->
-    fleetctl manager --vicon <- fleetctl virtual-fleet (the robots' own poses)
-                     -> console channel -> this test, as a console
+    fleetctl virtual-fleet --truth-port T --drift 2:1 -> fleetctl vicon simulate (20 % loss,
+    robot 4 occluded after 2 s) -> UDP -> fleetctl manager --vicon <- the robots' own poses
+                                          -> console channel -> this test, as a console
 
-The truth comes from a stand-in publisher speaking the virtual fleet's truth frames
-(fleet_common.transport.truth_feed) at the robots' start cells, where the virtual robots
-stand; robot 2's truth runs away after 1 s, so its own pose (standing still) and Vicon's
-disagree, as for a robot whose localization is lost.
+Robot 2's own localization drifts away from where it really is (the fleet's --drift), as
+for a lost robot: its own pose and Vicon's disagree.
 """
 from __future__ import annotations
 
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
-from typing import Dict, List
+from typing import List
 
 import pytest
 import zmq
@@ -24,37 +21,8 @@ import zmq
 from fleet_common.control import messages as m
 from fleet_common.control.session import ConsoleSession
 from fleet_common.lab import lab_instance_path
-from fleet_common.robots import parse_robot_definitions
 from fleet_common.transport.console_channel import ConsoleClient
-from fleet_common.transport.truth_feed import encode_truth
-from fleet_common.wire.messages import Pose
-from helpers import free_ports
-from fleetctl.options import start_poses
-
-DRIFT = 1.0  # cells/s, robot 2's truth after 1 s
-
-
-class StandInTruth(threading.Thread):
-    def __init__(self, port: int, poses: Dict[int, Pose]) -> None:
-        super().__init__(daemon=True)
-        self.port, self.poses = port, poses
-        self.stop = threading.Event()
-
-    def run(self) -> None:
-        context = zmq.Context()
-        pub = context.socket(zmq.PUB)
-        pub.linger = 0
-        pub.bind("tcp://127.0.0.1:{}".format(self.port))
-        t0 = time.monotonic()
-        try:
-            while not self.stop.wait(0.02):
-                t = time.monotonic() - t0
-                for rid, p in self.poses.items():
-                    y = p.y + (DRIFT * max(0.0, t - 1.0) if rid == 2 else 0.0)
-                    pub.send(encode_truth(rid, Pose(p.x, y, p.theta), time.time()))
-        finally:
-            pub.close()
-            context.term()
+from helpers import free_port_block
 
 
 def spawn(*args: object) -> subprocess.Popen:
@@ -64,18 +32,16 @@ def spawn(*args: object) -> subprocess.Popen:
 
 @pytest.mark.slow
 def test_manager_reads_vicon_flags_stale_robots_and_a_lost_one(tmp_path: Path) -> None:
-    ports = free_ports(9)
-    command, (feedback, truth_port, udp, console) = ports[:5], ports[5:]
+    base = free_port_block(13)  # commands, a feedback block, truth, Vicon (UDP), consoles
+    command, feedback = list(range(base, base + 5)), base + 5
+    truth_port, udp, console = base + 10, base + 11, base + 12
     defs = tmp_path / "robots.txt"
     defs.write_text("".join("{0} 127.0.0.1 {1} u turtlebot{0} red\n".format(i + 1, p)
                             for i, p in enumerate(command)))
-    robots = parse_robot_definitions(defs.read_text())
-    truth = StandInTruth(truth_port, start_poses(None, robots))
-    truth.start()
     endpoint = "tcp://127.0.0.1:{}".format(console)
     procs = [
         spawn("virtual-fleet", "--definitions", defs, "--no-curve", "--feedback-base", feedback,
-              "--log-level", "warning"),
+              "--truth-port", truth_port, "--drift", "2:1.0", "--log-level", "warning"),
         spawn("vicon", "simulate", "--truth-port", truth_port, "--port", udp, "--loss", "0.2",
               "--occlude", "4:2-1000", "--definitions", defs, "--for", "120"),
         spawn("manager", lab_instance_path(), "--definitions", defs, "--no-curve", "--no-log",
@@ -117,8 +83,6 @@ def test_manager_reads_vicon_flags_stale_robots_and_a_lost_one(tmp_path: Path) -
         for proc in procs:
             proc.terminate()
         outputs = [proc.communicate(timeout=20)[0] for proc in procs]
-        truth.stop.set()
-        truth.join(timeout=10)
     assert state is not None, outputs
     assert [a.ok for a in answers] == [True], answers
     robots_now = {r.id: r for r in state.robots}

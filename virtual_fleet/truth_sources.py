@@ -1,7 +1,7 @@
 """Where the simulated Tracker learns where the robots really are.
 
 A `TruthSource` answers `poses(now)`: Vicon object name -> true base-grid pose.
-`fleet_common.transport.truth_feed.TruthSubscriber` is one (the virtual fleet's
+`fleet_common.transport.truth_stream.TruthSubscriber` is one (the virtual fleet's
 ground-truth socket); the scripted ones are here:
 
 - `CircleTruth`: robots going round a circle, for lab staff without a fleet.

@@ -12,7 +12,9 @@ from . import fleet, frames_path, robot_named, stop_on_signals
 
 
 def simulate(args: argparse.Namespace) -> int:
-    from fleet_common.transport.truth_feed import TruthSubscriber
+    import zmq
+
+    from fleet_common.transport.truth_stream import TruthSubscriber
     from virtual_fleet.fleet import row_poses
     from virtual_fleet.truth_sources import CircleTruth, StillTruth, TruthSource
     from virtual_fleet.vicon_tracker import (Occlusion, TrackerSettings, TrackerSimulator,
@@ -28,7 +30,8 @@ def simulate(args: argparse.Namespace) -> int:
                                zero_when_occluded=args.zero_when_occluded)
     source: TruthSource
     if args.truth_port is not None:
-        source = TruthSubscriber(args.truth_port, {r.id: r.vicon_name for r in robots})
+        source = TruthSubscriber(zmq.Context.instance(), args.truth_port,
+                                 {r.id: r.vicon_name for r in robots})
         truth = "the virtual fleet's truth on tcp://127.0.0.1:{}".format(args.truth_port)
     elif args.demo == "circle":
         source = CircleTruth([r.vicon_name for r in robots])

@@ -13,7 +13,7 @@ way of binding, connecting, securing (CurveZMQ) and polling.
     pose_feedback    the manager's subscription to a robot's pose stream
     link_events      what a robot link reports (LinkUp, LinkDown, RobotReply)
     links            many robot links polled from one thread (`LinkSet`)
-    truth_feed       the virtual fleet's ground-truth frames, read by the simulated Vicon
+    truth_stream     the virtual fleet's ground truth (PUB), read by the simulated Vicon
 
 Nothing here is imported by `fleet_common` itself or by `fleet_common.wire`:
 code that only reads files or plans never needs pyzmq.

@@ -8,18 +8,25 @@ one JSON frame per robot and tick:
     {"t":"truth","robot_id":1,"time":1732331000.25,"x":3.0,"y":4.5,"theta":1.57}
 
 (`time` is wall-clock `time.time()`, base-grid cells and radians.)
+`TruthSubscriber` reads it for the simulated Vicon Tracker: `poses(now)` is
+every robot's latest true pose by Vicon name, leaving out a robot not heard
+of for `max_age` seconds (a fleet that stopped is not seen).
 """
 from __future__ import annotations
 
 import json
 import math
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import zmq
 
 from ..errors import FleetError
+from ..wire.messages import Pose
 
-__all__ = ["TruthPublisher", "subscribe_truth", "decode_truth"]
+__all__ = ["TruthPublisher", "TruthSubscriber", "subscribe_truth", "decode_truth"]
+
+#: Frames read in one `TruthSubscriber.poses` call at most (a tick of 300 robots, many times).
+_MAX_DRAIN = 20000
 
 
 class TruthPublisher:
@@ -72,3 +79,36 @@ def decode_truth(data: bytes) -> Optional[Dict[str, Any]]:
             for v in values)):
         return None
     return frame
+
+
+class TruthSubscriber:
+    """The truth stream by Vicon name (`names`: robot id -> vicon_name); see the docstring."""
+
+    def __init__(self, context: zmq.Context, port: int, names: Mapping[int, str],
+                 host: str = "127.0.0.1", max_age: float = 1.0) -> None:
+        self.names = dict(names)
+        self.max_age = max_age
+        self.socket = subscribe_truth(context, "tcp://{}:{}".format(host, port))
+        self.last: Dict[int, Tuple[float, Pose]] = {}  # robot id -> (received, pose)
+        self.frames = 0
+        self.bad: Dict[str, int] = {}  # "frame" (not a truth frame), "robot" (not defined)
+
+    def poses(self, now: float) -> Dict[str, Pose]:
+        for _ in range(_MAX_DRAIN):
+            try:
+                data = self.socket.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            self.frames += 1
+            frame = decode_truth(data)
+            if frame is None or frame["robot_id"] not in self.names:
+                cause = "frame" if frame is None else "robot"
+                self.bad[cause] = self.bad.get(cause, 0) + 1
+                continue
+            self.last[frame["robot_id"]] = (now, Pose(float(frame["x"]), float(frame["y"]),
+                                                      float(frame["theta"])))
+        return {self.names[rid]: pose for rid, (when, pose) in self.last.items()
+                if now - when <= self.max_age}
+
+    def close(self) -> None:
+        self.socket.close(linger=0)
