@@ -22,6 +22,7 @@ from typing import Dict, Iterable, List, Optional, Tuple, Union
 
 from .colours import COLOUR_FORMS, colour_to_rgb, is_tk_colour
 from .errors import RobotDefinitionsError
+from .vicon.limits import NAME_BYTES
 
 __all__ = [
     "RobotDefinition", "parse_robot_definitions", "read_robot_definitions",
@@ -97,8 +98,9 @@ def _check_field(name: str, token: str) -> Optional[str]:
         )
     if name == "colour":
         return None if is_tk_colour(token) else COLOUR_FORMS
-    if name == "vicon_name":  # Tracker's UDP stream carries at most 24 bytes of name
-        return None if len(token.encode("utf-8")) <= 24 else "a name of at most 24 bytes"
+    if name == "vicon_name":  # Tracker's UDP stream carries at most NAME_BYTES of name
+        return None if len(token.encode("utf-8")) <= NAME_BYTES else (
+            "a name of at most {} bytes".format(NAME_BYTES))
     return None
 
 

@@ -20,6 +20,7 @@ from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition
 from fleet_common.transform2d import Transform2D
 from fleet_common.vicon.base_grid import ViconFix, fix_of
+from fleet_common.vicon.limits import MAX_DATAGRAMS
 from fleet_common.vicon.stream import ViconCounters, ViconStream
 
 __all__ = ["ViconProvider", "ViconFix", "DEFAULT_PORT", "DEFAULT_STALE_AFTER"]
@@ -28,8 +29,6 @@ __all__ = ["ViconProvider", "ViconFix", "DEFAULT_PORT", "DEFAULT_STALE_AFTER"]
 DEFAULT_PORT = 51001
 #: Seconds without a sighting after which a robot's Vicon pose is stale (50 frames at 100 Hz).
 DEFAULT_STALE_AFTER = 0.5
-#: Datagrams read per handle_readable call at most, so one flood cannot stall the manager.
-MAX_DATAGRAMS = 512
 _RECEIVE_BYTES = 65535  # a whole datagram: an oversized one is refused by size, not cut
 
 

@@ -5,6 +5,7 @@
   counters (lost frames, refused packets by cause).
 - `base_grid`: Vicon millimetres <-> base-grid cells through the frames file.
 - `calibration`: the vicon -> base similarity from robots on known cells.
+- `limits`: every bound on what the Vicon path accepts.
 
 No sockets here: the manager's `fleet_manager.vicon_provider` owns the UDP socket,
 `virtual_fleet.vicon_tracker` plays Tracker for virtual runs.

@@ -24,21 +24,13 @@ from dataclasses import dataclass
 from typing import List, Sequence, Tuple
 
 from ..errors import FleetError
+from .limits import BLOCK_SIZES, MAX_ABS_MM, NAME_BYTES
 
 __all__ = [
     "BLOCK_SIZES", "ITEM_SIZE", "OBJECT_DATA_SIZE", "NAME_BYTES", "MAX_ABS_MM",
     "ViconObject", "ViconPacket", "ViconPacketError", "decode_packet", "encode_frame",
     "objects_per_packet", "REJECT_CAUSES", "DROP_CAUSES",
 ]
-
-# ---- limits: every bound on what a packet may hold, in one place ------------------------
-
-#: Tracker's block sizes; a datagram of any other length is refused ("size").
-BLOCK_SIZES = (256, 512, 1024)
-#: Bytes of an object's name field (NUL-padded UTF-8).
-NAME_BYTES = 24
-#: Largest believable coordinate: 1 km from the Vicon origin, in millimetres.
-MAX_ABS_MM = 1.0e6
 
 HEADER = struct.Struct("<IB")          # FrameNumber, ItemsInBlock
 ITEM_HEADER = struct.Struct("<BH")     # ItemID, ItemDataSize

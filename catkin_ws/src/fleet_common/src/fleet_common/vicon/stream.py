@@ -21,20 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
+from .limits import MAX_FRAME_GAP, MAX_OBJECTS, MAX_REMEMBERED_GAPS
 from .packet import ViconObject, ViconPacketError, decode_packet
 
-__all__ = ["ViconStream", "ViconCounters", "Sighting", "MAX_FRAME_GAP", "MAX_OBJECTS",
-           "MAX_REMEMBERED_GAPS"]
-
-# ---- limits ----------------------------------------------------------------------------
-
-#: A FrameNumber jump larger than this (a minute at Tracker's 100 Hz) is a restart.
-MAX_FRAME_GAP = 6000
-#: Distinct object names kept; more are dropped ("too-many") so junk cannot fill memory.
-MAX_OBJECTS = 1000
-#: Lost frame numbers remembered, so that a late arrival is taken off the lost count.
-MAX_REMEMBERED_GAPS = 4096
-
+__all__ = ["ViconStream", "ViconCounters", "Sighting"]
 
 @dataclass(frozen=True)
 class Sighting:
