@@ -359,7 +359,8 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
             ["roslaunch", "agv_package", "sim_robot.launch",
              "robot_id:={}".format(ROBOT_ID), "definitions:={}".format(definitions),
              "keys_dir:={}".format(keys_dir), "feedback_port:={}".format(feedback_port),
-             "start_x:={}".format(START[0]), "start_y:={}".format(START[1]), "seed:=7"],
+             "start_x:={}".format(START[0]), "start_y:={}".format(START[1]), "seed:=7",
+             "max_step:=2.5"],  # the route below drives two cells at a time
             env, home / "roslaunch.log")
         started.append(launch)
         # The test's own node joins the same master (loopback only).

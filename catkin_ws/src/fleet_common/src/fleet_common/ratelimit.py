@@ -1,8 +1,8 @@
 """Logs an operator can read under attack: repeated events from one peer, counted, not repeated.
 
 A peer that sends 10,000 bad frames a second must not write 10,000 log lines a
-second. `RateLimitedLog` logs the first `burst` events of each key (a peer, a
-key and a peer, ...) in a window of `window` seconds and counts the rest;
+second. `RateLimitedLog` logs the first `burst` events of each key and kind (a
+peer and "refused frames", ...) in a window of `window` seconds and counts the rest;
 once the window has passed it says how many it held back, in one line:
 
     robot 3: 9,812 more refused frames from 10.0.0.66 in the last 60 s
@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from typing import Any, Callable, Dict, Optional
+from typing import Any, Callable, Dict, Optional, Tuple
 
 __all__ = ["RateLimitedLog", "OTHER_PEERS"]
 
@@ -50,14 +50,15 @@ class RateLimitedLog:
         self.clock = clock
         self.prefix = prefix
         self.max_keys = max_keys
-        self._windows: Dict[str, _Window] = {}
+        self._windows: Dict[Tuple[str, str], _Window] = {}
         self._lock = threading.Lock()
         self.events = 0  # every event, logged or held back (for tests and status)
 
-    def event(self, level: int, key: str, what: str, msg: str, *args: Any) -> bool:
+    def event(self, level: int, key: str, what: str, msg: str, *args: Any,
+              exc_info: bool = False) -> bool:
         """One event from `key` ("10.0.0.66"); `what` names such events in the count
         ("refused frames"). Logs `msg % args` unless this key's burst is used up in this
-        window; returns whether it logged."""
+        window; returns whether it logged (`exc_info`: with the traceback)."""
         now = self.clock()
         with self._lock:
             self.events += 1
@@ -66,7 +67,7 @@ class RateLimitedLog:
                 window.held += 1
                 return False
             window.logged += 1
-        self.log.log(level, self.prefix + msg, *args)
+        self.log.log(level, self.prefix + msg, *args, exc_info=exc_info)
         return True
 
     def flush(self, now: Optional[float] = None) -> None:
@@ -78,23 +79,22 @@ class RateLimitedLog:
                     self._summarise(key, window, now)
 
     def held(self, key: str) -> int:
-        """Events of `key` held back in its current window."""
-        window = self._windows.get(key)
-        return 0 if window is None else window.held
+        """Events of `key` held back in its current windows."""
+        return sum(w.held for (k, _), w in self._windows.items() if k == key)
 
     def _window_for(self, key: str, what: str, level: int, now: float) -> _Window:
-        window = self._windows.get(key)
+        window = self._windows.get((key, what))
         if window is not None and now - window.start >= self.window:
-            self._summarise(key, window, now)
+            self._summarise((key, what), window, now)
             window = None
         if window is None and key != OTHER_PEERS and len(self._windows) >= self.max_keys:
             return self._window_for(OTHER_PEERS, what, level, now)
         if window is None:
-            window = self._windows[key] = _Window(now, what, level)
+            window = self._windows[(key, what)] = _Window(now, what, level)
         return window
 
-    def _summarise(self, key: str, window: _Window, now: float) -> None:
+    def _summarise(self, key: Tuple[str, str], window: _Window, now: float) -> None:
         del self._windows[key]
         if window.held:
             self.log.log(window.level, "{}{:,} more {} from {} in the last {:.0f} s".format(
-                self.prefix, window.held, window.what, key, min(now - window.start, self.window)))
+                self.prefix, window.held, window.what, key[0], min(now - window.start, self.window)))
