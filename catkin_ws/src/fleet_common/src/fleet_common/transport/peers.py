@@ -60,7 +60,7 @@ class HandshakeMonitor:
             self.refusals.event(
                 logging.WARNING, "clients " + why, "refused clients",
                 "refused a client %s on %s; nothing from it is executed (libzmq does not say "
-                "its address)", why, event["endpoint"].decode("utf-8", "replace"))
+                "its address)", why, str(event["endpoint"], "utf-8", "replace"))
 
     def close(self) -> None:
         if self._watched is not None and not self._watched.closed:
