@@ -5,7 +5,8 @@ libzmq tells a received frame's peer address ("Peer-Address" metadata). A
 client that fails the CURVE handshake itself (it has no key, or not this
 robot's public key) never reaches the ZAP handler and sends no frame, so the
 only trace of it is an event on the socket's monitor; libzmq 4.3 does not
-say the client's address there, only the port it came to and why it failed.
+say the client's address there, only the port it came to and why it failed
+(or, when the client hung up first, as a keyless one may, not even that).
 """
 from __future__ import annotations
 
@@ -56,7 +57,11 @@ class HandshakeMonitor:
             except Exception:  # libzmq's own frames; never let one stop the robot
                 continue
             self.refused += 1
-            why = _WHY.get(event["value"], "that failed the handshake")
+            if event["event"] == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL:
+                # the client gave up first: one without a key does when it sees the robot's
+                why = "that broke off the CURVE handshake (as one without a key does)"
+            else:
+                why = _WHY.get(event["value"], "that failed the CURVE handshake")
             self.refusals.event(
                 logging.WARNING, "clients " + why, "refused clients",
                 "refused a client %s on %s; nothing from it is executed (libzmq does not say "

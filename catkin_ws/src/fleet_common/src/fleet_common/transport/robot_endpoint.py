@@ -40,7 +40,7 @@ from ..ratelimit import RateLimitedLog
 from ..wire.codec import encode
 from ..wire.command_check import CommandCheck
 from ..wire.connection import Connection
-from ..wire.errors import RemoteProtocolError, VersionMismatchError
+from ..wire.errors import MalformedFrameError, RemoteProtocolError, VersionMismatchError
 from ..wire.executor import CommandExecutor, Routed
 from ..wire.liveness import Liveness
 from ..wire.messages import COMMAND_TYPES, Bye, Heartbeat, Hello, Message, PoseFeedback, Welcome
@@ -195,11 +195,13 @@ class RobotEndpoint:
             self._refuse(identity, conn, str(err), err.code, now)
             return
         except RemoteProtocolError as err:
-            if conn.state is State.START and err.code == "protocol":  # not a hello
+            if (conn.state is State.START and err.code == "protocol"
+                    and not isinstance(err, MalformedFrameError)):  # a message, not a hello
                 reason = ("robot {} has no session for this connection (it may have restarted); "
                           "say hello first".format(self.robot_id))
-                self.refusals.event(logging.INFO, peer_of(frame), "frames without a session",
-                                    "%s: %s (%s)", peer_of(frame), reason, err)
+                self.refusals.event(logging.INFO, peer_of(frame), "messages without a session",
+                                    "no session for the connection from %s (%s); told it to "
+                                    "say hello", peer_of(frame), err)
                 self._refuse(identity, conn, reason, "no-session", now)
             else:
                 self._refused(frame, err)

@@ -22,7 +22,10 @@ are dropped by libzmq (MAXMSGSIZE), anything else that does not decode is a
 protocol error (the link says bye and reconnects), each frame is handled
 inside its own boundary (an unexpected exception is logged with its traceback
 and the next frame is served), a call reads at most a budget of frames, and
-repeated complaints are logged once a minute per robot, then counted.
+repeated complaints are logged once a minute per robot, then counted. libzmq
+does not reconnect a socket it dropped for an oversized frame, so a command
+socket gone quiet is replaced after `PEER_TIMEOUT`, like any silent link, and
+so is a pose stream silent that long while the link is up.
 """
 from __future__ import annotations
 
@@ -71,6 +74,7 @@ class RobotLink:
         self.session: Optional[str] = None
         self.feedback_port: Optional[int] = None
         self.feedback: Optional[zmq.Socket] = None
+        self._feedback_heard = 0.0  # when the pose stream last sent anything
         self.command: Optional[zmq.Socket] = None
         self.conn = Connection(Role.MANAGER, self.robot_id)
         self.live = Liveness(clock())
@@ -127,6 +131,7 @@ class RobotLink:
             except zmq.Again:
                 break
             if sock is self.feedback:
+                self._feedback_heard = now
                 events += poses_in(data, self.robot_id, self.refusals)
                 continue
             try:
@@ -156,7 +161,13 @@ class RobotLink:
             return events, self.live.last_heard + self.live.timeout
         if self.live.heartbeat_due(now):
             self._send(Heartbeat(), now)
-        return events, self.live.next_deadline()
+        stream_due = self._feedback_heard + self.live.timeout
+        if self.feedback_port is not None and now >= stream_due:
+            self.log.info("robot %s: pose feedback silent for %.1f s; subscribing again",
+                          self.robot_id, self.live.timeout)
+            self._subscribe(self.feedback_port)
+            self._feedback_heard = stream_due = now
+        return events, min(self.live.next_deadline(), stream_due + self.live.timeout)
 
     def close(self) -> None:
         if self.command is not None and self.conn.can_send(Bye("manager closing")):
@@ -264,6 +275,7 @@ class RobotLink:
         if self.feedback is not None:
             self.feedback.close(linger=0)
         self.feedback = subscribe_feedback(self.context, self.host, port, self.keys)
+        self._feedback_heard = self.clock()
         self.feedback_port = port
 
     def _lost(self, reason: str, now: float, retry: float) -> List[LinkEvent]:

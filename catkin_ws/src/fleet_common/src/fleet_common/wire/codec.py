@@ -8,7 +8,9 @@ or typed by hand while debugging, and the messages are a few dozen bytes sent
 tens of times a second per robot, where encoding cost does not matter.
 `t` is the message type, `v` the protocol version, the rest are the record's
 fields (a `Pose` is `[x, y, theta]`). Decoding is strict and total: any bytes
-give a message or `RemoteProtocolError` (the bytes come from the peer): frames
+give a message or `MalformedFrameError` (a `RemoteProtocolError`: the bytes
+come from the peer), or `VersionMismatchError` for a hello of another version:
+frames
 beyond the limits of `fleet_common.limits` (size, nesting, number length,
 text length, list length), unknown types or fields, missing fields, wrong
 types and non-finite numbers. Whether a number makes sense (a drive off the
@@ -26,7 +28,7 @@ import math
 from typing import Any, Dict, List, Tuple
 
 from ..limits import MAX_WIRE_LIST, MAX_WIRE_TEXT, DecodeError, excerpt, loads_frame
-from .errors import RemoteProtocolError, VersionMismatchError
+from .errors import MalformedFrameError, VersionMismatchError
 from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose
 
 __all__ = ["encode", "decode"]
@@ -63,20 +65,20 @@ def encode(message: Message, version: int = PROTOCOL_VERSION) -> bytes:
 
 
 def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
-    """The message in frame `data`; RemoteProtocolError if it is not a valid one."""
+    """The message in frame `data`; MalformedFrameError if it is not a valid one."""
     try:
         frame = loads_frame(data)
     except DecodeError as err:
-        raise RemoteProtocolError(str(err)) from None
+        raise MalformedFrameError(str(err)) from None
     if not isinstance(frame, dict):
-        raise RemoteProtocolError("frame is not a JSON object")
+        raise MalformedFrameError("frame is not a JSON object")
     kind = frame.pop("t", None)
     their = frame.pop("v", None)
     if not isinstance(kind, str) or kind not in MESSAGE_TYPES:
-        raise RemoteProtocolError("unknown message type {}; known: {}".format(
+        raise MalformedFrameError("unknown message type {}; known: {}".format(
             excerpt(kind), ", ".join(sorted(MESSAGE_TYPES))))
     if not _is_int(their):
-        raise RemoteProtocolError("{} message without an integer protocol version 'v'".format(kind))
+        raise MalformedFrameError("{} message without an integer protocol version 'v'".format(kind))
     if their != version:
         if kind == "bye":  # frozen layout: readable whatever the version
             frame = {k: frame[k] for k in ("reason", "code") if k in frame}
@@ -87,10 +89,10 @@ def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
     values = {}
     for name, field_kind in _SCHEMA[kind]:
         if name not in frame:
-            raise RemoteProtocolError("{} message lacks field {!r}".format(kind, name))
+            raise MalformedFrameError("{} message lacks field {!r}".format(kind, name))
         values[name] = _check(kind, name, field_kind, frame.pop(name))
     if frame:
-        raise RemoteProtocolError("{} message has unknown field(s) {}".format(
+        raise MalformedFrameError("{} message has unknown field(s) {}".format(
             kind, excerpt(", ".join(sorted(frame)), 80)))
     if kind in ("hello", "welcome"):
         values["version"] = their
@@ -107,7 +109,7 @@ def _is_number(value: Any) -> bool:
 
 
 def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
-    """`value` as the record wants it, or RemoteProtocolError naming what was expected."""
+    """`value` as the record wants it, or MalformedFrameError naming what was expected."""
     if field_kind == "int" or (field_kind == "opt_int" and value is not None):
         if _is_int(value) and 0 <= value <= _MAX_ID:
             return value
@@ -136,5 +138,5 @@ def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
         if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
             return Pose(float(value[0]), float(value[1]), float(value[2]))
         expected = "[x, y, theta] (three finite numbers)"
-    raise RemoteProtocolError("field {!r} of a {} message must be {}, got {}".format(
+    raise MalformedFrameError("field {!r} of a {} message must be {}, got {}".format(
         name, kind, expected, excerpt(value)))
