@@ -163,10 +163,14 @@ def test_calibrate_input_errors_are_one_line(tmp_path: Path, frames_copy: Path) 
     (tmp_path / "three.txt").write_text("1 1 10 10\n2 1 20 10\n1 2 10 20\n")
     (tmp_path / "bad.txt").write_text("1 1 10 10\n1 1 x 10\n")
     (tmp_path / "same.txt").write_text("1 1 10 10\n2 1 20 10\n1 2 10 20\n1 1 30 30\n")
+    (tmp_path / "big.txt").write_bytes(b"# " + b"x" * (1024 * 1024) + b"\n")
+    (tmp_path / "binary.txt").write_bytes(b"1 1 10 10\n\xff\xfe\n")
     for name, fragment in (("three.txt", "three.txt: calibration needs at least 4"),
                            ("same.txt", "same.txt: target points 0 and 3 coincide"),
                            ("bad.txt", "bad.txt:2:5: bad vicon_x_mm 'x'"),
-                           ("missing.txt", "missing.txt: cannot read")):
+                           ("missing.txt", "missing.txt: cannot read"),
+                           ("big.txt", "big.txt: larger than 1048576 bytes"),
+                           ("binary.txt", "binary.txt: not UTF-8 text (byte 10)")):
         done = fleetctl("vicon", "calibrate", "--pairs", tmp_path / name, "--frames", frames_copy)
         assert done.returncode == 2 and fragment in done.stderr
         assert len(done.stderr.strip().splitlines()) == 1

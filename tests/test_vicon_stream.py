@@ -13,7 +13,7 @@ from fleet_common.lab import lab_transforms
 from fleet_common.vicon import ViconObject, ViconStream, encode_frame
 from fleet_common.vicon.base_grid import (fix_of, from_base, load_vicon_to_base, to_base,
                                           vicon_to_base)
-from fleet_common.vicon.limits import MAX_FRAME_GAP
+from fleet_common.limits import VICON_MAX_FRAME_GAP as MAX_FRAME_GAP
 from fleet_common.wire.messages import Pose
 
 

@@ -22,7 +22,7 @@ from typing import Dict, Iterable, List, Optional, Tuple, Union
 
 from .colours import COLOUR_FORMS, colour_to_rgb, is_tk_colour
 from .errors import RobotDefinitionsError
-from .vicon.limits import NAME_BYTES
+from .limits import VICON_NAME_BYTES
 
 __all__ = [
     "RobotDefinition", "parse_robot_definitions", "read_robot_definitions",
@@ -98,9 +98,9 @@ def _check_field(name: str, token: str) -> Optional[str]:
         )
     if name == "colour":
         return None if is_tk_colour(token) else COLOUR_FORMS
-    if name == "vicon_name":  # Tracker's UDP stream carries at most NAME_BYTES of name
-        return None if len(token.encode("utf-8")) <= NAME_BYTES else (
-            "a name of at most {} bytes".format(NAME_BYTES))
+    if name == "vicon_name":  # Tracker's UDP stream carries at most VICON_NAME_BYTES of name
+        return None if len(token.encode("utf-8")) <= VICON_NAME_BYTES else (
+            "a name of at most {} bytes".format(VICON_NAME_BYTES))
     return None
 
 

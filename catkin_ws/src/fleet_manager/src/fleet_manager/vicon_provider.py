@@ -20,7 +20,7 @@ from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition
 from fleet_common.transform2d import Transform2D
 from fleet_common.vicon.base_grid import ViconFix, fix_of
-from fleet_common.vicon.limits import MAX_DATAGRAMS
+from fleet_common.limits import VICON_MAX_DATAGRAMS as MAX_DATAGRAMS
 from fleet_common.vicon.stream import ViconCounters, ViconStream
 
 __all__ = ["ViconProvider", "ViconFix", "DEFAULT_PORT", "DEFAULT_STALE_AFTER"]

@@ -5,7 +5,8 @@
   counters (lost frames, refused packets by cause).
 - `base_grid`: Vicon millimetres <-> base-grid cells through the frames file.
 - `calibration`: the vicon -> base similarity from robots on known cells.
-- `limits`: every bound on what the Vicon path accepts.
+
+Its bounds (block sizes, name bytes, frame gaps, ...) are `fleet_common.limits.VICON_*`.
 
 No sockets here: the manager's `fleet_manager.vicon_provider` owns the UDP socket,
 `virtual_fleet.vicon_tracker` plays Tracker for virtual runs.

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import TransformError
 from ..frames import fit_similarity
+from ..limits import VICON_MAX_PAIRS_BYTES
 from ..transform2d import Transform2D
 
 __all__ = ["Correspondence", "Calibration", "calibrate", "parse_correspondences",
@@ -112,10 +113,17 @@ def parse_correspondences(text: str, path: Optional[str] = None) -> List[Corresp
 
 def read_correspondences(path: Union[str, Path]) -> List[Correspondence]:
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise TransformError("cannot read: {}".format(getattr(err, "strerror", None) or err),
-                             str(path)) from err
+        with open(path, "rb") as f:
+            data = f.read(VICON_MAX_PAIRS_BYTES + 1)
+    except OSError as err:
+        raise TransformError("cannot read: {}".format(err.strerror), str(path)) from err
+    if len(data) > VICON_MAX_PAIRS_BYTES:
+        raise TransformError("larger than {} bytes: not a correspondences file".format(
+            VICON_MAX_PAIRS_BYTES), str(path))
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise TransformError("not UTF-8 text (byte {})".format(err.start), str(path)) from None
     return parse_correspondences(text, str(path))
 
 

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 from typing import List, Sequence, Tuple
 
 from ..errors import FleetError
-from .limits import BLOCK_SIZES, MAX_ABS_MM, NAME_BYTES
+from ..limits import VICON_BLOCK_SIZES as BLOCK_SIZES
+from ..limits import VICON_MAX_ABS_MM as MAX_ABS_MM
+from ..limits import VICON_NAME_BYTES as NAME_BYTES
 
 __all__ = [
     "BLOCK_SIZES", "ITEM_SIZE", "OBJECT_DATA_SIZE", "NAME_BYTES", "MAX_ABS_MM",

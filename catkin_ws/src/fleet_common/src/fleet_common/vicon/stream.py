@@ -21,7 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
-from .limits import MAX_FRAME_GAP, MAX_OBJECTS, MAX_REMEMBERED_GAPS
+from ..limits import VICON_MAX_FRAME_GAP as MAX_FRAME_GAP
+from ..limits import VICON_MAX_OBJECTS as MAX_OBJECTS
+from ..limits import VICON_MAX_REMEMBERED_GAPS as MAX_REMEMBERED_GAPS
 from .packet import ViconObject, ViconPacketError, decode_packet
 
 __all__ = ["ViconStream", "ViconCounters", "Sighting"]
