@@ -27,7 +27,6 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence
 
-import zmq
 
 from fleet_common.control import Event, PlanData, Proposal, RobotInfo, Scene, Waiting
 from fleet_common.execution import Disabled, Engine, RobotFailed
@@ -40,6 +39,7 @@ from fleet_common.runlog.records import FORMAT_VERSION, plan_file
 from fleet_common.runlog.summary import RunSummary, SummaryBuilder
 from fleet_common.control.desk import ControlDesk
 from fleet_common.spacing import closest_pair
+from fleet_common.transport.context import fleet_context
 from fleet_common.transport.console_channel import DEFAULT_ENDPOINT, ConsoleServer
 from fleet_common.transport.curve_keys import ManagerKeys
 from fleet_common.transport.link_events import LinkDown, LinkEvent, LinkUp
@@ -111,7 +111,7 @@ class Manager:
         self._seq = 0
         self._last_waits: Optional[Dict[int, Waiting]] = None
         self._stalled_since: Optional[float] = None
-        self.context = zmq.Context()
+        self.context = fleet_context(len(self.robots))
         self.runlog: Optional[RunLog] = None
         self.folder: Optional[Path] = None
         try:
