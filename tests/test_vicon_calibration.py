@@ -186,6 +186,7 @@ def test_live_calibration_from_a_simulated_tracker(tmp_path: Path, frames_copy: 
                             "still", "--port", str(port), "--frames", str(real), "--noise", "3",
                             "--loss", "0.2", "--for", "30"], stdout=subprocess.PIPE, text=True)
     try:
+        assert sim.stdout.readline().startswith("simulated Tracker: ")  # sending from now on
         done = fleetctl("vicon", "calibrate", "--live", "--port", port, "--bind", "127.0.0.1",
                         "--for", "1.5", "--frames", frames_copy, "--record",
                         tmp_path / "pairs.txt")

@@ -21,6 +21,7 @@ def simulator() -> Iterator[int]:
                              "0.2", "--occlude", "turtlebot3", "--for", "60"],
                             stdout=subprocess.PIPE, text=True)
     try:
+        assert proc.stdout.readline().startswith("simulated Tracker: ")  # sending from now on
         yield port
     finally:
         proc.send_signal(signal.SIGINT)
@@ -48,14 +49,15 @@ def test_listen_until_ctrl_c_prints_every_interval(simulator: int) -> None:
                              str(simulator), "--bind", "127.0.0.1", "--every", "0.2"],
                             stdout=subprocess.PIPE, text=True)
     try:
-        seen = [proc.stdout.readline() for _ in range(3)]
+        first = [proc.stdout.readline() for _ in range(2)]
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=10)
     rest = proc.stdout.read()
     assert proc.returncode == 0
-    assert seen[0].startswith("UDP 127.0.0.1") and rest.rstrip().splitlines()[-1].startswith(
-        "counters: ")
+    assert first[0].startswith("UDP 127.0.0.1:{} after".format(simulator))
+    assert first[1].split() == ["object", "robot", "x", "y", "heading", "frame", "age"]
+    assert rest.rstrip().splitlines()[-1].startswith("counters: ")
 
 
 def test_listen_to_nothing_says_so_and_exits_0() -> None:
