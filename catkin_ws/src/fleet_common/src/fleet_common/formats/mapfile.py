@@ -21,7 +21,7 @@ from ..errors import MapFormatError
 from ..grid import MAPF_IR_BLOCKED, MOVINGAI_BLOCKED, Grid
 from .header import join_lines, read_text, split_lines, write_text
 
-_SIZE = re.compile(r"(height|width)\s(\d+)")
+_SIZE = re.compile(r"(height|width)\s(\d+)", re.ASCII)
 _SIZE_WORD = re.compile(r"(height|width)\b")
 
 
