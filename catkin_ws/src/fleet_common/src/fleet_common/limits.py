@@ -27,7 +27,7 @@ from .errors import FleetError
 __all__ = [
     "DecodeError", "MAX_FRAME_BYTES", "MAX_JSON_DEPTH", "MAX_NUMBER_CHARS", "MAX_WIRE_TEXT",
     "MAX_WIRE_LIST", "MAX_FILE_BYTES", "MAX_LINE_CHARS", "MAX_INT_DIGITS", "MAX_CELL_DIGITS",
-    "MAX_AGENTS", "MAX_XML_BYTES", "MAX_XML_DEPTH", "MAX_YAML_BYTES", "MAX_DEFINITIONS_BYTES",
+    "MAX_AGENTS", "MAX_GRID_SIDE", "MAX_GRID_CELLS", "MAX_PLAN_STEPS", "MAX_XML_BYTES", "MAX_XML_DEPTH", "MAX_YAML_BYTES", "MAX_DEFINITIONS_BYTES",
     "MAX_NAME_CHARS", "EXCERPT_CHARS", "MAX_MESSAGE_CHARS",
     "loads_frame", "json_depth", "parse_int", "parse_float", "excerpt", "one_line",
 ]
@@ -55,6 +55,11 @@ MAX_INT_DIGITS = 18
 MAX_CELL_DIGITS = 9
 #: Most agents an instance or solution may declare.
 MAX_AGENTS = 1000000
+#: Largest grid built from coordinates (legacy node maps): cells a side, and cells in all.
+MAX_GRID_SIDE = 65536
+MAX_GRID_CELLS = 1 << 24
+#: Most time steps of a plan built from durations (legacy plans).
+MAX_PLAN_STEPS = 100000
 #: Largest legacy XML file, and deepest element nesting in one.
 MAX_XML_BYTES = 64 * 1024 * 1024
 MAX_XML_DEPTH = 256

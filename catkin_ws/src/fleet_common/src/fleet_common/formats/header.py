@@ -27,17 +27,10 @@ from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple, Type, 
 
 from ..errors import FormatError, FormatWarning
 from ..limits import MAX_INT_DIGITS, DecodeError, excerpt, parse_float, parse_int
-from .lines import check_file_size
+from .lines import read_text  # noqa: F401 (whole-text readers import it from here)
 
 _INT = re.compile(r"-?\d+", re.ASCII)
 _NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?", re.ASCII)
-
-
-def read_text(path: str) -> str:
-    """A file's text (at most MAX_FILE_BYTES); undecodable bytes survive a write back."""
-    with open(path, "rb") as f:
-        check_file_size(f, path, FormatError)
-        return f.read().decode("utf-8", "surrogateescape")
 
 
 def write_text(path: str, text: str) -> None:

@@ -21,7 +21,7 @@ from typing import BinaryIO, Iterable, Iterator, Optional, Tuple, Type
 from ..errors import FormatError
 from ..limits import MAX_FILE_BYTES, MAX_LINE_CHARS
 
-__all__ = ["Lines", "open_lines", "text_lines", "check_file_size"]
+__all__ = ["Lines", "open_lines", "text_lines", "check_file_size", "read_bytes", "read_text"]
 
 
 class Lines:
@@ -71,6 +71,36 @@ def check_file_size(f: BinaryIO, path: str, error: Type[FormatError],
     if size > max_bytes:
         raise error("file of {:,} bytes; files may have at most {:,}".format(size, max_bytes),
                     path, None)
+
+
+def read_bytes(path: str, error: Type[FormatError] = FormatError,
+               max_bytes: int = MAX_FILE_BYTES) -> bytes:
+    """A whole file's bytes, its size checked first."""
+    try:
+        with open(path, "rb") as f:
+            check_file_size(f, path, error, max_bytes)
+            data = f.read(max_bytes + 1)
+    except OSError as err:
+        raise error("cannot read: {}".format(err.strerror), path) from None
+    if len(data) > max_bytes:  # a special file that said size 0
+        raise error("more than {:,} bytes; files may have at most that".format(max_bytes), path)
+    return data
+
+
+def read_text(path: str, error: Type[FormatError] = FormatError,
+              max_bytes: int = MAX_FILE_BYTES, strict: bool = False) -> str:
+    """A whole file's text, its size checked first. Bytes that are not UTF-8 survive a
+    write back (surrogateescape), or with `strict` are an error naming their line."""
+    data = read_bytes(path, error, max_bytes)
+    if not strict:
+        return data.decode("utf-8", "surrogateescape")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = data.count(b"\n", 0, err.start) + 1
+        column = err.start - (data.rfind(b"\n", 0, err.start) + 1) + 1
+        raise error("byte {:#04x} is not UTF-8 text".format(data[err.start]), path, line,
+                    column) from None
 
 
 @contextlib.contextmanager
