@@ -217,12 +217,14 @@ def _escape_char(ch: str) -> str:
     return "\\u{:04x}".format(code) if code < 0x10000 else "\\U{:08x}".format(code)
 
 
-def _escaped(text: str, limit: int) -> Tuple[str, int]:
-    """(escaped text of at most about `limit` characters, how many characters it covers)."""
+def _escaped(text: str, limit: int, backslash: bool = True) -> Tuple[str, int]:
+    """(escaped text of at most about `limit` characters, how many characters it covers);
+    `backslash`: escape backslashes too (in quotations, so that escapes are unambiguous)."""
     out: List[str] = []
     size = used = 0
     for ch in text[:limit]:
-        piece = ch if (ch.isprintable() and ch != "\\") else _escape_char(ch)
+        plain = ch.isprintable() and (ch != "\\" or not backslash)
+        piece = ch if plain else _escape_char(ch)
         if size + len(piece) > limit:
             break
         out.append(piece)
@@ -255,10 +257,11 @@ def excerpt(value: Any, limit: int = EXCERPT_CHARS) -> str:
 
 
 def one_line(text: str, limit: int = MAX_MESSAGE_CHARS) -> str:
-    """`text` as one line of at most `limit` characters: control characters escaped,
-    the end cut off with "..." if it is longer."""
-    shown, used = _escaped(text, limit)
+    """`text` as one line of at most `limit` characters: control characters escaped
+    (backslashes are left alone: quotations in it are escaped already), the end cut off
+    with "..." if it is longer."""
+    shown, used = _escaped(text, limit, backslash=False)
     if used == len(text):
         return shown
-    shown, _ = _escaped(text, limit - 3)
+    shown, _ = _escaped(text, limit - 3, backslash=False)
     return shown + "..."

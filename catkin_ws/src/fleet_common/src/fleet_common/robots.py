@@ -85,6 +85,8 @@ def _valid_host(host: str) -> bool:
 
 def _check_field(name: str, token: str) -> Optional[str]:
     """None when `token` is a valid `name` field, else what was expected."""
+    if not token.isprintable():
+        return "printable characters only"
     if name == "id":
         ok = token.isdigit() and token.isascii() and len(token) <= MAX_INT_DIGITS
         return None if ok else "a non-negative integer of at most {} digits".format(MAX_INT_DIGITS)
