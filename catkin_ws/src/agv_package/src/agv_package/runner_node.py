@@ -70,6 +70,12 @@ def _subscribe_bumper(kind: str, report: Callable[[bool], None]) -> None:
     rospy.Subscriber("mobile_base/events/bumper", BumperEvent, on_event, queue_size=10)
 
 
+def _log_execution(robot_id: int, epoch: str, command: object) -> None:
+    """One line per command the robot carries out: its log shows that none ran twice."""
+    rospy.loginfo("agv_runner: robot %d executing %s %d of manager %s", robot_id,
+                  getattr(command, "TYPE", "?"), getattr(command, "id", -1), epoch)
+
+
 def main() -> None:
     rospy.init_node("agv_runner")
     log = logging.getLogger("rosout.agv_runner")  # rospy forwards "rosout.*" to /rosout
@@ -106,7 +112,9 @@ def main() -> None:
         endpoint = RobotEndpoint(context, robot.id, wire, robot.command_port,
                                  settings.feedback_port, bind=bind, keys=keys, zap=zap, log=log,
                                  feedback_rate=settings.feedback_rate,
-                                 check=CommandCheck(grid, settings.commands))
+                                 check=CommandCheck(grid, settings.commands),
+                                 on_execute=lambda epoch, command: _log_execution(
+                                     robot.id, epoch, command))
     except FleetError as err:
         rospy.logfatal("agv_runner: %s", err)
         context.term()

@@ -27,7 +27,7 @@ Rules, in the order they are applied to a command:
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 from ..limits import one_line
 from .command_check import CommandCheck
@@ -46,12 +46,16 @@ class CommandExecutor:
     says what the robot's world forbids (default: no map, the default limits)."""
 
     def __init__(self, navigator: Navigator, memory: int = 4096,
-                 check: Optional[CommandCheck] = None) -> None:
+                 check: Optional[CommandCheck] = None,
+                 on_execute: Optional[Callable[[str, Command], None]] = None) -> None:
         if memory < 1:
             raise ValueError("memory must be at least 1 command, got {}".format(memory))
         self.navigator = navigator
         self.check = check if check is not None else CommandCheck()
         self.memory = memory
+        #: told (epoch, command) each time a motion starts or a stop is carried out: the
+        #: virtual fleet's ground truth of what ran, to check that nothing ran twice
+        self.on_execute = on_execute
         # (epoch, id) -> (was accepted, final reply or None while running)
         self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
         self._highest: Dict[str, int] = {}
@@ -83,13 +87,15 @@ class CommandExecutor:
                                        command.id, self.memory)))]
         self._highest[epoch] = command.id
         if isinstance(command, Stop):
-            return self._stop(key)
+            return self._stop(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
         self._remember(key, True, None)
         self._running = key
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(epoch, command)
         return [(epoch, Accepted(command.id))]
 
     def poll(self) -> List[Routed]:
@@ -126,9 +132,11 @@ class CommandExecutor:
             return one_line("navigator failed: {}: {}".format(type(err).__name__, err), 200)
         return None
 
-    def _stop(self, key: _Key) -> List[Routed]:
+    def _stop(self, key: _Key, command: Command) -> List[Routed]:
         self.navigator.halt()
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(key[0], command)
         out: List[Routed] = []
         if self._running is not None:
             running, self._running = self._running, None
