@@ -1,9 +1,11 @@
 """Benchmark: how fast and in how little memory a huge broken file is refused (issue 11).
 
-Writes a 50 MB instance whose line 33 is broken (the lab header, comments, `12, 7,16,18`,
-then 50 MB of agent lines) and a 50 MB solution whose row at line 33 is broken, and runs
-`fleetctl info FILE` on each in a fresh process, --repeat times: wall time (best and
-median) and the process's peak RSS (getrusage of the child). With `--compare COMMIT` it
+Writes a 50 MB instance whose line 33 puts an agent off the map (tests/helpers.py's
+`big_broken_instance`: 27 good agent lines, the bad one, 50 MB of comment lines; a reader
+that checks cells after reading everything finds it last) and a 50 MB solution whose row at line 33
+is broken, and runs `fleetctl info FILE` on each in a fresh process, --repeat times: wall
+time (best and median) and the process's peak RSS (getrusage of the child). The lab
+instance (a few lines) is the baseline: starting Python and importing. With `--compare COMMIT` it
 runs the same with the fleet_common and fleetctl of that commit (extracted with
 `git archive` into a temporary folder, put first on PYTHONPATH), in the same run.
 
@@ -24,21 +26,12 @@ from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+from helpers import big_broken_instance  # noqa: E402 (the test suite's own generator)
 SIZE = 50_000_000
 PROBE = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:], capture_output=True, "
          "text=True); print(p.returncode); print(resource.getrusage(resource.RUSAGE_CHILDREN)"
          ".ru_maxrss); sys.stderr.write(p.stderr)")
-
-
-def broken_instance(folder: Path) -> Path:
-    path = folder / "big_instance.txt"
-    with open(path, "w") as f:
-        f.write("map_file=lab.map\nagents=5\nseed=0\nrandom_problem=0\nmax_timestep=100\n")
-        f.write("# filler\n" * 27 + "12, 7,16,18\n")
-        block = "1,5,11,5\n" * 100_000
-        while f.tell() < SIZE:
-            f.write(block)
-    return path
 
 
 def broken_solution(folder: Path) -> Path:
@@ -75,7 +68,8 @@ def run_once(path: Path, pythonpath: Optional[str]) -> Tuple[float, int, int, st
         env["PYTHONPATH"] = pythonpath
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", PROBE, sys.executable, "-m", "fleetctl", "info",
-                           str(path)], capture_output=True, text=True, env=env)
+                           str(path)], capture_output=True, text=True, env=env,
+                          cwd=str(path.parent))  # not the checkout: `-m` looks in the cwd first
     wall = time.perf_counter() - start
     status, rss_kb = (int(v) for v in proc.stdout.split())
     return wall, status, rss_kb // 1024, (proc.stderr.splitlines() or [""])[0]
@@ -89,7 +83,10 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        files = [broken_instance(folder), broken_solution(folder)]
+        from fleet_common.lab import lab_instance_path
+
+        files = [lab_instance_path(), big_broken_instance(folder / "big_instance.txt"),
+                 broken_solution(folder)]
         versions: Dict[str, Optional[str]] = {"this branch": None}
         if args.compare:
             old = extract(args.compare, folder / "old")

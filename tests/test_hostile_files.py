@@ -35,6 +35,7 @@ from fleet_common.lab import lab_frames_path, lab_nodes_path, lab_transforms
 from fleet_common.lab.node_table import parse_node_table
 from fleet_common.robots import parse_robot_definitions
 from fleetctl.cli import main
+from helpers import big_broken_instance
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "data" / "mapf-ir"
@@ -199,28 +200,15 @@ def test_misspelled_header_keys_are_warnings_naming_line_and_nearest_key(files: 
     assert_one_line(status, err, bad, 6, "expected ',' after sy")
 
 
-# ---- a 50 MB instance broken at line 33, in a real process -----------------------------------
-
-def big_broken_instance(folder: Path) -> Path:
-    """50 MB: the lab header, comments to line 32, a broken agent line 33, then agent lines."""
-    path = folder / "big.txt"
-    head = "map_file=lab.map\nagents=5\nseed=0\nrandom_problem=0\nmax_timestep=100\n"
-    head += "# filler\n" * 27 + "12, 7,16,18\n"
-    with open(path, "w") as f:
-        f.write(head)
-        block = "1,5,11,5\n" * 100_000
-        while f.tell() < 50_000_000:
-            f.write(block)
-    return path
-
+# ---- a 50 MB instance broken at line 33, in a real process (timing: bench/hostile_files.py) ---
 
 def test_a_50_mb_instance_broken_at_line_33_is_refused_in_little_memory(tmp_path: Path) -> None:
-    path = big_broken_instance(tmp_path)
+    path = big_broken_instance(tmp_path / "big.txt")
     probe = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:], "
              "capture_output=True, text=True); print(p.returncode); print(resource.getrusage("
              "resource.RUSAGE_CHILDREN).ru_maxrss); sys.stderr.write(p.stderr)")
     proc = subprocess.run([sys.executable, "-c", probe, sys.executable, "-m", "fleetctl", "info",
                            str(path)], capture_output=True, text=True, timeout=120)
     status, max_rss_kb = (int(v) for v in proc.stdout.split())
-    assert_one_line(status, proc.stderr, path, 33, "expected a digit for sy")
+    assert_one_line(status, proc.stderr, path, 33, "start (99,5) of agent 27 is off the map")
     assert max_rss_kb < 200 * 1024, "{} MB".format(max_rss_kb // 1024)
