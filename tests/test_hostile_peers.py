@@ -30,7 +30,9 @@ from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosi
                                Welcome)
 from fleet_common.wire.codec import encode
 from virtual_fleet.fleet import FleetThread, VirtualFleet
-from helpers import free_ports
+from helpers import fleetctl, free_ports
+
+REPO = Path(__file__).resolve().parents[1]
 
 BIG_X = b'{"t":"drive","v":1,"id":5,"x":' + b"1" * 400 + b',"y":0,"time":0}'
 HOSTILE: Dict[str, bytes] = {
@@ -340,3 +342,15 @@ def test_no_frame_from_a_robot_brings_the_manager_side_down(caplog) -> None:
     # (which frames reach a new subscriber first is up to PUB/SUB)
     assert len([m for m in logged if "robot 4: bad pose feedback frame: " in m]) == 1
     assert all(len(m) < 1000 and "\n" not in m for m in logged)
+
+
+def test_a_fleet_whose_robots_would_start_off_its_map_is_refused(tmp_path: Path) -> None:
+    command = free_ports(1)[0]
+    (tmp_path / "robots.txt").write_text("1 127.0.0.1 {} u v1 red\n".format(command))
+    tunnel = REPO.parent / "shared" / "data" / "mapf-ir" / "maps" / "tunnel.map"
+    proc = fleetctl("virtual-fleet", "--definitions", tmp_path / "robots.txt", "--no-curve",
+                    "--map", tunnel, timeout=60)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines() == [
+        "fleetctl virtual-fleet: robot 1 would start at (1, 8), which is not a free cell of {}; "
+        "give --instance with starts on that map".format(tunnel)]
