@@ -30,7 +30,7 @@ from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosi
                                Welcome)
 from fleet_common.wire.codec import encode
 from virtual_fleet.fleet import FleetThread, VirtualFleet
-from helpers import fleetctl, free_ports
+from helpers import fleetctl, free_port_block, free_ports
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -244,11 +244,12 @@ def test_a_failing_handler_is_logged_and_the_robot_serves_on(caplog) -> None:
 
 def test_a_failing_link_is_logged_and_the_others_go_on(caplog) -> None:
     caplog.set_level(logging.ERROR)
-    ports = free_ports(3)
+    ports = free_ports(2)
     robots = [RobotDefinition(i, "127.0.0.1", ports[i - 1], "u", "v{}".format(i), "red")
               for i in (1, 2)]
+    feedback = free_port_block(2)
     context = zmq.Context()
-    with FleetThread(VirtualFleet(robots, feedback_base=ports[2], time_scale=10.0)):
+    with FleetThread(VirtualFleet(robots, feedback_base=feedback, time_scale=10.0)):
         links = LinkSet([RobotLink(context, r, "lab") for r in robots])
         try:
             collect(links, lambda ev: sum(isinstance(e, LinkUp) for e in ev) == 2)
