@@ -26,7 +26,7 @@ from fleet_common.transport.robot_endpoint import RobotEndpoint
 from fleet_common.transport.robot_loop import RobotLoop
 from fleet_common.transport.zap import ZapHandler
 
-from .delays import DelayModel
+from .delays import FleetDelays
 from .kinematics import VirtualNavigator
 
 __all__ = ["VirtualFleet", "FleetThread", "row_poses"]
@@ -44,7 +44,7 @@ class VirtualFleet:
 
     def __init__(self, robots: Sequence[RobotDefinition], *, keys: Optional[RobotKeys] = None,
                  feedback_base: int = FEEDBACK_PORT, time_scale: float = 1.0,
-                 model: Optional[DelayModel] = None, seed: int = 0, speed: float = 0.5,
+                 model: Optional[FleetDelays] = None, seed: int = 0, speed: float = 0.5,
                  turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
                  clock: Callable[[], float] = time.monotonic,
@@ -52,7 +52,7 @@ class VirtualFleet:
         self.robots = on_localhost(robots, path)
         self.ports = feedback_ports(self.robots, feedback_base, path)
         self.keys = keys
-        self.model = model or DelayModel()
+        self.model = model or FleetDelays()
         self.clock = clock
         self.feedback_rate = feedback_rate
         self.log = log or logging.getLogger("virtual_fleet")
@@ -62,9 +62,9 @@ class VirtualFleet:
         poses = start_poses or row_poses(self.robots)
         self.navigators: Dict[int, VirtualNavigator] = {
             r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
-                                   time_scale=time_scale, model=self.model,
+                                   time_scale=time_scale, model=self.model.for_robot(i),
                                    rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
-            for r in self.robots}
+            for i, r in enumerate(self.robots)}
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back
         self.dropouts = 0

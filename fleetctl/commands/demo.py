@@ -81,10 +81,10 @@ def run(args: argparse.Namespace) -> int:
 def _execute(plan, args: argparse.Namespace) -> int:
     """The plan on simulated robots under each strategy: what delays do to it."""
     from fleet_common.execution import STRATEGIES
-    from fleet_common.execution.delays import parse_delay_model
+    from fleet_common.delays import parse_delay_model
     from fleet_common.execution.simulate import simulate
 
-    delays = parse_delay_model(args.delay_model)
+    delays = parse_delay_model(args.delay_model, default="moderate")
     print("execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
     clean = True
     for name in sorted(STRATEGIES):
