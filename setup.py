@@ -24,6 +24,7 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
     "console": ".",
+    "evaluation": ".",
 }
 
 #: Data files shipped inside packages (globs relative to the package folder).
