@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 from collections import OrderedDict
-from typing import Any, Dict, List, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Sequence, Tuple
 
 import numpy as np
 
@@ -50,75 +50,66 @@ def _delay_label(r: Row) -> str:
     return "p={:g}".format(r["p"]) if r["p"] is not None else r["delay"]
 
 
-def makespan_chart(rows: List[Row]) -> Chart:
+def _per_plan(rows: List[Row], height: float, draw: Callable[[Any, List[Row]], Any], xlabel: str,
+              ylabel: str, legend: bool = True) -> Tuple[Any, Dict[str, Any]]:
+    """One panel per plan (robots not disabled); `draw(ax, rows of the plan)` returns its data."""
     plain = [r for r in rows if r["disable"] == "none"]
     plans = _plans(plain)
-    fig = new_figure((4.2 * max(1, len(plans)), 3.6))
+    fig = new_figure((4.2 * max(1, len(plans)), height))
     data: Dict[str, Any] = {}
     for i, plan in enumerate(plans):
         ax = fig.add_subplot(1, len(plans), i + 1)
-        mine = [r for r in plain if r["plan"] == plan and r["p"] is not None]
-        data[plan] = {}
-        for strategy, group in _groups(mine, ["strategy"]).items():
+        data[plan] = draw(ax, [r for r in plain if r["plan"] == plan])
+        ax.set_title(plan, fontsize=9)
+        ax.set_xlabel(xlabel)
+        if i == 0:
+            ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        if legend:
+            ax.legend(fontsize=8)
+    return fig, data
+
+
+def makespan_chart(rows: List[Row]) -> Chart:
+    def draw(ax: Any, mine: List[Row]) -> Dict[str, Any]:
+        data = {}
+        for strategy, group in _groups([r for r in mine if r["p"] is not None], ["strategy"]).items():
             by_p = _groups(sorted(group, key=lambda r: r["p"]), ["p"])
             ps = [k[0] for k in by_p]
             stats = [mean_ci([r["makespan_ratio"] for r in g]) for g in by_p.values()]
             means, cis = [s[0] for s in stats], [s[1] for s in stats]
             ax.errorbar(ps, means, yerr=cis, marker="o", capsize=3, label=strategy[0])
-            data[plan][strategy[0]] = {"p": ps, "mean": means, "ci": cis, "n": [len(g) for g in by_p.values()]}
-        ax.set_title(plan, fontsize=9)
-        ax.set_xlabel("delay probability p")
-        if i == 0:
-            ax.set_ylabel("executed / planned makespan")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+            data[strategy[0]] = {"p": ps, "mean": means, "ci": cis, "n": [len(g) for g in by_p.values()]}
+        return data
+    fig, data = _per_plan(rows, 3.6, draw, "delay probability p", "executed / planned makespan")
     return Chart("makespan_ratio", "Executed over planned makespan against the delay probability", to_png(fig),
                  data, "Mean over seeds with 95 % confidence intervals; the same delays for both strategies.")
 
 
 def wait_chart(rows: List[Row]) -> Chart:
-    plain = [r for r in rows if r["disable"] == "none"]
-    plans = _plans(plain)
-    fig = new_figure((4.2 * max(1, len(plans)), 3.4))
-    data: Dict[str, Any] = {}
-    for i, plan in enumerate(plans):
-        ax = fig.add_subplot(1, len(plans), i + 1)
-        data[plan] = {}
-        for strategy, group in _groups([r for r in plain if r["plan"] == plan], ["strategy"]).items():
-            waits = np.array([json.loads(r["wait_by_robot"]) for r in group], dtype=float)
-            mean = waits.mean(axis=0).tolist()
+    def draw(ax: Any, mine: List[Row]) -> Dict[str, Any]:
+        data = {}
+        for strategy, group in _groups(mine, ["strategy"]).items():
+            mean = np.array([json.loads(r["wait_by_robot"]) for r in group], dtype=float).mean(axis=0).tolist()
             ax.plot(range(len(mean)), mean, marker="." if len(mean) < 40 else None, label=strategy[0])
-            data[plan][strategy[0]] = mean
-        ax.set_title(plan, fontsize=9)
-        ax.set_xlabel("robot (agent index)")
-        if i == 0:
-            ax.set_ylabel("mean wait (time units)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+            data[strategy[0]] = mean
+        return data
+    fig, data = _per_plan(rows, 3.4, draw, "robot (agent index)", "mean wait (time units)")
     return Chart("wait_per_robot", "Wait time per robot", to_png(fig), data,
                  "Mean over every delay model and seed of the plan (robots not disabled).")
 
 
 def distribution_chart(rows: List[Row]) -> Chart:
-    plain = [r for r in rows if r["disable"] == "none"]
-    plans = _plans(plain)
-    fig = new_figure((4.2 * max(1, len(plans)), 3.8))
-    data: Dict[str, Any] = {}
-    for i, plan in enumerate(plans):
-        ax = fig.add_subplot(1, len(plans), i + 1)
-        groups = _groups(sorted([r for r in plain if r["plan"] == plan],
-                                key=lambda r: (r["p"] is None, r["p"] or 0, r["delay"], r["strategy"])),
+    def draw(ax: Any, mine: List[Row]) -> Dict[str, Any]:
+        groups = _groups(sorted(mine, key=lambda r: (r["p"] is None, r["p"] or 0, r["delay"], r["strategy"])),
                          ["strategy", "delay"])
         labels = ["{} {}".format(g[0][0:4], _delay_label(rs[0])) for g, rs in groups.items()]
         values = [[r["makespan_ratio"] for r in rs] for rs in groups.values()]
         ax.boxplot(values, showfliers=True)
         ax.set_xticks(range(1, len(labels) + 1), labels)
         ax.tick_params(axis="x", labelrotation=70, labelsize=7)
-        ax.set_title(plan, fontsize=9)
-        if i == 0:
-            ax.set_ylabel("executed / planned makespan")
-        ax.grid(alpha=0.3)
-        data[plan] = dict(zip(labels, values))
+        return dict(zip(labels, values))
+    fig, data = _per_plan(rows, 3.8, draw, "", "executed / planned makespan", legend=False)
     return Chart("distribution", "Distribution of the makespan ratio", to_png(fig), data,
                  "Box: quartiles; whiskers: 1.5 interquartile ranges; circles: runs beyond them.")
 
