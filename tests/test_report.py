@@ -107,6 +107,10 @@ def test_a_simulated_run_folder_follows_the_run_log_schema(run_folder):
     assert len(poses) >= 10 * end["t"]  # at least 10 samples a plan step
     assert {p[4] for rec in poses for p in rec["p"]} == {"robot"}
     assert [r["robot"] for r in run.of("out")] == [2] and any(run.of("waits"))
+    # the manager's own reading of run folders (`fleetctl trace`) finds the simulator's figures
+    traced = fleetctl("trace", run_folder, "-o", run_folder.parent / "executed.txt")
+    assert "total wait: {:.2f} steps".format(end["summary"]["wait_time"]) in traced.stdout, traced.stdout
+    assert "collisions: 0" in traced.stdout
 
 
 def test_the_run_report_shows_what_each_robot_did(run_folder):

@@ -98,6 +98,7 @@ class _Simulation:
         self.wait: Optional[List[float]] = None if waits is None or not waits.any() else waits.tolist()
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
+        self._charged: Dict[int, Tuple[float, Dict[int, float]]] = {}
         self.disable = dict(disable)
         self.trace = Trace([engine.table.start(r) for r in range(n)])
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
@@ -160,7 +161,9 @@ class _Simulation:
         for d in dispatches:
             self.queue[d.robot].append(d)
             if self.journal is not None:
-                self._note("dispatch", robot=d.robot, index=d.index, step=d.step, src=d.src, dst=d.dst)
+                waited, by = self._waited(d.robot)
+                self._note("dispatch", robot=d.robot, index=d.index, step=d.step, src=d.src, dst=d.dst,
+                           waited=waited, released_by=by)
         for d in dispatches:
             self._try_start(d.robot)
 
@@ -202,6 +205,15 @@ class _Simulation:
     def _note(self, kind: str, **fields: object) -> None:
         if self.journal is not None:
             self.journal.append((self.now, kind, fields))
+
+    def _waited(self, r: int) -> Tuple[float, Optional[int]]:
+        """What the metrics charged robot r since its last dispatch: time waited, and to whom."""
+        m = self.engine.metrics.robots[r]
+        seen = self._charged.get(r, (0.0, {}))
+        waited = m.wait_time - seen[0]
+        by = next((q for q, t in m.blocked_by.items() if t > seen[1].get(q, 0.0)), None)
+        self._charged[r] = (m.wait_time, dict(m.blocked_by))
+        return round(waited, 6), by
 
     def _note_waits(self) -> None:
         waits = tuple((w.robot, w.on, w.cell, w.reason) for w in self.engine.waiting())
