@@ -21,6 +21,7 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "fleet_common": "catkin_ws/src/fleet_common/src",
     "fleet_manager": "catkin_ws/src/fleet_manager/src",
     "virtual_fleet": ".",
+    "deploy": ".",
     "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
     "console": ".",
@@ -63,6 +64,7 @@ setup(
         "networkx>=3,<4",
         "Pillow>=9.4,<14",
         "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
+        "paramiko>=3.4,<5",  # deploy: SSH to the server and the robots
     ],
     extras_require={
         # The robot's tag detector and the simulated base's tag drawing (agv_package).

@@ -6,12 +6,14 @@ set -euo pipefail
 
 # Debian 12 packages FleetControl needs (ROS 1 from Debian, Tk, Xvfb, build tools); numpy
 # and yaml are the catkin packages' exec_depends, for code run by Debian's own python3.
+# git, tmux and OpenSSH are what deployment runs on the server and the robots (the tests
+# start real sshd processes, so the server package is needed here too).
 APT_PACKAGES=(
   ros-core python3-rospy catkin python3-catkin-pkg python3-numpy python3-yaml
   ros-std-msgs ros-geometry-msgs ros-nav-msgs ros-sensor-msgs
   python3-std-msgs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
   python3-tk xvfb fonts-dejavu-core python3-venv python3-dev build-essential cmake
-  python3-zmq iproute2
+  python3-zmq iproute2 openssh-client openssh-server tmux git
 )
 
 # Debian's interpreter, not whatever python3 is first on PATH: rospy lives in its
