@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 from typing import List, Optional
 
-__all__ = ["LoopbackHost", "LoopbackLab", "SSHD", "keygen"]
+__all__ = ["LoopbackHost", "LoopbackLab", "SSHD", "keygen", "free_port_on"]
 
 SSHD = "/usr/sbin/sshd"
 _PRIVSEP_DIR = Path("/run/sshd")  # sshd refuses to start without it
@@ -118,10 +118,30 @@ class LoopbackHost:
                        capture_output=True, timeout=30)
 
 
-class LoopbackLab:
-    """`count` hosts on 127.0.0.`first`... and `port`, a client key, a known_hosts file."""
+def free_port_on(addresses: List[str], tries: int = 50) -> int:
+    """A TCP port free on every one of `addresses` right now."""
+    for _ in range(tries):
+        socks = [socket.socket()]
+        try:
+            socks[0].bind((addresses[0], 0))
+            port = socks[0].getsockname()[1]
+            for address in addresses[1:]:
+                socks.append(socket.socket())
+                socks[-1].bind((address, port))
+            return port
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+    raise RuntimeError("no port free on all of {}".format(", ".join(addresses)))
 
-    def __init__(self, folder: Path, count: int, port: int, first: int = 2,
+
+class LoopbackLab:
+    """`count` hosts on 127.0.0.`first`... and one port (0: a free one), a client key and
+    a known_hosts file."""
+
+    def __init__(self, folder: Path, count: int, port: int = 0, first: int = 2,
                  tmux_socket: str = "fleetcontrol") -> None:
         if not os.path.exists(SSHD):
             raise RuntimeError("{} not found: install openssh-server (scripts/ciirc-exec.sh "
@@ -130,19 +150,24 @@ class LoopbackLab:
             _PRIVSEP_DIR.mkdir(mode=0o755, parents=True, exist_ok=True)
         self.folder = folder
         folder.mkdir(parents=True, exist_ok=True)
-        self.port = port
+        addresses = ["127.0.0.{}".format(first + i) for i in range(count)]
+        self.port = port or free_port_on(addresses)
         self.user = getpass.getuser()
         self.tmux_socket = tmux_socket
-        # tmux sockets live under TMUX_TMPDIR, and a Unix socket path must stay short.
-        self._tmux_root = Path(tempfile.mkdtemp(prefix="fc-tmux-"))
         self.client_key = keygen(folder / "client_key", "fleetcontrol-client")
         self.known_hosts = folder / "known_hosts"
         self.hosts: List[LoopbackHost] = []
-        for i in range(count):
-            address = "127.0.0.{}".format(first + i)
-            host = LoopbackHost(folder / address, self._tmux_root / str(first + i), address, port)
-            host.authorized_keys.write_text(self.public_key())
-            self.hosts.append(host)
+        # tmux sockets live under TMUX_TMPDIR, and a Unix socket path must stay short.
+        self._tmux_root = Path(tempfile.mkdtemp(prefix="fc-tmux-"))
+        try:
+            for i, address in enumerate(addresses):
+                host = LoopbackHost(folder / address, self._tmux_root / str(first + i), address,
+                                    self.port)
+                host.authorized_keys.write_text(self.public_key())
+                self.hosts.append(host)
+        except BaseException:
+            shutil.rmtree(self._tmux_root, ignore_errors=True)
+            raise
 
     def public_key(self) -> str:
         return self.client_key.with_name(self.client_key.name + ".pub").read_text()

@@ -158,15 +158,17 @@ last_output() {{ T capture-pane -p -t "=$1:" -S -200 | grep -v -e '^ *$' -e '^Pa
 
 
 def _start(target: Target, config: DeployConfig) -> str:
+    # The options go in the same tmux call as the session: a server started alone exits at
+    # once (no session yet) and takes its options along.
     if not target.processes:
         return 'echo "no processes configured for {}"\n'.format(_side(target))
-    lines = [_enter(target), _tmux(config), "T start-server \\; set-window-option -g remain-on-exit on"
-             " \\; set-option -g history-limit 20000", "started=''", "running=''"]
+    lines = [_enter(target), _tmux(config), "started=''", "running=''"]
     for name, command in target.processes:
         lines.append("""case $(state {n}) in
   running) running="$running {n}" ;;
   *) T kill-session -t ={n} 2>/dev/null || true
-     T new-session -d -s {n} -c "$PWD" -x 200 -y 50 {cmd}
+     T start-server \; set-window-option -g remain-on-exit on \; set-option -g history-limit 20000 \; \
+       new-session -d -s {n} -c "$PWD" -x 200 -y 50 {cmd}
      started="$started {n}" ;;
 esac""".format(n=shlex.quote(name), cmd=shlex.quote("bash -c " + shlex.quote(command))))
     lines.append("""[ -z "$started" ] || sleep {check}
