@@ -58,8 +58,10 @@ def connect(target: Target, config: DeployConfig, accept_new: bool,
     key = str(config.login_key) if config.login_key is not None else None
     try:
         # Only keys: our own (login_key), else ssh-agent's and ~/.ssh/id_*; never a password.
+        # `timeout` also bounds the handshake, and paramiko ends that wait without an error:
+        # a little longer than the banner's, so a silent server is reported as one.
         client.connect(target.host, target.port, username=target.user, key_filename=key,
-                       look_for_keys=key is None, allow_agent=key is None, timeout=seconds,
+                       look_for_keys=key is None, allow_agent=key is None, timeout=seconds + 2,
                        banner_timeout=seconds, auth_timeout=seconds)
     except HostKeyRefused:
         client.close()
@@ -90,7 +92,13 @@ def connect(target: Target, config: DeployConfig, accept_new: bool,
                           "network?)".format(where, seconds)) from None
     except (paramiko.SSHException, EOFError) as err:
         client.close()
-        raise DeployError("{}: SSH failed: {}".format(where, err or type(err).__name__)) from None
+        text = str(err) or type(err).__name__
+        if "banner" in text:
+            text = "connected, but no SSH greeting within {:g} s (not an SSH server, or " \
+                   "overloaded?)".format(seconds)
+        elif text == "No existing session":
+            text = "the SSH handshake did not finish within {:g} s".format(seconds + 2)
+        raise DeployError("{}: SSH failed: {}".format(where, text)) from None
     except OSError as err:
         client.close()
         raise DeployError("cannot connect to {}: {}".format(where, err.strerror or err)) from None

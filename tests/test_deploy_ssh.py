@@ -346,3 +346,28 @@ def test_net_check_reports_each_robots_state(tmp_path: Path) -> None:
     assert table[2] == ["robot 3", "127.0.0.3", "yes", "down (refused)",
                         "{} refused".format(cmd3), "not tried (port refused)"]
     assert result.stdout.splitlines()[-1] == "1 of 3 robots fully reachable"
+
+
+def test_a_machine_that_accepts_but_never_speaks_ssh_fails_within_the_connect_timeout(
+        tmp_path: Path) -> None:
+    import socket
+
+    silent = socket.socket()  # the kernel completes the handshake; nobody ever answers
+    silent.bind(("127.0.0.1", 0))
+    silent.listen(8)
+    port = silent.getsockname()[1]
+    try:
+        (tmp_path / "defs.txt").write_text("1 127.0.0.1 {} root tb1 red\n".format(free_ports(1)[0]))
+        (tmp_path / "deploy.yaml").write_text(
+            "repository: /nowhere.git\nknown_hosts: {}\ntimeouts:\n  connect: 1\nrobots:\n"
+            "  port: {}\n  build: 'true'\n".format(tmp_path / "known_hosts", port))
+        result = subprocess.run(
+            [sys.executable, "-m", "deploy", "robots:status", "--config",
+             str(tmp_path / "deploy.yaml"), "--definitions", str(tmp_path / "defs.txt")],
+            capture_output=True, text=True, timeout=120)
+    finally:
+        silent.close()
+    assert result.returncode == 1
+    assert rows(result.stdout)["robot 1"] == ("FAILED", "127.0.0.1:{}: SSH failed: connected, "
+                                              "but no SSH greeting within 1 s (not an SSH "
+                                              "server, or overloaded?)".format(port))
