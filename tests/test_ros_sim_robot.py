@@ -38,7 +38,7 @@ from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.wire import (Connection, DriveToPosition, GetStatus, Heartbeat, Hello, Role,
                                Stop, Turn)
 from fleet_common.wire.codec import decode
-from fleet_common.wire.curve_keys import ManagerKeys, load_manager_keys, make_keys
+from fleet_common.transport.curve_keys import ManagerKeys, load_manager_keys, make_keys
 from helpers import free_port
 
 pytestmark = pytest.mark.slow

@@ -14,9 +14,9 @@ import zmq
 from fleet_common.errors import FleetError, RobotDefinitionsError
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Completed, Failed, Pose, Status
-from fleet_common.wire.curve_keys import load_manager_keys, load_robot_keys, make_keys
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import LinkUp, RobotLink, RobotReply
+from fleet_common.transport.curve_keys import load_manager_keys, load_robot_keys, make_keys
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
 from virtual_fleet.delays import DelayModel, parse_delay_model
 from virtual_fleet.fleet import FleetThread, VirtualFleet
 from virtual_fleet.kinematics import VirtualNavigator

@@ -15,9 +15,9 @@ import zmq
 
 from fleet_common.robots import read_robot_definitions
 from fleet_common.wire import Completed
-from fleet_common.wire.curve_keys import load_manager_keys
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import RobotLink, RobotReply
+from fleet_common.transport.curve_keys import load_manager_keys
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import RobotLink, RobotReply
 from helpers import fleetctl, free_ports
 
 

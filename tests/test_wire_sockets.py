@@ -16,10 +16,10 @@ import zmq
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import (Accepted, Completed, Connection, Failed, Hello, PoseFeedback, Role,
                                VersionMismatchError)
-from fleet_common.wire.curve_keys import (ManagerKeys, load_manager_keys, load_robot_keys,
+from fleet_common.transport.curve_keys import (ManagerKeys, load_manager_keys, load_robot_keys,
                                           make_keys)
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import LinkDown, LinkEvent, LinkUp, RobotLink, RobotReply
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import LinkDown, LinkEvent, LinkUp, RobotLink, RobotReply
 from virtual_fleet.fleet import FleetThread, VirtualFleet
 from helpers import free_ports
 

@@ -19,11 +19,12 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import zmq
 
 from fleet_common.robots import RobotDefinition
-from fleet_common.wire.curve_keys import RobotKeys
+from fleet_common.transport.curve_keys import RobotKeys
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports, on_localhost
-from fleet_common.wire.zap import ZapHandler
-from fleet_common.wire.zmq_transport import RobotEndpoint, RobotLoop
+from fleet_common.transport.robot_endpoint import RobotEndpoint
+from fleet_common.transport.robot_loop import RobotLoop
+from fleet_common.transport.zap import ZapHandler
 
 from .delays import DelayModel
 from .kinematics import VirtualNavigator

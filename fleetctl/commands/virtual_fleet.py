@@ -61,7 +61,7 @@ def _positive(text: str) -> float:
 def run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError
     from fleet_common.robots import default_definitions_path, read_robot_definitions
-    from fleet_common.wire.curve_keys import default_keys_dir, load_robot_keys
+    from fleet_common.transport.curve_keys import default_keys_dir, load_robot_keys
     from virtual_fleet.delays import parse_delay_model
     from virtual_fleet.fleet import VirtualFleet
 

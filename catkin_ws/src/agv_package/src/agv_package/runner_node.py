@@ -27,10 +27,10 @@ from std_msgs.msg import UInt8
 from fleet_common.errors import FleetError
 from fleet_common.lab import node_table
 from fleet_common.robots import RobotDefinition, read_robot_definitions
-from fleet_common.wire.curve_keys import load_robot_keys
-from fleet_common.wire.robot_loop import RobotLoop
-from fleet_common.wire.zap import ZapHandler
-from fleet_common.wire.zmq_transport import RobotEndpoint
+from fleet_common.transport.curve_keys import load_robot_keys
+from fleet_common.transport.robot_endpoint import RobotEndpoint
+from fleet_common.transport.robot_loop import RobotLoop
+from fleet_common.transport.zap import ZapHandler
 from geometry_msgs.msg import PoseStamped
 
 from .grid_frame import GridFrame

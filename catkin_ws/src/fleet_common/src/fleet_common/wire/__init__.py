@@ -21,16 +21,14 @@ and, outside the connection, the robot publishes `PoseFeedback` 10 times a
 second on its feedback port (9980, or one per robot when they share a host:
 `ports`).
 
-Pure modules (stdlib only, Python 3.8): `messages`, `codec`, `states` (the
-transition tables), `connection` (`Connection`: bytes in, messages out; an
-illegal message raises `LocalProtocolError` or `RemoteProtocolError` and
-changes nothing), `executor` (`CommandExecutor`: a command id seen before is
-acknowledged again, never executed twice; one command at a time; stop
-preempts), `navigator` (the `Navigator` interface it drives), `liveness`
-(heartbeat timing), `ports`. Sockets live in `zmq_transport` (the robot's
-endpoint), `robot_loop`, `zap` and `curve_keys` (pyzmq; the only modules here
-that import it, and this package does not import them), and on the manager
-side in fleet_manager.robot_link.
+Every module here is pure (stdlib only, Python 3.8): `messages`, `codec`,
+`states` (the transition tables), `connection` (`Connection`: bytes in,
+messages out; an illegal message raises `LocalProtocolError` or
+`RemoteProtocolError` and changes nothing), `executor` (`CommandExecutor`: a
+command id seen before is acknowledged again, never executed twice; one
+command at a time; stop preempts), `navigator` (the `Navigator` interface it
+drives), `liveness` (heartbeat timing), `ports`. The sockets, robot side and
+manager side, live in `fleet_common.transport`.
 """
 from __future__ import annotations
 

@@ -12,8 +12,8 @@ Connections: the newest successful Hello wins; any older connection gets
 (the manager's, after this robot restarted) gets `Bye(code="no-session")`, which
 tells the manager to say hello again. A peer silent for `PEER_TIMEOUT` is dropped.
 
-`RobotLoop` (robot_loop.py, re-exported here) runs any number of endpoints in
-one thread, so 300 virtual robots cost one process, not 300 threads.
+`RobotLoop` (robot_loop.py) runs any number of endpoints in one thread, so
+300 virtual robots cost one process, not 300 threads.
 """
 from __future__ import annotations
 
@@ -25,18 +25,18 @@ from typing import Callable, Dict, Optional, Tuple
 import zmq
 
 from ..errors import FleetError
-from .codec import encode
-from .connection import Connection
+from ..wire.codec import encode
+from ..wire.connection import Connection
+from ..wire.errors import RemoteProtocolError, VersionMismatchError
+from ..wire.executor import CommandExecutor, Routed
+from ..wire.liveness import Liveness
+from ..wire.messages import COMMAND_TYPES, Bye, Heartbeat, Hello, Message, PoseFeedback, Welcome
+from ..wire.navigator import Navigator
+from ..wire.states import Role, State
 from .curve_keys import RobotKeys
-from .errors import RemoteProtocolError, VersionMismatchError
-from .executor import CommandExecutor, Routed
-from .liveness import Liveness
-from .messages import COMMAND_TYPES, Bye, Heartbeat, Hello, Message, PoseFeedback, Welcome
-from .navigator import Navigator
-from .states import Role, State
 from .zap import ZapHandler
 
-__all__ = ["RobotEndpoint", "RobotLoop"]
+__all__ = ["RobotEndpoint"]
 
 _MAX_FRAME = 64 * 1024  # a larger frame is not ours: libzmq drops the peer
 _BUDGET = 100           # frames read per wake-up, so one chatty peer cannot starve the rest
@@ -225,7 +225,3 @@ class RobotEndpoint:
     def _drop(self, identity: bytes) -> None:
         self.peers.pop(identity, None)
         self.by_epoch = {e: i for e, i in self.by_epoch.items() if i != identity}
-
-
-# the loop lives in its own module; callers of this one find it here too
-from .robot_loop import RobotLoop  # noqa: E402

@@ -12,9 +12,9 @@ from typing import List, Optional
 
 import zmq
 
-from fleet_common.wire import PoseFeedback, RemoteProtocolError
-from fleet_common.wire.codec import decode
-from fleet_common.wire.curve_keys import ManagerKeys
+from ..wire import PoseFeedback, RemoteProtocolError
+from ..wire.codec import decode
+from .curve_keys import ManagerKeys
 
 __all__ = ["secure_client", "subscribe_feedback", "poses_in"]
 

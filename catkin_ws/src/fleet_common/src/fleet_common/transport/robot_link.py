@@ -26,16 +26,18 @@ from typing import Callable, List, Optional, Tuple
 
 import zmq
 
-from fleet_common.robots import RobotDefinition
-from fleet_common.wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed,
-                               GetStatus, Heartbeat, Hello, Liveness, RemoteProtocolError, Role,
-                               Status, Stop, Turn, VersionMismatchError, Welcome)
-from fleet_common.wire.curve_keys import ManagerKeys
-
+from ..robots import RobotDefinition
+from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed, GetStatus,
+                    Heartbeat, Hello, Liveness, RemoteProtocolError, Role, Status, Stop, Turn,
+                    VersionMismatchError, Welcome)
+from .curve_keys import ManagerKeys
 from .link_events import LinkDown, LinkEvent, LinkUp, RobotReply
 from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
-__all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
+__all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOME_UNKNOWN"]
+
+#: The end of the reason of a command failed here because its robot restarted under it.
+OUTCOME_UNKNOWN = "its outcome is unknown"
 
 
 _SUPERSEDED_RETRY = 5.0  # another manager took the robot: do not fight over it every second
@@ -229,8 +231,8 @@ class RobotLink:
             if sent_to is not None and sent_to != welcome.session:
                 del self._unsettled[cid]
                 events.append(RobotReply(self.robot_id, Failed(cid, (
-                    "robot {} restarted while command {} was in flight; its outcome is "
-                    "unknown").format(self.robot_id, cid))))
+                    "robot {} restarted while command {} was in flight; {}").format(
+                        self.robot_id, cid, OUTCOME_UNKNOWN))))
             else:
                 self._send_command(command, now)
         self.log.info("robot %s: link up (session %s%s)", self.robot_id, welcome.session,

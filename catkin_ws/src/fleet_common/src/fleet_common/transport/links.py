@@ -1,4 +1,4 @@
-"""Many robot links in one thread: one zmq.Poller and a heap of due times.
+"""Many robot links in one thread: one zmq.Poller and a heap of due times (and other sockets).
 
 The manager talks to the whole fleet from one loop (300 virtual robots are 600
 sockets, not 300 threads). A link replaces its sockets when it reconnects, so
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import heapq
 import time
-from typing import Callable, Dict, Iterable, List, Tuple
+from typing import Any, Callable, Dict, Iterable, List, Tuple
 
 import zmq
 
@@ -29,6 +29,7 @@ class LinkSet:
         self._owner: Dict[zmq.Socket, RobotLink] = {}
         self._due: Dict[int, float] = {}
         self._heap: List[Tuple[float, int]] = []
+        self._watched: Dict[Any, Callable[[], None]] = {}
         now = clock()
         for robot_id, link in self.links.items():
             self._sync(link)
@@ -37,12 +38,23 @@ class LinkSet:
     def __getitem__(self, robot_id: int) -> RobotLink:
         return self.links[robot_id]
 
+    def watch(self, sock: Any, on_readable: Callable[[], None]) -> None:
+        """Also wait for `sock` (a zmq socket or a file descriptor) in `poll`, and call
+        `on_readable()` when it is readable: the manager's one loop serves consoles and
+        Vicon beside the robots."""
+        self._watched[sock] = on_readable
+        self.poller.register(sock, zmq.POLLIN)
+
     def poll(self, max_wait: float = 0.1) -> List[LinkEvent]:
         """Wait at most `max_wait` s for traffic or a due link; the events that came of it."""
         events: List[LinkEvent] = []
         now = self.clock()
         wait = max_wait if not self._heap else min(max_wait, max(0.0, self._heap[0][0] - now))
         for sock, _ in self.poller.poll(wait * 1000.0):
+            watcher = self._watched.get(sock)
+            if watcher is not None:
+                watcher()
+                continue
             link = self._owner.get(sock)
             if link is not None:
                 events += link.handle(sock)

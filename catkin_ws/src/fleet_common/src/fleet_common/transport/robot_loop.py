@@ -15,8 +15,8 @@ import zmq
 
 from .zap import ZapHandler
 
-if TYPE_CHECKING:  # zmq_transport re-exports this module's RobotLoop
-    from .zmq_transport import RobotEndpoint
+if TYPE_CHECKING:
+    from .robot_endpoint import RobotEndpoint
 
 __all__ = ["RobotLoop"]
 
