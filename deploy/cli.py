@@ -147,7 +147,7 @@ def _interactive(args: argparse.Namespace, side: str, action: str) -> int:
 
 
 def _net_check(args: argparse.Namespace) -> int:
-    from fleet_common.wire.curve_keys import default_keys_dir, load_manager_keys
+    from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
 
     from .netcheck import check_robots, format_checks
 

@@ -86,8 +86,9 @@ def wire_status(robots: Sequence[RobotDefinition], keys: Optional[object],
     import zmq
 
     from fleet_common.wire import Status
-    from fleet_manager.links import LinkSet
-    from fleet_manager.robot_link import LinkDown, LinkUp, RobotLink, RobotReply
+    from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
+    from fleet_common.transport.links import LinkSet
+    from fleet_common.transport.robot_link import RobotLink
 
     out: Dict[int, str] = {}
     if not robots:

@@ -164,7 +164,7 @@ def _start(target: Target, config: DeployConfig) -> str:
         return 'echo "no processes configured for {}"\n'.format(_side(target))
     lines = [_enter(target), _tmux(config), "started=''", "running=''"]
     for name, command in target.processes:
-        lines.append("""case $(state {n}) in
+        lines.append(r"""case $(state {n}) in
   running) running="$running {n}" ;;
   *) T kill-session -t ={n} 2>/dev/null || true
      T start-server \; set-window-option -g remain-on-exit on \; set-option -g history-limit 20000 \; \

@@ -309,7 +309,7 @@ def test_robots_ssh_opens_a_shell_in_the_checkout(lab: Lab) -> None:
 
 def test_net_check_reports_each_robots_state(tmp_path: Path) -> None:
     from fleet_common.robots import parse_robot_definitions
-    from fleet_common.wire.curve_keys import load_robot_keys, make_keys
+    from fleet_common.transport.curve_keys import load_robot_keys, make_keys
     from virtual_fleet.fleet import FleetThread, VirtualFleet
 
     # robot 1: sshd and a virtual robot on 127.0.0.1; robot 2: sshd, nothing on its
