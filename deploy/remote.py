@@ -15,7 +15,10 @@ result table shows.
 - start/stop/status: every process runs in its own tmux session on a dedicated
   tmux socket (`tmux -L fleetcontrol`), so the lab's own tmux sessions are never
   touched; a session whose process exited stays (remain-on-exit) until the next
-  start or stop, so its last output can be read. Stop sends Ctrl-C and waits.
+  start or stop. Each process runs under `script`, which keeps its terminal and
+  copies everything it prints to `logs/<name>.log` in the checkout: tmux may
+  lose the last lines of a process that exits at once, the file does not, and
+  it is what start and status quote. Stop sends Ctrl-C and waits.
 """
 from __future__ import annotations
 
@@ -153,7 +156,10 @@ state() {{
   T display-message -p -t "=$1:" '#{{?pane_dead,exited #{{pane_dead_status}}#{{?pane_dead_signal,signal #{{pane_dead_signal}},}},running}}'
 }}
 sessions() {{ T list-sessions -F '#{{session_name}}' 2>/dev/null || true; }}
-last_output() {{ T capture-pane -p -t "=$1:" -S -200 | grep -v -e '^ *$' -e '^Pane is dead' | tail -n 1; }}
+last_output() {{
+  [ -f "logs/$1.log" ] && tr -d '\r' < "logs/$1.log" | grep -v -e '^ *$' -e '^Script started on ' \
+    -e '^Script done on ' | tail -n 1
+}}
 """.format(socket=shlex.quote(config.tmux_socket))
 
 
@@ -162,7 +168,7 @@ def _start(target: Target, config: DeployConfig) -> str:
     # once (no session yet) and takes its options along.
     if not target.processes:
         return 'echo "no processes configured for {}"\n'.format(_side(target))
-    lines = [_enter(target), _tmux(config), "started=''", "running=''"]
+    lines = [_enter(target), _tmux(config), "mkdir -p logs", "started=''", "running=''"]
     for name, command in target.processes:
         lines.append(r"""case $(state {n}) in
   running) running="$running {n}" ;;
@@ -170,7 +176,8 @@ def _start(target: Target, config: DeployConfig) -> str:
      T start-server \; set-window-option -g remain-on-exit on \; set-option -g history-limit 20000 \; \
        new-session -d -s {n} -c "$PWD" -x 200 -y 50 {cmd}
      started="$started {n}" ;;
-esac""".format(n=shlex.quote(name), cmd=shlex.quote("bash -c " + shlex.quote(command))))
+esac""".format(n=shlex.quote(name), cmd=shlex.quote("script -qfeac {} logs/{}.log".format(
+            shlex.quote("bash -c " + shlex.quote(command)), name))))
     lines.append("""[ -z "$started" ] || sleep {check}
 for name in $started; do
   s=$(state "$name")
@@ -209,7 +216,8 @@ fi
 
 def _status(target: Target, config: DeployConfig) -> str:
     names = " ".join(shlex.quote(n) for n, _ in target.processes)
-    return _tmux(config) + """report=''
+    return _tmux(config) + """cd {dir} 2>/dev/null || true
+report=''
 for name in $( (printf '%s\\n' {names}; sessions) | awk 'NF && !seen[$0]++'); do
   s=$(state "$name")
   case $s in

@@ -371,3 +371,44 @@ def test_a_machine_that_accepts_but_never_speaks_ssh_fails_within_the_connect_ti
     assert rows(result.stdout)["robot 1"] == ("FAILED", "127.0.0.1:{}: SSH failed: connected, "
                                               "but no SSH greeting within 1 s (not an SSH "
                                               "server, or overloaded?)".format(port))
+
+
+def test_robots_inspect_attaches_to_the_running_process_and_ctrl_b_d_detaches(lab: Lab) -> None:
+    import pty
+    import select
+    import time
+
+    lab.deploy("robots:init", "1")
+    assert lab.deploy("robots:start", "1").returncode == 0
+    master, slave = pty.openpty()  # tmux attach needs a terminal: give it one
+    process = subprocess.Popen(
+        [sys.executable, "-m", "deploy", "robots:inspect", "1", "--config",
+         str(lab.tmp / "deploy.yaml"), "--definitions", str(lab.tmp / "robot_definitions.txt")],
+        stdin=slave, stdout=slave, stderr=slave, env=dict(os.environ, TERM="xterm"),
+        start_new_session=True)
+    os.close(slave)
+    seen, detached_at = b"", None
+    try:
+        give_up = time.monotonic() + 60
+        while time.monotonic() < give_up:
+            ready, _, _ = select.select([master], [], [], 0.5)
+            try:
+                data = os.read(master, 65536) if ready else b""
+            except OSError:  # the terminal's other end closed
+                break
+            seen += data
+            if detached_at is None and b"runner up" in seen:  # the pane's output: attached
+                os.write(master, b"\x02d")
+                detached_at = len(seen)
+            if ready and not data:
+                break
+        assert process.wait(timeout=30) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(timeout=10)
+        os.close(master)
+    assert detached_at is not None
+    assert b"[detached (from session runner)]" in seen[detached_at:]
+    assert lab.tmux_has(lab.robots[0], "runner")  # detaching leaves it running
+    assert alive(lab.checkout(lab.robots[0]) / "runner.pid")
