@@ -147,7 +147,8 @@ def _interactive(args: argparse.Namespace, side: str, action: str) -> int:
 
 
 def _net_check(args: argparse.Namespace) -> int:
-    from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
+    from fleet_common.transport.curve_keys import (ManagerKeys, default_keys_dir,
+                                                   load_manager_keys)
 
     from .netcheck import check_robots, format_checks
 
@@ -161,7 +162,7 @@ def _net_check(args: argparse.Namespace) -> int:
             print("robot {}: TCP {}:{} and SSH login {}, TCP {}:{} and Hello + GetStatus".format(
                 r.id, r.host, t.port, t.address, r.host, r.command_port))
         return 0
-    keys: Optional[object] = None
+    keys: Optional[ManagerKeys] = None
     problem = ""
     if not args.no_curve:
         try:

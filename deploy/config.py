@@ -13,7 +13,7 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Any, Optional, Tuple, Union
 
 from fleet_common.robots import ENV_VAR as ROBOTS_ENV_VAR
 from fleet_common.robots import default_definitions_path
@@ -190,8 +190,3 @@ def read_config(path: Union[str, Path, None] = None) -> DeployConfig:
         raise DeployConfigError("cannot read: {}{}".format(err.strerror, hint), str(path)) from err
     return parse_config(text, str(path))
 
-
-def describe(config: DeployConfig) -> Dict[str, str]:
-    """The settings a person checks first, for --dry-run's header."""
-    return {"repository": config.repository, "branch": config.branch,
-            "known_hosts": str(config.known_hosts), "logs": str(config.log_dir)}

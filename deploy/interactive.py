@@ -13,7 +13,7 @@ import shlex
 from typing import List
 
 from .config import DeployConfig
-from .remote import shell_path
+from .shell import shell_path
 from .targets import Target
 
 __all__ = ["ssh_argv", "shell_command", "inspect_command"]

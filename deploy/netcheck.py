@@ -17,7 +17,14 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
 
+import zmq
+
 from fleet_common.robots import RobotDefinition
+from fleet_common.transport.curve_keys import ManagerKeys
+from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import RobotLink
+from fleet_common.wire import Status
 
 from .config import DeployConfig
 from .errors import DeployError, HostKeyRefused
@@ -73,29 +80,22 @@ def _reachable(*probes: str) -> str:
     return "yes" if any(p in ("open", "refused") for p in probes) else "no"
 
 
-def _status_text(status: object) -> str:
-    pose, current, faults = status.pose, status.current, status.faults  # type: ignore[attr-defined]
+def _status_text(status: Status) -> str:
+    pose, current, faults = status.pose, status.current, status.faults
     where = "at ({:.1f}, {:.1f})".format(pose.x, pose.y)
     doing = "idle" if current is None else "running command {}".format(current)
     return "ok: {} {}{}".format(doing, where, "; faults: " + ", ".join(faults) if faults else "")
 
 
-def wire_status(robots: Sequence[RobotDefinition], keys: Optional[object],
+def wire_status(robots: Sequence[RobotDefinition], keys: Optional[ManagerKeys],
                 timeout: float) -> Dict[int, str]:
     """robot id -> "ok: ..." or why not, asking every robot at once (one LinkSet)."""
-    import zmq
-
-    from fleet_common.wire import Status
-    from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
-    from fleet_common.transport.links import LinkSet
-    from fleet_common.transport.robot_link import RobotLink
-
     out: Dict[int, str] = {}
     if not robots:
         return out
     context = zmq.Context()
     epoch = "net-check-" + uuid.uuid4().hex[:8]
-    links = LinkSet([RobotLink(context, r, epoch, keys=keys) for r in robots])  # type: ignore
+    links = LinkSet([RobotLink(context, r, epoch, keys=keys) for r in robots])
     try:
         give_up = time.monotonic() + timeout
         while len(out) < len(robots) and time.monotonic() < give_up:
@@ -117,7 +117,7 @@ def wire_status(robots: Sequence[RobotDefinition], keys: Optional[object],
 
 
 def check_robots(robots: Sequence[RobotDefinition], targets: Sequence[Target],
-                 config: DeployConfig, keys: Optional[object], wire_timeout: float,
+                 config: DeployConfig, keys: Optional[ManagerKeys], wire_timeout: float,
                  keys_problem: str = "") -> List[Check]:
     """Every probe for every robot; TCP and SSH in threads, the wire for all at once."""
     seconds = config.timeouts.connect

@@ -22,7 +22,7 @@ import paramiko
 from .config import DeployConfig
 from .errors import DeployError, HostKeyRefused
 from .hostkeys import PinnedHostKeys, changed_key_message
-from .remote import Step
+from .shell import Step
 from .targets import Target
 
 __all__ = ["connect", "run_steps", "last_line"]
