@@ -21,7 +21,7 @@ from fleet_common.transport.curve_keys import (ManagerKeys, load_manager_keys, l
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import LinkDown, LinkEvent, LinkUp, RobotLink, RobotReply
 from virtual_fleet.fleet import FleetThread, VirtualFleet
-from helpers import free_ports
+from helpers import free_port_block, free_ports
 
 
 
@@ -40,7 +40,7 @@ def robot() -> RobotDefinition:
 
 @pytest.fixture
 def fleet(robot: RobotDefinition, keys: Path) -> Iterator[VirtualFleet]:
-    feedback = free_ports(1)[0]
+    feedback = free_port_block(1)
     with FleetThread(VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=feedback,
                                   time_scale=4.0)) as running:
         yield running

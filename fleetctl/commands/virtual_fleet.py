@@ -37,8 +37,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--turn-speed", type=_positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
-                        help="start robot i at agent i's start of this instance (default: the "
-                             "lab instance if it has enough agents, else rows from (0, 0))")
+                        help="start robot i at agent i's start of this instance or solution "
+                             "(default: the lab instance if it has enough agents, else rows "
+                             "from (0, 0))")
+    parser.add_argument("--state", type=Path, default=None, metavar="FILE",
+                        help="keep each robot's pose in FILE; a fleet started again with it "
+                             "puts every robot where it stood (as after a power cut)")
+    parser.add_argument("--truth", type=Path, default=None, metavar="FILE",
+                        help="write the ground truth (true poses at 20 Hz, every command "
+                             "started) to FILE as JSON lines")
+    parser.add_argument("--truth-port", type=int, default=None, metavar="PORT",
+                        help="publish the true poses on tcp://127.0.0.1:PORT (for `fleetctl "
+                             "vicon simulate`)")
+    parser.add_argument("--drift", action="append", default=[], type=_drift, metavar="ID:RATE",
+                        help="robot ID's own localization drifts RATE cells/s along x away "
+                             "from the truth (repeatable; to test the Vicon cross-check)")
+    parser.add_argument("--bump", action="append", default=[], type=_bump, metavar="ID@K",
+                        help="robot ID's bumper is pressed halfway through its K-th drive, for "
+                             "1 s: it stops with a 'bumper' fault until a stop clears it "
+                             "(repeatable)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder from `fleetctl keys` (default: "
                              "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
@@ -46,6 +63,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="accept commands from anyone (no CurveZMQ); for local experiments")
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
+
+
+def _drift(text: str) -> tuple:
+    robot, _, rate = text.partition(":")
+    try:
+        return int(robot), float(rate)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected ID:CELLS_PER_S (e.g. 3:0.2), got {!r}".format(text))
+
+
+def _bump(text: str) -> tuple:
+    robot, _, drive = text.partition("@")
+    try:
+        pair = int(robot), int(drive)
+    except ValueError:
+        pair = (0, 0)
+    if pair[1] < 1:
+        raise argparse.ArgumentTypeError("expected ID@K with K >= 1 (e.g. 3@2), got {!r}".format(text))
+    return pair
 
 
 def _positive(text: str) -> float:
@@ -77,7 +113,9 @@ def run(args: argparse.Namespace) -> int:
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
                          time_scale=args.time_scale, model=model, seed=args.seed,
                          speed=args.speed, turn_speed=args.turn_speed,
-                         start_poses=_start_poses(args.instance, robots), path=str(path))
+                         start_poses=_start_poses(args.instance, robots), path=str(path),
+                         truth=args.truth, state=args.state, truth_port=args.truth_port,
+                         drift=dict(args.drift), bumps=args.bump)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
@@ -97,12 +135,13 @@ def run(args: argparse.Namespace) -> int:
 
 def _start_poses(instance: Optional[Path], robots: list) -> Optional[Dict]:
     from fleet_common.errors import FleetError
-    from fleet_common.formats.instance import read_instance
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.problem_file import read_problem
     from fleet_common.lab import lab_instance_path, lab_map_path
     from fleet_common.wire.messages import Pose
 
     path = instance or lab_instance_path()
-    inst = read_instance(str(path), map_dirs=[lab_map_path().parent, Path(path).parent])
+    inst = read_problem(path, [lab_map_path().parent, *default_map_dirs()])
     if len(inst.starts) < len(robots):
         if instance is not None:
             raise FleetError("{} has {} agents, fewer than the {} robots".format(

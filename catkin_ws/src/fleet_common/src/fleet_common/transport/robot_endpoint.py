@@ -30,7 +30,8 @@ from ..wire.connection import Connection
 from ..wire.errors import RemoteProtocolError, VersionMismatchError
 from ..wire.executor import CommandExecutor, Routed
 from ..wire.liveness import Liveness
-from ..wire.messages import COMMAND_TYPES, Bye, Heartbeat, Hello, Message, PoseFeedback, Welcome
+from ..wire.messages import (COMMAND_TYPES, Bye, Command, Heartbeat, Hello, Message, PoseFeedback,
+                             Welcome)
 from ..wire.navigator import Navigator
 from ..wire.states import Role, State
 from .curve_keys import RobotKeys
@@ -50,10 +51,11 @@ class RobotEndpoint:
                  command_port: int, feedback_port: int, *, bind: str = "*",
                  keys: Optional[RobotKeys] = None, zap: Optional[ZapHandler] = None,
                  clock: Callable[[], float] = time.monotonic,
-                 log: Optional[logging.Logger] = None, feedback_rate: float = 10.0) -> None:
+                 log: Optional[logging.Logger] = None, feedback_rate: float = 10.0,
+                 on_execute: Optional[Callable[[str, Command], None]] = None) -> None:
         self.robot_id = robot_id
         self.navigator = navigator
-        self.executor = CommandExecutor(navigator)
+        self.executor = CommandExecutor(navigator, on_execute=on_execute)
         self.session = secrets.token_hex(8)  # new each start: the manager sees a restart
         self.feedback_port = feedback_port
         self.clock = clock

@@ -24,7 +24,7 @@ Rules, in the order they are applied to a command:
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Reply,
                        Status, Stop, Turn)
@@ -39,11 +39,15 @@ _Key = Tuple[str, int]
 class CommandExecutor:
     """Runs commands through `navigator`; remembers the last `memory` outcomes."""
 
-    def __init__(self, navigator: Navigator, memory: int = 4096) -> None:
+    def __init__(self, navigator: Navigator, memory: int = 4096,
+                 on_execute: Optional[Callable[[str, Command], None]] = None) -> None:
         if memory < 1:
             raise ValueError("memory must be at least 1 command, got {}".format(memory))
         self.navigator = navigator
         self.memory = memory
+        #: told (epoch, command) each time a motion starts or a stop is carried out: the
+        #: virtual fleet's ground truth of what ran, to check that nothing ran twice
+        self.on_execute = on_execute
         # (epoch, id) -> (was accepted, final reply or None while running)
         self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
         self._highest: Dict[str, int] = {}
@@ -75,13 +79,15 @@ class CommandExecutor:
                                        command.id, self.memory)))]
         self._highest[epoch] = command.id
         if isinstance(command, Stop):
-            return self._stop(key)
+            return self._stop(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
         self._remember(key, True, None)
         self._running = key
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(epoch, command)
         return [(epoch, Accepted(command.id))]
 
     def poll(self) -> List[Routed]:
@@ -115,9 +121,11 @@ class CommandExecutor:
             return str(err) or "refused by the navigator"
         return None
 
-    def _stop(self, key: _Key) -> List[Routed]:
+    def _stop(self, key: _Key, command: Command) -> List[Routed]:
         self.navigator.halt()
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(key[0], command)
         out: List[Routed] = []
         if self._running is not None:
             running, self._running = self._running, None
