@@ -74,20 +74,27 @@ class Proc:
             raise AssertionError("still running after {:g} s; output:\n{}".format(
                 timeout, self.text()[-4000:])) from None
 
+    def tail(self, lines: int = 40) -> str:
+        return "\n".join(self.text().splitlines()[-lines:])
+
     def kill(self) -> None:
-        """SIGKILL, as a power cut: no goodbye."""
+        """SIGKILL to the whole group, as a power cut: no goodbye."""
         self._signal(signal.SIGKILL)
         self.popen.wait(10)
 
     def stop(self, grace: float = 10.0) -> None:
+        """SIGINT to the group, then SIGKILL; returns once every process of the group is gone
+        (roslaunch's nodes outlive their leader for a moment)."""
+        group = self.popen.pid  # start_new_session: the group id is the leader's pid
         for sig, wait in ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)):
-            if self.popen.poll() is not None:
+            if not _group_alive(group):
                 break
             self._signal(sig)
-            try:
-                self.popen.wait(wait)
-            except subprocess.TimeoutExpired:
-                continue
+            deadline = time.monotonic() + wait
+            while time.monotonic() < deadline and (self.popen.poll() is None or _group_alive(group)):
+                time.sleep(0.05)
+        if self.popen.poll() is None:
+            self.popen.wait(5)
         self._out.close()
 
     def _signal(self, sig: int) -> None:
@@ -95,6 +102,14 @@ class Proc:
             os.killpg(self.popen.pid, sig)
         except ProcessLookupError:
             pass
+
+
+def _group_alive(group: int) -> bool:
+    try:
+        os.killpg(group, 0)
+    except ProcessLookupError:
+        return False
+    return True
 
 
 def fleetctl_args(*args: object) -> List[str]:

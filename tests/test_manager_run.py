@@ -20,6 +20,9 @@ import pytest
 from fleet_common.lab import lab_instance_path
 from fleet_common.spacing import closest_pair
 from fleet_common.runlog import read_run
+from fleet_common.formats.mapsearch import default_map_dirs
+from fleet_common.formats.solution import read_solution
+from helpers import fleetctl
 from live import ScriptedConsole, fleet_definitions, start_fleet, start_manager
 from virtual_fleet.truth import exec_lines
 
@@ -105,6 +108,22 @@ def run_plan(tmp_path: Path, plan: Path, robots: int, strategy: str, switch: boo
     assert nearest >= 0.9, "two robots came {:.2f} cells close".format(nearest)
     strategies = [r["name"] for r in read_run(folder).of("strategy")]
     assert strategies == (["step", "adg"] if switch else [])
+    check_trace(folder, out)
+
+
+def check_trace(folder: Path, manager_output: str) -> None:
+    """`fleetctl trace` says what the manager said, from the log alone, and writes a plan that
+    the validator accepts, ending on the goals."""
+    traced = fleetctl("trace", folder)
+    assert traced.returncode == 0, traced.stderr
+    for key in ("arrived", "executed makespan", "sum of costs", "total wait", "collisions",
+                "min distance"):
+        assert summary_value(traced.stdout, key) == summary_value(manager_output, key)
+    checked = fleetctl("validate", folder / "executed.txt")
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    executed = read_solution(str(folder / "executed.txt"), map_dirs=default_map_dirs())
+    goals = goals_of(folder)
+    assert [tuple(c) for c in executed.plan.positions[-1]] == [goals[r] for r in read_run(folder).robots]
 
 
 @pytest.mark.parametrize("strategy,switch", [("adg", False), ("step", False), ("adg", True)])

@@ -14,6 +14,7 @@ import zmq
 from fleet_common.errors import FleetError, RobotDefinitionsError
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Completed, Failed, Pose, Status
+from fleet_common.wire.command_check import CommandCheck, CommandLimits
 from fleet_common.transport.curve_keys import load_manager_keys, load_robot_keys, make_keys
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
@@ -188,7 +189,8 @@ def test_fifty_virtual_robots_each_complete_a_command_round_trip(keys: Path, con
 def test_a_robot_that_drops_out_comes_back_restarted(keys: Path, context) -> None:
     [robot], feedback = definitions(1)
     fleet = VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=feedback,
-                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3)
+                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3,
+                         check=CommandCheck(limits=CommandLimits(max_step=None)))
     with FleetThread(fleet):
         links = LinkSet([RobotLink(context, robot, "epoch", keys=load_manager_keys(keys),
                                    host="127.0.0.1")])

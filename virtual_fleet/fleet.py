@@ -6,6 +6,11 @@ definition order) driving a `VirtualNavigator`. Dropouts from the delay model
 are carried out here: the robot's sockets close without a goodbye, as at a
 power cut, and after the model's pause a new endpoint (new session, empty
 command memory) comes up where the robot stopped.
+
+Each robot checks commands against `check` (its map and limits: see
+fleet_common.wire.command_check), as a TurtleBot does. The loop never dies of
+one robot, one peer or one scheduled call: whatever raises is logged and the
+fleet serves on.
 """
 from __future__ import annotations
 
@@ -28,6 +33,7 @@ from fleet_common.transport.robot_endpoint import RobotEndpoint
 from fleet_common.transport.robot_loop import RobotLoop
 from fleet_common.transport.truth_stream import TruthPublisher
 from fleet_common.transport.zap import ZapHandler
+from fleet_common.wire.command_check import CommandCheck
 
 from .delays import DelayModel
 from .kinematics import VirtualNavigator
@@ -52,11 +58,13 @@ class VirtualFleet:
                  turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
                  clock: Callable[[], float] = time.monotonic,
-                 log: Optional[logging.Logger] = None, truth: Optional[Path] = None,
+                 log: Optional[logging.Logger] = None,
+                 check: Optional[CommandCheck] = None, truth: Optional[Path] = None,
                  state: Optional[Path] = None, truth_port: Optional[int] = None,
                  drift: Optional[Dict[int, float]] = None,
                  bumps: Sequence[Tuple[int, int]] = ()) -> None:
         self.robots = on_localhost(robots, path)
+        self.check = check or CommandCheck()
         self.ports = feedback_ports(self.robots, feedback_base, path)
         for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps})):
             unknown = sorted(named - {r.id for r in self.robots})
@@ -69,7 +77,7 @@ class VirtualFleet:
         self.log = log or logging.getLogger("virtual_fleet")
         self.context = zmq.Context()
         self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
-        self.loop = RobotLoop(self.zap, clock)
+        self.loop = RobotLoop(self.zap, clock, self.log)
         poses = dict(start_poses or row_poses(self.robots))
         resumed = load_state(state) if state is not None else {}
         poses.update({r: p for r, p in resumed.items() if r in poses})
@@ -110,6 +118,7 @@ class VirtualFleet:
                                  robot.command_port, self.ports[robot.id], bind="127.0.0.1",
                                  keys=self.keys, zap=self.zap, clock=self.clock,
                                  log=self.log, feedback_rate=self.feedback_rate,
+                                 check=self.check,
                                  on_execute=lambda epoch, command, rid=robot.id:
                                  self.recorder.executed(rid, epoch, command))
         self.endpoints[robot.id] = endpoint
@@ -121,7 +130,11 @@ class VirtualFleet:
 
     def run_once(self, max_wait: float = 0.1) -> None:
         while self._calls:
-            self._calls.popleft()()
+            call = self._calls.popleft()
+            try:
+                call()
+            except Exception:  # a caller's mistake, not the fleet's end
+                self.log.exception("virtual fleet: a scheduled call failed; serving on")
         if self.model.dropout_p or self.away:
             max_wait = min(max_wait, _DROPOUT_CHECK)
         if self.recorder.active:
@@ -132,7 +145,11 @@ class VirtualFleet:
             self._next_truth = self.recorder.tick(self.true_poses, now)
         if now >= self._next_check:
             self._next_check = now + _DROPOUT_CHECK
-            self._dropouts(now)
+            try:
+                self._dropouts(now)
+            except Exception:
+                self.loop.failures.event(logging.ERROR, "dropouts", "failures", "virtual fleet: "
+                                         "carrying out dropouts failed; serving on", exc_info=True)
 
     def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
         while not should_stop():
