@@ -8,9 +8,10 @@ appended with a header per command.
 """
 from __future__ import annotations
 
+import queue
+import threading
 import time
 import traceback
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -74,8 +75,29 @@ def run_all(targets: Sequence[Target], job: Job, title: str, log_dir: Optional[P
     width = len(targets) if jobs <= 0 else jobs
     if width <= 1:
         return [_one(job, t, title, log_dir) for t in targets]
-    with ThreadPoolExecutor(max_workers=width, thread_name_prefix="deploy") as pool:
-        return list(pool.map(lambda t: _one(job, t, title, log_dir), targets))
+    # Daemon threads, not a pool: Ctrl-C must end the command now, not after every step's
+    # timeout (the steps on the machines are bounded there by their own `timeout`).
+    todo = queue.SimpleQueue()  # type: queue.SimpleQueue[int]
+    for index in range(len(targets)):
+        todo.put(index)
+    outcomes: List[Optional[Outcome]] = [None] * len(targets)
+
+    def worker() -> None:
+        while True:
+            try:
+                index = todo.get_nowait()
+            except queue.Empty:
+                return
+            outcomes[index] = _one(job, targets[index], title, log_dir)
+
+    threads = [threading.Thread(target=worker, name="deploy-{}".format(i), daemon=True)
+               for i in range(min(width, len(targets)))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        while thread.is_alive():
+            thread.join(0.2)  # a bounded join keeps the main thread able to take Ctrl-C
+    return [o for o in outcomes if o is not None]
 
 
 def format_table(outcomes: Sequence[Outcome]) -> str:

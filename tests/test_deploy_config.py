@@ -146,3 +146,26 @@ def test_accepting_a_new_host_key_appends_one_line_and_keeps_the_rest(tmp_path: 
 def _keygen(path: Path) -> Path:
     from deploy.loopback import keygen
     return keygen(path)
+
+
+def test_a_job_that_breaks_is_a_failed_row_with_its_log_and_the_others_finish(tmp_path: Path) -> None:
+    from deploy.fanout import exit_status, format_table, run_all
+    from deploy.targets import Target
+
+    targets = [Target("robot {}".format(i), "10.0.0.{}".format(i), 22, "tb", "~/f", "make", (), i)
+               for i in (1, 2, 3)]
+
+    def job(target: Target, log) -> str:
+        log.write("working on {}\n".format(target.name))
+        if target.robot_id == 2:
+            raise KeyError("bug")
+        return "done {}".format(target.robot_id)
+
+    outcomes = run_all(targets, job, "robots:update", tmp_path / "logs")
+    assert [(o.ok, o.detail) for o in outcomes] == [
+        (True, "done 1"), (False, "internal error: KeyError: 'bug'"), (True, "done 3")]
+    assert exit_status(outcomes) == 1
+    assert format_table(outcomes).splitlines()[-1] == "2 of 3 OK; 1 FAILED; logs in {}".format(
+        tmp_path / "logs")
+    log = (tmp_path / "logs" / "10.0.0.2-robot2.log").read_text()
+    assert "robots:update on robot 2 (tb@10.0.0.2:22)" in log and "KeyError: 'bug'" in log
