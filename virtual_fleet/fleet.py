@@ -28,6 +28,7 @@ from fleet_common.transport.zap import ZapHandler
 
 from .delays import DelayModel
 from .kinematics import VirtualNavigator
+from .stalls import Stall, stalls_by_robot
 
 __all__ = ["VirtualFleet", "FleetThread", "row_poses"]
 
@@ -47,7 +48,7 @@ class VirtualFleet:
                  model: Optional[DelayModel] = None, seed: int = 0, speed: float = 0.5,
                  turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
-                 clock: Callable[[], float] = time.monotonic,
+                 stalls: Sequence[Stall] = (), clock: Callable[[], float] = time.monotonic,
                  log: Optional[logging.Logger] = None) -> None:
         self.robots = on_localhost(robots, path)
         self.ports = feedback_ports(self.robots, feedback_base, path)
@@ -60,10 +61,12 @@ class VirtualFleet:
         self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
         self.loop = RobotLoop(self.zap, clock)
         poses = start_poses or row_poses(self.robots)
+        planned = stalls_by_robot(stalls, [r.id for r in self.robots])
         self.navigators: Dict[int, VirtualNavigator] = {
             r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
                                    time_scale=time_scale, model=self.model,
-                                   rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
+                                   rng=random.Random("{}/{}".format(seed, r.id)), clock=clock,
+                                   stalls=planned.get(r.id))
             for r in self.robots}
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back

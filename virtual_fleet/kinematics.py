@@ -12,11 +12,12 @@ short way round to an absolute heading.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
@@ -46,7 +47,8 @@ class VirtualNavigator:
     def __init__(self, pose: Pose, *, speed: float = 0.5, turn_speed: float = 1.5,
                  time_scale: float = 1.0, model: Optional[DelayModel] = None,
                  rng: Optional[random.Random] = None,
-                 clock: Callable[[], float] = _time.monotonic) -> None:
+                 clock: Callable[[], float] = _time.monotonic,
+                 stalls: Optional[Dict[int, float]] = None) -> None:
         if speed <= 0 or turn_speed <= 0 or time_scale <= 0:
             raise ValueError("speed, turn_speed and time_scale must be positive")
         self.speed = speed
@@ -59,6 +61,8 @@ class VirtualNavigator:
         self._rest = pose
         self._segments: List[_Segment] = []
         self.dropout_time: Optional[float] = None  # fleet seconds; the fleet acts on it
+        self.stalls = dict(stalls or {})  # drive number -> planned stall (virtual_fleet.stalls)
+        self.drives = 0
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -73,7 +77,8 @@ class VirtualNavigator:
         heading = math.atan2(dy, dx) if dist > 1e-9 else start.theta
         turn = abs(wrap_angle(heading - start.theta)) / self.turn_speed
         drive = max(dist / self.speed, time - turn)
-        self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
+        self.drives += 1
+        self._lay_out(start, heading, turn, Pose(x, y, heading), drive, self.stalls.get(self.drives, 0.0))
 
     def start_turn(self, angle: float) -> None:
         start = self.pose()
@@ -121,8 +126,10 @@ class VirtualNavigator:
     # ---- internals -------------------------------------------------------------------
 
     def _lay_out(self, start: Pose, heading: float, turn: float, goal: Optional[Pose],
-                 drive: float) -> None:
+                 drive: float, planned_stall: float = 0.0) -> None:
         fate: MoveFate = self.model.draw(self.rng)
+        if planned_stall > 0:  # halfway, whatever the model drew (the draw still happens)
+            fate = dataclasses.replace(fate, stall=fate.stall + planned_stall, stall_at=0.5)
         t = self.now()
         turned = Pose(start.x, start.y, heading)
         plan: List[Tuple[float, Pose]] = [(fate.start_delay, start),

@@ -29,6 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "dropout=P:S (seconds of fleet time, P a probability per move); "
                              "default none")
     parser.add_argument("--seed", type=int, default=0, help="seed of the delay model (default 0)")
+    parser.add_argument("--stall", action="append", default=[], metavar="R:K:S",
+                        help="robot R halts S seconds (fleet time) halfway through its K-th drive, "
+                             "whatever the delay model says; repeatable")
     parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
@@ -64,12 +67,14 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.transport.curve_keys import default_keys_dir, load_robot_keys
     from virtual_fleet.delays import parse_delay_model
     from virtual_fleet.fleet import VirtualFleet
+    from virtual_fleet.stalls import parse_stall
 
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s %(levelname)s %(message)s")
     path = args.definitions or default_definitions_path()
     robots = read_robot_definitions(path)
     model = parse_delay_model(args.delay_model)
+    stalls = [parse_stall(text) for text in args.stall]
     try:
         keys = None if args.no_curve else load_robot_keys(args.keys or default_keys_dir())
     except FleetError as err:
@@ -77,16 +82,18 @@ def run(args: argparse.Namespace) -> int:
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
                          time_scale=args.time_scale, model=model, seed=args.seed,
                          speed=args.speed, turn_speed=args.turn_speed,
-                         start_poses=_start_poses(args.instance, robots), path=str(path))
+                         start_poses=_start_poses(args.instance, robots), path=str(path),
+                         stalls=stalls)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
     first, last = fleet.robots[0], fleet.robots[-1]
     print("virtual fleet: {} robots on 127.0.0.1, command ports {}..{}, feedback ports {}..{}, "
-          "time x{:g}, {}".format(
+          "time x{:g}, {}{}".format(
               len(fleet.robots), first.command_port, last.command_port, fleet.ports[first.id],
               fleet.ports[last.id], args.time_scale,
-              "CURVE on" if keys is not None else "no CURVE (anyone may drive)"), flush=True)
+              "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
+              "".join("; " + s.describe() for s in stalls)), flush=True)
     try:
         fleet.run(lambda: bool(stopping))
     finally:
