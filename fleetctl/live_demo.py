@@ -139,6 +139,8 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
         folder = Path(banner.rsplit("run folder", 1)[1].strip())
         console = _start_console(endpoint, folder, settings, work, say)
         children.append(console)
+        say("processes: virtual fleet pid {}, manager pid {}, console pid {} (each in its own process "
+            "group; all stopped at the end, also on Ctrl-C)".format(children[0].pid, manager.pid, console.pid))
         status = _supervise(manager, console, settings, say)
         console_code = console.wait(settings.linger + 10.0)
         if console_code is None:

@@ -56,3 +56,55 @@ def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int
             if k == i and len(cycle) >= min_length and i == min(cycle):
                 found.add((t + 1, tuple(cycle)))
     return found
+
+
+class Forwarder:
+    """A TCP forwarder on 127.0.0.1 whose server-to-client direction can be held: a slow network
+    between a console and its manager, made to order. `port` is where clients connect."""
+
+    def __init__(self, target_port: int) -> None:
+        import threading
+
+        self.target = target_port
+        self.listener = socket.socket()
+        self.listener.bind(("127.0.0.1", 0))
+        self.listener.listen(4)
+        self.port = self.listener.getsockname()[1]
+        self.held = threading.Event()  # set: nothing flows from the server to the client
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        import select
+
+        pairs: List[Tuple[socket.socket, socket.socket]] = []
+        self.listener.settimeout(0.02)
+        while not self._stop.is_set():
+            try:
+                client, _ = self.listener.accept()
+                server = socket.create_connection(("127.0.0.1", self.target))
+                pairs.append((client, server))
+            except (socket.timeout, OSError):
+                pass
+            for client, server in list(pairs):
+                watch = [client] + ([] if self.held.is_set() else [server])
+                ready, _, _ = select.select(watch, [], [], 0.01)
+                for sock in ready:
+                    if sock is server and self.held.is_set():
+                        continue  # held while this thread waited in select
+                    data = sock.recv(65536)
+                    if not data:
+                        pairs.remove((client, server))
+                        client.close()
+                        server.close()
+                        break
+                    (server if sock is client else client).sendall(data)
+        for client, server in pairs:
+            client.close()
+            server.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        self.listener.close()

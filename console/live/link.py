@@ -33,6 +33,7 @@ from fleet_common.control import Answer, Bye, ControlProtocolError, Request, Wel
 from fleet_common.control.session import ConsoleSession
 from fleet_common.transport.console_channel import ConsoleClient
 from fleet_common.transport.curve_keys import ConsoleKeys
+from fleet_common.wire.liveness import PEER_TIMEOUT
 
 from .feed import CONNECTED, CONNECTING, LOST, Connection, LiveFeed, Reply, Trouble
 
@@ -44,13 +45,14 @@ log = logging.getLogger(__name__)
 class ManagerLink:
     def __init__(self, endpoint: str, feed: LiveFeed, *, keys: Optional[ConsoleKeys] = None,
                  name: str = "console", hello_every: float = 1.0, poll_s: float = 0.01,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 timeout: float = PEER_TIMEOUT, clock: Callable[[], float] = time.monotonic) -> None:
         self.endpoint = endpoint
         self.feed = feed
         self.keys = keys
         self.name = name
         self.hello_every = hello_every
         self.poll_s = poll_s
+        self.timeout = timeout  # seconds of silence after which the manager counts as lost
         self.clock = clock
         self._outbox: Deque[Tuple[str, Dict[str, Any]]] = deque()
         self._stop = threading.Event()
@@ -78,7 +80,7 @@ class ManagerLink:
         client: Optional[ConsoleClient] = None
         try:
             now = self.clock()
-            session = ConsoleSession(self.name, now)
+            session = ConsoleSession(self.name, now, timeout=self.timeout)
             self._offer(Connection(CONNECTING, "connecting to the manager at {}".format(self.endpoint)), now)
             next_hello = now
             was_connected = False
