@@ -1,4 +1,5 @@
-"""Benchmark: frame time of the console's plan player at full speed, many agents.
+"""Benchmark: frame time of the console at many agents: the plan player at full speed, and the
+live console on 300 virtual robots driven by a real manager.
 
 Renders on a private Xvfb (started and stopped here). Each frame is what the
 player's `after()` loop does at the top speed (64 time steps per second, at
@@ -16,7 +17,17 @@ Plans:
   200 steps; the agents' cell pairs are disjoint, so the plan is valid (the
   validator checks it) and every agent moves every step.
 
-    .venv/bin/python bench/console.py [--frames 300] [--lines goal|path|none]
+Live (`--case live`): `fleetctl virtual-fleet` with 300 robots on the
+arena_300agents_1 starts and a manager (`bench/stamped_manager.py`:
+`fleetctl manager` noting when it sent each State) planning it with PIBT, ADG,
+20 states a second; the live console (`LiveApp` and its network thread, as
+`fleetctl console --manager` runs them) in this process. A frame is what its
+`after()` loop does (drain the feed, draw the newest state, panels at 4 Hz)
+plus the X round trip; pose-to-screen latency is from the manager sending a
+State to the end of the frame that drew it (CLOCK_MONOTONIC, one clock for
+all processes).
+
+    .venv/bin/python bench/console.py [--case player|live|all] [--frames 300] [--lines goal|path|none]
 """
 from __future__ import annotations
 
@@ -108,14 +119,112 @@ def frame_times(scene: Scene, frames: int, lines: str) -> Tuple[List[float], Tup
         root.destroy()
 
 
+def live_times(robots: int, frames: int, time_scale: float) -> None:
+    """The live console on `robots` virtual robots through a manager; prints its figures."""
+    import shutil
+    import tempfile
+    import tkinter as tk
+
+    from console.live.feed import LiveFeed
+    from console.live.link import ManagerLink
+    from console.live.model import LiveModel
+    from console.palette import distinct_colours
+    from console.ui.live_app import LiveApp
+    from fleet_common.robots import RobotDefinition
+    from fleetctl.children import Child
+    from fleetctl.local_fleet import free_ports, local_definitions
+
+    work = Path(tempfile.mkdtemp(prefix="bench-console-"))
+    children: List[Child] = []
+    try:
+        name = "arena_300agents_1.txt"
+        shutil.copy(str(DATA / "instances" / name), str(work / name))
+        shutil.copy(str(DATA / "maps" / "arena.map"), str(work / "arena.map"))
+        fleet = [RobotDefinition(i + 1, "127.0.0.1", 1, "tb", "tb{}".format(i + 1), c)
+                 for i, c in enumerate(distinct_colours(robots))]
+        defs, feedback = local_definitions(fleet, work / "robots.txt")
+        endpoint = "tcp://127.0.0.1:{}".format(free_ports(1)[0])
+        children.append(Child.start("fleet", [
+            "virtual-fleet", "--definitions", str(defs), "--no-curve", "--time-scale", str(time_scale),
+            "--instance", str(work / name), "--feedback-base", str(feedback), "--log-level", "warning"],
+            log=work / "fleet.log"))
+        stamps = work / "stamps.tsv"
+        children.append(Child.spawn("manager", [
+            sys.executable, str(Path(__file__).with_name("stamped_manager.py")), str(stamps), "--",
+            str(work / name), "--definitions", str(defs), "--no-curve", "--host", "127.0.0.1", "--bind",
+            endpoint, "--start", "--no-log", "-s", "pibt", "--connect-timeout", "120",
+            "--step-time", str(2.2 / time_scale)], log=work / "manager.log"))
+        feed, model = LiveFeed(), LiveModel(endpoint)
+        link = ManagerLink(endpoint, feed, name="bench").start()
+        root = tk.Tk()
+        try:
+            root.geometry("+0+0")
+            app = LiveApp(root, feed, model, link.request)
+            root.after_cancel(app._after)  # this loop runs the frames instead
+            app._after = None
+            began = time.monotonic()
+            while not (model.state is not None and model.state.run.state == "running"):
+                if time.monotonic() - began > 180 or not children[1].running():
+                    raise SystemExit("the run did not start: see {}".format(work / "manager.log"))
+                root.update()
+                app.refresh()
+                time.sleep(0.02)
+            started = time.monotonic() - began
+            times, drawn_at, drawing = [], {}, []
+            for _ in range(frames):
+                t0 = time.perf_counter()
+                before = app.state.version if app.state is not None else None
+                app.refresh()
+                root.update_idletasks()
+                root.winfo_pointerxy()
+                spent = time.perf_counter() - t0
+                times.append(spent * 1000.0)
+                if app.state is not None and app.state.version != before:
+                    drawn_at[app.state.version] = time.monotonic()
+                    drawing.append(spent * 1000.0)
+                root.update()
+                time.sleep(max(0.0, 1.0 / FPS - (time.perf_counter() - t0)))
+            canvas = (app.canvas.winfo_width(), app.canvas.winfo_height())
+        finally:
+            link.stop()
+            root.destroy()
+        for child in reversed(children):
+            child.stop()
+        sent = dict((int(a), float(b)) for a, b in (line.split("\t") for line in stamps.read_text().splitlines()))
+        latency = [1000.0 * (t - sent[seq]) for seq, t in drawn_at.items() if seq in sent]
+        states = [seq for seq in sent if min(drawn_at) <= seq <= max(drawn_at)]
+        print("live: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
+            robots, started, canvas[0], canvas[1], len(times)))
+        print("  frame time, all frames:          median {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
+            statistics.median(times), float(np.percentile(times, 99)), max(times)))
+        print("  frame time, frames with a state: median {:5.1f} ms  p99 {:5.1f} ms  ({} frames)".format(
+            statistics.median(drawing), float(np.percentile(drawing, 99)), len(drawing)))
+        print("  pose-to-screen (State sent -> drawn): p50 {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
+            float(np.percentile(latency, 50)), float(np.percentile(latency, 99)), max(latency)))
+        print("  states sent meanwhile {}, drawn {}, coalesced {} (a newer one came in the same frame); "
+              "feed dropped {}".format(len(states), len(drawn_at), len(states) - len(drawn_at), feed.dropped))
+    finally:
+        for child in children:
+            if child.running():
+                child.stop()
+        shutil.rmtree(str(work), ignore_errors=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--case", choices=("player", "live", "all"), default="all")
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--lines", choices=("goal", "path", "none"), default="goal")
+    parser.add_argument("--robots", type=int, default=300, help="live: virtual robots (default 300)")
+    parser.add_argument("--time-scale", type=float, default=4.0, help="live: the fleet's time scale")
     args = parser.parse_args()
     print("python {}, {}, {} cores".format(platform.python_version(), platform.machine(), os.cpu_count()))
     with Xvfb.start(1600, 1200) as server:
         os.environ["DISPLAY"] = server.display
+        if args.case in ("live", "all"):
+            live_times(args.robots, args.frames, args.time_scale)
+        if args.case == "live":
+            return
         print("{:<22s} {:>6s} {:>10s} {:>6s} {:>7s} {:>10s} {:>8s} {:>8s} {:>8s}".format(
             "plan", "agents", "canvas", "lines", "frames", "open s", "median", "p99", "max"))
         for scene in (arena_scene(), brc_scene()):

@@ -41,10 +41,18 @@ class Child:
               on_line: Optional[Callable[[str], None]] = None,
               env: Optional[Dict[str, str]] = None) -> "Child":
         """`fleetctl ARGS` in its own session; output to `log`, else read as lines."""
+        return cls.spawn(name, [sys.executable, "-u", "-m", "fleetctl", *args], log=log, on_line=on_line,
+                         env=env)
+
+    @classmethod
+    def spawn(cls, name: str, argv: Sequence[str], *, log: Optional[Path] = None,
+              on_line: Optional[Callable[[str], None]] = None,
+              env: Optional[Dict[str, str]] = None) -> "Child":
+        """Any program `argv` in its own session, as `start` runs fleetctl."""
         out = open(log, "w") if log is not None else subprocess.PIPE
         try:
             process = subprocess.Popen(
-                [sys.executable, "-u", "-m", "fleetctl", *args], stdin=subprocess.DEVNULL, stdout=out,
+                list(argv), stdin=subprocess.DEVNULL, stdout=out,
                 stderr=subprocess.STDOUT, text=True, start_new_session=True, env=env)
         finally:
             if log is not None:

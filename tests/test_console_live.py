@@ -205,6 +205,14 @@ def test_clicking_a_robots_enabled_box_disables_it_in_the_manager(lab: Lab, cons
     assert any("disable robot=3: done" in line for line in console.app.events.rows())
     assert console.app.selected_robot() == 3  # the click picked the robot too
     assert "disabled" in console.app.robot_panel.content()
+    console.app.select(None)
+    events = console.app.events.tree
+    line = next(i for i in events.get_children() if "disable robot=3" in events.item(i, "values")[2])
+    x, y, w, h = events.bbox(line)
+    for _ in range(2):  # a double click, as the X server would send it
+        events.event_generate("<ButtonPress-1>", x=x + w // 2, y=y + h // 2)
+        events.event_generate("<ButtonRelease-1>", x=x + w // 2, y=y + h // 2)
+    assert console.app.selected_robot() == 3  # the event list jumps to the robot it is about
 
 
 # ---- a stalled robot and the robot that waits for it -----------------------------------------
@@ -308,3 +316,27 @@ def test_a_lost_manager_is_shown_and_the_console_reconnects(lab: Lab, consoles) 
     assert pump(console, lambda: model.connection.status == CONNECTED and model.state is not None, 30)
     assert pump(console, lambda: app.banner.text == "" and not app.agents.picture.grey.any(), 5)
     assert any("reconnected to the manager" in line for line in app.events.rows())
+
+
+# ---- replanning: the proposal on the map, then accepted ------------------------------------
+
+def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new_plan(lab: Lab, consoles) -> None:
+    lab.fleet(time_scale=4.0)
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    assert pump(console, lambda: running(console) and model.state.run.plan_time > 2)
+    app.admin.buttons["replan"].invoke()
+    assert pump(console, lambda: model.proposal is not None, 60), [line.text for line in model.lines]
+    assert pump(console, lambda: bool(app.proposal.items), 2)
+    assert len(app.canvas.find_withtag("proposal")) == len(app.proposal.items) > 0
+    assert "REPLAN PROPOSAL {}".format(model.proposal.id) in app.header.text()
+    assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
+    old_plan = model.scene_message.plan.id
+    app.admin.buttons["accept"].invoke()
+    assert pump(console, lambda: model.scene_message.plan.id != old_plan and model.proposal is None, 30)
+    assert pump(console, lambda: not app.canvas.find_withtag("proposal") and app.state is not None, 5)
+    assert pump(console, lambda: "disabled" in app.admin.buttons["accept"].state(), 2)
+    assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())
+    # the new map's robots are where the manager says, drawn on a freshly built canvas
+    assert pump(console, lambda: app.agents.picture is not None and app.agents.picture.num_agents == 5, 5)

@@ -87,6 +87,7 @@ class RobotRow:
     waiting: str
     grey: Optional[str]
     behind: bool
+    blocked: bool = False  # waits for other robots (not for a pause or its own link)
 
 
 def row(robot_id: int, r: Optional[RobotState], connected: bool = True) -> RobotRow:
@@ -97,7 +98,7 @@ def row(robot_id: int, r: Optional[RobotState], connected: bool = True) -> Robot
     if r.stale:
         pose += " stale"
     return RobotRow(robot_id, r.link, pose, r.out != "disabled", action_text(r), waiting_text(r),
-                    grey, r.behind >= BEHIND_MARK)
+                    grey, r.behind >= BEHIND_MARK, r.waiting is not None and bool(r.waiting.on))
 
 
 def details(r: RobotState, run: Optional[RunInfo]) -> List[Tuple[str, str]]:

@@ -62,6 +62,7 @@ class LiveModel:
         self.lines: Deque[Line] = deque(maxlen=events)
         self.last_reply: Optional[Reply] = None
         self.changes: Set[str] = set()
+        self._fleet: Optional[FleetState] = None  # fleet_state() of the current state and scene
 
     # ---- taking items in ------------------------------------------------------------------
 
@@ -115,6 +116,8 @@ class LiveModel:
 
     def take_changes(self) -> Set[str]:
         changes, self.changes = self.changes, set()
+        if changes & {"state", "scene", "connection"}:
+            self._fleet = None
         return changes
 
     # ---- what the views read ----------------------------------------------------------------
@@ -147,6 +150,11 @@ class LiveModel:
     def fleet_state(self) -> FleetState:
         """Where the robots are, as the map layers take it: reported poses (plan starts where no
         pose came yet), headings in degrees, the plan's clock as the time."""
+        if self._fleet is None or self.changes & {"state", "scene", "connection"}:
+            self._fleet = self._fleet_state()
+        return self._fleet
+
+    def _fleet_state(self) -> FleetState:
         scene = self.scene
         n = 0 if scene is None else scene.num_agents
         positions = np.zeros((n, 2)) if scene is None else np.array(scene.starts, dtype=np.float64).reshape(n, 2)

@@ -54,6 +54,8 @@ class AdminPanel(ttk.Frame):
                 b.pack(side=tk.LEFT, padx=1, pady=1)
                 self.buttons[action] = b
         self._proposal: Optional[int] = None
+        for action in ("accept", "reject"):
+            self.buttons[action].state(["disabled"])  # until a proposal waits
         self._build_selectors()
         self.answer = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
         self.answer.pack(anchor=tk.W, fill=tk.X, pady=(4, 4))
@@ -156,7 +158,7 @@ class AdminPanel(ttk.Frame):
             if self._rows.get(r.id) == r or not self.tree.exists(str(r.id)):
                 continue
             self._rows[r.id] = r
-            tags = ("grey",) if r.grey else ("waiting",) if r.waiting else ("late",) if r.behind else ()
+            tags = ("grey",) if r.grey else ("waiting",) if r.blocked else ("late",) if r.behind else ()
             self.tree.item(str(r.id), tags=tags, values=(
                 r.link, r.grey if r.grey else r.pose, ENABLED if r.enabled else DISABLED, r.action, r.waiting))
 

@@ -227,7 +227,7 @@ class LiveApp(PlayerApp):
                      "strategy {}".format(run.strategy + (" (lookahead {})".format(run.lookahead)
                                                           if run.strategy == "adg" else ""))]
             if self.model.proposal is not None:
-                parts.append("PROPOSAL {}: accept or reject".format(self.model.proposal.id))
+                parts.insert(0, "REPLAN PROPOSAL {} (dashed): accept or reject".format(self.model.proposal.id))
             status = SEPARATOR.join(parts)
         self.header.set_status(status, self.scene.makespan)
 

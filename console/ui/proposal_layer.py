@@ -52,7 +52,8 @@ class ProposalLayer:
         width = max(2, round(view.cell * 0.1))
         half = max(view.cell * 0.22, 3)
         for i in range(plan.num_agents):
-            cells = np.vstack([plan.positions[0, i:i + 1], corners.ahead(i, 1, MAX_TAIL_CORNERS)])
+            # corners hold the turns and the end, not the start
+            cells = np.vstack([plan.positions[0, i:i + 1], corners.ahead(i, 0, MAX_TAIL_CORNERS)])
             points = view.to_canvas_array(cells)
             if len(points) >= 2:
                 self.items.append(c.create_line(*points.ravel().tolist(), fill=self.colours[i], width=width,

@@ -129,14 +129,15 @@ class RobotLayer:
         script: List[str] = []
         xy = view.to_canvas_array(pic.pose)
         moved = ~(np.abs(xy - self._xy) < 0.05).all(axis=1)
-        idx = np.nonzero(moved)[0]
+        haloed = pic.behind & ~pic.grey
+        idx = np.nonzero(moved | (haloed & ~self._behind))[0]  # a halo shown now needs its place
         if idx.size:
-            self._move(idx, xy, pic, script)
+            self._move(idx, xy, pic, haloed, script)
             self._xy[idx] = xy[idx]
         self._ghosts(pic, script)
         self._eval(script)
-        for i in np.nonzero((pic.grey != self._grey) | (pic.behind != self._behind))[0].tolist():
-            self._grey[i], self._behind[i] = pic.grey[i], pic.behind[i]
+        for i in np.nonzero((pic.grey != self._grey) | (haloed != self._behind))[0].tolist():
+            self._grey[i], self._behind[i] = pic.grey[i], haloed[i]
             self._style(i)
         for i, text in enumerate(pic.labels):
             if text != self._labels[i]:
@@ -145,25 +146,32 @@ class RobotLayer:
         self._draw_waits(pic.waits)
         self._draw_tail(pic)
 
-    def _move(self, idx: np.ndarray, xy: np.ndarray, pic: Picture, script: List[str]) -> None:
+    def _move(self, idx: np.ndarray, xy: np.ndarray, pic: Picture, haloed: np.ndarray,
+              script: List[str]) -> None:
+        """Coordinates of the robots `idx`, computed for all at once, sent as one script."""
         w, r = self._w, self.radius
-        sign = 1.0 if self.view.down else -1.0
+        x, y = xy[idx, 0], xy[idx, 1]
+        coords = "%s coords %d %.1f %.1f %.1f %.1f"
+        script.extend(coords % (w, self.disc_items[i], a, b, c, d) for i, (a, b, c, d) in zip(
+            idx.tolist(), np.column_stack([x - r, y - r, x + r, y + r]).tolist()))
+        theta = pic.theta[idx]
+        known = ~np.isnan(theta)
+        dx = np.where(known, np.cos(np.where(known, theta, 0.0)), 0.0)
+        dy = np.where(known, np.sin(np.where(known, theta, 0.0)), 0.0) * (1.0 if self.view.down else -1.0)
+        ticks = np.column_stack([x + 0.45 * r * dx, y + 0.45 * r * dy, x + r * dx, y + r * dy])
+        script.extend(coords % (w, self.heading_items[i], a, b, c, d) for i, (a, b, c, d) in zip(
+            idx.tolist(), ticks.tolist()))
         halo = r + max(2, round(0.24 * r))
-        for i, (x, y) in zip(idx.tolist(), xy[idx].tolist()):
-            script.append("%s coords %d %.1f %.1f %.1f %.1f" % (w, self.disc_items[i], x - r, y - r, x + r, y + r))
-            script.append("%s coords %d %.1f %.1f %.1f %.1f" % (
-                w, self.halo_items[i], x - halo, y - halo, x + halo, y + halo))
-            script.append("%s coords %d %.1f %.1f" % (w, self.id_items[i], x, y))
-            a = pic.theta[i]
-            if np.isnan(a):
-                script.append("%s coords %d %.1f %.1f %.1f %.1f" % (w, self.heading_items[i], x, y, x, y))
-            else:
-                dx, dy = np.cos(a), sign * np.sin(a)
-                script.append("%s coords %d %.1f %.1f %.1f %.1f" % (
-                    w, self.heading_items[i], x + 0.45 * r * dx, y + 0.45 * r * dy, x + r * dx, y + r * dy))
+        on = haloed[idx]
+        script.extend(coords % (w, self.halo_items[i], a - halo, b - halo, a + halo, b + halo)
+                      for i, (a, b) in zip(idx[on].tolist(), xy[idx[on]].tolist()))
+        if self.view.cell >= MIN_LABEL_CELL:  # hidden ids need not follow (relayout places them)
+            script.extend("%s coords %d %.1f %.1f" % (w, self.id_items[i], a, b)
+                          for i, (a, b) in zip(idx.tolist(), xy[idx].tolist()))
+        for i in idx.tolist():
             label = self.label_items.get(i)
             if label is not None:
-                script.append("%s coords %d %.1f %.1f" % (w, label, x, y + r + 2))
+                script.append("%s coords %d %.1f %.1f" % (w, label, xy[i, 0], xy[i, 1] + r + 2))
 
     def _ghosts(self, pic: Picture, script: List[str]) -> None:
         on = pic.ghost is not None
@@ -175,9 +183,9 @@ class RobotLayer:
             return
         gxy = self.view.to_canvas_array(pic.ghost)
         r = self.radius * 0.92
-        for i in np.nonzero(~(np.abs(gxy - self._gxy) < 0.05).all(axis=1))[0].tolist():
-            x, y = gxy[i]
-            script.append("%s coords %d %.1f %.1f %.1f %.1f" % (self._w, self.ghost_items[i], x - r, y - r, x + r, y + r))
+        changed = np.nonzero(~(np.abs(gxy - self._gxy) < 0.05).all(axis=1))[0]
+        script.extend("%s coords %d %.1f %.1f %.1f %.1f" % (self._w, self.ghost_items[i], a - r, b - r, a + r, b + r)
+                      for i, (a, b) in zip(changed.tolist(), gxy[changed].tolist()))
         self._gxy = gxy
 
     def _style(self, i: int) -> None:
