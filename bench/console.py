@@ -132,7 +132,7 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
     from console.ui.live_app import LiveApp
     from fleet_common.robots import RobotDefinition
     from fleetctl.children import Child
-    from fleetctl.local_fleet import free_ports, local_definitions
+    from fleetctl.local_fleet import local_definitions
 
     work = Path(tempfile.mkdtemp(prefix="bench-console-"))
     children: List[Child] = []
@@ -142,8 +142,8 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
         shutil.copy(str(DATA / "maps" / "arena.map"), str(work / "arena.map"))
         fleet = [RobotDefinition(i + 1, "127.0.0.1", 1, "tb", "tb{}".format(i + 1), c)
                  for i, c in enumerate(distinct_colours(robots))]
-        defs, feedback = local_definitions(fleet, work / "robots.txt")
-        endpoint = "tcp://127.0.0.1:{}".format(free_ports(1)[0])
+        defs, feedback, port = local_definitions(fleet, work / "robots.txt")
+        endpoint = "tcp://127.0.0.1:{}".format(port)
         children.append(Child.start("fleet", [
             "virtual-fleet", "--definitions", str(defs), "--no-curve", "--time-scale", str(time_scale),
             "--instance", str(work / name), "--feedback-base", str(feedback), "--log-level", "warning"],

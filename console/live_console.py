@@ -83,7 +83,7 @@ class AutoStart:
             return
         self._last = now
         self.tries -= 1
-        self.ask("start")
+        self.ask("start", based_on=state.version)
 
 
 def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOptions,

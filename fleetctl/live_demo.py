@@ -38,7 +38,7 @@ from fleet_common.robots import RobotDefinition
 from virtual_fleet.stalls import parse_stall
 
 from .children import Child
-from .local_fleet import free_ports, local_definitions
+from .local_fleet import local_definitions
 
 __all__ = ["StallChoice", "pick_stall", "DemoSettings", "run_live_demo"]
 
@@ -111,8 +111,8 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
     work = Path(tempfile.mkdtemp(prefix="fleetcontrol-demo-"))
     children: List[Child] = []
     try:
-        definitions, feedback = local_definitions(robots[:plan.num_agents], work / "robots.txt")
-        endpoint = "tcp://127.0.0.1:{}".format(free_ports(1)[0])
+        definitions, feedback, port = local_definitions(robots[:plan.num_agents], work / "robots.txt")
+        endpoint = "tcp://127.0.0.1:{}".format(port)
         stall = stall_argument(settings, plan, robots)
         fleet_args = ["virtual-fleet", "--definitions", str(definitions), "--no-curve",
                       "--time-scale", "{:g}".format(settings.time_scale), "--feedback-base", str(feedback),

@@ -1,49 +1,48 @@
 """A fleet on this machine: free loopback ports and a robot definitions copy that uses them.
 
 The lab's robot_definitions.txt names the robots' own addresses; a virtual
-run (the demo, tests, benchmarks) needs the same robots on 127.0.0.1, each on
-a command port nobody else holds, and a block of consecutive free ports for
-their pose feedback (`fleet_common.wire.ports`: base, base + 1, ...). Ports
-are checked free by binding them; another process may still take one before
-the fleet does, so callers start the fleet promptly.
+run (the demo, tests, benchmarks) needs the same robots on 127.0.0.1. One
+block of consecutive free ports serves it: the robots' command ports, then
+their pose feedback ports (`fleet_common.wire.ports`: base, base + 1, ...),
+then the manager's console port. The block lies below the kernel's ephemeral
+range, where the processes' own outgoing connections would take ports, and
+starts at an offset that depends on the process id, so runs side by side
+rarely meet. Ports are checked free by binding them; another process may
+still take one before the fleet does, so callers start the fleet promptly.
 """
 from __future__ import annotations
 
-import random
+import os
 import socket
 from pathlib import Path
-from typing import List, Sequence, Tuple
+from typing import Sequence, Tuple
 
 from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition, format_robot_definitions
 
-__all__ = ["free_ports", "free_port_block", "local_definitions"]
+__all__ = ["free_port_block", "local_definitions"]
+
+_LOWEST = 10000
 
 
-def free_ports(n: int) -> List[int]:
-    """`n` distinct TCP ports free on 127.0.0.1 now (all held until all are chosen)."""
-    socks = []
+def _ephemeral_start() -> int:
     try:
-        for _ in range(n):
-            s = socket.socket()
-            s.bind(("127.0.0.1", 0))
-            socks.append(s)
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
+        return int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768  # Linux's default
 
 
-def free_port_block(n: int, avoid: Sequence[int] = (), tries: int = 200) -> int:
-    """The first of `n` consecutive TCP ports free on 127.0.0.1 now, none of them in `avoid`."""
-    rng = random.Random()
-    for _ in range(tries):
-        base = rng.randrange(20000, 60000 - n)
-        if any(p in avoid for p in range(base, base + n)):
-            continue
+def free_port_block(count: int) -> int:
+    """The first of `count` consecutive TCP ports free on 127.0.0.1 now, below the ephemeral range."""
+    top = _ephemeral_start()
+    span = top - _LOWEST - count
+    if span <= 0:
+        raise FleetError("no room for {} ports below the ephemeral range ({})".format(count, top))
+    start = _LOWEST + (os.getpid() * 37) % span
+    for base in list(range(start, top - count, count)) + list(range(_LOWEST, start, count)):
         socks = []
         try:
-            for port in range(base, base + n):
+            for port in range(base, base + count):
                 s = socket.socket()
                 socks.append(s)
                 s.bind(("127.0.0.1", port))
@@ -53,14 +52,16 @@ def free_port_block(n: int, avoid: Sequence[int] = (), tries: int = 200) -> int:
         finally:
             for s in socks:
                 s.close()
-    raise FleetError("found no {} consecutive free ports on 127.0.0.1".format(n))
+    raise FleetError("found no {} consecutive free ports on 127.0.0.1 below {}".format(count, top))
 
 
-def local_definitions(robots: Sequence[RobotDefinition], path: Path) -> Tuple[Path, int]:
-    """Write `robots` to `path` on 127.0.0.1 with free command ports; (path, feedback base)."""
-    ports = free_ports(len(robots))
-    local = [RobotDefinition(r.id, "127.0.0.1", port, r.ssh_user, r.vicon_name, r.colour)
-             for r, port in zip(robots, ports)]
-    path.write_text("# {} on this machine (made for a local run)\n{}".format(
-        "robot definitions", format_robot_definitions(local)))
-    return path, free_port_block(len(robots), avoid=ports)
+def local_definitions(robots: Sequence[RobotDefinition], path: Path) -> Tuple[Path, int, int]:
+    """Write `robots` to `path` on 127.0.0.1 with free command ports; (path, feedback base,
+    a free port for the manager's console channel)."""
+    n = len(robots)
+    base = free_port_block(2 * n + 1)
+    local = [RobotDefinition(r.id, "127.0.0.1", base + i, r.ssh_user, r.vicon_name, r.colour)
+             for i, r in enumerate(robots)]
+    path.write_text("# robot definitions on this machine (made for a local run)\n"
+                    + format_robot_definitions(local))
+    return path, base + n, base + 2 * n

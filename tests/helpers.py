@@ -3,6 +3,7 @@ a naive rotation checker (the oracle for the vectorised one).
 """
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -10,6 +11,7 @@ from pathlib import Path
 from typing import Dict, List, Optional, Set, Tuple
 
 from fleet_common.plan import Plan
+from fleetctl.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
 
 
 def fleetctl(*args: object, cwd: Optional[Path] = None, env: Optional[Dict[str, str]] = None,

@@ -1,7 +1,7 @@
 """The live console against a real manager and a real virtual fleet on 127.0.0.1, under Xvfb.
 
 Each test starts `fleetctl virtual-fleet` and `fleetctl manager` as processes
-(own process groups, free ports, stopped by pid), opens the console window in
+(`live.Proc`: own process groups, free ports, stopped by group), opens the console window in
 this process with its real network thread, and pumps Tk like its main loop
 would. What is checked is what an operator sees: canvas items where the
 manager says the robots are, the robot list, the answer line, the event
@@ -32,11 +32,9 @@ from console.xvfb import Xvfb
 from fleet_common.formats.instance import read_instance
 from fleet_common.lab import lab_instance_path, lab_map_path
 from fleet_common.planning import solve
-from fleet_common.robots import read_robot_definitions
-from fleetctl.children import Child
 from fleetctl.live_demo import pick_stall
-from fleetctl.local_fleet import free_ports, local_definitions
 from helpers import Forwarder
+from live import Proc, fleet_definitions, start_fleet, start_manager
 
 LAB = str(lab_instance_path())
 
@@ -57,33 +55,27 @@ def display() -> Iterator[str]:
 
 
 class Lab:
-    """The five lab robots as a virtual fleet and a manager for them, as processes."""
+    """Five robots on 127.0.0.1 as a virtual fleet (on the lab's starts) and managers for them."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
-        self.definitions, self.feedback = local_definitions(read_robot_definitions(), folder / "robots.txt")
-        self.port = free_ports(1)[0]
+        self.definitions, self.feedback, self.port = fleet_definitions(folder, 5)
         self.endpoint = "tcp://127.0.0.1:{}".format(self.port)
-        self.children: List[Child] = []
-        self.manager: Optional[Child] = None
+        self.procs: List[Proc] = []
 
     def fleet(self, time_scale: float = 4.0, stall: Optional[str] = None) -> None:
-        args = ["virtual-fleet", "--definitions", str(self.definitions), "--no-curve", "--time-scale",
-                str(time_scale), "--feedback-base", str(self.feedback), "--log-level", "warning"]
-        self.children.append(Child.start("fleet", args + (["--stall", stall] if stall else []),
-                                         log=self.folder / "fleet.log"))
+        self.procs.append(start_fleet(self.folder, self.definitions, self.feedback, "--time-scale", time_scale,
+                                      *(["--stall", stall] if stall else [])))
 
-    def start_manager(self, *extra: str) -> Child:
-        self.manager = Child.start("manager", [
-            "manager", LAB, "--definitions", str(self.definitions), "--no-curve", "--host", "127.0.0.1",
-            "--bind", self.endpoint, "--log", str(self.folder / "runs"), "--step-time", "0.6", *extra],
-            log=self.folder / "manager-{}.log".format(len(self.children)))
-        self.children.append(self.manager)
-        return self.manager
+    def start_manager(self, *extra: str) -> Proc:
+        proc = start_manager(self.folder, LAB, self.definitions, self.port, "--log", self.folder / "runs",
+                             "--step-time", "0.6", *extra, name="manager-{}".format(len(self.procs)))
+        self.procs.append(proc)
+        return proc
 
     def stop(self) -> None:
-        for child in reversed(self.children):
-            child.stop()
+        for proc in reversed(self.procs):
+            proc.stop()
 
 
 @pytest.fixture

@@ -231,7 +231,8 @@ def test_lab_plan_stalls_green_where_blue_follows_it() -> None:
 
 def test_planned_stall_halts_the_kth_drive_halfway() -> None:
     now = [0.0]
-    nav = VirtualNavigator(Pose(0.0, 0.0, 0.0), speed=1.0, clock=lambda: now[0], stalls={2: 5.0})
+    nav = VirtualNavigator(Pose(0.0, 0.0, 0.0), speed=1.0, clock=lambda: now[0])
+    nav.stalls[2] = 5.0
     nav.start_drive(1.0, 0.0, 0.0)  # drive 1: one second
     now[0] = 1.0
     assert nav.poll() is not None
@@ -249,5 +250,5 @@ def test_stall_arguments_are_checked() -> None:
     for bad in ("2:7", "x:1:2", "2:0:3", "2:1:-1", "2:1:3:4"):
         with pytest.raises(FleetError, match="ROBOT:MOVE:SECONDS"):
             parse_stall(bad)
-    with pytest.raises(FleetError, match="the fleet has robots 1, 2"):
-        stalls_by_robot([parse_stall("5:1:1")], [1, 2])
+    assert stalls_by_robot([parse_stall("5:1:1"), parse_stall("5:3:2"), parse_stall("1:1:4")]) == {
+        5: {1: 1.0, 3: 2.0}, 1: {1: 4.0}}

@@ -41,13 +41,9 @@ def parse_stall(text: str) -> Stall:
     return Stall(robot, move, seconds)
 
 
-def stalls_by_robot(stalls: Iterable[Stall], robots: Iterable[int]) -> Dict[int, Dict[int, float]]:
-    """robot id -> {drive number: seconds}; FleetError for a robot not in the fleet."""
-    known = set(robots)
+def stalls_by_robot(stalls: Iterable[Stall]) -> Dict[int, Dict[int, float]]:
+    """robot id -> {drive number: seconds}."""
     out: Dict[int, Dict[int, float]] = {}
     for s in stalls:
-        if s.robot not in known:
-            raise FleetError("stall for robot {}: the fleet has robots {}".format(
-                s.robot, ", ".join(str(r) for r in sorted(known))))
         out.setdefault(s.robot, {})[s.move] = s.seconds
     return out

@@ -54,7 +54,7 @@ class ManagerLink:
         self.poll_s = poll_s
         self.timeout = timeout  # seconds of silence after which the manager counts as lost
         self.clock = clock
-        self._outbox: Deque[Tuple[str, Dict[str, Any]]] = deque()
+        self._outbox: Deque[Tuple[str, Optional[int], Dict[str, Any]]] = deque()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="manager-link", daemon=True)
 
@@ -64,9 +64,10 @@ class ManagerLink:
         self._thread.start()
         return self
 
-    def request(self, action: str, **args: Any) -> None:
-        """Ask the manager for `action`; the answer comes back on the feed as a `Reply`."""
-        self._outbox.append((action, args))
+    def request(self, action: str, based_on: Optional[int] = None, **args: Any) -> None:
+        """Ask the manager for `action`, based on the version of the state the operator saw
+        (None: the newest this thread has); the answer comes back on the feed as a `Reply`."""
+        self._outbox.append((action, based_on, args))
 
     def stop(self) -> None:
         self._stop.set()
@@ -145,11 +146,11 @@ class ManagerLink:
 
     def _send_requests(self, session: ConsoleSession, client: ConsoleClient, now: float) -> None:
         while self._outbox:
-            action, args = self._outbox.popleft()
+            action, based_on, args = self._outbox.popleft()
             if not session.connected:
                 self._offer(Reply(action, args, False, "not connected to a manager", sent=False), now)
                 continue
-            _, frame = session.request(action, now, **args)
+            _, frame = session.request(action, now, based_on, **args)
             client.send(frame)
 
     def _lose(self, session: ConsoleSession, text: str, now: float,

@@ -45,7 +45,8 @@ PANEL_PERIOD = 0.25
 
 
 class LiveApp(PlayerApp):
-    """The live console on `root`; `ask(action, **args)` sends a request (the link's `request`)."""
+    """The live console on `root`; `ask(action, based_on=..., **args)` sends a request (the link's
+    `request`)."""
 
     def __init__(self, root: tk.Tk, feed: LiveFeed, model: LiveModel, ask: Callable[..., None],
                  options: Optional[ViewOptions] = None, canvas_size: Tuple[int, int] = (560, 600)) -> None:
@@ -270,8 +271,10 @@ class LiveApp(PlayerApp):
         self.select(agent)
 
     def ask(self, action: str, **args: Any) -> None:
-        """Send a request; the manager's answer comes back through the feed."""
-        self._ask(action, **args)
+        """Send a request based on the state this window shows (thesis 5.1.1: a decision on a
+        picture that is no longer true is refused); the answer comes back through the feed."""
+        shown = self.model.state
+        self._ask(action, based_on=shown.version if shown is not None else None, **args)
         self.status.set("asked the manager: {}{}".format(action, "".join(
             " {}={}".format(k, v) for k, v in sorted(args.items()))))
 

@@ -52,8 +52,11 @@ __all__ = ["Driver", "Slot", "TURN_TOLERANCE", "AT_CELL"]
 
 #: A robot facing its next cell within this angle (radians) drives without a turn first.
 TURN_TOLERANCE = math.radians(20.0)
-#: A robot this close (cells) to a cell's centre is on that cell.
+#: A robot this close (cells) to a cell's centre is on that cell (start checks, planning).
 AT_CELL = 0.3
+#: A restarted robot this close to its move's target has made the move; farther, it is sent
+#: the move again (a few centimetres: a robot's own arrival tolerance).
+MADE_IT = 0.05
 
 Note = Callable[..., None]
 Tell = Callable[[str, Optional[int], str], None]
@@ -318,7 +321,7 @@ class Driver:
         slot.hold_reason = ""
         if slot.queue and slot.pose is not None:
             d = slot.queue[0]
-            if math.hypot(slot.pose.x - d.dst[0], slot.pose.y - d.dst[1]) <= AT_CELL:
+            if math.hypot(slot.pose.x - d.dst[0], slot.pose.y - d.dst[1]) <= MADE_IT:
                 self.tell("link", slot.robot_id, "robot {} restarted at the end of its move to {}: "
                           "counted as done".format(slot.robot_id, d.dst))
                 run = self.engine.run

@@ -117,11 +117,12 @@ class Manager:
         try:
             self._open_log(loaded)
             self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
+            # bind before connecting: the links' outgoing connections take ephemeral ports
+            self.consoles = ConsoleServer(self.context, settings.bind, keys=keys, zap=self.zap,
+                                          log=self.log)
             epoch = secrets.token_hex(8)
             self.links = LinkSet([RobotLink(self.context, r, epoch, keys=keys, host=host, clock=clock,
                                             log=self.log) for r in self.robots], clock=clock)
-            self.consoles = ConsoleServer(self.context, settings.bind, keys=keys, zap=self.zap,
-                                          log=self.log)
         except BaseException:
             self._close_sockets()
             if self.runlog is not None:

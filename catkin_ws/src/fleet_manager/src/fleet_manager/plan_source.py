@@ -8,15 +8,14 @@ plan for another number of robots is refused, naming both counts.
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, List, Optional, Sequence
 
 from fleet_common.errors import FleetError
-from fleet_common.formats.instance import parse_instance
-from fleet_common.formats.header import read_text
-from fleet_common.formats.solution import Solution, format_solution, make_solution, parse_solution
+from fleet_common.formats.instance import Instance
+from fleet_common.formats.problem_file import read_problem
+from fleet_common.formats.solution import Solution, format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import solve
@@ -25,9 +24,6 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.validate import validate_plan
 
 __all__ = ["LoadedPlan", "load_plan", "pick_robots", "PlanLoadError"]
-
-
-_SOLUTION_LINE = re.compile(r"^\s*(solution|starts)\s*=", re.M)
 
 
 class PlanLoadError(FleetError):
@@ -69,15 +65,11 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
               text: Optional[str] = None) -> LoadedPlan:
     """The plan in `path` (or `text`, named `path`) for a fleet of `fleet_size` robots."""
     name = str(path)
-    dirs = [Path(path).parent, *map_dirs]
-    if text is None:
-        text = read_text(name)
-    # a solution has a solution= block (mapf-IR writes it even for failed runs); an
-    # instance does not, and its reader says what is wrong with anything else
-    if _SOLUTION_LINE.search(text):
-        loaded = _from_solution(parse_solution(text, name, dirs), name)
+    problem = read_problem(path, map_dirs, text)
+    if isinstance(problem, Solution):
+        loaded = _from_solution(problem, name)
     else:
-        loaded = _from_instance(Path(path), dirs, solver, time_limit, seed, text)
+        loaded = _from_instance(problem, name, solver, time_limit, seed)
     agents = loaded.plan.num_agents
     if agents != fleet_size:
         raise PlanLoadError("{} has {} agents but {} has {} robots; plan agent i runs on the "
@@ -99,9 +91,8 @@ def _from_solution(sol: Solution, name: str) -> LoadedPlan:
                       "solution by {}".format(sol.solver or "?"))
 
 
-def _from_instance(path: Path, dirs: Sequence[Path], solver: Optional[str], time_limit: float,
-                   seed: int, text: str) -> LoadedPlan:
-    inst = parse_instance(text, str(path), dirs)
+def _from_instance(inst: Instance, path: str, solver: Optional[str], time_limit: float,
+                   seed: int) -> LoadedPlan:
     names = [solver] if solver else (["cbs", "lacam"] if inst.num_agents <= 12 else ["lacam"])
     result = None
     for each in names:
@@ -113,9 +104,9 @@ def _from_instance(path: Path, dirs: Sequence[Path], solver: Optional[str], time
             path, " or ".join(names), time_limit, result.message if result else ""))
     show = inst.grid.flip_y if inst.orientation == "mapf-ir" else _same
     sol = make_solution(inst.grid, inst.map_file or "", result.plan, inst.starts, inst.goals,
-                        result.solver, True, round(result.comp_time_ms), instance=str(path))
+                        result.solver, True, round(result.comp_time_ms), instance=path)
     sol.orientation = inst.orientation
-    return LoadedPlan(result.plan, inst.grid, list(inst.starts), list(inst.goals), str(path), sol,
+    return LoadedPlan(result.plan, inst.grid, list(inst.starts), list(inst.goals), path, sol,
                       show, "planned by {} in {:.0f} ms".format(result.solver, result.comp_time_ms))
 
 

@@ -4,9 +4,10 @@
 
 Decoding is total: any bytes become a message or a `ControlProtocolError`
 saying what was wrong (too large, not JSON, nested too deep, an unknown type,
-a field of the wrong shape), never another exception. Size and depth are
-checked before the JSON parser runs; numbers are checked for size and
-finiteness by the schema (`schema.py`). Which messages each end may receive
+a field of the wrong shape), never another exception. Size, depth and number
+lengths are checked before or while JSON is parsed (`fleet_common.limits`,
+with the console channel's own frame sizes below); ranges by the schema
+(`schema.py`). Which messages each end may receive
 is decided by the caller: `decode(data, CONSOLE_MESSAGES)` on the manager.
 """
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any, Dict, Sequence, Type
 import numpy as np
 
 from ..errors import FleetError
+from ..limits import DecodeError, loads_frame
 from . import messages as m
 from .schema import (AnyObj, Bool, Cell, Checker, Int, ListOf, Num, Obj, Opt, Positions, SchemaError,
                      Str, short)
@@ -149,42 +151,10 @@ def _record(cls: Type, value: Any) -> Any:
 
 
 def _load(data: bytes, max_bytes: int) -> Dict[str, Any]:
-    if not isinstance(data, (bytes, bytearray, memoryview)):
-        raise ControlProtocolError("a frame must be bytes")
-    if len(data) > max_bytes:
-        raise ControlProtocolError("frame of {} bytes; the limit is {}".format(len(data), max_bytes))
-    if _depth_bound(bytes(data)) > MAX_DEPTH:
-        raise ControlProtocolError("frame nested deeper than {} levels".format(MAX_DEPTH))
     try:
-        frame = json.loads(bytes(data).decode("utf-8"), parse_int=_small_int,
-                           parse_constant=_no_constant)
-    except (UnicodeDecodeError, ValueError, RecursionError) as err:
-        raise ControlProtocolError("frame is not JSON text: {}".format(short(str(err), 80))) from None
+        frame = loads_frame(data, max_bytes=max_bytes, max_depth=MAX_DEPTH)
+    except DecodeError as err:
+        raise ControlProtocolError(str(err)) from None
     if not isinstance(frame, dict):
         raise ControlProtocolError("frame is not a JSON object")
     return frame
-
-
-def _depth_bound(data: bytes) -> int:
-    """Nesting depth of the brackets in `data`, counting brackets inside strings too (an
-    over-estimate for legitimate messages, whose strings hold few brackets; the parser's
-    RecursionError is caught as well, for strings that would hide depth)."""
-    raw = np.frombuffer(data, dtype=np.uint8)
-    steps = _STEP[raw]
-    brackets = steps[np.flatnonzero(steps)]  # few in any frame: a plan's cells are base64
-    return int(np.cumsum(brackets, dtype=np.int64).max()) if brackets.size else 0
-
-
-_STEP = np.zeros(256, dtype=np.int8)
-_STEP[[0x5B, 0x7B]] = 1   # [ {
-_STEP[[0x5D, 0x7D]] = -1  # ] }
-
-
-def _small_int(text: str) -> int:
-    if len(text) > 20:  # also spares Python 3.8 (no digit limit) a quadratic conversion
-        raise ValueError("integer of {} digits".format(len(text)))
-    return int(text)
-
-
-def _no_constant(name: str) -> Any:
-    raise ValueError("{} is not a number the protocol allows".format(name))

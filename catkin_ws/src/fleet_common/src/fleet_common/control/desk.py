@@ -116,8 +116,8 @@ class ControlDesk:
             intake.out.append((peer, encode(m.Answer(request.id, False, reason, self.version))))
 
         if console is None:
-            refuse("say hello first (this manager does not know this console; it may have "
-                   "restarted)")
+            refuse(m.HELLO_FIRST + " (this manager does not know this console: it restarted, "
+                   "or the console was silent too long)")
             intake.refusal = Refusal(peer, "", "request before hello")
             return
         console.requests += 1

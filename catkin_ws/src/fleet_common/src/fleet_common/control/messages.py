@@ -37,6 +37,9 @@ PROTOCOL_VERSION = 1
 ACTIONS = ("start", "pause", "stop", "step", "halt", "strategy", "enable", "disable", "source",
            "load", "replan", "accept", "reject")
 
+#: How a refusal to a console the manager does not know begins: the console says hello again.
+HELLO_FIRST = "say hello first"
+
 RUN_STATES = ("waiting", "running", "paused", "stopped", "done", "failed")
 LINK_STATES = ("connecting", "up", "down", "failed")
 SOURCES = ("robot", "vicon")

@@ -8,7 +8,10 @@ the newest version seen in any Welcome, State or Answer, so a console that
 acts on an old picture is refused by the manager and says so.
 
 A manager silent for `timeout` seconds is lost (`lost(now)`); the console
-says so and says hello again (`reset` then `hello`) until one answers.
+says so and says hello again (`reset` then `hello`) until one answers. A
+manager that does not know the console (it restarted, or forgot a console
+silent too long) refuses its requests with `HELLO_FIRST`; the session is then
+no longer `connected` and the console says hello again.
 """
 from __future__ import annotations
 
@@ -51,9 +54,13 @@ class ConsoleSession:
         self.live.sent(now)
         return encode(m.Hello(self.name))
 
-    def request(self, action: str, now: float, **args: Any) -> Tuple[m.Request, bytes]:
-        """A request for `action`, based on the newest version seen; (request, frame)."""
-        request = m.Request(next(self._ids), action, dict(args), self.version)
+    def request(self, action: str, now: float, based_on: Optional[int] = None,
+                **args: Any) -> Tuple[m.Request, bytes]:
+        """A request for `action`; (request, frame). It is based on `based_on`, the version of
+        the state the operator looked at (a window shows states a little after they arrive),
+        or else on the newest version seen."""
+        request = m.Request(next(self._ids), action, dict(args),
+                            self.version if based_on is None else based_on)
         self.pending[request.id] = request
         self.live.sent(now)
         return request, encode(request)
@@ -80,7 +87,10 @@ class ConsoleSession:
                 self.proposal = None
         elif isinstance(message, m.Answer):
             self.version = max(self.version, message.version)
-            return message, self.pending.pop(message.id, None)
+            asked = self.pending.pop(message.id, None)
+            if not message.ok and message.reason.startswith(m.HELLO_FIRST):
+                self.session = None  # the manager forgot us: `connected` is False, say hello again
+            return message, asked
         elif isinstance(message, m.Event):
             if message.seq <= self._last_event:
                 return None  # seen already

@@ -33,7 +33,8 @@ manager side, live in `fleet_common.transport`.
 from __future__ import annotations
 
 from .connection import Connection
-from .errors import LocalProtocolError, ProtocolError, RemoteProtocolError, VersionMismatchError
+from .errors import (LocalProtocolError, MalformedFrameError, ProtocolError, RemoteProtocolError,
+                     VersionMismatchError)
 from .executor import CommandExecutor
 from .liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from .messages import (COMMAND_TYPES, MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Command,
@@ -44,7 +45,7 @@ from .ports import FEEDBACK_PORT, feedback_ports, on_localhost
 from .states import Phase, Role, State
 
 __all__ = [
-    "Connection", "LocalProtocolError", "ProtocolError", "RemoteProtocolError",
+    "Connection", "LocalProtocolError", "MalformedFrameError", "ProtocolError", "RemoteProtocolError",
     "VersionMismatchError", "CommandExecutor", "HEARTBEAT_INTERVAL", "PEER_TIMEOUT", "Liveness",
     "COMMAND_TYPES", "MESSAGE_TYPES", "PROTOCOL_VERSION", "Accepted", "Bye", "Command",
     "Completed", "DriveToPosition", "Failed", "GetStatus", "Heartbeat", "Hello", "Message", "Pose",
