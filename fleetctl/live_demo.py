@@ -81,7 +81,7 @@ def pick_stall(plan: Plan, at: float = 0.35) -> Optional[StallChoice]:
 
 @dataclass
 class DemoSettings:
-    log_dir: Path
+    log_dir: Optional[Path] = None  # where run folders go (None: the manager's default)
     time_scale: float = 1.5
     delay_model: str = "delay={:g},slow=0.1:1.5".format(DELAY)
     seed: int = 0
@@ -130,7 +130,8 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
         manager = Child.start("manager", [
             "manager", str(solution), "--definitions", str(definitions), "--no-curve", "--host", "127.0.0.1",
             "--bind", endpoint, "--strategy", "adg", "--until-done", "--time-limit", "{:g}".format(settings.time_limit),
-            "--connect-timeout", "30", "--step-time", "{:.3f}".format(step_time), "--log", str(settings.log_dir)],
+            "--connect-timeout", "30", "--step-time", "{:.3f}".format(step_time)]
+            + (["--log", str(settings.log_dir)] if settings.log_dir is not None else []),
             on_line=lambda line: say("  manager: " + (line[9:] if line.startswith("manager: ") else line)))
         children.append(manager)
         banner = manager.wait_for_line(lambda line: "run folder" in line or "fleetctl manager" in line, 30.0)

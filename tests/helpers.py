@@ -3,7 +3,6 @@ a naive rotation checker (the oracle for the vectorised one).
 """
 from __future__ import annotations
 
-import os
 import socket
 import subprocess
 import sys

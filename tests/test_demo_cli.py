@@ -13,8 +13,7 @@ from typing import Dict, List
 
 from PIL import Image
 
-from fleetctl.local_fleet import free_ports
-from helpers import fleetctl
+from helpers import fleetctl, free_port_block
 
 
 def headless() -> Dict[str, str]:
@@ -82,7 +81,7 @@ def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
 
 
 def test_console_without_a_manager_says_so_in_its_screenshot(tmp_path: Path) -> None:
-    port = free_ports(1)[0]
+    port = free_port_block(1)
     png = tmp_path / "alone.png"
     proc = fleetctl("console", "--manager", "tcp://127.0.0.1:{}".format(port), "--no-curve",
                     "--screenshot", png, "--after", "1.5", env=headless())

@@ -115,11 +115,10 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
     from fleet_common.formats.solution import make_solution, write_solution
 
     from ..live_demo import DemoSettings, run_live_demo
-    from .manager import default_runs_dir
 
     if not args.time_scale > 0 or args.linger < 0:
         raise FleetError("--time-scale must be positive and --linger not negative")
-    settings = DemoSettings(log_dir=args.log or default_runs_dir(), time_scale=args.time_scale,
+    settings = DemoSettings(log_dir=args.log, time_scale=args.time_scale,
                             seed=args.seed, stall=args.stall, headless=args.headless,
                             record=args.record, linger=args.linger)
     if args.fleet_delays is not None:
