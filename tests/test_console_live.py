@@ -27,7 +27,7 @@ from console.live.model import LiveModel
 from console.ui import capture
 from console.ui.admin_panel import DISABLED, ENABLED
 from console.ui.live_app import LiveApp
-from console.ui.robot_layer import WAIT
+from console.ui.wait_layer import WAIT
 from console.xvfb import Xvfb
 from fleet_common.formats.instance import read_instance
 from fleet_common.lab import lab_instance_path, lab_map_path

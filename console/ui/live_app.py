@@ -17,34 +17,33 @@ from __future__ import annotations
 
 import time
 import tkinter as tk
-from tkinter import filedialog, ttk
+from tkinter import ttk
 from typing import Any, Callable, List, Optional, Tuple
 
 from ..fleet_state import FleetState
-from ..keys import KEYS, VIEW, AGENTS
-from ..live.describe import blocked_chain, cell_text, details, greyed, row
+from ..live.describe import blocked_chain, details, greyed, row
 from ..live.feed import CONNECTED, LOST, LiveFeed
 from ..live.model import LiveModel, LiveSource, reply_text
 from ..live.picture import WaitMarks, picture
 from ..live.scene import placeholder_scene
 from ..view_options import ViewOptions
-from . import capture
 from .admin_panel import AdminPanel
 from .app import PlayerApp
 from .banner import Banner
 from .event_list import EventList
-from .help_window import show_keys
+from .live_actions import LiveActions
 from .map_view import MapView
 from .overlays import SEPARATOR, AxesLayer, CellIdLayer, HeaderBand
 from .proposal_layer import ProposalLayer
 from .robot_layer import RobotLayer
 from .robot_panel import RobotPanel
+from .wait_layer import WaitLayer
 
 #: Seconds between refreshes of the panels' texts (the map follows every state).
 PANEL_PERIOD = 0.25
 
 
-class LiveApp(PlayerApp):
+class LiveApp(LiveActions, PlayerApp):
     """The live console on `root`; `ask(action, based_on=..., **args)` sends a request (the link's
     `request`)."""
 
@@ -94,41 +93,17 @@ class LiveApp(PlayerApp):
         self.cell_ids = CellIdLayer(canvas, scene.grid.free, scene.file_orientation)
         self.proposal = ProposalLayer(canvas, scene.colours)
         self.agents = RobotLayer(canvas, scene, self.model.robot_ids())  # type: ignore[assignment]
+        self.waits = WaitLayer(canvas, self.agents)
         self.axes = AxesLayer(canvas, scene.file_orientation)
         self.header = HeaderBand(canvas, scene.info)
         self.banner = Banner(canvas)
-        self.layers = (self.cell_ids, self.proposal, self.agents, self.axes, self.header, self.banner)
+        self.layers = (self.cell_ids, self.proposal, self.agents, self.waits, self.axes, self.header,
+                       self.banner)
         self.map.on_view_change(self.relayout)
         self.map.on_click = self._clicked
         self.map.on_hover = self._hovered
         canvas.focus_set()
         self._show_banner()
-
-    def _build_menus(self) -> None:
-        bar = tk.Menu(self.root, tearoff=False)
-        file = tk.Menu(bar, tearoff=False)
-        file.add_command(label="save the view as PNG", accelerator="Ctrl+S", command=self.actions["save_png"])
-        file.add_command(label="save the window as PNG", command=self._guarded(self._save_window))
-        file.add_separator()
-        file.add_command(label="quit", accelerator="q, Ctrl+Q", command=self.actions["quit"])
-        bar.add_cascade(label="File", menu=file)
-        run = tk.Menu(bar, tearoff=False)
-        for label, action in (("Start", "start"), ("Pause", "pause"), ("Step", "step"), ("Stop", "stop"),
-                              ("Halt every robot", "halt"), ("Replan", "replan")):
-            run.add_command(label=label, command=lambda a=action: self.ask(a))
-        bar.add_cascade(label="Run", menu=run)
-        for group in (VIEW, AGENTS):
-            menu = tk.Menu(bar, tearoff=False)
-            for key in KEYS:
-                if key.group == group:
-                    menu.add_command(label=key.help.replace("agent", "robot"), accelerator=key.shown,
-                                     command=self.actions[key.action])
-            bar.add_cascade(label="Robots" if group == AGENTS else group, menu=menu)
-        help_menu = tk.Menu(bar, tearoff=False)
-        help_menu.add_command(label="keyboard shortcuts", accelerator="F1", command=lambda: show_keys(self.root))
-        bar.add_cascade(label="Help", menu=help_menu)
-        self.root.configure(menu=bar)
-        self.menubar = bar
 
     # -- the frame loop ----------------------------------------------------------------
 
@@ -234,58 +209,3 @@ class LiveApp(PlayerApp):
 
     def _fill_conflicts(self) -> None:
         pass  # a live run has no validator findings to list
-
-    # -- picking and asking ------------------------------------------------------------
-
-    def selected_robot(self) -> Optional[int]:
-        ids = self.model.robot_ids()
-        sel = self.options.selected
-        return ids[sel] if sel is not None and 0 <= sel < len(ids) else None
-
-    def select(self, agent: Optional[int]) -> None:
-        self.options.selected = agent
-        rid = self.selected_robot()
-        self.admin.mark(rid)
-        self.relayout()
-        self._show_robot()
-        if rid is not None:
-            r = self.model.robot(rid)
-            self.status.set("robot {}{}".format(rid, "" if r is None else ": at {}, {}".format(
-                cell_text((r.x, r.y)) if r.x is not None else "unknown position", greyed(r) or "ok")))
-
-    def _pick_robot(self, robot_id: Optional[int]) -> None:
-        agent = None if robot_id is None else self.model.agent_of.get(robot_id)
-        if agent != self.options.selected:
-            self.select(agent)
-        self.canvas.focus_set()
-
-    def jump_to_robot(self, robot_id: int) -> None:
-        """Select `robot_id` and bring it into view (the event list's double-click)."""
-        agent = self.model.agent_of.get(robot_id)
-        if agent is None:
-            return
-        x, y = self.model.fleet_state().positions[agent]
-        if not self.map.view.shows(x, y):
-            self.map.view.centre_on(x, y)
-            self.map.changed()
-        self.select(agent)
-
-    def ask(self, action: str, **args: Any) -> None:
-        """Send a request based on the state this window shows (thesis 5.1.1: a decision on a
-        picture that is no longer true is refused); the answer comes back through the feed."""
-        shown = self.model.state
-        self._ask(action, based_on=shown.version if shown is not None else None, **args)
-        self.status.set("asked the manager: {}{}".format(action, "".join(
-            " {}={}".format(k, v) for k, v in sorted(args.items()))))
-
-    # -- capture -----------------------------------------------------------------------
-
-    def save_window(self, path: str) -> None:
-        capture.grab(self.root, path)
-        self.status.set("saved {}".format(path))
-
-    def _save_window(self) -> None:
-        path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
-                                            filetypes=[("PNG image", "*.png")], title="Save window as PNG")
-        if path:
-            self.root.after(200, self._guarded(lambda: self.save_window(path)))

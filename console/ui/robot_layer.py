@@ -3,10 +3,8 @@
 Per robot, created once and then only moved or restyled: a faint dashed ghost
 at its planned position, a yellow halo when it is behind the plan, its disc
 at the reported pose with a heading tick, its robot id, and (when greyed) the
-reason in small text under it; its goal as a small square. Shared: red frames
-on the cells robots wait to enter with red arrows to the robots they wait
-for, and the selected robot's remaining plan as a thick line from where it
-is through the corners ahead (fig. 5.7).
+reason in small text under it; its goal as a small square. Shared: the selected robot's remaining plan as a thick line from where it is through
+the corners ahead (fig. 5.7). The waits are `WaitLayer`'s, drawn over these.
 
 As in `AgentLayer`, all coordinates of a frame go to Tk as one Tcl script;
 styles change only for the robots whose flags changed, so 300 robots cost a
@@ -15,12 +13,12 @@ few milliseconds a frame.
 from __future__ import annotations
 
 import tkinter as tk
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional
 
 import numpy as np
 
 from ..fleet_state import FleetState
-from ..live.picture import Picture, WaitMark
+from ..live.picture import Picture
 from ..path_corners import PathCorners
 from ..scene import Scene
 from ..view_options import ViewOptions
@@ -30,12 +28,9 @@ from .agent_layer import MAX_TAIL_CORNERS, OUTLINE, SELECTED_OUTLINE, disc_radiu
 GREY = "#b9b9b4"
 GREY_TEXT = "#3c3c3c"
 BEHIND = "#f2c200"
-WAIT = "#e8101a"
 HEADING = "#ffffff"
 #: Robot ids are written on the discs when a cell is at least this many pixels.
 MIN_LABEL_CELL = 14.0
-#: Arrows drawn per waiting robot (a step barrier may wait for many).
-MAX_ARROWS = 3
 
 
 def text_on(colour: str) -> str:
@@ -68,8 +63,6 @@ class RobotLayer:
         self.id_items = [c.create_text(0, 0, text=str(rid), fill=text_on(colours[i]), tags=("robotid", tag[i]))
                          for i, rid in enumerate(robot_ids)]
         self.label_items: Dict[int, int] = {}
-        self.frame_items: List[int] = []
-        self.arrow_items: List[int] = []
         self.corners = PathCorners(scene.plan) if scene.plan is not None and n else None
         self.goals = np.array(scene.goals, dtype=np.float64).reshape(-1, 2)
         self.picture: Optional[Picture] = None
@@ -83,7 +76,6 @@ class RobotLayer:
         self._behind = np.zeros(n, dtype=bool)
         self._labels = [""] * n
         self._ghosts_on = False
-        self._waits: List[WaitMark] = []
 
     @property
     def centres(self) -> np.ndarray:
@@ -112,11 +104,10 @@ class RobotLayer:
         c.itemconfigure("robotlabel", font=("DejaVu Sans", -max(8, min(12, int(r * 0.55)))))
         for i in range(len(self.disc_items)):
             self._style(i)
-        for name in ("tail", "ghost", "frame", "halo", "disc", "heading", "robotid", "robotlabel", "arrow"):
+        for name in ("tail", "ghost", "halo", "disc", "heading", "robotid", "robotlabel"):
             c.tag_raise(name)
         self._xy[:] = np.nan
         self._gxy[:] = np.nan
-        self._waits = [WaitMark(-1, (0, 0), ())]  # force the waits to be drawn again
         if self.picture is not None:
             self.update(None)
 
@@ -143,7 +134,6 @@ class RobotLayer:
             if text != self._labels[i]:
                 self._labels[i] = text
                 self._label(i, text)
-        self._draw_waits(pic.waits)
         self._draw_tail(pic)
 
     def _move(self, idx: np.ndarray, xy: np.ndarray, pic: Picture, haloed: np.ndarray,
@@ -214,46 +204,6 @@ class RobotLayer:
         self.canvas.itemconfigure(item, text=text, state=tk.NORMAL if text else tk.HIDDEN)
 
     # -- waits and the selected robot's plan -------------------------------------------
-
-    def _draw_waits(self, waits: List[WaitMark]) -> None:
-        arrows: List[Tuple[float, float, float, float]] = []
-        frames: List[Tuple[float, float]] = []
-        view, r = self.view, self.radius
-        for w in waits:
-            frames.append(view.to_canvas(*w.cell))
-            x0, y0 = self._xy[w.agent]
-            for other in w.on[:MAX_ARROWS]:
-                x1, y1 = self._xy[other]
-                d = float(np.hypot(x1 - x0, y1 - y0))
-                if d > 1.6 * r:  # from inside the waiting robot's disc to the other's rim
-                    ux, uy = (x1 - x0) / d, (y1 - y0) / d
-                    arrows.append((x0 + ux * 0.4 * r, y0 + uy * 0.4 * r, x1 - ux * (r + 1), y1 - uy * (r + 1)))
-        c = self.canvas
-        width = max(2, round(view.cell * 0.08))
-        while len(self.frame_items) < len(frames):
-            self.frame_items.append(c.create_rectangle(0, 0, 0, 0, outline=WAIT, tags=("frame",)))
-            c.tag_raise(self.frame_items[-1], "ghost")
-        while len(self.arrow_items) < len(arrows):
-            self.arrow_items.append(c.create_line(0, 0, 0, 0, fill=WAIT, arrow=tk.LAST, tags=("arrow",)))
-        half = view.cell / 2 - width / 2
-        script = []
-        for k, item in enumerate(self.frame_items):
-            if k < len(frames):
-                x, y = frames[k]
-                script.append("%s coords %d %.1f %.1f %.1f %.1f" % (self._w, item, x - half, y - half, x + half, y + half))
-                script.append("%s itemconfigure %d -state normal -width %d" % (self._w, item, width))
-            else:
-                script.append("%s itemconfigure %d -state hidden" % (self._w, item))
-        head = max(8, round(r * 0.7))
-        for k, item in enumerate(self.arrow_items):
-            if k < len(arrows):
-                script.append("%s coords %d %.1f %.1f %.1f %.1f" % ((self._w, item) + arrows[k]))
-                script.append("%s itemconfigure %d -state normal -width %d -arrowshape {%d %d %d}" % (
-                    self._w, item, max(2, width - 1), head, head + 2, max(3, head // 2)))
-            else:
-                script.append("%s itemconfigure %d -state hidden" % (self._w, item))
-        self._eval(script)
-        self._waits = list(waits)
 
     def _draw_tail(self, pic: Picture) -> None:
         sel = self.options.selected
