@@ -11,7 +11,6 @@ bounded loops; nothing is timed.
 from __future__ import annotations
 
 import gc
-import os
 import time
 import tkinter as tk
 from pathlib import Path
@@ -28,7 +27,6 @@ from console.ui import capture
 from console.ui.admin_panel import DISABLED, ENABLED
 from console.ui.live_app import LiveApp
 from console.ui.wait_layer import WAIT
-from console.xvfb import Xvfb
 from fleet_common.formats.instance import read_instance
 from fleet_common.lab import lab_instance_path, lab_map_path
 from fleet_common.planning import solve
@@ -37,21 +35,6 @@ from helpers import Forwarder
 from live import Proc, fleet_definitions, start_fleet, start_manager
 
 LAB = str(lab_instance_path())
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    server = Xvfb.start(1600, 1000)
-    before = os.environ.get("DISPLAY")
-    os.environ["DISPLAY"] = server.display
-    try:
-        yield server.display
-    finally:
-        if before is None:
-            os.environ.pop("DISPLAY", None)
-        else:
-            os.environ["DISPLAY"] = before
-        server.stop()
 
 
 class Lab:

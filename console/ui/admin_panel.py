@@ -22,6 +22,7 @@ from fleet_common.control import RunInfo
 from ..live.describe import RobotRow
 from ..live.feed import CONNECTED, LOST, Connection, Reply
 from ..live.model import reply_text
+from .table import scrolled_table
 
 Action = Callable[..., None]
 
@@ -88,25 +89,12 @@ class AdminPanel(ttk.Frame):
 
     def _build_list(self) -> None:
         ttk.Label(self, text="Robots (click the box to enable / disable)", font=FONT).pack(anchor=tk.W)
-        body = ttk.Frame(self)
-        body.pack(fill=tk.BOTH, expand=True)
-        style = ttk.Style(self)
-        style.configure("Robots.Treeview", font=FONT, rowheight=20)
-        self.tree = ttk.Treeview(body, columns=[c[0] for c in COLUMNS], show=("tree", "headings"),
-                                 selectmode="browse", height=8, style="Robots.Treeview", takefocus=0)
-        self.tree.heading("#0", text="id")
+        self.tree = scrolled_table(self, COLUMNS, "Robots.Treeview", FONT, 20, 8, "action", tree_column="id")
         self.tree.column("#0", width=50, stretch=False)
-        for name, title, width in COLUMNS:
-            self.tree.heading(name, text=title)
-            self.tree.column(name, width=width, stretch=name == "action",
-                             anchor=tk.CENTER if name == "on" else tk.W)
+        self.tree.column("on", anchor=tk.CENTER)
         self.tree.tag_configure("grey", foreground="#8a8a86")
         self.tree.tag_configure("late", background="#fff2b8")
         self.tree.tag_configure("waiting", background="#ffe1e1")
-        bar = ttk.Scrollbar(body, orient=tk.VERTICAL, command=self.tree.yview)
-        self.tree.configure(yscrollcommand=bar.set)
-        self.tree.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
-        bar.pack(side=tk.RIGHT, fill=tk.Y)
         self.tree.bind("<ButtonRelease-1>", self._clicked)
         self._swatches: List[tk.PhotoImage] = []
 

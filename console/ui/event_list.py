@@ -12,6 +12,7 @@ from tkinter import ttk
 from typing import Callable, Dict, List, Optional
 
 from ..live.model import Line
+from .table import scrolled_table
 
 FONT = ("DejaVu Sans", -11)
 #: Lines kept in the widget (the model keeps its own, longer history).
@@ -22,20 +23,10 @@ class EventList(ttk.Frame):
     def __init__(self, master: tk.Misc, on_jump: Callable[[int], None]) -> None:
         super().__init__(master, padding=(2, 2))
         ttk.Label(self, text="Events (double-click: show the robot)").pack(anchor=tk.W)
-        body = ttk.Frame(self)
-        body.pack(fill=tk.BOTH, expand=True)
-        ttk.Style(self).configure("Events.Treeview", font=FONT, rowheight=18)
-        self.tree = ttk.Treeview(body, columns=("time", "robot", "text"), show="headings", height=10,
-                                 selectmode="browse", style="Events.Treeview", takefocus=0)
-        for name, title, width in (("time", "time", 60), ("robot", "robot", 46), ("text", "event", 240)):
-            self.tree.heading(name, text=title)
-            self.tree.column(name, width=width, stretch=name == "text", anchor=tk.W)
+        self.tree = scrolled_table(self, (("time", "time", 60), ("robot", "robot", 46), ("text", "event", 240)),
+                                   "Events.Treeview", FONT, 18, 10, "text")
         self.tree.tag_configure("warn", foreground="#b35c00")
         self.tree.tag_configure("error", foreground="#c8101a")
-        bar = ttk.Scrollbar(body, orient=tk.VERTICAL, command=self.tree.yview)
-        self.tree.configure(yscrollcommand=bar.set)
-        self.tree.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
-        bar.pack(side=tk.RIGHT, fill=tk.Y)
         self.tree.bind("<Double-Button-1>", self._double)
         self.on_jump = on_jump
         self._robots: Dict[str, Optional[int]] = {}
