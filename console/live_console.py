@@ -24,7 +24,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator, List, Optional, Tuple
+from typing import TYPE_CHECKING, Callable, Iterator, List, Optional, Tuple
 
 from fleet_common.errors import FleetError
 from fleet_common.transport.curve_keys import ConsoleKeys
@@ -35,6 +35,9 @@ from .live.model import LiveModel
 from .live.recorder import Recorder
 from .player import _display, _tk, _wait_until_viewable, default_canvas_size
 from .view_options import ViewOptions
+
+if TYPE_CHECKING:
+    from .ui.live_app import LiveApp
 
 __all__ = ["LiveOptions", "LiveOutcome", "run_live_console", "AutoStart"]
 
@@ -86,14 +89,11 @@ class AutoStart:
         self.ask("start", based_on=state.version)
 
 
-def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOptions,
-                     say: Callable[[str], None] = print) -> LiveOutcome:
-    from .ui import capture
+def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOptions) -> LiveOutcome:
+    """Open the live console on the manager at `endpoint` and run it until it closes."""
     from .ui.live_app import LiveApp
 
     size = options.size or default_canvas_size(13, 14, LIVE_CANVAS)
-    outcome = LiveOutcome()
-    failed: List[str] = []
     with _screen(options.screenshot is not None or options.record is not None, size) as display:
         feed = LiveFeed()
         model = LiveModel(endpoint)
@@ -103,56 +103,75 @@ def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOp
             root.geometry("+0+0")
             app = LiveApp(root, feed, model, link.request, options.view, canvas_size=size)
             _wait_until_viewable(root, app.canvas)
-            stopping: List[str] = []
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                signal.signal(sig, lambda signum, _f: stopping.append(signal.Signals(signum).name))
-            recorder = None
-            if options.record is not None:
-                recorder = Recorder(options.record, lambda p: capture.grab(root, p), options.every)
-                outcome.frames = recorder.frames
-            starter = AutoStart(link.request) if options.start_when_ready else None
-            done_at: List[float] = []
-            closing: List[str] = []
-
-            def close(reason: str) -> None:
-                if not closing:
-                    closing.append(reason)
-                    outcome.reason = reason
-                    root.after_idle(root.destroy)
-
-            def after_frame() -> None:
-                now = time.monotonic()
-                run = model.state.run if model.state is not None else None
-                outcome.run_state = run.state if run is not None else outcome.run_state
-                if recorder is not None and model.scene is not None:
-                    recorder.offer(run)
-                if starter is not None:
-                    starter(model, now)
-                if stopping:
-                    close("stopped by {}".format(stopping[0]))
-                elif options.close_when_done is not None and run is not None and run.state == "done":
-                    if not done_at:
-                        done_at.append(now)
-                    elif now - done_at[0] >= options.close_when_done:
-                        close("the run is done")
-
-            def shot() -> None:
-                try:
-                    capture.grab(root, options.screenshot)
-                    outcome.screenshot = options.screenshot
-                except FleetError as err:
-                    failed.append(str(err))
-                close("screenshot taken" if not failed else failed[0])
-
-            app.after_frame.append(after_frame)
-            if options.screenshot is not None:
-                root.after(int(options.after * 1000), shot)
+            run = _Run(app, options, link.request)
             root.mainloop()
         finally:
             link.stop()
-    if failed:
-        raise FleetError(failed[0])
-    return outcome
+    if run.failed:
+        raise FleetError(run.failed)
+    return run.outcome
+
+
+class _Run:
+    """What the window does besides showing the fleet: record, take the screenshot, press Start,
+    close when done or on a signal. Its `after_frame` runs after each frame, on Tk's thread."""
+
+    def __init__(self, app: "LiveApp", options: LiveOptions, ask: Callable[..., None]) -> None:
+        from .ui import capture
+
+        self.app, self.options, self.root = app, options, app.root
+        self.outcome = LiveOutcome()
+        self.failed = ""
+        self.stopping: List[str] = []
+        for sig in (signal.SIGINT, signal.SIGTERM):  # from a supervisor: close cleanly
+            signal.signal(sig, lambda signum, _f: self.stopping.append(signal.Signals(signum).name))
+        self.recorder: Optional[Recorder] = None
+        if options.record is not None:
+            self.recorder = Recorder(options.record, lambda p: capture.grab(self.root, p), options.every)
+            self.outcome.frames = self.recorder.frames
+        self.starter = AutoStart(ask) if options.start_when_ready else None
+        self.done_at: Optional[float] = None
+        self.closing = False
+        app.after_frame.append(self.after_frame)
+        if options.screenshot is not None:
+            self.root.after(int(options.after * 1000), self.shot)
+
+    def close(self, reason: str) -> None:
+        if not self.closing:
+            self.closing = True
+            self.outcome.reason = reason
+            self.root.after_idle(self.root.destroy)
+
+    def after_frame(self) -> None:
+        model, now = self.app.model, time.monotonic()
+        run = model.state.run if model.state is not None else None
+        if run is not None:
+            self.outcome.run_state = run.state
+        if self.recorder is not None and model.scene is not None:
+            try:
+                self.recorder.offer(run)
+            except FleetError as err:  # the screen cannot be read: say so once, stop recording
+                self.app.status.set("recording stopped: {}".format(err))
+                self.recorder = None
+        if self.starter is not None:
+            self.starter(model, now)
+        if self.stopping:
+            self.close("stopped by {}".format(self.stopping[0]))
+        elif self.options.close_when_done is not None and run is not None and run.state == "done":
+            if self.done_at is None:
+                self.done_at = now
+            elif now - self.done_at >= self.options.close_when_done:
+                self.close("the run is done")
+
+    def shot(self) -> None:
+        from .ui import capture
+
+        try:
+            capture.grab(self.root, self.options.screenshot)
+            self.outcome.screenshot = self.options.screenshot
+        except FleetError as err:
+            self.failed = str(err)
+        self.close(self.failed or "screenshot taken")
 
 
 @contextmanager
