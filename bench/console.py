@@ -32,6 +32,7 @@ all processes).
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import platform
 import statistics
@@ -188,6 +189,8 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
         finally:
             link.stop()
             root.destroy()
+            del app
+            gc.collect()  # Tk's images die on Tk's thread
         for child in reversed(children):
             child.stop()
         sent = dict((int(a), float(b)) for a, b in (line.split("\t") for line in stamps.read_text().splitlines()))

@@ -31,6 +31,8 @@ BEHIND = "#f2c200"
 HEADING = "#ffffff"
 #: Robot ids are written on the discs when a cell is at least this many pixels.
 MIN_LABEL_CELL = 14.0
+#: Ghosts are dashed rings up to this many robots (a third of the X server's work at 300).
+MAX_DASHED = 50
 
 
 def text_on(colour: str) -> str:
@@ -52,7 +54,8 @@ class RobotLayer:
                                               tags=("goal", tag[i])) for i in range(n)]
         self.tail_item = c.create_line(0, 0, 0, 0, width=3, state=tk.HIDDEN, capstyle=tk.ROUND,
                                        joinstyle=tk.ROUND, tags=("tail",))
-        self.ghost_items = [c.create_oval(0, 0, 0, 0, outline=colours[i], dash=(4, 3), width=2,
+        dash = (4, 3) if n <= MAX_DASHED else ()  # dashes cost the X server: plain rings for crowds
+        self.ghost_items = [c.create_oval(0, 0, 0, 0, outline=colours[i], dash=dash, width=2 if dash else 1,
                                           state=tk.HIDDEN, tags=("ghost", tag[i])) for i in range(n)]
         self.halo_items = [c.create_oval(0, 0, 0, 0, outline=BEHIND, state=tk.HIDDEN,
                                          tags=("halo", tag[i])) for i in range(n)]
