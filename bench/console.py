@@ -120,7 +120,13 @@ def frame_times(scene: Scene, frames: int, lines: str) -> Tuple[List[float], Tup
         root.destroy()
 
 
-def live_times(robots: int, frames: int, time_scale: float) -> None:
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds of process `pid` so far (from /proc)."""
+    fields = Path("/proc/{}/stat".format(pid)).read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> None:
     """The live console on `robots` virtual robots through a manager; prints its figures."""
     import shutil
     import tempfile
@@ -172,6 +178,7 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
                 time.sleep(0.02)
             started = time.monotonic() - began
             times, drawn_at, drawing = [], {}, []
+            cpu0, x0, wall0 = time.process_time(), cpu_seconds(xvfb_pid), time.monotonic()
             for _ in range(frames):
                 t0 = time.perf_counter()
                 before = app.state.version if app.state is not None else None
@@ -185,6 +192,8 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
                     drawing.append(spent * 1000.0)
                 root.update()
                 time.sleep(max(0.0, 1.0 / FPS - (time.perf_counter() - t0)))
+            wall = time.monotonic() - wall0
+            cpu = ((time.process_time() - cpu0) / wall, (cpu_seconds(xvfb_pid) - x0) / wall)
             canvas = (app.canvas.winfo_width(), app.canvas.winfo_height())
         finally:
             link.stop()
@@ -204,8 +213,12 @@ def live_times(robots: int, frames: int, time_scale: float) -> None:
             statistics.median(drawing), float(np.percentile(drawing, 99)), len(drawing)))
         print("  pose-to-screen (State sent -> drawn): p50 {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
             float(np.percentile(latency, 50)), float(np.percentile(latency, 99)), max(latency)))
-        print("  states sent meanwhile {}, drawn {}, coalesced {} (a newer one came in the same frame); "
-              "feed dropped {}".format(len(states), len(drawn_at), len(states) - len(drawn_at), feed.dropped))
+        print("  states sent meanwhile {} ({:.1f} a second), drawn {}, coalesced {} (a newer one came in the "
+              "same frame); feed dropped {}".format(len(states), len(states) / wall, len(drawn_at),
+                                                     len(states) - len(drawn_at), feed.dropped))
+        print("  CPU: console process {:.0%} of a core (Tk thread and network thread), Xvfb {:.0%}; "
+              "per state drawn {:.1f} ms + {:.1f} ms".format(cpu[0], cpu[1], 1000 * cpu[0] * wall / len(drawn_at),
+                                                           1000 * cpu[1] * wall / len(drawn_at)))
     finally:
         for child in children:
             if child.running():
@@ -225,7 +238,7 @@ def main() -> None:
     with Xvfb.start(1600, 1200) as server:
         os.environ["DISPLAY"] = server.display
         if args.case in ("live", "all"):
-            live_times(args.robots, args.frames, args.time_scale)
+            live_times(args.robots, args.frames, args.time_scale, server.pid)
         if args.case == "live":
             return
         print("{:<22s} {:>6s} {:>10s} {:>6s} {:>7s} {:>10s} {:>8s} {:>8s} {:>8s}".format(

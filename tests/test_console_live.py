@@ -26,6 +26,7 @@ from console.live.model import LiveModel
 from console.ui import capture
 from console.ui.admin_panel import DISABLED, ENABLED
 from console.ui.live_app import LiveApp
+from console.ui.robot_layer import GREY
 from console.ui.wait_layer import WAIT
 from fleet_common.formats.instance import read_instance
 from fleet_common.lab import lab_instance_path, lab_map_path
@@ -46,9 +47,11 @@ class Lab:
         self.endpoint = "tcp://127.0.0.1:{}".format(self.port)
         self.procs: List[Proc] = []
 
-    def fleet(self, time_scale: float = 4.0, stall: Optional[str] = None) -> None:
-        self.procs.append(start_fleet(self.folder, self.definitions, self.feedback, "--time-scale", time_scale,
-                                      *(["--stall", stall] if stall else [])))
+    def fleet(self, time_scale: float = 4.0, stall: Optional[str] = None, *extra: str) -> Proc:
+        proc = start_fleet(self.folder, self.definitions, self.feedback, "--time-scale", time_scale,
+                           *(["--stall", stall] if stall else []), *extra)
+        self.procs.append(proc)
+        return proc
 
     def start_manager(self, *extra: str) -> Proc:
         proc = start_manager(self.folder, LAB, self.definitions, self.port, "--log", self.folder / "runs",
@@ -315,3 +318,31 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())
     # the new map's robots are where the manager says, drawn on a freshly built canvas
     assert pump(console, lambda: app.agents.picture is not None and app.agents.picture.num_agents == 5, 5)
+
+
+# ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------
+
+def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(lab: Lab, consoles) -> None:
+    fleet = lab.fleet(4.0, None, "--bump", "3@2")  # robot 3's bumper is hit in its 2nd drive
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    agent = 2  # robot 3
+
+    def label(i: int) -> str:
+        item = app.agents.label_items.get(i)
+        return app.canvas.itemcget(item, "text") if item is not None else ""
+
+    assert pump(console, lambda: model.robot(3) is not None and "bumper" in model.robot(3).faults, 60)
+    assert pump(console, lambda: label(agent) == "fault: bumper", 2)
+    disc = app.agents.disc_items[agent]
+    assert app.canvas.itemcget(disc, "fill") == GREY and app.canvas.itemcget(disc, "state") != "hidden"
+    assert pump(console, lambda: tree_row(console, 3)[1] == "fault: bumper", 2)
+    assert "fault: bumper" in app.agents.picture.labels[agent]
+    fleet.kill()  # every robot gone at once, as at a power cut
+    gone = lambda: all(r.link != "up" for r in model.state.robots)  # noqa: E731
+    assert pump(console, gone, 30)
+    assert pump(console, lambda: all(label(i).startswith("link ") for i in range(5)), 3)
+    assert all(app.canvas.itemcget(d, "fill") == GREY for d in app.agents.disc_items)
+    assert len(app.admin.tree.get_children()) == 5  # all still listed, greyed
+    assert all(tree_row(console, rid)[1].startswith("link ") for rid in range(1, 6))
