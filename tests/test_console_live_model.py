@@ -252,3 +252,14 @@ def test_stall_arguments_are_checked() -> None:
             parse_stall(bad)
     assert stalls_by_robot([parse_stall("5:1:1"), parse_stall("5:3:2"), parse_stall("1:1:4")]) == {
         5: {1: 1.0, 3: 2.0}, 1: {1: 4.0}}
+
+
+def test_the_link_decodes_only_the_newest_of_the_states_waiting() -> None:
+    from console.live.link import newest_states
+    from fleet_common.control import encode
+
+    frames = [encode(state(1, [])), encode(Event(1, 0.0, "run", None, "x")), encode(state(2, [])),
+              encode(Event(2, 0.0, "run", None, "y")), encode(state(3, []))]
+    kept = newest_states(frames)
+    assert kept == [frames[1], frames[3], frames[4]]
+    assert newest_states(frames[:2]) == frames[:2] and newest_states([]) == []

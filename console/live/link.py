@@ -17,7 +17,8 @@ Theory of operation, the connection's life:
   the hellos start again, so a restarted manager is found by itself.
 
 The thread polls its socket with a short timeout (`poll_s`): a State is
-passed on as soon as it arrives, a request waits at most that long.
+passed on as soon as it arrives, a request waits at most that long. Of
+several States waiting at once only the newest is decoded (`newest_states`).
 """
 from __future__ import annotations
 
@@ -92,7 +93,7 @@ class ManagerLink:
                     client.send(session.hello(now))
                     next_hello = now + self.hello_every
                 if client is not None and client.socket.poll(int(self.poll_s * 1000), zmq.POLLIN):
-                    for frame in client.receive():
+                    for frame in newest_states(client.receive()):
                         was_connected = self._receive(session, frame, was_connected)
                 now = self.clock()
                 if client is not None:
@@ -165,6 +166,17 @@ class ManagerLink:
 
     def _offer(self, item: Any, now: float) -> None:
         self.feed.offer(item, now)
+
+
+_STATE = b'{"t":"state",'  # how every State frame begins (the codec writes "t" first)
+
+
+def newest_states(frames: List[bytes]) -> List[bytes]:
+    """`frames` without the States a later State in the same batch supersedes: a console that
+    fell behind decodes only the newest (a 300-robot State takes milliseconds to check), and
+    every other message, in order."""
+    last = max((k for k, f in enumerate(frames) if f.startswith(_STATE)), default=-1)
+    return [f for k, f in enumerate(frames) if k >= last or not f.startswith(_STATE)]
 
 
 def _reply(answer: Answer, request: Optional[Request]) -> Reply:
