@@ -345,4 +345,5 @@ def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(
     assert pump(console, lambda: all(label(i).startswith("link ") for i in range(5)), 3)
     assert all(app.canvas.itemcget(d, "fill") == GREY for d in app.agents.disc_items)
     assert len(app.admin.tree.get_children()) == 5  # all still listed, greyed
-    assert all(tree_row(console, rid)[1].startswith("link ") for rid in range(1, 6))
+    listed = lambda: all(tree_row(console, rid)[1].startswith("link ") for rid in range(1, 6))  # noqa: E731
+    assert pump(console, listed, 2), [tree_row(console, rid) for rid in range(1, 6)]
