@@ -347,3 +347,26 @@ def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(
     assert len(app.admin.tree.get_children()) == 5  # all still listed, greyed
     listed = lambda: all(tree_row(console, rid)[1].startswith("link ") for rid in range(1, 6))  # noqa: E731
     assert pump(console, listed, 2), [tree_row(console, rid) for rid in range(1, 6)]
+
+
+def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll_in(display: str) -> None:
+    from console.live.describe import RobotRow
+    from console.ui.admin_panel import AdminPanel
+
+    root = tk.Tk()
+    try:
+        panel = AdminPanel(root, lambda *a, **k: None, lambda rid: None)
+        panel.pack(fill=tk.BOTH, expand=True)
+        ids = list(range(1, 301))
+        panel.set_fleet(ids, ["#ff0000"] * 300, ("adg",))
+        root.update()
+        panel.show_rows([RobotRow(i, "up", "robot 0.1 s", True, "drive #{}".format(i), "", None, False) for i in ids])
+        values = lambda rid: panel.tree.item(str(rid), "values")  # noqa: E731
+        assert values(1)[3] == "drive #1" and values(290) == ""
+        panel.tree.yview_moveto(1.0)
+        root.update()
+        assert values(300)[3] == "drive #300" and values(295)[3] == "drive #295"
+        assert values(150) == ""  # never in view: never written
+    finally:
+        root.destroy()
+        gc.collect()

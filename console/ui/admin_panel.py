@@ -60,9 +60,11 @@ class AdminPanel(ttk.Frame):
         self._build_selectors()
         self.answer = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
         self.answer.pack(anchor=tk.W, fill=tk.X, pady=(4, 4))
-        self._build_list()
-        self._rows: Dict[int, RobotRow] = {}
+        self._rows: Dict[int, RobotRow] = {}     # what each row shows
+        self._wanted: Dict[int, RobotRow] = {}   # what it should show (written when in view)
+        self._order: List[int] = []              # robot ids, top row first
         self._writing = False
+        self._build_list()
 
     # -- building ----------------------------------------------------------------------
 
@@ -89,7 +91,8 @@ class AdminPanel(ttk.Frame):
 
     def _build_list(self) -> None:
         ttk.Label(self, text="Robots (click the box to enable / disable)", font=FONT).pack(anchor=tk.W)
-        self.tree = scrolled_table(self, COLUMNS, "Robots.Treeview", FONT, 20, 8, "action", tree_column="id")
+        self.tree = scrolled_table(self, COLUMNS, "Robots.Treeview", FONT, 20, 8, "action", tree_column="id",
+                                   on_scroll=self._write_visible)
         self.tree.column("#0", width=50, stretch=False)
         self.tree.column("on", anchor=tk.CENTER)
         self.tree.tag_configure("grey", foreground="#8a8a86")
@@ -102,6 +105,8 @@ class AdminPanel(ttk.Frame):
         """A new scene: one row per robot, a swatch of its colour beside its id."""
         self.tree.delete(*self.tree.get_children())
         self._rows = {}
+        self._order = list(robot_ids)
+        self._wanted = {}
         self._swatches = []
         for rid, colour in zip(robot_ids, colours):
             swatch = tk.PhotoImage(master=self, width=12, height=12)
@@ -142,12 +147,25 @@ class AdminPanel(ttk.Frame):
             self._writing = False
 
     def show_rows(self, rows: Sequence[RobotRow]) -> None:
-        for r in rows:
-            if self._rows.get(r.id) == r or not self.tree.exists(str(r.id)):
+        """Take the robots' rows; write those in view that changed (300 rows a refresh would
+        cost more than the map: the others are written when they scroll into view)."""
+        self._wanted = {r.id: r for r in rows}
+        self._write_visible()
+
+    def _write_visible(self) -> None:
+        ids = self._order
+        if not ids:
+            return
+        top, bottom = self.tree.yview()
+        first = max(0, int(top * len(ids)) - 2)
+        last = min(len(ids), int(bottom * len(ids) + 0.999) + 2)
+        for rid in ids[first:last]:
+            r = self._wanted.get(rid)
+            if r is None or self._rows.get(rid) == r:
                 continue
-            self._rows[r.id] = r
+            self._rows[rid] = r
             tags = ("grey",) if r.grey else ("waiting",) if r.blocked else ("late",) if r.behind else ()
-            self.tree.item(str(r.id), tags=tags, values=(
+            self.tree.item(str(rid), tags=tags, values=(
                 r.link, r.grey if r.grey else r.pose, ENABLED if r.enabled else DISABLED, r.action, r.waiting))
 
     def show_source(self, source: str) -> None:
