@@ -263,3 +263,11 @@ def test_the_link_decodes_only_the_newest_of_the_states_waiting() -> None:
     kept = newest_states(frames)
     assert kept == [frames[1], frames[3], frames[4]]
     assert newest_states(frames[:2]) == frames[:2] and newest_states([]) == []
+
+
+def test_a_proposal_after_an_older_state_in_the_same_batch_stays() -> None:
+    model = connected_model()
+    other = Plan.from_paths([[(0, 0), (0, 1)], [(3, 2), (3, 1)]])
+    model.apply(state(1, [robot(7), robot(9)], run(proposal=None)), 0.0, 0.0)  # sent before the proposal
+    model.apply(Proposal(4, PlanData(1004, (7, 9), other.positions), "pp", 2, 1), 0.0, 0.0)
+    assert model.proposal is not None and model.proposal.id == 4

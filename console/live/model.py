@@ -71,6 +71,9 @@ class LiveModel:
             if self.state is None or item.seq > self.state.seq:
                 self.state, self.state_at = item, at
                 self.changes.add("state")
+                if self.proposal is not None and item.run.proposal is None:
+                    self.proposal, self.proposal_plan = None, None  # answered (here or elsewhere)
+                    self.changes.add("proposal")
         elif isinstance(item, SceneMessage):
             self._scene(item)
         elif isinstance(item, Event):
@@ -98,10 +101,6 @@ class LiveModel:
             self._line(wall, "console", None, item.text, ERROR)
         elif isinstance(item, Bye):
             self._line(wall, "console", None, "the manager said goodbye: {}".format(item.reason), WARN)
-        if self.proposal is not None and self.state is not None and self.state.run.proposal is None \
-                and "state" in self.changes:
-            self.proposal, self.proposal_plan = None, None  # answered (by us or another console)
-            self.changes.add("proposal")
 
     def _scene(self, message: SceneMessage) -> None:
         self.scene_message = message

@@ -61,7 +61,7 @@ class AdminPanel(ttk.Frame):
         self.answer = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
         self.answer.pack(anchor=tk.W, fill=tk.X, pady=(4, 4))
         self._rows: Dict[int, RobotRow] = {}     # what each row shows
-        self._wanted: Dict[int, RobotRow] = {}   # what it should show (written when in view)
+        self._row_of: Optional[Callable[[int], RobotRow]] = None  # what a row should show
         self._order: List[int] = []              # robot ids, top row first
         self._writing = False
         self._build_list()
@@ -106,7 +106,7 @@ class AdminPanel(ttk.Frame):
         self.tree.delete(*self.tree.get_children())
         self._rows = {}
         self._order = list(robot_ids)
-        self._wanted = {}
+        self._row_of = None
         self._swatches = []
         for rid, colour in zip(robot_ids, colours):
             swatch = tk.PhotoImage(master=self, width=12, height=12)
@@ -146,10 +146,10 @@ class AdminPanel(ttk.Frame):
         finally:
             self._writing = False
 
-    def show_rows(self, rows: Sequence[RobotRow]) -> None:
-        """Take the robots' rows; write those in view that changed (300 rows a refresh would
-        cost more than the map: the others are written when they scroll into view)."""
-        self._wanted = {r.id: r for r in rows}
+    def show_rows(self, row_of: Callable[[int], RobotRow]) -> None:
+        """Rows from `row_of(robot id)`: only those in view are made and written if they changed
+        (300 rows a refresh would cost more than the map); the others when they scroll in."""
+        self._row_of = row_of
         self._write_visible()
 
     def _write_visible(self) -> None:
@@ -160,7 +160,7 @@ class AdminPanel(ttk.Frame):
         first = max(0, int(top * len(ids)) - 2)
         last = min(len(ids), int(bottom * len(ids) + 0.999) + 2)
         for rid in ids[first:last]:
-            r = self._wanted.get(rid)
+            r = self._row_of(rid) if self._row_of is not None else None
             if r is None or self._rows.get(rid) == r:
                 continue
             self._rows[rid] = r

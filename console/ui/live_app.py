@@ -115,6 +115,7 @@ class LiveApp(LiveActions, PlayerApp):
             self._scene_changed()
         if "proposal" in changes:
             self.proposal.show(self.model.proposal_plan)
+            self._status_changed()
         if state is not None:
             self.show(state)
         if "connection" in changes:
@@ -170,9 +171,9 @@ class LiveApp(LiveActions, PlayerApp):
         m = self.model
         run = m.state.run if m.state is not None else None
         self.admin.show_run(run)
-        by_agent = m.robots_by_agent()
-        self.admin.show_rows([row(rid, r, m.connected) for rid, r in zip(m.robot_ids(), by_agent)])
-        sources = {r.source for r in by_agent if r is not None}
+        by_id = {r.id: r for r in m.state.robots} if m.state is not None else {}
+        self.admin.show_rows(lambda rid: row(rid, by_id.get(rid), m.connected))
+        sources = {r.source for r in by_id.values()}
         if len(sources) == 1:
             self.admin.show_source(sources.pop())
         if "reply" in changes and m.last_reply is not None:
