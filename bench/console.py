@@ -22,8 +22,8 @@ arena_300agents_1 starts and a manager (`bench/stamped_manager.py`:
 `fleetctl manager` noting when it sent each State) planning it with PIBT, ADG,
 20 states a second; the live console (`LiveApp` and its network thread, as
 `fleetctl console --manager` runs them) in this process. A frame is what its
-`after()` loop does (drain the feed, draw the newest state, panels at 4 Hz)
-plus the X round trip; pose-to-screen latency is from the manager sending a
+`after()` loop does every 15 ms (drain the feed, draw the newest state,
+panels at 4 Hz) plus the X round trip; pose-to-screen latency is from the manager sending a
 State to the end of the frame that drew it (CLOCK_MONOTONIC, one clock for
 all processes).
 
@@ -177,7 +177,7 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
                 app.refresh()
                 time.sleep(0.02)
             started = time.monotonic() - began
-            times, drawn_at, drawing = [], {}, []
+            times, drawn_at, arrived_at, drawing = [], {}, {}, []
             cpu0, x0, wall0 = time.process_time(), cpu_seconds(xvfb_pid), time.monotonic()
             for _ in range(frames):
                 t0 = time.perf_counter()
@@ -189,9 +189,10 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
                 times.append(spent * 1000.0)
                 if app.state is not None and app.state.version != before:
                     drawn_at[app.state.version] = time.monotonic()
+                    arrived_at[app.state.version] = model.state_at  # when the link thread got it
                     drawing.append(spent * 1000.0)
                 root.update()
-                time.sleep(max(0.0, 1.0 / FPS - (time.perf_counter() - t0)))
+                time.sleep(max(0.0, app.frame_ms / 1000.0 - (time.perf_counter() - t0)))
             wall = time.monotonic() - wall0
             cpu = ((time.process_time() - cpu0) / wall, (cpu_seconds(xvfb_pid) - x0) / wall)
             canvas = (app.canvas.winfo_width(), app.canvas.winfo_height())
@@ -204,6 +205,8 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
             child.stop()
         sent = dict((int(a), float(b)) for a, b in (line.split("\t") for line in stamps.read_text().splitlines()))
         latency = [1000.0 * (t - sent[seq]) for seq, t in drawn_at.items() if seq in sent]
+        transit = [1000.0 * (arrived_at[seq] - sent[seq]) for seq in drawn_at if seq in sent]
+        inside = [1000.0 * (t - arrived_at[seq]) for seq, t in drawn_at.items()]
         states = [seq for seq in sent if min(drawn_at) <= seq <= max(drawn_at)]
         print("live: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
             robots, started, canvas[0], canvas[1], len(times)))
@@ -213,6 +216,10 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
             statistics.median(drawing), float(np.percentile(drawing, 99)), len(drawing)))
         print("  pose-to-screen (State sent -> drawn): p50 {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
             float(np.percentile(latency, 50)), float(np.percentile(latency, 99)), max(latency)))
+        print("    of which sent -> the network thread has it: p50 {:5.1f} ms  p99 {:5.1f} ms; then -> drawn "
+              "(decode, wait for the frame, draw): p50 {:5.1f} ms  p99 {:5.1f} ms".format(
+                  float(np.percentile(transit, 50)), float(np.percentile(transit, 99)),
+                  float(np.percentile(inside, 50)), float(np.percentile(inside, 99))))
         print("  states sent meanwhile {} ({:.1f} a second), drawn {}, coalesced {} (a newer one came in the "
               "same frame); feed dropped {}".format(len(states), len(states) / wall, len(drawn_at),
                                                      len(states) - len(drawn_at), feed.dropped))

@@ -41,11 +41,16 @@ from .wait_layer import WaitLayer
 
 #: Seconds between refreshes of the panels' texts (the map follows every state).
 PANEL_PERIOD = 0.25
+#: The feed is looked at every 15 ms (a poll that finds nothing costs well under a
+#: millisecond), so a state waits half as long for its frame as at the player's 33 ms.
+POLL_MS = 15
 
 
 class LiveApp(LiveActions, PlayerApp):
     """The live console on `root`; `ask(action, based_on=..., **args)` sends a request (the link's
     `request`)."""
+
+    frame_ms = POLL_MS
 
     def __init__(self, root: tk.Tk, feed: LiveFeed, model: LiveModel, ask: Callable[..., None],
                  options: Optional[ViewOptions] = None, canvas_size: Tuple[int, int] = (560, 600)) -> None:
