@@ -28,6 +28,7 @@ State to the end of the frame that drew it (CLOCK_MONOTONIC, one clock for
 all processes).
 
     .venv/bin/python bench/console.py [--case player|live|all] [--frames 300] [--lines goal|path|none]
+                                      [--robots 300] [--seconds 15] [--time-scale 4]
 """
 from __future__ import annotations
 
@@ -126,7 +127,7 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> None:
+def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) -> None:
     """The live console on `robots` virtual robots through a manager; prints its figures."""
     import shutil
     import tempfile
@@ -179,7 +180,7 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
             started = time.monotonic() - began
             times, drawn_at, arrived_at, drawing = [], {}, {}, []
             cpu0, x0, wall0 = time.process_time(), cpu_seconds(xvfb_pid), time.monotonic()
-            for _ in range(frames):
+            while time.monotonic() - wall0 < seconds:
                 t0 = time.perf_counter()
                 before = app.state.version if app.state is not None else None
                 app.refresh()
@@ -233,6 +234,78 @@ def live_times(robots: int, frames: int, time_scale: float, xvfb_pid: int) -> No
         shutil.rmtree(str(work), ignore_errors=True)
 
 
+def synthetic_states(robots: int, count: int):
+    """A scene of `robots` on a 49 x 49 floor and `count` States in which every robot moves and
+    every tenth waits for the next one: what the live console draws, without a network."""
+    from fleet_common.control import (Activity, PlanData, RobotInfo, RobotState, RunInfo, Scene,
+                                      State, Waiting)
+
+    side = 49
+    starts = [(i % side, (i // side) * 2) for i in range(robots)]
+    plan = Plan.from_paths([[s, (s[0], s[1] + 1)] * 10 for s in starts])
+    scene = Scene("floor", tuple("." * side for _ in range(side)),
+                  tuple(RobotInfo(i + 1, "red", "tb") for i in range(robots)),
+                  PlanData(1, tuple(range(1, robots + 1)), plan.positions, "synthetic"), ("adg",), 1.0)
+    states = []
+    for k in range(1, count + 1):
+        f = (k % 20) / 20.0
+        run = RunInfo("running", "", "adg", 1, 1.0 + k * 0.05, 1.0 + k * 0.05, 1, 0, robots, None, 0, None)
+        states.append(State(k, 5, run, tuple(
+            RobotState(i + 1, "up", "", s[0], s[1] + f, 1.57, "robot", 0.05, False, (), None,
+                       Activity("drive", 3, float(s[0]), s[1] + 1.0), 3, 10, 4,
+                       Waiting((i + 2,), (s[0], s[1] + 1), "cell") if i % 10 == 0 and i + 1 < robots else None,
+                       0.0) for i, s in enumerate(starts))))
+    return scene, states
+
+
+def draw_and_decode_costs(robots: int, xvfb_pid: int, count: int = 120) -> None:
+    """CPU per State, in parts: decoding it (the network thread) and drawing it (Tk), measured
+    as CPU time (this process; the X server's from /proc), so the machine's load counts less."""
+    import json
+    import tkinter as tk
+
+    from console.live.feed import CONNECTED, Connection, LiveFeed
+    from console.live.model import LiveModel
+    from console.ui.live_app import LiveApp
+    from fleet_common.control import encode
+    from fleet_common.control.codec import decode
+    from fleet_common.control.messages import MANAGER_MESSAGES
+
+    scene, states = synthetic_states(robots, count)
+    frames = [encode(st) for st in states[:40]]
+    times = {"json.loads": [], "decode": []}
+    for frame in frames:
+        for name, fn in (("json.loads", json.loads), ("decode", lambda f: decode(f, MANAGER_MESSAGES, 1 << 28))):
+            t0 = time.process_time()
+            fn(frame)
+            times[name].append((time.process_time() - t0) * 1000.0)
+    print("  decoding a {}-robot State ({:.0f} KB): {:.1f} ms CPU median (json.loads alone {:.1f} ms)".format(
+        robots, len(frames[0]) / 1000, statistics.median(times["decode"]), statistics.median(times["json.loads"])))
+    root = tk.Tk()
+    try:
+        feed, model = LiveFeed(), LiveModel("synthetic")
+        app = LiveApp(root, feed, model, lambda *a, **k: None)
+        root.after_cancel(app._after)
+        app._after = None
+        feed.offer(Connection(CONNECTED, "synthetic"), 0.0)
+        feed.offer(scene, 0.0)
+        app.refresh()
+        root.update()
+        cpu0, x0 = time.process_time(), cpu_seconds(xvfb_pid)
+        for st in states:
+            feed.offer(st, 0.0)
+            app.refresh()
+            root.update_idletasks()
+            root.winfo_pointerxy()
+        cpu, x = time.process_time() - cpu0, cpu_seconds(xvfb_pid) - x0
+        print("  drawing it (every robot moved, a tenth waiting, panels at 4 Hz): {:.1f} ms CPU a State in the "
+              "console, {:.1f} ms in the X server".format(1000 * cpu / count, 1000 * x / count))
+    finally:
+        root.destroy()
+        del app
+        gc.collect()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--case", choices=("player", "live", "all"), default="all")
@@ -240,12 +313,14 @@ def main() -> None:
     parser.add_argument("--lines", choices=("goal", "path", "none"), default="goal")
     parser.add_argument("--robots", type=int, default=300, help="live: virtual robots (default 300)")
     parser.add_argument("--time-scale", type=float, default=4.0, help="live: the fleet's time scale")
+    parser.add_argument("--seconds", type=float, default=15.0, help="live: seconds measured (default 15)")
     args = parser.parse_args()
     print("python {}, {}, {} cores".format(platform.python_version(), platform.machine(), os.cpu_count()))
     with Xvfb.start(1600, 1200) as server:
         os.environ["DISPLAY"] = server.display
         if args.case in ("live", "all"):
-            live_times(args.robots, args.frames, args.time_scale, server.pid)
+            live_times(args.robots, args.seconds, args.time_scale, server.pid)
+            draw_and_decode_costs(args.robots, server.pid)
         if args.case == "live":
             return
         print("{:<22s} {:>6s} {:>10s} {:>6s} {:>7s} {:>10s} {:>8s} {:>8s} {:>8s}".format(
