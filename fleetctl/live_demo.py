@@ -42,9 +42,10 @@ from .local_fleet import local_definitions
 
 __all__ = ["StallChoice", "pick_stall", "DemoSettings", "run_live_demo"]
 
-#: The virtual robots' driving speed (cells per fleet second) and the start delays' bound.
+#: The virtual robots' driving speed (cells per fleet second): a nominal move of 2 s.
 SPEED = 0.5
-DELAY = 0.4
+#: Moves start after up to this many nominal moves (the delay-model language's unit).
+DELAY = 0.2
 
 
 @dataclass(frozen=True)
@@ -126,7 +127,7 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
         children.append(Child.start("fleet", fleet_args, log=work / "virtual-fleet.log"))
         # a plan step as the virtual robots take it: the drive, the mean start delay, a slow move now
         # and then, a turn at corners (the robots turn ahead while they wait, so less than a full one)
-        step_time = (1.0 / SPEED + DELAY / 2 + 0.2) / settings.time_scale
+        step_time = (1.0 / SPEED * (1.0 + DELAY / 2) + 0.2) / settings.time_scale
         manager = Child.start("manager", [
             "manager", str(solution), "--definitions", str(definitions), "--no-curve", "--host", "127.0.0.1",
             "--bind", endpoint, "--strategy", "adg", "--until-done", "--time-limit", "{:g}".format(settings.time_limit),

@@ -42,6 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="delays for the predicted execution, as `fleetctl simulate` takes "
                              "them (default: moderate random delays)")
+    parser.add_argument("--log", type=Path, default=None, metavar="DIR",
+                        help="run folders go in DIR: the live run's, and each predicted strategy's "
+                             "simulated run (for `fleetctl report`); default: the live run's where "
+                             "`fleetctl manager` puts them, none for the predictions")
     parser.add_argument("--plan-only", action="store_true",
                         help="check, plan and predict; no live run")
     live = parser.add_argument_group("the live run")
@@ -53,8 +57,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     live.add_argument("--stall", default="auto", metavar="auto|none|R:K:S",
                       help="the stall: auto (a move another robot soon depends on), none, or "
                            "robot R halts S s in its K-th move (default auto)")
-    live.add_argument("--log", type=Path, default=None, metavar="DIR",
-                      help="run folders go in DIR (default: as `fleetctl manager`)")
     live.add_argument("--headless", action="store_true",
                       help="no window even with a display: a private Xvfb, frames recorded")
     live.add_argument("--record", action="store_true",
@@ -103,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         print("  " + line)
     if not report.ok:
         return 1
-    predicted = _execute(plan, args)
+    predicted = _execute(plan, args, result.solver, grid, inst)
     if args.plan_only or predicted != 0:
         return predicted
     return _live(inst, plan, result, robots, args)
@@ -130,24 +132,41 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
         return run_live_demo(solution, plan, robots, settings)
 
 
-def _execute(plan, args: argparse.Namespace) -> int:
+def _execute(plan, args: argparse.Namespace, solver: str, grid, inst) -> int:
     """The plan on simulated robots under each strategy: what delays do to it."""
     from fleet_common.execution import STRATEGIES
-    from fleet_common.execution.delays import parse_delay_model
+    from fleet_common.delays import parse_delay_model
     from fleet_common.execution.simulate import simulate
 
-    delays = parse_delay_model(args.delay_model)
+    delays = parse_delay_model(args.delay_model, default="moderate")
     print("predicted execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
     clean = True
     for name in sorted(STRATEGIES):
-        result = simulate(plan, name, delays, seed=args.seed)
+        result = simulate(plan, name, delays, seed=args.seed, journal=args.log is not None)
         missing = result.unfinished()
         clean = clean and not result.collisions and not missing
         print("  {}: executed makespan {:.1f} (plan {}), {} waits, collisions: {}, "
               "robots at goal: {} of {}".format(
                   name, result.metrics.makespan, plan.makespan, result.metrics.total_waits,
                   len(result.collisions), plan.num_agents - len(missing), plan.num_agents))
+        if args.log is not None:
+            print("    run log: {}".format(_log(args.log, plan, result, solver, grid, inst, delays, args.seed)))
     return 0 if clean else 1
+
+
+def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int) -> Path:
+    """A run folder for one strategy's run, with the plan written as a mapf-IR solution."""
+    import tempfile
+
+    from fleet_common.formats.solution import make_solution, write_solution
+    from fleet_common.runlog.simulated import write_simulation
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "plan.txt"
+        write_solution(make_solution(grid, inst.map_file, plan, inst.starts, inst.goals, solver, True, 0), str(path))
+        lines = ["executed makespan {:.2f} (plan {}), sum of costs {:.2f}, collisions {}".format(
+            result.metrics.makespan, plan.makespan, result.metrics.soc, len(result.collisions))]
+        return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)
 
 
 def _robot_lines(robots, plan, nodes) -> List[str]:
