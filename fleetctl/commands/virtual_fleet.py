@@ -62,6 +62,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="robot ID's bumper is pressed halfway through its K-th drive, for "
                              "1 s: it stops with a 'bumper' fault until a stop clears it "
                              "(repeatable)")
+    parser.add_argument("--stall", action="append", default=[], type=_stall, metavar="ID:K:S",
+                        help="robot ID halts S seconds (fleet time) halfway through its K-th drive, "
+                             "then drives on: one robot late on purpose, whatever the delay "
+                             "model says (repeatable)")
     parser.add_argument("--map", type=Path, default=None, metavar="FILE",
                         help="the robots' map: they refuse drives off it or into its obstacles "
                              "(default: the map of --instance, else the lab's when the robots "
@@ -97,6 +101,16 @@ def _bump(text: str) -> tuple:
     if pair[1] < 1:
         raise argparse.ArgumentTypeError("expected ID@K with K >= 1 (e.g. 3@2), got {!r}".format(text))
     return pair
+
+
+def _stall(text: str) -> object:
+    from fleet_common.errors import FleetError
+    from virtual_fleet.stalls import parse_stall
+
+    try:
+        return parse_stall(text)
+    except FleetError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _positive(text: str) -> float:
@@ -146,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
                          speed=args.speed, turn_speed=args.turn_speed,
                          start_poses=poses, path=str(path), check=CommandCheck(grid, limits),
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
-                         drift=dict(args.drift), bumps=args.bump)
+                         drift=dict(args.drift), bumps=args.bump, stalls=args.stall)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
@@ -157,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
               fleet.ports[last.id], args.time_scale,
               "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
               "map {} ({}x{})".format(map_name, grid.width, grid.height) if grid is not None
-              else "no map (drives checked for length and time only)"), flush=True)
+              else "no map (drives checked for length and time only)")
+          + "".join("; " + s.describe() for s in args.stall), flush=True)
     try:
         fleet.run(lambda: bool(stopping))
     finally:
