@@ -262,7 +262,7 @@ def test_a_request_on_an_outdated_picture_is_refused_and_the_refusal_shown(lab: 
         first.app.ask("disable", robot=4)
         assert pump(first, lambda: first.model.robot(4).out == "disabled")
         assert second.model.robot(4).out is None  # it has not heard
-        second.app.ask("enable", robot=2)
+        second.app.ask("disable", robot=4)  # what it sees: robot 4 enabled
         assert not pump(second, lambda: second.model.last_reply is not None, 0.5)  # the answer is held too
         slow_net.held.clear()
         assert pump(second, lambda: second.model.last_reply is not None)
@@ -272,7 +272,7 @@ def test_a_request_on_an_outdated_picture_is_refused_and_the_refusal_shown(lab: 
     assert not reply.ok and "state changed since you looked" in reply.reason and "robot 4 disabled" in reply.reason
     shown = second.app.admin.answer
     assert "REFUSED" in shown.cget("text") and str(shown.cget("foreground")) == "#c8101a"
-    assert any("enable robot=2: REFUSED" in line for line in second.app.events.rows())
+    assert any("disable robot=4: REFUSED" in line for line in second.app.events.rows())
     assert pump(second, lambda: second.model.robot(4).out == "disabled")  # and then it sees why
 
 
