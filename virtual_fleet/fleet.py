@@ -37,6 +37,7 @@ from fleet_common.wire.command_check import CommandCheck
 
 from .delays import FleetDelays
 from .kinematics import VirtualNavigator
+from .stalls import Stall, stalls_by_robot
 from .truth import TruthRecorder, load_state
 
 __all__ = ["VirtualFleet", "FleetThread", "row_poses"]
@@ -62,11 +63,12 @@ class VirtualFleet:
                  check: Optional[CommandCheck] = None, truth: Optional[Path] = None,
                  state: Optional[Path] = None, truth_port: Optional[int] = None,
                  drift: Optional[Dict[int, float]] = None,
-                 bumps: Sequence[Tuple[int, int]] = ()) -> None:
+                 bumps: Sequence[Tuple[int, int]] = (), stalls: Sequence[Stall] = ()) -> None:
         self.robots = on_localhost(robots, path)
         self.check = check or CommandCheck()
         self.ports = feedback_ports(self.robots, feedback_base, path)
-        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps})):
+        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps}),
+                              ("--stall", {s.robot for s in stalls})):
             unknown = sorted(named - {r.id for r in self.robots})
             if unknown:
                 raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path))
@@ -99,6 +101,8 @@ class VirtualFleet:
             self.navigators[robot_id].start_drifting(rate)
         for robot_id, drive in bumps:
             self.navigators[robot_id].bumps.add(drive)
+        for robot_id, planned in stalls_by_robot(stalls).items():
+            self.navigators[robot_id].stalls.update(planned)
         self.recorder.started({r: n.true_pose() for r, n in self.navigators.items()}, bool(resumed))
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back

@@ -18,8 +18,6 @@ from typing import Any, Dict, Optional, Tuple
 
 from fleet_common.delays import FORMS
 
-from ..options import positive
-
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
 DESCRIPTION = HELP + ". Stops on Ctrl-C or SIGTERM."
@@ -29,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
                         help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
                              "repository's robot_definitions.txt)")
-    parser.add_argument("--time-scale", type=positive, default=1.0, metavar="K",
+    parser.add_argument("--time-scale", type=_positive, default=1.0, metavar="K",
                         help="run K times faster than real time (default 1)")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="what goes wrong, the same language as `fleetctl simulate --delay-model` "
@@ -40,9 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
-    parser.add_argument("--speed", type=positive, default=0.5, metavar="CELLS_PER_S",
+    parser.add_argument("--speed", type=_positive, default=0.5, metavar="CELLS_PER_S",
                         help="driving speed (default 0.5 cells/s, about 0.35 m/s in the lab)")
-    parser.add_argument("--turn-speed", type=positive, default=1.5, metavar="RAD_PER_S",
+    parser.add_argument("--turn-speed", type=_positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
                         help="start robot i at agent i's start of this instance or solution "
@@ -64,6 +62,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="robot ID's bumper is pressed halfway through its K-th drive, for "
                              "1 s: it stops with a 'bumper' fault until a stop clears it "
                              "(repeatable)")
+    parser.add_argument("--stall", action="append", default=[], type=_stall, metavar="ID:K:S",
+                        help="robot ID halts S seconds (fleet time) halfway through its K-th drive, "
+                             "then drives on: one robot late on purpose, whatever the delay "
+                             "model says (repeatable)")
     parser.add_argument("--map", type=Path, default=None, metavar="FILE",
                         help="the robots' map: they refuse drives off it or into its obstacles "
                              "(default: the map of --instance, else the lab's when the robots "
@@ -71,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-step", type=_non_negative, default=1.5, metavar="CELLS",
                         help="longest drive a robot accepts, from where it stands (default 1.5: "
                              "one cell and some slack; 0: any distance)")
-    parser.add_argument("--max-time", type=positive, default=120.0, metavar="S",
+    parser.add_argument("--max-time", type=_positive, default=120.0, metavar="S",
                         help="latest arrival time a drive may ask for (default 120 s)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder from `fleetctl keys` (default: "
@@ -99,6 +101,26 @@ def _bump(text: str) -> tuple:
     if pair[1] < 1:
         raise argparse.ArgumentTypeError("expected ID@K with K >= 1 (e.g. 3@2), got {!r}".format(text))
     return pair
+
+
+def _stall(text: str) -> object:
+    from fleet_common.errors import FleetError
+    from virtual_fleet.stalls import parse_stall
+
+    try:
+        return parse_stall(text)
+    except FleetError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError("expected a positive number, got {!r}".format(text))
+    return value
 
 
 def _non_negative(text: str) -> float:
@@ -138,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
                          speed=args.speed, turn_speed=args.turn_speed,
                          start_poses=poses, path=str(path), check=CommandCheck(grid, limits),
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
-                         drift=dict(args.drift), bumps=args.bump)
+                         drift=dict(args.drift), bumps=args.bump, stalls=args.stall)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
@@ -149,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
               fleet.ports[last.id], args.time_scale,
               "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
               "map {} ({}x{})".format(map_name, grid.width, grid.height) if grid is not None
-              else "no map (drives checked for length and time only)"), flush=True)
+              else "no map (drives checked for length and time only)")
+          + "".join("; " + s.describe() for s in args.stall), flush=True)
     try:
         fleet.run(lambda: bool(stopping))
     finally:
