@@ -18,6 +18,8 @@ from typing import Any, Dict, Optional, Tuple
 
 from fleet_common.delays import FORMS
 
+from ..options import positive
+
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
 DESCRIPTION = HELP + ". Stops on Ctrl-C or SIGTERM."
@@ -27,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
                         help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
                              "repository's robot_definitions.txt)")
-    parser.add_argument("--time-scale", type=_positive, default=1.0, metavar="K",
+    parser.add_argument("--time-scale", type=positive, default=1.0, metavar="K",
                         help="run K times faster than real time (default 1)")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="what goes wrong, the same language as `fleetctl simulate --delay-model` "
@@ -38,9 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
-    parser.add_argument("--speed", type=_positive, default=0.5, metavar="CELLS_PER_S",
+    parser.add_argument("--speed", type=positive, default=0.5, metavar="CELLS_PER_S",
                         help="driving speed (default 0.5 cells/s, about 0.35 m/s in the lab)")
-    parser.add_argument("--turn-speed", type=_positive, default=1.5, metavar="RAD_PER_S",
+    parser.add_argument("--turn-speed", type=positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
                         help="start robot i at agent i's start of this instance or solution "
@@ -73,7 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-step", type=_non_negative, default=1.5, metavar="CELLS",
                         help="longest drive a robot accepts, from where it stands (default 1.5: "
                              "one cell and some slack; 0: any distance)")
-    parser.add_argument("--max-time", type=_positive, default=120.0, metavar="S",
+    parser.add_argument("--max-time", type=positive, default=120.0, metavar="S",
                         help="latest arrival time a drive may ask for (default 120 s)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder from `fleetctl keys` (default: "
@@ -111,16 +113,6 @@ def _stall(text: str) -> object:
         return parse_stall(text)
     except FleetError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError("expected a positive number, got {!r}".format(text))
-    return value
 
 
 def _non_negative(text: str) -> float:
