@@ -2,10 +2,12 @@
 
 Loads the embedded lab (the thesis's 13 x 14 marker grid, its node ids), the
 fleet from robot_definitions.txt and the lab's default instance, checks that
-they agree, plans the run with a built-in solver, validates the plan with the
+they agree, plans the run with a built-in solver (or takes a given plan, such
+as a student's mapf-IR output on the lab map), validates the plan with the
 one validator, prints what each robot will do, and executes the plan on
 simulated robots with moderate random delays under both synchronization
-strategies (the execution engine the manager uses), reporting collisions.
+strategies (the execution engine the manager uses), reporting collisions;
+rotations, which robots cannot perform, are repaired first.
 Later issues turn this into the virtual run on the robots' own ports.
 """
 from __future__ import annotations
@@ -15,6 +17,8 @@ from pathlib import Path
 from typing import List
 
 from fleet_common.errors import FleetError
+
+from ..robot_plans import Names, add_repair_options, for_robots
 
 NAME = "demo"
 HELP = "check and plan the embedded lab scenario and print a summary"
@@ -33,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="delays for the simulated execution, as `fleetctl simulate` takes "
                              "them (default: moderate random delays)")
+    parser.add_argument("--plan", type=Path, default=None, metavar="SOLUTION",
+                        help="run this mapf-IR solution on the lab map instead of planning one")
+    add_repair_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,17 +64,24 @@ def run(args: argparse.Namespace) -> int:
         raise FleetError("{} has {} agents but {} defines only {} robots".format(
             inst_path, len(inst.starts), robots_path, len(robots)))
 
-    # a demo should show the best plan: CBS is optimal and quick for a handful of robots
-    for name in [args.solver] if args.solver else ["cbs", "lacam"]:
-        result = solve(name, grid, inst.starts, inst.goals,
-                       deadline=Deadline(args.time_limit), seed=args.seed)
-        if result.solved:
-            break
+    if args.plan is not None:
+        result = _given_plan(args.plan, grid)
+    else:
+        # a demo should show the best plan: CBS is optimal and quick for a handful of robots
+        for name in [args.solver] if args.solver else ["cbs", "lacam"]:
+            result = solve(name, grid, inst.starts, inst.goals,
+                           deadline=Deadline(args.time_limit), seed=args.seed)
+            if result.solved:
+                break
     if not result.solved or result.plan is None:
         print("plan: {} found no plan: {}".format(result.solver, result.message))
         return 3
     plan = result.plan
-    report = validate_plan(plan, grid, starts=inst.starts, goals=inst.goals)
+    if plan.num_agents > len(robots):
+        raise FleetError("the plan has {} agents but {} defines only {} robots".format(
+            plan.num_agents, robots_path, len(robots)))
+    starts, goals = (plan.starts, plan.goals) if args.plan is not None else (inst.starts, inst.goals)
+    report = validate_plan(plan, grid, starts=starts, goals=goals)
     print("plan: {} in {:.0f} ms, soc={}, makespan={}, {}".format(
         result.solver, result.comp_time_ms, plan.soc, plan.makespan,
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
@@ -75,7 +89,31 @@ def run(args: argparse.Namespace) -> int:
         print("  " + line)
     if not report.ok:
         return 1
-    return _execute(plan, args)
+    from fleet_common.execution import PlanError
+    from fleet_common.planning.repair import RepairError
+
+    try:
+        plan = for_robots(plan, grid, "plan", args, Names([r.id for r in robots[:plan.num_agents]]))
+        return _execute(plan, args)
+    except (RepairError, PlanError) as err:
+        print("plan: cannot be executed by robots: {}".format(err))
+        return 1
+
+
+def _given_plan(path: Path, grid):
+    """A solution file on the lab map, as a solver's result."""
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.solution import read_solution
+    from fleet_common.lab import lab_map_path
+    from fleet_common.planning import NO_SOLUTION, SOLVED, SolveResult
+
+    sol = read_solution(path, map_dirs=[lab_map_path().parent] + default_map_dirs())
+    if sol.grid != grid:
+        raise FleetError("{}: its map {} is not the lab's map".format(path, sol.map_file))
+    solver = "{} ({})".format(sol.solver or "?", path)
+    if sol.plan is None or not sol.solved:
+        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run")
+    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0))
 
 
 def _execute(plan, args: argparse.Namespace) -> int:
