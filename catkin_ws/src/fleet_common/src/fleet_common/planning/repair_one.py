@@ -60,6 +60,8 @@ def repair_one(grid: Grid, moves: List[List[int]], ids: np.ndarray, t: int, cycl
     try:
         for t0, t1, open_end in _windows(t, last):
             for agents in _groups(grid, ids, t0, min(t1, t + 1 + FIXED_WINDOWS[-1]), t, cycle):
+                if budget.expired():  # small searches never look at the clock themselves
+                    raise DeadlineReached()
                 block = replan_window(grid, moves, ids, t0, t1, agents, open_end, budget)
                 if block is None:
                     continue
