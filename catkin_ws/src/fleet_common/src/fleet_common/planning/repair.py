@@ -37,7 +37,7 @@ from .deadline import Deadline, as_deadline
 from .repair_one import RepairError, repair_one
 
 #: Time budget of one repair unless the caller gives one (seconds).
-DEFAULT_TIME_LIMIT = 10.0
+DEFAULT_TIME_LIMIT = 30.0
 #: Agents named by `describe` before it only counts the rest.
 MAX_NAMED = 12
 

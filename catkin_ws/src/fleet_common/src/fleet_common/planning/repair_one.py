@@ -62,7 +62,8 @@ def repair_one(grid: Grid, moves: List[List[int]], ids: np.ndarray, t: int, cycl
             for agents in _groups(grid, ids, t0, min(t1, t + 1 + FIXED_WINDOWS[-1]), t, cycle):
                 if budget.expired():  # small searches never look at the clock themselves
                     raise DeadlineReached()
-                block = replan_window(grid, moves, ids, t0, t1, agents, open_end, budget)
+                # an open window reserves everyone to the plan's end: a few orders only
+                block = replan_window(grid, moves, ids, t0, t1, agents, open_end, budget, 2 if open_end else 8)
                 if block is None:
                     continue
                 new = _splice(ids, t0, agents, block)
