@@ -13,10 +13,15 @@ import argparse
 from pathlib import Path
 from typing import List, Optional
 
+from fleet_common.formats.solution import Solution, read_solution
 from fleet_common.grid import Grid
 from fleet_common.lab.fleet import lab_fleet, robot_ids
 from fleet_common.plan import Plan
 from fleet_common.planning.repair import repair_rotations
+from fleet_common.validate import validate_plan
+
+from .options import map_dirs
+from .report import print_findings
 
 
 class Names:
@@ -49,6 +54,25 @@ class Names:
         if self.ids is None:
             return "simulated robots, numbered by agent index from 0"
         return "the lab's robots, named by their ids in the robot definitions"
+
+
+def valid_solution(args: argparse.Namespace, not_done: str) -> Optional[Solution]:
+    """`args.solution` read, if it holds a plan valid apart from rotations; else None, having said why
+    (`not_done`: what is then not done, "not simulated")."""
+    sol = read_solution(args.solution, map_dirs=map_dirs(args))
+    name = str(args.solution)
+    if sol.plan is None or not sol.solved:
+        print("{}: no plan: solver {} did not solve it (solved={})".format(
+            name, sol.solver or "?", int(bool(sol.solved))))
+        return None
+    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
+    report = validate_plan(sol.plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
+    if not report.ok:
+        print_findings(name, report)
+        print("{}: INVALID: {} problem(s); {} (`fleetctl validate` explains)".format(
+            name, len(report.errors), not_done))
+        return None
+    return sol
 
 
 def add_repair_options(parser: argparse.ArgumentParser) -> None:

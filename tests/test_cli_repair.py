@@ -70,7 +70,7 @@ def test_repair_refuses_an_invalid_plan_and_a_failed_run(tmp_path: Path, shared_
     write_solution(make_solution(grid, "g.map", plan, plan.starts, plan.goals, "hand", True, 0), str(tmp_path / "bad.txt"))
     proc = fleetctl("repair", tmp_path / "bad.txt", "-o", tmp_path / "out.txt")
     assert proc.returncode == 1 and "error: vertex conflict at t=1" in proc.stdout
-    assert "INVALID: 1 problem(s) besides rotations; not repaired" in proc.stdout
+    assert "INVALID: 1 problem(s); not repaired" in proc.stdout
     failed = fleetctl("repair", shared_data / "solutions" / "cbs_arena300_1_timeout.txt", "-o", tmp_path / "o.txt")
     assert failed.returncode == 1 and "no plan: solver CBS did not solve it" in failed.stdout
     assert not (tmp_path / "out.txt").exists() and not (tmp_path / "o.txt").exists()

@@ -4,12 +4,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fleet_common.formats.solution import read_solution, write_solution
+from fleet_common.formats.solution import write_solution
 from fleet_common.planning.repair import DEFAULT_TIME_LIMIT, RepairError, repair_rotations
-from fleet_common.validate import validate_plan
 
-from ..options import add_map_dir, map_dirs
-from ..report import print_findings
+from ..options import add_map_dir
+from ..robot_plans import valid_solution
 
 NAME = "repair"
 HELP = "repair a solution's rotations (robots cannot perform them); writes the same format"
@@ -34,19 +33,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sol = read_solution(args.solution, map_dirs=map_dirs(args))
+    sol = valid_solution(args, "not repaired")
+    if sol is None:
+        return 1
     name = str(args.solution)
-    if sol.plan is None or not sol.solved:
-        print("{}: no plan: solver {} did not solve it (solved={})".format(
-            name, sol.solver or "?", int(bool(sol.solved))))
-        return 1
-    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
-    report = validate_plan(sol.plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
-    if not report.ok:
-        print_findings(name, report)
-        print("{}: INVALID: {} problem(s) besides rotations; not repaired (`fleetctl validate` "
-              "explains)".format(name, len(report.errors)))
-        return 1
     try:
         result = repair_rotations(sol.plan, sol.grid, deadline=args.time_limit)
     except RepairError as err:

@@ -11,13 +11,10 @@ from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.execution.delays import FORMS, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
-from fleet_common.formats.solution import read_solution
 from fleet_common.planning.repair import RepairError
-from fleet_common.validate import validate_plan
 
-from ..options import add_map_dir, map_dirs
-from ..report import print_findings
-from ..robot_plans import Names, add_repair_options, for_robots
+from ..options import add_map_dir
+from ..robot_plans import Names, add_repair_options, for_robots, valid_solution
 
 NAME = "simulate"
 HELP = "run a solution on simulated robots with delays: metrics, collisions, who waited for whom"
@@ -74,20 +71,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sol = read_solution(args.solution, map_dirs=map_dirs(args))
-    name = str(args.solution)
-    if sol.plan is None or not sol.solved:
-        print("{}: no plan: solver {} did not solve it (solved={})".format(
-            name, sol.solver or "?", int(bool(sol.solved))))
+    sol = valid_solution(args, "not simulated")
+    if sol is None:
         return 1
-    plan = sol.plan
+    name, plan = str(args.solution), sol.plan
     show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
-    report = validate_plan(plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
-    if not report.ok:
-        print_findings(name, report)
-        print("{}: INVALID: {} problem(s); not simulated (`fleetctl validate` explains)".format(
-            name, len(report.errors)))
-        return 1
     names = Names.of(sol.grid, plan.num_agents, args.definitions)
     try:
         plan = for_robots(plan, sol.grid, name, args, names)
