@@ -6,4 +6,5 @@ entry in `COMMANDS`.
 """
 from __future__ import annotations
 
-COMMANDS = ("info", "validate", "repair", "convert", "solve", "demo", "keys", "virtual_fleet", "console", "simulate")
+COMMANDS = ("info", "validate", "repair", "convert", "solve", "demo", "keys", "virtual_fleet", "console", "simulate",
+            "manager", "trace")
