@@ -131,3 +131,20 @@ def test_demo_runs_a_given_plan_repairing_its_rotation(tmp_path: Path) -> None:
     assert proc.stdout.count("collisions: 0, robots at goal: 4 of 4") == 2
     refused = fleetctl("demo", "--plan", plan, "--no-repair")
     assert refused.returncode == 1 and "plan: cannot be executed by robots: rotation at t=0->1" in refused.stdout
+
+
+def test_the_manager_loads_a_plan_with_its_rotations_repaired(tmp_path: Path) -> None:
+    from fleet_common.execution import Engine, PlanError
+    from fleet_common.formats import default_map_dirs
+    from fleet_manager.plan_source import load_plan
+
+    plan = turning(lab_grid(), "lab.map", tmp_path / "lab_plan.txt", steps=2)
+    loaded = load_plan(plan, 4, "the fleet", default_map_dirs())
+    assert re.fullmatch(r"solution by hand; 2 rotations repaired: agents [0-3](, [0-3])*; soc \+\d+, makespan \+\d+",
+                        loaded.note), loaded.note
+    Engine(loaded.plan)  # runs: no PlanError
+    recorded = loaded.text()  # the run folder's copy: the plan the robots run, its header to match
+    assert "soc={}\n".format(loaded.plan.soc) in recorded and "makespan={}\n".format(loaded.plan.makespan) in recorded
+    as_is = load_plan(plan, 4, "the fleet", default_map_dirs(), repair=False)
+    with pytest.raises(PlanError):
+        Engine(as_is.plan)

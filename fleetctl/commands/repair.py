@@ -42,10 +42,8 @@ def run(args: argparse.Namespace) -> int:
     except RepairError as err:
         print("{}: {}".format(name, err))
         return 1
-    sol.plan = result.plan
     if result.repaired:
-        sol.header.set("soc", result.plan.soc)
-        sol.header.set("makespan", result.plan.makespan)
+        sol.replace_plan(result.plan)
     write_solution(sol, str(args.output))
     print("{}: {} ({:.0f} ms) -> {}".format(name, result.describe(), result.comp_time_ms, args.output))
     return 0
