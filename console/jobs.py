@@ -1,8 +1,8 @@
 """Slow work off the Tk thread: reading a big file, solving an instance.
 
-`Jobs.start(work, done)` runs `work()` in a daemon thread and puts its result
-(or the exception it raised) on a queue; the window's `after()` loop calls
-`drain()` on the Tk thread, which hands each result to its `done(result,
+`Jobs.start(what, work, done)` runs `work()` in a daemon thread and puts its
+result (or the exception it raised) on a queue; the window's `after()` loop
+calls `drain()` on the Tk thread, which hands the result to `done(result,
 error)` there. So a worker never touches a widget (thonny's rule), and the
 window keeps drawing and answering keys while the work runs. One job at a
 time: `start` refuses a second while one runs, so a user pressing Solve twice
@@ -21,8 +21,9 @@ class Jobs:
     """At most one background job, and the queue its result comes back on."""
 
     def __init__(self) -> None:
-        self._results: "queue.Queue[Tuple[Done, Any, Optional[BaseException]]]" = queue.Queue()
+        self._results: "queue.Queue[Tuple[Any, Optional[BaseException]]]" = queue.Queue()
         self._running: Optional[str] = None
+        self._done: Optional[Done] = None
 
     @property
     def running(self) -> Optional[str]:
@@ -30,30 +31,34 @@ class Jobs:
         return self._running
 
     def start(self, what: str, work: Callable[[], Any], done: Done) -> bool:
-        """Run `work` in a thread; False (and nothing started) while another job runs."""
+        """Run `work` in a thread; False (and nothing started) while another job runs.
+
+        `work` must not hold widgets (or the window): whatever the thread holds
+        last is freed on it, and Tk objects freed off the Tk thread crash Tcl.
+        `done` stays here, on the Tk side.
+        """
         if self._running is not None:
             return False
-        self._running = what
+        self._running, self._done = what, done
+        results = self._results
 
         def run() -> None:
             try:
                 result, error = work(), None
             except BaseException as err:  # handed to `done` on the Tk thread, which reports it
                 result, error = None, err
-            self._results.put((done, result, error))
+            results.put((result, error))
 
         threading.Thread(target=run, name="console-job", daemon=True).start()
         return True
 
-    def drain(self, limit: int = 4) -> int:
-        """On the Tk thread: call `done` for up to `limit` finished jobs; how many were handled."""
-        handled = 0
-        while handled < limit:
-            try:
-                done, result, error = self._results.get_nowait()
-            except queue.Empty:
-                break
-            self._running = None
-            handled += 1
+    def drain(self) -> bool:
+        """On the Tk thread: hand a finished job's result to its `done`; whether there was one."""
+        try:
+            result, error = self._results.get_nowait()
+        except queue.Empty:
+            return False
+        done, self._done, self._running = self._done, None, None
+        if done is not None:
             done(result, error)
-        return handled
+        return True

@@ -2,14 +2,23 @@
 
 The shared data (real mapf-IR maps, instances and solutions) sits beside the
 repository, as ../shared/data/mapf-ir; CI always has it, so its absence fails
-loudly instead of skipping tests.
+loudly instead of skipping tests. Console tests that run Tk in this process
+get `display` and `root`: one private Xvfb for the whole session, because Tk
+keeps its first X connection until the process ends (a second server would
+end the process when the first one stops).
 """
 from __future__ import annotations
 
+import gc
+import os
+import tkinter as tk
 from pathlib import Path
+from typing import Iterator
 
 import pytest
 from hypothesis import settings
+
+from console.xvfb import Xvfb
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data" / "mapf-ir"
@@ -35,3 +44,41 @@ def shared_data() -> Path:
             pytrace=False,
         )
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def _xvfb() -> Iterator[str]:
+    server = Xvfb.start()
+    try:
+        yield server.display
+    finally:
+        server.stop()
+
+
+@pytest.fixture(scope="module")
+def display(_xvfb: str) -> Iterator[str]:
+    """The session's Xvfb as $DISPLAY while a module's Tk tests run."""
+    before = os.environ.get("DISPLAY")
+    os.environ["DISPLAY"] = _xvfb
+    try:
+        yield _xvfb
+    finally:
+        if before is None:
+            os.environ.pop("DISPLAY", None)
+        else:
+            os.environ["DISPLAY"] = before
+
+
+@pytest.fixture
+def root(display: str) -> Iterator[tk.Tk]:
+    """A Tk window at the top-left of the display, destroyed after the test."""
+    window = tk.Tk()
+    window.geometry("+0+0")
+    try:
+        yield window
+    finally:
+        if window.winfo_exists():
+            window.destroy()
+        # Tk objects left in reference cycles must die on this (Tk's) thread, not in
+        # whatever thread the garbage collector next happens to run on
+        gc.collect()

@@ -17,10 +17,7 @@ from console.ui.app import PlayerApp
 from fleet_common.lab import lab_instance_path, lab_map_path, node_table
 from fleet_common.planning import solve
 from fleet_common.validate import validate_plan
-import test_console_player as player
 from test_console_player import conflict_solution, open_player, press
-
-display, root = player.display, player.root  # the player tests' fixtures: Xvfb, a Tk window on it
 
 ECBS = "solutions/ecbs_random-32-32-20_30agents_1.txt"
 
