@@ -1,5 +1,6 @@
 """What several test modules need: `fleetctl` run as a user runs it, free loopback ports,
-a naive rotation checker (the oracle for the vectorised one).
+a naive rotation checker (the oracle for the vectorised one), a huge broken instance (also
+bench/hostile_files.py's).
 """
 from __future__ import annotations
 
@@ -78,3 +79,23 @@ def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int
             if k == i and len(cycle) >= min_length and i == min(cycle):
                 found.add((t + 1, tuple(cycle)))
     return found
+
+
+def big_broken_instance(path: Path, size: int = 50_000_000) -> Path:
+    """A `size`-byte lab instance whose line 33 puts an agent off the map: 27 good agent
+    lines before it, then comment lines to the end, so that a reader that checks cells only
+    after reading every line finds line 33 last."""
+    from fleet_common.lab import node_table
+
+    free = list(node_table().grid().free_cells())
+    flip = [(x, 13 - y) for x, y in free]  # the lab map is 14 high; files are mapf-IR's way up
+    good = ["{},{},{},{}\n".format(*flip[i], *flip[27 + i]) for i in range(27)]
+    comment = "# " + "-" * 61 + "\n"
+    with open(path, "w") as f:
+        f.write("map_file=lab.map\nagents=28\nseed=0\nrandom_problem=0\nmax_timestep=100\n")
+        f.write("".join(good))
+        f.write("99,5,11,5\n")  # line 33: x = 99 on a map 13 wide
+        block = comment * 100_000
+        while f.tell() < size:
+            f.write(block)
+    return path
