@@ -121,3 +121,17 @@ def test_an_instance_is_solved_in_the_background_while_the_window_answers(root: 
     assert validate_plan(scene.plan, scene.grid, goals=scene.goals, strict_rotations=True).ok
     assert np.array_equal(scene.plan.positions[0], np.array(scene_from_instance(lab_instance_path()).starts))
     assert app.clock.playing  # it plays at once
+
+
+def test_the_header_counts_rotations_of_a_solved_plan(tmp_path: Path) -> None:
+    from fleet_common.formats import make_solution, map_from_grid, write_map, write_solution
+    from fleet_common.grid import Grid
+    from fleet_common.plan import Plan
+
+    grid = Grid(np.ones((4, 4), dtype=bool))
+    write_map(map_from_grid(grid), str(tmp_path / "g.map"))
+    square = [(1, 1), (2, 1), (2, 2), (1, 2)]
+    plan = Plan.from_paths([[square[i], square[(i + 1) % 4]] for i in range(4)])
+    write_solution(make_solution(grid, "g.map", plan, plan.starts, plan.goals, "hand", True, 0),
+                   str(tmp_path / "r.txt"))
+    assert scene_from_solution(tmp_path / "r.txt").info[1] == "solved, 1 rotation (robots need them repaired)"
