@@ -24,6 +24,7 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
     "console": ".",
+    "evaluation": ".",
 }
 
 #: Data files shipped inside packages (globs relative to the package folder).
@@ -63,6 +64,11 @@ setup(
         "networkx>=3,<4",
         "Pillow>=9.4,<14",
         "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
+        # sweeps and reports (fleetctl experiment, fleetctl report): tables, plots, clusters
+        "pyarrow>=14,<21",  # 21+ need numpy 2; Debian 12 has 1.24
+        "matplotlib>=3.7,<3.11",
+        "contourpy>=1.2,<1.3.3",  # matplotlib's; <1.3.3 keeps Debian 12's numpy 1.24
+        "dask[distributed]>=2024.1,<2027",
     ],
     extras_require={
         # The robot's tag detector and the simulated base's tag drawing (agv_package).

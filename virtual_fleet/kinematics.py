@@ -21,7 +21,7 @@ from typing import Callable, List, Optional, Set, Tuple
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
 
-from .delays import DelayModel, MoveFate
+from .delays import FleetDelays, MoveFate
 
 __all__ = ["VirtualNavigator", "wrap_angle"]
 
@@ -44,7 +44,7 @@ class VirtualNavigator:
     """Kinematic robot; `speed` in cells/s, `turn_speed` in rad/s (fleet seconds)."""
 
     def __init__(self, pose: Pose, *, speed: float = 0.5, turn_speed: float = 1.5,
-                 time_scale: float = 1.0, model: Optional[DelayModel] = None,
+                 time_scale: float = 1.0, model: Optional[FleetDelays] = None,
                  rng: Optional[random.Random] = None,
                  clock: Callable[[], float] = _time.monotonic) -> None:
         if speed <= 0 or turn_speed <= 0 or time_scale <= 0:
@@ -52,7 +52,7 @@ class VirtualNavigator:
         self.speed = speed
         self.turn_speed = turn_speed
         self.time_scale = time_scale
-        self.model = model or DelayModel()
+        self.model = model or FleetDelays()
         self.rng = rng or random.Random(0)
         self.clock = clock
         self._t0 = clock()

@@ -40,7 +40,7 @@ def load_state(path: Path) -> Dict[int, Pose]:
     try:
         data = loads_frame(path.read_bytes()[:MAX_STATE_BYTES + 1], max_bytes=MAX_STATE_BYTES)
         poses = {int(k): Pose(float(v[0]), float(v[1]), float(v[2])) for k, v in data["robots"].items()}
-        if not all(math.isfinite(v) for p in poses.values() for v in p):
+        if not all(math.isfinite(v) for p in poses.values() for v in (p.x, p.y, p.theta)):
             raise ValueError("a pose that is not finite")
         return poses
     except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError) as err:

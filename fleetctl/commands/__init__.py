@@ -7,4 +7,4 @@ entry in `COMMANDS`.
 from __future__ import annotations
 
 COMMANDS = ("info", "validate", "repair", "convert", "solve", "demo", "keys", "virtual_fleet", "console", "simulate",
-            "manager", "trace")
+            "manager", "trace", "experiment", "report")

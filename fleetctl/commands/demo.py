@@ -37,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="delays for the simulated execution, as `fleetctl simulate` takes "
                              "them (default: moderate random delays)")
+    parser.add_argument("--log", type=Path, default=None, metavar="DIR",
+                        help="also write each strategy's simulated run as a run folder in DIR "
+                             "(for `fleetctl report`)")
     parser.add_argument("--plan", type=Path, default=None, metavar="SOLUTION",
                         help="run this mapf-IR solution on the lab map instead of planning one")
     add_repair_options(parser)
@@ -94,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         plan = for_robots(plan, grid, "plan", args, Names([r.id for r in robots[:plan.num_agents]]))
-        return _execute(plan, args)
+        return _execute(plan, args, result.solver, grid, inst)
     except (RepairError, PlanError) as err:
         print("plan: cannot be executed by robots: {}".format(err))
         return 1
@@ -116,24 +119,41 @@ def _given_plan(path: Path, grid):
     return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0))
 
 
-def _execute(plan, args: argparse.Namespace) -> int:
+def _execute(plan, args: argparse.Namespace, solver: str, grid, inst) -> int:
     """The plan on simulated robots under each strategy: what delays do to it."""
     from fleet_common.execution import STRATEGIES
-    from fleet_common.execution.delays import parse_delay_model
+    from fleet_common.delays import parse_delay_model
     from fleet_common.execution.simulate import simulate
 
-    delays = parse_delay_model(args.delay_model)
+    delays = parse_delay_model(args.delay_model, default="moderate")
     print("execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
     clean = True
     for name in sorted(STRATEGIES):
-        result = simulate(plan, name, delays, seed=args.seed)
+        result = simulate(plan, name, delays, seed=args.seed, journal=args.log is not None)
         missing = result.unfinished()
         clean = clean and not result.collisions and not missing
         print("  {}: executed makespan {:.1f} (plan {}), {} waits, collisions: {}, "
               "robots at goal: {} of {}".format(
                   name, result.metrics.makespan, plan.makespan, result.metrics.total_waits,
                   len(result.collisions), plan.num_agents - len(missing), plan.num_agents))
+        if args.log is not None:
+            print("    run log: {}".format(_log(args.log, plan, result, solver, grid, inst, delays, args.seed)))
     return 0 if clean else 1
+
+
+def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int) -> Path:
+    """A run folder for one strategy's run, with the plan written as a mapf-IR solution."""
+    import tempfile
+
+    from fleet_common.formats.solution import make_solution, write_solution
+    from fleet_common.runlog.simulated import write_simulation
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "plan.txt"
+        write_solution(make_solution(grid, inst.map_file, plan, plan.starts, plan.goals, solver, True, 0), str(path))
+        lines = ["executed makespan {:.2f} (plan {}), sum of costs {:.2f}, collisions {}".format(
+            result.metrics.makespan, plan.makespan, result.metrics.soc, len(result.collisions))]
+        return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)
 
 
 def _robot_lines(robots, plan, nodes) -> List[str]:
