@@ -104,6 +104,10 @@ def test_simulate_names_the_lab_robots_by_their_ids(tmp_path: Path) -> None:
     assert rows[2][1] == "0"  # robot 3 (agent 2) stopped before its first move
     blocked = re.search(r"^robot 3 is out; waiting for it, directly or behind others: robots? ([0-9, ]+)$", out, re.M)
     assert blocked and set(blocked.group(1).split(", ")) <= {"1", "2", "4"}
+    logged = fleetctl("simulate", plan, "--log", tmp_path / "runs")
+    assert logged.returncode == 0, logged.stdout + logged.stderr
+    recorded = list((tmp_path / "runs").glob("*/plan-1.txt"))  # the plan that ran: the repaired one
+    assert len(recorded) == 1 and fleetctl("validate", recorded[0], "--strict-rotations").returncode == 0
     wrong = fleetctl("simulate", plan, "--disable", "0@1")
     assert wrong.returncode == 2
     assert wrong.stderr.strip() == "fleetctl simulate: --disable 0@1: the plan has robots 1, 2, 3, 4"

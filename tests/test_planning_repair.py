@@ -16,7 +16,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from fleet_common.execution import Engine, PlanError
-from fleet_common.execution.delays import parse_delay_model
+from fleet_common.delays import parse_delay_model
 from fleet_common.execution.simulate import simulate
 from fleet_common.grid import Grid
 from fleet_common.plan import Orientation, Plan
