@@ -154,7 +154,7 @@ link_fleetctl() {
     ln -sfn "$target" "$link"
     say "fleetctl: $link -> $target"
   else
-    say "fleetctl: cannot write $BIN_DIR (run setup as root); run $target, or: export PATH=\"$PWD/$VENV/bin:\$PATH\""
+    say "fleetctl: $BIN_DIR is not a folder this user may write (setup as root does it); run $target, or: export PATH=\"$PWD/$VENV/bin:\$PATH\""
   fi
 }
 
