@@ -11,18 +11,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence
 
 from fleet_common.formats.header import MAPF_IR, read_text
 from fleet_common.formats.instance import parse_instance
 from fleet_common.formats.mapfile import read_map
 from fleet_common.formats.solution import read_solution
 from fleet_common.grid import Coord, Grid
+from fleet_common.lab import node_table
+from fleet_common.lab.fleet import lab_fleet, lab_grid
 from fleet_common.plan import Plan
-from fleet_common.robots import RobotDefinition, read_robot_definitions
+from fleet_common.robots import RobotDefinition
 from fleet_common.validate import FOLLOWING, ROTATION, Finding, validate_plan
 
 from .palette import agent_colours
+
+
+#: `Scene.kind` values.
+SOLUTION, INSTANCE, MAP = "solution", "instance", "map"
 
 
 @dataclass
@@ -44,6 +50,10 @@ class Scene:
     rotations: int = 0
     file_orientation: str = MAPF_IR
     title: str = ""
+    #: what the scene was read from: SOLUTION, INSTANCE or MAP (an instance can be solved)
+    kind: str = SOLUTION
+    #: the lab's floor-marker node id of each cell, on the lab map only
+    node_ids: Dict[Coord, int] = field(default_factory=dict)
 
     @property
     def num_agents(self) -> int:
@@ -54,25 +64,19 @@ class Scene:
         return 0 if self.plan is None else self.plan.makespan
 
 
-def lab_robots(grid: Grid, n: int) -> Optional[List[RobotDefinition]]:
-    """The lab's robots when `grid` is the lab map and they are enough for `n` agents."""
-    from fleet_common.lab import lab_map_path
-
-    if grid != read_map(str(lab_map_path())).grid:
-        return None
-    robots = read_robot_definitions()
-    return robots if n <= len(robots) else None
-
-
 def _style(scene: Scene, robots: Optional[Sequence[RobotDefinition]]) -> None:
+    """Colours and names: the lab fleet's robots (`fleet_common.lab.fleet`), else agents by index."""
     n = scene.num_agents
     if robots is None:
-        robots = lab_robots(scene.grid, n)
+        robots = lab_fleet(scene.grid, n)
     scene.colours = agent_colours(n, robots)
     if robots is not None and n <= len(robots):
         scene.names = ["robot {}".format(r.id) for r in robots[:n]]
     else:
         scene.names = ["agent {}".format(i) for i in range(n)]
+    if scene.grid == lab_grid():
+        table = node_table()
+        scene.node_ids = {c: int(table.node_at(c) or 0) for c in scene.grid.free_cells()}
 
 
 def scene_from_solution(path: Path, map_path: Optional[Path] = None,
@@ -93,8 +97,20 @@ def scene_from_solution(path: Path, map_path: Optional[Path] = None,
                                makespan=sol.makespan, strict_following=strict_following)
         scene.findings = report.errors
         scene.following, scene.rotations = report.count(FOLLOWING), report.count(ROTATION)
+        info[1] = _verdict(scene)
     _style(scene, robots)
     return scene
+
+
+def _verdict(scene: Scene) -> str:
+    """The header's word on a solved plan: what the validator found, not only what the solver said."""
+    n = len(scene.findings)
+    if n:
+        return "INVALID: {} conflict{} or error{} (listed)".format(n, "s" * (n > 1), "s" * (n > 1))
+    if scene.rotations:
+        return "solved, {} rotation{} (robots need them repaired)".format(
+            scene.rotations, "s" if scene.rotations > 1 else "")
+    return "solved"
 
 
 def scene_from_instance(path: Path, map_path: Optional[Path] = None,
@@ -108,8 +124,17 @@ def scene_from_instance(path: Path, map_path: Optional[Path] = None,
     if inst.random_problem:
         info[0] = "instance with random_problem=1: the solver draws starts and goals"
     scene = Scene(inst.grid, list(inst.starts), list(inst.goals), None, info=info,
-                  file_orientation=inst.orientation, title=Path(path).name)
+                  file_orientation=inst.orientation, title=Path(path).name, kind=INSTANCE)
     _style(scene, robots)
+    return scene
+
+
+def scene_from_map(path: Path) -> Scene:
+    """A map without agents (on the lab map: its node ids can be shown)."""
+    grid = read_map(str(path)).grid
+    scene = Scene(grid, [], [], None, info=["map: {} x {} cells, {} free".format(
+        grid.width, grid.height, int(grid.free.sum())), Path(path).name], title=Path(path).name, kind=MAP)
+    _style(scene, None)
     return scene
 
 
@@ -122,6 +147,8 @@ def scene_from_plan(grid: Grid, plan: Plan, goals: Optional[Sequence[Coord]] = N
     report = validate_plan(plan, grid, goals=goals)
     scene.findings = report.errors
     scene.following, scene.rotations = report.count(FOLLOWING), report.count(ROTATION)
+    if scene.findings or scene.rotations:
+        scene.info.insert(min(1, len(scene.info)), _verdict(scene))
     _style(scene, robots)
     return scene
 

@@ -19,6 +19,8 @@ class ViewOptions:
     goals: bool = True
     lines: str = LINE_GOAL
     ids: bool = False
+    #: the lab's floor-marker node ids instead of cell ids (lab map only)
+    node_ids: bool = False
     grid_lines: bool = True
     orientation: str = LAB
     #: the highlighted agent (clicked or picked from the list), if any

@@ -22,11 +22,13 @@ SYSTEM_PYTHON=/usr/bin/python3
 VENV=.venv
 PIP_SPEC="pip>=24,<27"
 SETUP_STAMP="$VENV/.fleetcontrol-setup"
+# Where setup links `fleetctl`, so that it is on the PATH and the README's examples work as typed.
+BIN_DIR=${FLEETCONTROL_BIN_DIR:-/usr/local/bin}
 
 # name | function | help; in the order `--help` lists them. The server:*, robots:* and
 # net:check lines repeat deploy/cli.py's COMMANDS (a test checks that they agree).
 SUBCOMMANDS=(
-  "setup|cmd_setup|Install what FleetControl needs (Debian 12, as root); quick once done."
+  "setup|cmd_setup|Install what FleetControl needs (Debian 12, as root), fleetctl on the PATH; quick once done."
   "demo|cmd_demo|Set up, then run 'fleetctl demo' on the embedded lab scenario (arguments pass through)."
   "test|cmd_test|Set up, build catkin_ws, check robot code against Python 3.8, run pytest (arguments pass through)."
   "server:init|cmd_deploy|Clone the repository on the server (deploy key copied first)."
@@ -141,10 +143,26 @@ install_python_packages() {
   printf '%s\n' "$want" >"$SETUP_STAMP"
 }
 
+# A symlink BIN_DIR/fleetctl -> this checkout's .venv/bin/fleetctl (the last checkout set up wins).
+link_fleetctl() {
+  local target="$PWD/$VENV/bin/fleetctl" link="$BIN_DIR/fleetctl"
+  if [[ -L $link && $(readlink "$link") == "$target" ]]; then
+    say "fleetctl: on the PATH ($link)"
+  elif [[ -e $link && ! -L $link ]]; then
+    say "fleetctl: $link is another program, left alone; run $target"
+  elif [[ -d $BIN_DIR && -w $BIN_DIR ]]; then
+    ln -sfn "$target" "$link"
+    say "fleetctl: $link -> $target"
+  else
+    say "fleetctl: $BIN_DIR is not a folder this user may write (setup as root does it); run $target, or: export PATH=\"$PWD/$VENV/bin:\$PATH\""
+  fi
+}
+
 cmd_setup() {
   install_apt_packages
   ensure_venv
   install_python_packages
+  link_fleetctl
   say "setup done"
 }
 

@@ -2,11 +2,16 @@
 
 The shared data (real mapf-IR maps, instances and solutions) sits beside the
 repository, as ../shared/data/mapf-ir; CI always has it, so its absence fails
-loudly instead of skipping tests.
+loudly instead of skipping tests. Console tests that run Tk in this process
+get `display` and `root`: one private Xvfb for the whole session, because Tk
+keeps its first X connection until the process ends (a second server would
+end the process when the first one stops).
 """
 from __future__ import annotations
 
+import gc
 import os
+import tkinter as tk
 from pathlib import Path
 from typing import Iterator
 
@@ -65,3 +70,18 @@ def display(xvfb: str) -> Iterator[str]:
             os.environ.pop("DISPLAY", None)
         else:
             os.environ["DISPLAY"] = before
+
+
+@pytest.fixture
+def root(display: str) -> Iterator[tk.Tk]:
+    """A Tk window at the top-left of the display, destroyed after the test."""
+    window = tk.Tk()
+    window.geometry("+0+0")
+    try:
+        yield window
+    finally:
+        if window.winfo_exists():
+            window.destroy()
+        # Tk objects left in reference cycles must die on this (Tk's) thread, not in
+        # whatever thread the garbage collector next happens to run on
+        gc.collect()

@@ -60,11 +60,14 @@ def test_a_disabled_robot_blocks_others_who_are_named(shared_data):
     assert proc.returncode == 1  # not every enabled robot reached its goal
     out = proc.stdout
     assert re.search(r"^disabled: robot 3 at t=[0-9.]+$", out, re.M)
-    blocked = re.search(r"^blocked by robot 3: ([0-9, ]+)$", out, re.M).group(1)
-    missing = re.search(r"^reached goal: (\d+) of 99 enabled robots; not reached: ([0-9, ]+)$", out, re.M)
+    # what the numbers are: the robots that wait for the out one (here agent indices: not the lab)
+    blocked = re.search(r"^robot 3 is out; waiting for it, directly or behind others: robots ([0-9, ]+)$",
+                        out, re.M).group(1)
+    missing = re.search(r"^reached goal: (\d+) of 99 enabled robots; not reached: robots ([0-9, ]+)$", out, re.M)
     assert missing.group(2) == blocked and int(missing.group(1)) == 99 - len(blocked.split(", "))
     assert "collisions: 0 (vertex 0, swap 0)" in out
     assert "(robots that reached their goals only)" in out
+    assert "fleet: simulated robots, numbered by agent index from 0" in out
     rows = [ln for ln in out.splitlines() if re.match(r"^\s+\d+\s+\d+\s+", ln)]
     assert len(rows) == 100 and rows[3].split()[:3] == ["3", "10", "-"]  # 10 moves, never arrived
 
@@ -112,13 +115,19 @@ def _write(tmp_path: Path, paths) -> Path:
     return tmp_path / "plan.txt"
 
 
-def test_a_rotation_cannot_be_executed_and_is_named_in_the_files_coordinates(tmp_path):
+def test_a_rotation_is_repaired_in_one_line_and_no_repair_refuses_it_in_the_files_coordinates(tmp_path):
     square = [(0, 0), (1, 0), (1, 1), (0, 1)]  # base frame; the file's y is 3 - y
     path = _write(tmp_path, [[square[i], square[(i + 1) % 4]] for i in range(4)])
     proc = simulate(path)
-    assert proc.returncode == 1
-    assert proc.stdout.startswith("{}: cannot be executed by robots: rotation at t=0->1: agents ".format(path))
-    assert "(0, 3)" in proc.stdout and "(1, 2)" in proc.stdout and "(0, 0)" not in proc.stdout
+    assert proc.returncode == 0, proc.stdout
+    first = proc.stdout.splitlines()[0]
+    assert re.fullmatch(r"{}: 1 rotation repaired: agents [0-3](, [0-3])*; soc \+\d+, makespan \+\d+".format(
+        re.escape(str(path))), first), first
+    assert "collisions: 0 (vertex 0, swap 0)" in proc.stdout and "reached goal: 4 of 4" in proc.stdout
+    refused = simulate(path, "--no-repair")
+    assert refused.returncode == 1
+    assert refused.stdout.startswith("{}: cannot be executed by robots: rotation at t=0->1: agents ".format(path))
+    assert "(0, 3)" in refused.stdout and "(1, 2)" in refused.stdout and "(0, 0)" not in refused.stdout
 
 
 def test_an_invalid_plan_is_not_simulated(tmp_path):

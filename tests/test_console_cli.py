@@ -9,30 +9,19 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import Dict, Iterator, List, Optional
+from typing import Dict, List, Optional
 
 import numpy as np
-import pytest
 from PIL import Image
 
 from console.scene import scene_from_instance, scene_from_solution
 from console.ui.map_view import HEADER_HEIGHT
 from console.viewport import Viewport
-from console.xvfb import Xvfb
 from fleet_common.lab import lab_instance_path
 from fleet_common.robots import colour_to_rgb
 
 FLEETCTL = str(Path(sys.executable).parent / "fleetctl")
 ECBS = "solutions/ecbs_random-32-32-20_30agents_1.txt"
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    server = Xvfb.start()
-    try:
-        yield server.display
-    finally:
-        server.stop()
 
 
 def fleetctl(args: List[str], display: Optional[str]) -> subprocess.CompletedProcess:

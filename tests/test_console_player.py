@@ -7,12 +7,11 @@ top), not by calling the code under test to place them.
 """
 from __future__ import annotations
 
-import gc
 import threading
 import time
 import tkinter as tk
 from pathlib import Path
-from typing import Iterator, Tuple
+from typing import Tuple
 
 import numpy as np
 import pytest
@@ -28,20 +27,6 @@ from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 
 ECBS = "solutions/ecbs_random-32-32-20_30agents_1.txt"
-
-
-@pytest.fixture
-def root(display: str) -> Iterator[tk.Tk]:
-    window = tk.Tk()
-    window.geometry("+0+0")
-    try:
-        yield window
-    finally:
-        if window.winfo_exists():
-            window.destroy()
-        # Tk objects left in reference cycles must die on this (Tk's) thread, not in
-        # whatever thread the garbage collector next happens to run on
-        gc.collect()
 
 
 def open_player(root: tk.Tk, scene: Scene, **kw: object) -> PlayerApp:

@@ -211,10 +211,13 @@ def test_init_update_build_start_status_stop_on_every_robot_at_once(lab: Lab) ->
 
 
 def test_the_server_side_through_ciirc_exec(lab: Lab, repo_root: Path) -> None:
+    # its setup step links fleetctl into FLEETCONTROL_BIN_DIR: a scratch folder, not this machine's PATH
+    env = dict(os.environ, FLEETCONTROL_BIN_DIR=str(lab.tmp))
+
     def script(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run(
             [str(repo_root / "scripts" / "ciirc-exec.sh"), *args, "--config",
-             str(lab.tmp / "deploy.yaml")], capture_output=True, text=True, timeout=300)
+             str(lab.tmp / "deploy.yaml")], capture_output=True, text=True, timeout=300, env=env)
 
     for command in ("server:init", "server:update", "server:build", "server:start"):
         result = script(command)

@@ -49,6 +49,15 @@ def test_crlf_map_is_accepted_and_written_back_with_crlf():
     assert format_map(m) == text
 
 
+def test_a_map_mixing_lf_and_crlf_line_endings_is_read_as_mapf_ir_reads_it(tmp_path):
+    # an editor or a copy across systems leaves some lines with CRLF and some with LF
+    path = tmp_path / "mixed.map"
+    path.write_bytes(b"type octile\nheight 3\r\nwidth 3\nmap\r\n.@.\n..T\r\n...\n")
+    m = read_map(path)
+    assert m.rows == [".@.", "..T", "..."] and m.grid == Grid.from_rows([".@.", "..T", "..."])
+    assert m.newline == "\n" and format_map(m) == "type octile\nheight 3\nwidth 3\nmap\n.@.\n..T\n...\n"
+
+
 def test_missing_final_newline_is_kept():
     text = "height 1\nwidth 2\nmap\n.@"
     m = parse_map(text)
@@ -88,7 +97,7 @@ BAD_MAPS = [
     ("height 1\nwidth 3\nmap\n.\t.\n", 4, 2, "a tab"),
     ("height 1\nwidth 3\nmap\n..\x07\n", 4, 3, "control character"),
     ("height 1\nwidth 3\nmap\n.\u00e9.\n", 4, 2, "non-ASCII character"),
-    ("height 1\nwidth 3\nmap\n...\r\n", 4, 4, "carriage return"),
+    ("height 1\nwidth 3\nmap\n.\r.\n", 4, 2, "carriage return"),
 ]
 
 

@@ -142,3 +142,19 @@ def test_every_module_folder_is_a_regular_package(repo_root: Path) -> None:
     folders = {py.parent for root in roots if root.is_dir() for py in root.rglob("*.py")}
     missing = sorted(str(d.relative_to(repo_root)) for d in folders if not (d / "__init__.py").is_file())
     assert missing == []
+
+
+def test_setup_puts_fleetctl_on_the_path_so_readme_examples_work_as_typed(repo_root: Path, tmp_path: Path) -> None:
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    env = dict(os.environ, FLEETCONTROL_BIN_DIR=str(bin_dir))
+    result = run([str(repo_root / "scripts" / "ciirc-exec.sh"), "setup"], cwd=tmp_path, env=env)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert f"fleetctl: {bin_dir}/fleetctl -> {repo_root}/.venv/bin/fleetctl" in result.stdout
+    # a shell with only the system folders and that one on its PATH, elsewhere: `fleetctl ...` as typed
+    typed = run(["bash", "-c", "fleetctl info lab.map"], cwd=repo_root / FLEET_COMMON / "src" / "fleet_common" / "lab",
+                env={"PATH": f"{bin_dir}:/usr/bin:/bin", "HOME": str(tmp_path)})
+    assert typed.returncode == 0, typed.stderr
+    assert "13 x 14" in typed.stdout or "13x14" in typed.stdout, typed.stdout
+    again = run([str(repo_root / "scripts" / "ciirc-exec.sh"), "setup"], cwd=tmp_path, env=env)
+    assert f"fleetctl: on the PATH ({bin_dir}/fleetctl)" in again.stdout

@@ -91,7 +91,8 @@ def run_folder(tmp_path_factory, repo_root):
     plan = folder / "lab.txt"
     assert fleetctl("solve", repo_root / "catkin_ws/src/fleet_common/src/fleet_common/lab/lab_instance.txt",
                     "-s", "cbs", "-o", plan).returncode == 0
-    proc = fleetctl("simulate", plan, "--delay-model", "events=bernoulli:1:2-2", "--disable", "2@3",
+    # the lab plan runs on the lab fleet, where --disable names robot 3 by its id: agent 2 in the run folder
+    proc = fleetctl("simulate", plan, "--delay-model", "events=bernoulli:1:2-2", "--disable", "3@3",
                     "--log", folder / "runs")
     assert proc.returncode == 1 and "run log: " in proc.stdout  # robot 2 out: someone cannot arrive
     (run,) = list((folder / "runs").iterdir())

@@ -354,14 +354,17 @@ def test_fleetctl_validate_counts_rotations_and_refuses_them_when_strict(tmp_pat
 
     relaxed = validate()
     assert relaxed.returncode == 0, relaxed.stdout + relaxed.stderr
-    assert relaxed.stdout.strip().endswith(
-        "(4 following moves, legal in mapf-IR; 1 rotations: robots cannot execute these)")
+    summary, hint = relaxed.stdout.strip().splitlines()[-2:]
+    assert summary.endswith("(4 following moves, legal in mapf-IR; 1 rotations: robots cannot execute these)")
+    # and what to do about it
+    assert hint == ("{0}: `fleetctl repair {0} -o OUT` makes it executable by robots (repairs the rotations; "
+                    "`fleetctl simulate` does so by itself)".format(path))
     strict = validate("--strict-rotations")
     assert strict.returncode == 1
     # the file's own frame: y flipped on the 5-row map
     assert "{}: error: rotation at t=1->2: agents 1, 4, 2, 3 each enter the cell the next one leaves " \
            "((3, 1), (2, 1), (2, 2), (3, 2))".format(path) in strict.stdout
-    assert "INVALID: 1 problem(s)" in strict.stdout
+    assert "INVALID: 1 problem(s)" in strict.stdout and strict.stdout.strip().splitlines()[-1] == hint
 
 
 def test_counts_include_findings_past_the_listing_cap():

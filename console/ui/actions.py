@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from tkinter import filedialog
-from typing import TYPE_CHECKING, Callable, Optional
+from typing import TYPE_CHECKING, Callable, Optional, Tuple
 
 from ..conflicts import next_entry
 from ..sources import PlanClock
@@ -34,8 +34,13 @@ class PlayerActions:
         self.relayout()
         if agent is not None:
             s = self.scene
-            self.status.set("{} (agent {}): start {}, goal {}".format(
-                s.names[agent], agent, self.shown_cell(s.starts[agent]), self.shown_cell(s.goals[agent])))
+            self.status.set("{}: start {}, goal {}".format(
+                s.names[agent], self._place(s.starts[agent]), self._place(s.goals[agent])))
+
+    def _place(self: "PlayerApp", cell: Tuple[int, int]) -> str:
+        """A cell as the view shows it, with its floor-marker node on the lab map."""
+        node = self.scene.node_ids.get((int(cell[0]), int(cell[1])))
+        return "{}{}".format(self.shown_cell(cell), "" if node is None else " node {}".format(node))
 
     def jump_to_conflict(self: "PlayerApp", index: int) -> None:
         entry = self.entries[index]
@@ -74,9 +79,12 @@ class PlayerActions:
         sx, sy = self.shown_cell((x, y))
         text = "cell ({}, {})  id {}  {}".format(sx, sy, sy * grid.width + sx,
                                                   "free" if grid.is_free((x, y)) else "blocked")
+        node = self.scene.node_ids.get((x, y))
+        if node is not None:
+            text += "  node {}".format(node)
         agent = self.agents.agent_at(px, py)
         if agent is not None:
-            text += "   {} (agent {})".format(self.scene.names[agent], agent)
+            text += "   {}".format(self.scene.names[agent])
         self.status.set(text)
 
     # -- keys and menus ------------------------------------------------------------------
@@ -127,6 +135,15 @@ class PlayerActions:
         self.relayout()
         if self.options.ids and self.map.view.cell < MIN_ID_CELL:
             self.status.set("cell ids show when cells are {:g} px or more: zoom in (i)".format(MIN_ID_CELL))
+
+    def do_node_ids(self: "PlayerApp") -> None:
+        if not self.scene.node_ids:
+            self.status.set("node ids: only the lab map has floor markers")
+            return
+        self.options.node_ids = not self.options.node_ids
+        self.relayout()
+        if self.options.node_ids and self.map.view.cell < MIN_ID_CELL:
+            self.status.set("node ids show when cells are {:g} px or more: zoom in (i)".format(MIN_ID_CELL))
 
     def do_grid(self: "PlayerApp") -> None:
         self.options.grid_lines = not self.options.grid_lines

@@ -5,6 +5,9 @@ is polled by one `after()` loop every FRAME_MS; a live source is a
 `QueueSource` that network threads fill, so nothing else ever reaches into Tk.
 Key, menu and mouse handlers run on the same thread; a handler that fails
 logs its error and shows it in the status line instead of ending the window.
+Slow work (reading a file, solving an instance: `FileActions`) runs in a
+`Jobs` thread whose results the same loop drains; `open_scene` then shows the
+new scene in this window.
 """
 from __future__ import annotations
 
@@ -21,7 +24,8 @@ from fleet_common.plan import Plan
 from .. import orientation
 from ..conflicts import conflict_entries
 from ..fleet_state import FleetState
-from ..keys import GROUPS, KEYS
+from ..jobs import Jobs
+from ..keys import FILE, GROUPS, KEYS
 from ..scene import Scene
 from ..sources import DEFAULT_SPEED, PlanClock, QueueSource
 from ..view_options import ViewOptions
@@ -29,6 +33,7 @@ from .actions import PlayerActions
 from .agent_layer import AgentLayer
 from .conflict_layer import ConflictLayer
 from .controls import ControlsBar
+from .file_actions import FileActions
 from .lists import AgentList, ConflictList
 from .map_view import MapView
 from .overlays import SEPARATOR, AxesLayer, CellIdLayer, HeaderBand
@@ -39,7 +44,7 @@ log = logging.getLogger(__name__)
 FRAME_MS = 33
 
 
-class PlayerApp(PlayerActions):
+class PlayerApp(PlayerActions, FileActions):
     """The player window on `root`; `source` None plays `scene.plan` with a `PlanClock`."""
 
     #: milliseconds between polls of the source
@@ -49,21 +54,39 @@ class PlayerApp(PlayerActions):
                  source: Optional[QueueSource] = None, canvas_size: Tuple[int, int] = (900, 680),
                  playing: bool = True, speed: float = DEFAULT_SPEED) -> None:
         self.root = root
-        self.scene = scene
         self.options = options or ViewOptions()
+        self.jobs = Jobs()
+        self.speed = speed
+        self._after: Optional[str] = None
+        root.report_callback_exception = self._report  # type: ignore[assignment]
+        self._load(scene, source, canvas_size, playing)
+        root.bind("<Destroy>", self._destroyed, add="+")
+        self._tick()
+
+    def open_scene(self, scene: Scene) -> None:
+        """Show `scene` instead of the current one, in the same window (File menu, solving)."""
+        size = (self.canvas.winfo_width(), self.canvas.winfo_height())
+        for child in self.root.winfo_children():
+            child.destroy()
+        self.options.selected, self.options.only_selected = None, False
+        self._load(scene, None, size, True)
+
+    # -- building ----------------------------------------------------------------------
+
+    def _load(self, scene: Scene, source: Optional[QueueSource], canvas_size: Tuple[int, int],
+              playing: bool) -> None:
+        self.scene = scene
         self.clock: Optional[PlanClock] = None
         self.source: Union[PlanClock, QueueSource]
         if source is None:
             plan = scene.plan if scene.plan is not None else Plan(np.array([scene.starts]).reshape(1, -1, 2))
-            self.clock = PlanClock(plan, speed=speed, playing=playing and plan.makespan > 0)
+            self.clock = PlanClock(plan, speed=self.speed, playing=playing and plan.makespan > 0)
             self.source = self.clock
         else:
             self.source = source
         self.entries = conflict_entries(scene.findings)
         self.state: Optional[FleetState] = None
-        self._after: Optional[str] = None
-        root.title("FleetControl player: {}".format(scene.title or "plan"))
-        root.report_callback_exception = self._report  # type: ignore[assignment]
+        self.root.title("FleetControl player: {}".format(scene.title or "plan"))
         self.actions: Dict[str, Callable[[], None]] = {
             k.action: self._guarded(getattr(self, "do_" + k.action)) for k in KEYS}
         self.actions["loop_from_button"] = self._guarded(self._loop_from_button)
@@ -72,10 +95,6 @@ class PlayerApp(PlayerActions):
         self._build_menus()
         self.relayout()
         self._status_changed()
-        root.bind("<Destroy>", self._destroyed, add="+")
-        self._tick()
-
-    # -- building ----------------------------------------------------------------------
 
     def _build(self, canvas_size: Tuple[int, int]) -> None:
         scene, root = self.scene, self.root
@@ -91,7 +110,7 @@ class PlayerApp(PlayerActions):
         self.map = MapView(root, scene.grid.free, canvas_size[0], canvas_size[1], down=self._mirrored())
         self.map.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
         canvas = self.canvas = self.map.canvas
-        self.cell_ids = CellIdLayer(canvas, scene.grid.free, scene.file_orientation)
+        self.cell_ids = CellIdLayer(canvas, scene.grid.free, scene.file_orientation, scene.node_ids)
         self.agents = AgentLayer(canvas, scene)
         self.conflicts = ConflictLayer(canvas, self.entries)
         self.axes = AxesLayer(canvas, scene.file_orientation)
@@ -116,12 +135,14 @@ class PlayerApp(PlayerActions):
 
     def _build_menus(self) -> None:
         bar = tk.Menu(self.root, tearoff=False)
+        self.menus: Dict[str, tk.Menu] = {}
         for group in GROUPS:
-            menu = tk.Menu(bar, tearoff=False)
+            menu = self.menus[group] = tk.Menu(bar, tearoff=False)
             for key in KEYS:
                 if key.group == group:
                     menu.add_command(label=key.help, accelerator=key.shown, command=self.actions[key.action])
             bar.add_cascade(label=group, menu=menu)
+        self._add_solve_menu(self.menus[FILE])
         self.root.configure(menu=bar)
         self.menubar = bar
 
@@ -130,6 +151,7 @@ class PlayerApp(PlayerActions):
     def _tick(self) -> None:
         started = time.perf_counter()
         try:
+            self.jobs.drain()  # results of background work, handled here on the Tk thread
             self.refresh()
         except Exception:  # one bad frame must not stop the loop
             log.exception("frame failed")

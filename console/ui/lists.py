@@ -51,8 +51,9 @@ class AgentList(_PickList):
     def __init__(self, master: tk.Misc, names: Sequence[str], colours: Sequence[str],
                  on_pick: Callable[[Optional[int]], None], focus_back: Callable[[], None]) -> None:
         super().__init__(master, "Agents ({})".format(len(names)), on_pick, 10, focus_back)
+        # the name alone: "robot 3" (its id) on the lab fleet, else "agent 3" (its index)
         for i, (name, colour) in enumerate(zip(names, colours)):
-            self.listbox.insert(tk.END, "\u25cf {:>4d}  {}".format(i, name))
+            self.listbox.insert(tk.END, "\u25cf {}".format(name))
             self.listbox.itemconfigure(i, foreground=colour, selectforeground=colour,
                                        selectbackground="#d8d8d0")
 

@@ -6,7 +6,9 @@ keep them on top with one `tag_raise("overlay")`.
 from __future__ import annotations
 
 import tkinter as tk
-from typing import List, Sequence
+from typing import Dict, List, Optional, Sequence
+
+from fleet_common.grid import Coord
 
 import numpy as np
 
@@ -104,18 +106,22 @@ class AxesLayer:
 
 
 class CellIdLayer:
-    """Cell ids (`y * width + x`, in the shown coordinates) when zoomed in far enough."""
+    """Cell ids (`y * width + x`, in the shown coordinates) when zoomed in far enough, or on the
+    lab map the floor-marker node ids the robots and the demo speak (`ViewOptions.node_ids`)."""
 
-    def __init__(self, canvas: tk.Canvas, free: np.ndarray, file_orientation: str) -> None:
+    def __init__(self, canvas: tk.Canvas, free: np.ndarray, file_orientation: str,
+                 node_ids: Optional[Dict[Coord, int]] = None) -> None:
         self.canvas = canvas
         self.free = free
         self.file_orientation = file_orientation
+        self.node_ids = node_ids or {}
         self.items: List[int] = []
 
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
         self.canvas.delete("cellid")
         self.items = []
-        if not options.ids or view.cell < MIN_ID_CELL:
+        nodes = options.node_ids and bool(self.node_ids)
+        if not (options.ids or nodes) or view.cell < MIN_ID_CELL:
             return
         h, w = self.free.shape
         x_lo, y_a = view.to_cell(0, view.top)
@@ -128,11 +134,15 @@ class CellIdLayer:
             for x in xs:
                 if not self.free[y, x] or len(self.items) >= MAX_IDS:
                     continue
-                cid = orientation.cell_id((x, y), w, h, options.orientation, self.file_orientation)
+                if nodes:
+                    label, colour = self.node_ids.get((x, y)), "#5a6a9a"
+                else:
+                    label, colour = orientation.cell_id((x, y), w, h, options.orientation,
+                                                        self.file_orientation), "#8a8a80"
                 cx, cy = view.to_canvas(x, y)
                 self.items.append(self.canvas.create_text(
-                    cx - half, cy - half, anchor=tk.NW, text=str(cid), font=("DejaVu Sans", -size),
-                    fill="#8a8a80", tags=("cellid",)))
+                    cx - half, cy - half, anchor=tk.NW, text=str(label), font=("DejaVu Sans", -size),
+                    fill=colour, tags=("cellid",)))
         if self.items:
             self.canvas.tag_raise("cellid", "background")
 

@@ -6,5 +6,5 @@ entry in `COMMANDS`.
 """
 from __future__ import annotations
 
-COMMANDS = ("info", "validate", "convert", "solve", "demo", "keys", "virtual_fleet", "console",
-            "simulate", "manager", "trace", "experiment", "report", "vicon")
+COMMANDS = ("info", "validate", "repair", "convert", "solve", "demo", "keys", "virtual_fleet",
+            "console", "simulate", "manager", "trace", "experiment", "report", "vicon")

@@ -66,6 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="line from each agent to its goal, its remaining path, or none")
     parser.add_argument("--agent", type=int, metavar="I", help="highlight agent I (0-based)")
     parser.add_argument("--ids", action="store_true", help="show agent and cell ids")
+    parser.add_argument("--node-ids", action="store_true",
+                        help="lab map: show the floor-marker node ids (427 ...) the robots and the demo use")
     parser.add_argument("--speed", type=float, default=4.0, metavar="S",
                         help="time steps per second when playing (0.25..64, default 4)")
     parser.add_argument("--paused", action="store_true", help="open paused at time step 0")
@@ -131,7 +133,8 @@ def _replay(args: argparse.Namespace) -> int:
     selected: Optional[int] = args.agent
     if selected is not None and not 0 <= selected < scene.num_agents:
         raise FleetError("--agent {}: the plan has agents 0..{}".format(selected, scene.num_agents - 1))
-    options = ViewOptions(lines=args.lines, ids=args.ids, orientation=args.orientation, selected=selected)
+    options = ViewOptions(lines=args.lines, ids=args.ids, node_ids=args.node_ids, orientation=args.orientation,
+                          selected=selected)
     if args.screenshot is not None:
         w, h = screenshot(scene, args.screenshot, args.at, options, args.size)
         print("{}: time step {:g} of {}, {}x{} pixels".format(args.screenshot, min(max(args.at, 0), scene.makespan),

@@ -2,10 +2,11 @@
 
 Loads the embedded lab (the thesis's 13 x 14 marker grid, its node ids), the
 fleet from robot_definitions.txt and the lab's default instance, checks that
-they agree, plans the run with a built-in solver, validates the plan with the
-one validator, prints what each robot will do and what the execution engine
-predicts under both synchronization strategies with random delays. Then the
-live run (`fleetctl.live_demo`): the virtual fleet, the manager with ADG and
+they agree, plans the run with a built-in solver (or takes a given plan, such
+as a student's mapf-IR output on the lab map, its rotations repaired first),
+validates the plan with the one validator, prints what each robot will do and
+what the execution engine predicts under both synchronization strategies with
+random delays. Then the live run (`fleetctl.live_demo`): the virtual fleet, the manager with ADG and
 the live console, a window on a display or headless on a private Xvfb
 recording frames; the run folder gets the run log, the frames and a summary.
 `--plan-only` stops after the predictions.
@@ -17,6 +18,8 @@ from pathlib import Path
 from typing import List
 
 from fleet_common.errors import FleetError
+
+from ..robot_plans import Names, add_repair_options, for_robots
 
 NAME = "demo"
 HELP = "the lab scenario on virtual robots, steered by the manager, watched in the live console"
@@ -46,6 +49,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run folders go in DIR: the live run's, and each predicted strategy's "
                              "simulated run (for `fleetctl report`); default: the live run's where "
                              "`fleetctl manager` puts them, none for the predictions")
+    parser.add_argument("--plan", type=Path, default=None, metavar="SOLUTION",
+                        help="run this mapf-IR solution on the lab map instead of planning one")
+    add_repair_options(parser)
     parser.add_argument("--plan-only", action="store_true",
                         help="check, plan and predict; no live run")
     live = parser.add_argument_group("the live run")
@@ -87,17 +93,24 @@ def run(args: argparse.Namespace) -> int:
         raise FleetError("{} has {} agents but {} defines only {} robots".format(
             inst_path, len(inst.starts), robots_path, len(robots)))
 
-    # a demo should show the best plan: CBS is optimal and quick for a handful of robots
-    for name in [args.solver] if args.solver else ["cbs", "lacam"]:
-        result = solve(name, grid, inst.starts, inst.goals,
-                       deadline=Deadline(args.time_limit), seed=args.seed)
-        if result.solved:
-            break
+    if args.plan is not None:
+        result = _given_plan(args.plan, grid)
+    else:
+        # a demo should show the best plan: CBS is optimal and quick for a handful of robots
+        for name in [args.solver] if args.solver else ["cbs", "lacam"]:
+            result = solve(name, grid, inst.starts, inst.goals,
+                           deadline=Deadline(args.time_limit), seed=args.seed)
+            if result.solved:
+                break
     if not result.solved or result.plan is None:
         print("plan: {} found no plan: {}".format(result.solver, result.message))
         return 3
     plan = result.plan
-    report = validate_plan(plan, grid, starts=inst.starts, goals=inst.goals)
+    if plan.num_agents > len(robots):
+        raise FleetError("the plan has {} agents but {} defines only {} robots".format(
+            plan.num_agents, robots_path, len(robots)))
+    starts, goals = (plan.starts, plan.goals) if args.plan is not None else (inst.starts, inst.goals)
+    report = validate_plan(plan, grid, starts=starts, goals=goals)
     print("plan: {} in {:.0f} ms, soc={}, makespan={}, {}".format(
         result.solver, result.comp_time_ms, plan.soc, plan.makespan,
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
@@ -105,10 +118,34 @@ def run(args: argparse.Namespace) -> int:
         print("  " + line)
     if not report.ok:
         return 1
-    predicted = _execute(plan, args, result.solver, grid, inst)
+    from fleet_common.execution import PlanError
+    from fleet_common.planning.repair import RepairError
+
+    try:
+        plan = for_robots(plan, grid, "plan", args, Names([r.id for r in robots[:plan.num_agents]]))
+        predicted = _execute(plan, args, result.solver, grid, inst)
+    except (RepairError, PlanError) as err:
+        print("plan: cannot be executed by robots: {}".format(err))
+        return 1
     if args.plan_only or predicted != 0:
         return predicted
     return _live(inst, plan, result, robots, args)
+
+
+def _given_plan(path: Path, grid):
+    """A solution file on the lab map, as a solver's result."""
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.solution import read_solution
+    from fleet_common.lab import lab_map_path
+    from fleet_common.planning import NO_SOLUTION, SOLVED, SolveResult
+
+    sol = read_solution(path, map_dirs=[lab_map_path().parent] + default_map_dirs())
+    if sol.grid != grid:
+        raise FleetError("{}: its map {} is not the lab's map".format(path, sol.map_file))
+    solver = "{} ({})".format(sol.solver or "?", path)
+    if sol.plan is None or not sol.solved:
+        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run")
+    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0))
 
 
 def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
@@ -127,7 +164,7 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
         settings.delay_model = args.fleet_delays
     with tempfile.TemporaryDirectory(prefix="fleetcontrol-plan-") as folder:
         solution = Path(folder) / "lab_plan.txt"
-        write_solution(make_solution(inst.grid, inst.map_file or "lab.map", plan, inst.starts, inst.goals,
+        write_solution(make_solution(inst.grid, inst.map_file or "lab.map", plan, plan.starts, plan.goals,
                                      result.solver, True, int(result.comp_time_ms)), str(solution))
         return run_live_demo(solution, plan, robots, settings)
 
@@ -163,7 +200,7 @@ def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int)
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "plan.txt"
-        write_solution(make_solution(grid, inst.map_file, plan, inst.starts, inst.goals, solver, True, 0), str(path))
+        write_solution(make_solution(grid, inst.map_file, plan, plan.starts, plan.goals, solver, True, 0), str(path))
         lines = ["executed makespan {:.2f} (plan {}), sum of costs {:.2f}, collisions {}".format(
             result.metrics.makespan, plan.makespan, result.metrics.soc, len(result.collisions))]
         return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)

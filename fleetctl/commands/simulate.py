@@ -11,11 +11,10 @@ from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
-from fleet_common.formats.solution import read_solution
-from fleet_common.validate import validate_plan
+from fleet_common.planning.repair import RepairError
 
-from ..options import add_map_dir, map_dirs
-from ..report import print_findings
+from ..options import add_map_dir
+from ..robot_plans import Names, add_repair_options, for_robots, valid_solution
 
 NAME = "simulate"
 HELP = "run a solution on simulated robots with delays: metrics, collisions, who waited for whom"
@@ -25,7 +24,12 @@ DESCRIPTION = (
     "with random stalls, as the delay model says. Prints the executed makespan and sum of "
     "costs, the waits, the number of collisions in the executed trace (vertex and swap, from "
     "the executed positions over continuous time) and whether every enabled robot reached its "
-    "goal. Exit 0 when there was no collision and every enabled robot reached its goal, 1 "
+    "goal. Rotations (3 or more agents each entering the cell the next one leaves in one step), "
+    "which robots cannot perform, are repaired first, in one line (--no-repair refuses the plan "
+    "instead). The plan runs on the lab fleet, its robots named by their robot_definitions.txt "
+    "ids, when --definitions is given or when it is on the embedded lab map with no more agents "
+    "than the default definitions have robots; otherwise robots are numbered by agent index "
+    "from 0. Exit 0 when there was no collision and every enabled robot reached its goal, 1 "
     "otherwise (also for invalid plans and plans robots cannot execute), 2 for unreadable input."
 )
 
@@ -56,39 +60,42 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=None,
                         help="random seed of the delays (default: the model's seed=, else 0)")
     parser.add_argument("--disable", action="append", default=[], type=_disable, metavar="ROBOT@STEP",
-                        help="robot ROBOT (0-based agent index) stops for good where the plan has it at "
-                             "step STEP, like a dead battery (repeatable)")
+                        help="robot ROBOT (its id on the lab fleet, else the 0-based agent index) stops "
+                             "for good where the plan has it at step STEP, like a dead battery (repeatable)")
     parser.add_argument("--per-robot", action="store_true",
                         help="also print a line per robot: moves, arrival, waits, who it waited for")
     parser.add_argument("--log", type=Path, default=None, metavar="DIR",
                         help="also write the run as a run folder DIR/<timestamp>/ (plan, events.jsonl "
                              "in plan steps) for `fleetctl report`")
+    parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
+                        help="run on the fleet of this robot definitions file (agent i is the robot on "
+                             "its line i, named by its id); by default a plan on the lab map with at most "
+                             "as many agents as robot_definitions.txt has robots runs on the lab fleet")
+    add_repair_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    sol = read_solution(args.solution, map_dirs=map_dirs(args))
-    name = str(args.solution)
-    if sol.plan is None or not sol.solved:
-        print("{}: no plan: solver {} did not solve it (solved={})".format(
-            name, sol.solver or "?", int(bool(sol.solved))))
+    sol = valid_solution(args, "not simulated")
+    if sol is None:
         return 1
-    plan = sol.plan
+    name, plan = str(args.solution), sol.plan
     show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
-    report = validate_plan(plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
-    if not report.ok:
-        print_findings(name, report)
-        print("{}: INVALID: {} problem(s); not simulated (`fleetctl validate` explains)".format(
-            name, len(report.errors)))
+    names = Names.of(sol.grid, plan.num_agents, args.definitions)
+    try:
+        plan = for_robots(plan, sol.grid, name, args, names)
+    except RepairError as err:
+        print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
     delays = parse_delay_model(args.delay_model, default="moderate")
     delays.check_robots(plan.num_agents)
     seed = args.seed if args.seed is not None else (delays.seed or 0)
     disable: Dict[int, int] = {}
     for robot, step in args.disable:
-        if robot >= plan.num_agents:
-            raise SimulateOptionError("--disable {}@{}: the plan has robots 0..{}".format(
-                robot, step, plan.num_agents - 1))
-        disable[robot] = step
+        agent = names.index(robot)
+        if agent is None or agent >= plan.num_agents:
+            raise SimulateOptionError("--disable {}@{}: the plan has robots {}".format(
+                robot, step, _robots(names, plan.num_agents)))
+        disable[agent] = step
     settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
@@ -96,20 +103,37 @@ def run(args: argparse.Namespace) -> int:
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
-    lines = _summary(result, plan.makespan, plan.soc, delays.describe(), seed)
+    lines = _summary(result, plan.makespan, plan.soc, delays.describe(), seed, names)
     for line in lines:
         print(line)
     if args.per_robot:
-        for line in _per_robot(result):
+        for line in _per_robot(result, names):
             print(line)
     if args.log is not None:
-        from fleet_common.runlog.simulated import write_simulation
-        print("run log: {}".format(write_simulation(args.log, plan, result, args.solution, delays.spec(),
-                                                    seed, lines)))
+        print("run log: {}".format(_log(args.log, sol, plan, result, delays.spec(), seed, lines)))
     return 0 if not result.collisions and not result.unfinished() else 1
 
 
-def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int) -> List[str]:
+def _log(parent: Path, sol, plan, result: SimResult, delays: str, seed: int, lines: List[str]) -> Path:
+    """The run folder, with the plan that ran (the repaired one, if it was repaired)."""
+    import tempfile
+
+    from fleet_common.formats.solution import write_solution
+    from fleet_common.runlog.simulated import write_simulation
+
+    if plan is sol.plan:
+        return write_simulation(parent, plan, result, sol.path, delays, seed, lines)
+    with tempfile.TemporaryDirectory() as tmp:
+        sol.replace_plan(plan)
+        write_solution(sol, str(Path(tmp) / Path(sol.path).name))
+        return write_simulation(parent, plan, result, Path(tmp) / Path(sol.path).name, delays, seed, lines)
+
+
+def _robots(names: Names, n: int) -> str:
+    return names.all(list(range(n))) if names.lab else "0..{}".format(n - 1)
+
+
+def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int, names: Names) -> List[str]:
     engine, m = result.engine, result.metrics
     n = engine.run.num_robots
     missing = result.unfinished()
@@ -117,6 +141,7 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int)
     lines = [
         "robots: {}, moves: {}, plan makespan {}, plan soc {}".format(
             n, engine.table.num_actions, makespan, soc),
+        "fleet: " + names.describe(),
         "strategy: {}; delays: {}; seed {}".format(engine.strategy.describe(), delays, seed),
         "executed makespan: {:.2f} (time unit: one nominal move, one plan step){}".format(
             m.makespan, partial),
@@ -127,29 +152,30 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int)
     pairs = m.blocking_pairs()[:5]
     if pairs:
         lines.append("longest waits: " + "; ".join(
-            "robot {} waited {:.2f} for robot {}".format(r, t, q) for t, r, q in pairs))
+            "robot {} waited {:.2f} for robot {}".format(names(r), t, names(q)) for t, r, q in pairs))
     for robot, when in sorted(result.disabled_at.items()):
-        lines.append("disabled: robot {} at t={:.2f}".format(robot, when))
+        lines.append("disabled: robot {} at t={:.2f}".format(names(robot), when))
     for robot, blocked in sorted(engine.blocked_by().items()):
         if blocked:
-            lines.append("blocked by robot {}: {}".format(robot, ", ".join(map(str, blocked))))
+            lines.append("robot {} is out; waiting for it, directly or behind others: robot{} {}".format(
+                names(robot), "s" if len(blocked) > 1 else "", names.all(blocked)))
     vertex = sum(1 for c in result.collisions if c.kind == VERTEX)
     swap = sum(1 for c in result.collisions if c.kind == SWAP)
     lines.append("collisions: {} (vertex {}, swap {})".format(len(result.collisions), vertex, swap))
     enabled = n - len(engine.out_robots())
     reached = "reached goal: {} of {} enabled robots".format(enabled - len(missing), enabled)
     if missing:
-        reached += "; not reached: " + ", ".join(map(str, missing))
+        reached += "; not reached: robot{} {}".format("s" if len(missing) > 1 else "", names.all(missing))
     lines.append(reached)
     return lines
 
 
-def _per_robot(result: SimResult) -> List[str]:
-    lines = ["robot  moves  arrival  waits  wait time  waited for (time)"]
+def _per_robot(result: SimResult, names: Names) -> List[str]:
+    lines = ["robot  moves  arrival  waits  wait time  waited for robot (time)"]
     for r, rm in enumerate(result.metrics.robots):
         arrival = "-" if rm.arrival is None else "{:.2f}".format(rm.arrival)
-        who = ", ".join("{} ({:.2f})".format(q, t) for q, t in sorted(
+        who = ", ".join("{} ({:.2f})".format(names(q), t) for q, t in sorted(
             rm.blocked_by.items(), key=lambda kv: -kv[1]))
         lines.append("{:>5}  {:>5}  {:>7}  {:>5}  {:>9.2f}  {}".format(
-            r, rm.moves, arrival, rm.waits, rm.wait_time, who or "-"))
+            names(r), rm.moves, arrival, rm.waits, rm.wait_time, who or "-"))
     return lines

@@ -17,7 +17,8 @@ DESCRIPTION = (
     "the plan is valid; exit 1 listing what is wrong (or when the file records a failed run); "
     "exit 2 with FILE:LINE: message when the file cannot be read. Following moves and rotations "
     "(3 or more agents each entering the cell the next one leaves) are legal in mapf-IR and "
-    "counted in the summary; robots cannot execute a rotation (`fleetctl simulate` refuses it). "
+    "counted in the summary; robots cannot execute a rotation: `fleetctl repair` writes the plan "
+    "without them (`fleetctl simulate` repairs them itself). "
     "Coordinates in messages are the file's own (mapf-IR files: origin top-left)."
 )
 
@@ -58,7 +59,15 @@ def run(args: argparse.Namespace) -> int:
             notes.append("{} rotations: robots cannot execute these".format(rotations))
         print("{}: valid: {} agents, soc={}, makespan={}{}".format(
             name, plan.num_agents, plan.soc, plan.makespan, " ({})".format("; ".join(notes)) if notes else ""))
+        if rotations:
+            print(_REPAIR_HINT.format(name))
         return 0
     print("{}: INVALID: {} problem(s) in a plan of {} agents, makespan {}".format(
         name, len(report.errors), plan.num_agents, plan.makespan))
+    if report.count(ROTATION) and all(f.kind == ROTATION for f in report.errors):
+        print(_REPAIR_HINT.format(name))
     return 1
+
+
+_REPAIR_HINT = ("{0}: `fleetctl repair {0} -o OUT` makes it executable by robots (repairs the rotations; "
+                "`fleetctl simulate` does so by itself)")

@@ -75,6 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "falling back to lacam; lacam above)")
     parser.add_argument("--plan-time-limit", type=float, default=10.0, metavar="S",
                         help="how long planning an instance may take (default 10 s)")
+    parser.add_argument("--no-repair", action="store_true",
+                        help="do not repair the plan's rotations (robots cannot perform them): refuse it")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--vicon", type=int, default=None, metavar="PORT",
                         help="read Vicon Tracker's UDP stream on PORT (51001 in the lab): a "
@@ -125,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     fleet = pick_robots(read_robot_definitions(definitions), args.robots, str(definitions))
     loaded = load_plan(args.plan, len(fleet), str(definitions) if args.robots is None
                        else "--robots", dirs, solver=args.solver,
-                       time_limit=args.plan_time_limit, seed=args.seed)
+                       time_limit=args.plan_time_limit, seed=args.seed, repair=not args.no_repair)
     try:
         keys = None if args.no_curve else load_manager_keys(args.keys or default_keys_dir())
     except FleetError as err:

@@ -1,10 +1,12 @@
 """What the manager runs: a plan file, or an instance it plans first, checked and given robots.
 
-PLAN is a mapf-IR solution (a student's solver output, run as it is) or an
-instance (planned here with a built-in solver). Either way the plan is
-validated with the one validator, and plan agent i becomes the i-th robot of
-the fleet: of robot_definitions.txt, or of `--robots` in the order given. A
-plan for another number of robots is refused, naming both counts.
+PLAN is a mapf-IR solution (a student's solver output, run as it is, but for
+its rotations, which robots cannot perform: they are repaired, as `fleetctl
+repair` does, unless `repair=False`) or an instance (planned here with a
+built-in solver). Either way the plan is validated with the one validator,
+and plan agent i becomes the i-th robot of the fleet: of
+robot_definitions.txt, or of `--robots` in the order given. A plan for another
+number of robots is refused, naming both counts.
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import solve
 from fleet_common.planning.deadline import Deadline
+from fleet_common.planning.repair import RepairError, repair_rotations
 from fleet_common.robots import RobotDefinition
 from fleet_common.validate import validate_plan
 
@@ -62,12 +65,12 @@ def pick_robots(robots: Sequence[RobotDefinition], ids: Optional[Sequence[int]],
 
 def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[Path],
               solver: Optional[str] = None, time_limit: float = 10.0, seed: int = 0,
-              text: Optional[str] = None) -> LoadedPlan:
+              text: Optional[str] = None, repair: bool = True) -> LoadedPlan:
     """The plan in `path` (or `text`, named `path`) for a fleet of `fleet_size` robots."""
     name = str(path)
     problem = read_problem(path, map_dirs, text)
     if isinstance(problem, Solution):
-        loaded = _from_solution(problem, name)
+        loaded = _from_solution(problem, name, repair)
     else:
         loaded = _from_instance(problem, name, solver, time_limit, seed)
     agents = loaded.plan.num_agents
@@ -78,7 +81,7 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
     return loaded
 
 
-def _from_solution(sol: Solution, name: str) -> LoadedPlan:
+def _from_solution(sol: Solution, name: str, repair: bool) -> LoadedPlan:
     if sol.plan is None or not sol.solved:
         raise PlanLoadError("{}: no plan: solver {} did not solve it (solved={})".format(
             name, sol.solver or "?", int(bool(sol.solved))))
@@ -87,8 +90,16 @@ def _from_solution(sol: Solution, name: str) -> LoadedPlan:
     if not report.ok:
         raise PlanLoadError("{}: invalid plan ({} problems), first: {} (`fleetctl validate` "
                             "lists them)".format(name, len(report.errors), report.errors[0]))
-    return LoadedPlan(sol.plan, sol.grid, list(sol.starts), list(sol.goals), name, sol, show,
-                      "solution by {}".format(sol.solver or "?"))
+    note = "solution by {}".format(sol.solver or "?")
+    if repair:
+        try:
+            result = repair_rotations(sol.plan, sol.grid)
+        except RepairError as err:
+            raise PlanLoadError("{}: robots cannot execute it: {}".format(name, err)) from None
+        if result.repaired:  # the run folder records the plan the robots run
+            sol.replace_plan(result.plan)
+            note += "; " + result.describe()
+    return LoadedPlan(sol.plan, sol.grid, list(sol.starts), list(sol.goals), name, sol, show, note)
 
 
 def _from_instance(inst: Instance, path: str, solver: Optional[str], time_limit: float,

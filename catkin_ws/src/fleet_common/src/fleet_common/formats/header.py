@@ -17,7 +17,8 @@ misspelled `max_timestep=` would otherwise do nothing without a word.
 The text helpers below are shared by every line-based format here: files are
 decoded as UTF-8 with `surrogateescape` and line endings (LF or CRLF) and the
 final newline are remembered, so read-then-write reproduces a file's bytes
-(`lines.py` reads them one at a time).
+(`lines.py` reads them one at a time; a file mixing LF and CRLF is read, and
+written back with its first line's ending).
 """
 from __future__ import annotations
 
@@ -39,14 +40,18 @@ def write_text(path: str, text: str) -> None:
 
 
 def split_lines(text: str) -> Tuple[List[str], str, bool]:
-    """Lines without their endings, the newline used (LF or CRLF), final newline?"""
+    """Lines without their endings, the newline used (the first line's: LF or CRLF), final newline?
+
+    Each line may end in LF or CRLF, mixed in one file as editors and copies leave them
+    (mapf-IR reads such files too); a file written back uses the first line's ending.
+    """
     first = text.find("\n")
     newline = "\r\n" if first > 0 and text[first - 1] == "\r" else "\n"
     final_newline = text.endswith("\n")
     lines = text.split("\n")
     if final_newline or text == "":
         lines.pop()
-    if newline == "\r\n":
+    if "\r" in text:
         lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
     return lines, newline, final_newline
 

@@ -8,9 +8,10 @@ read 33 lines. `text_lines` gives the same for text already in memory.
 
 Lines come without their endings, decoded as UTF-8 with `surrogateescape` (a
 bad byte survives a write back). As `header.split_lines` does: the first
-line's ending says whether the file is CRLF, and then a trailing CR is
-dropped from every line; `newline` and `final_newline` are known once the
-lines have been read, so a writer can reproduce the file's bytes.
+line's ending says whether the file is CRLF, and a trailing CR is dropped
+from every line (files mixing LF and CRLF are read, as mapf-IR reads them);
+`newline` and `final_newline` are known once the lines have been read, so a
+writer can reproduce the file's bytes (a mixed file's with its first ending).
 """
 from __future__ import annotations
 
@@ -39,7 +40,6 @@ class Lines:
         self.count = 0  # lines handed out so far
 
     def __iter__(self) -> Iterator[Tuple[int, str]]:
-        crlf = False
         for chunk in self._chunks:
             self.count += 1
             ended = chunk.endswith("\n")
@@ -48,8 +48,8 @@ class Lines:
                 raise self.error("line of {:,} characters; lines may have at most {:,}".format(
                     len(line), self.max_line), self.path, self.count)
             if self.count == 1 and ended and line.endswith("\r"):
-                crlf, self.newline = True, "\r\n"
-            if crlf and line.endswith("\r"):
+                self.newline = "\r\n"
+            if line.endswith("\r"):
                 line = line[:-1]
             self.final_newline = ended
             yield self.count, line

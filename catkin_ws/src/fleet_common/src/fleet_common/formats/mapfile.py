@@ -6,10 +6,11 @@ of exactly `width` characters, top row first. Under mapf-IR's rule `T` and `@`
 block a cell and every other character is free; the strict MovingAI rule also
 blocks `W` and `O`. Maps have no coordinates, so nothing flips here: the grid
 is built bottom row first, as the base frame wants. Header lines, rows, line
-endings (CRLF is accepted and kept) and the final newline are remembered, so
-writing an unchanged map reproduces its bytes. Lines are checked as they are
-read (formats/lines.py), so a bad row stops the reading there; sizes have at
-most 9 digits and the grid is built only once every row has passed.
+endings (CRLF is accepted and kept, and so is a mix of LF and CRLF, as mapf-IR
+reads it) and the final newline are remembered, so writing an unchanged map
+reproduces its bytes. Lines are checked as they are read (formats/lines.py),
+so a bad row stops the reading there; sizes have at most 9 digits and the
+grid is built only once every row has passed.
 """
 from __future__ import annotations
 
@@ -65,7 +66,7 @@ def _describe(ch: str) -> str:
     if ch == "\t":
         return "a tab"
     if ch == "\r":
-        return "a carriage return (mixed line endings?)"
+        return "a carriage return inside a row"
     if ord(ch) < 32 or ord(ch) == 127:
         return "control character {!r}".format(ch)
     return "non-ASCII character {!r}".format(ch)

@@ -111,6 +111,12 @@ class Solution:
             out.append(record)
         return out
 
+    def replace_plan(self, plan: Plan) -> None:
+        """Put `plan` in place of this solution's (a repaired one), the header's soc and makespan to match."""
+        self.plan = plan
+        self.header.set("soc", plan.soc)
+        self.header.set("makespan", plan.makespan)
+
     def __repr__(self) -> str:
         return "Solution({!r}, solver={!r}, {})".format(self.path, self.solver, self.plan)
 
