@@ -4,6 +4,9 @@ Exit statuses: 0 success; 1 the input is well formed but wrong (a plan with
 conflicts, a failed run); 2 the input cannot be read (one line `FILE:LINE: message`)
 or the command line is wrong; 3 no plan found within the limit (`solve`);
 130 interrupted. Users never see a traceback; set FLEETCTL_DEBUG=1 to get one.
+
+Only the chosen command's module is imported (see `commands`), after the
+command line names it: `fleetctl --help` imports none.
 """
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ import argparse
 import importlib
 import os
 import sys
+from types import ModuleType
 from typing import List, Optional
 
 from fleet_common.errors import FleetError, FormatError
@@ -18,32 +22,44 @@ from fleet_common.errors import FleetError, FormatError
 from .commands import COMMANDS
 
 
-def build_parser() -> argparse.ArgumentParser:
+def command_module(name: str) -> Optional[ModuleType]:
+    """The module of command `name` (as typed on the command line), imported now; None if unknown."""
+    for command, module, _ in COMMANDS:
+        if command == name:
+            return importlib.import_module("fleetctl.commands." + module)
+    return None
+
+
+def build_parser(chosen: Optional[str] = None) -> argparse.ArgumentParser:
+    """The parser; only command `chosen` gets its arguments (the others just their help line)."""
     parser = argparse.ArgumentParser(
         prog="fleetctl",
         description="FleetControl: check, convert, solve and run MAPF plans on the lab's robots.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMANDS:
-        module = importlib.import_module("fleetctl.commands." + name)
-        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
-        module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+    for name, _, help_line in COMMANDS:
+        p = sub.add_parser(name, help=help_line, description=help_line)
+        if name == chosen:
+            module = command_module(name)
+            p.description = getattr(module, "DESCRIPTION", help_line)
+            module.add_arguments(p)  # type: ignore[union-attr]
+            p.set_defaults(_run=module.run)  # type: ignore[union-attr]
     return parser
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    # the top level has no options but -h, so the first other word names the command
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    module = command_module(chosen) if chosen is not None else None
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
     passthrough: List[str] = []
-    if argv and argv[0] in COMMANDS and "--" in argv and getattr(
-            importlib.import_module("fleetctl.commands." + argv[0]), "PASSTHROUGH", False):
+    if module is not None and "--" in argv and getattr(module, "PASSTHROUGH", False):
         cut = argv.index("--")
         argv, passthrough = argv[:cut], argv[cut + 1:]
-    args = parser.parse_args(argv)
+    args = build_parser(chosen if module is not None else None).parse_args(argv)
     args.passthrough = passthrough
     try:
         return int(args._run(args))

@@ -1,9 +1,29 @@
-"""One module per `fleetctl` subcommand.
+"""One module per `fleetctl` subcommand, listed in `COMMANDS`: the one registry.
 
-Each module defines `NAME`, `HELP` (one line), `add_arguments(parser)` and
-`run(args) -> int` (the exit status). Adding a subcommand is one module and one
-entry in `COMMANDS`.
+Adding a subcommand is one module here and one line in `COMMANDS`:
+
+    ("name-on-the-command-line", "module_in_this_package", "one-line help"),
+
+The module defines `add_arguments(parser)` and `run(args) -> int` (the exit
+status), optionally `DESCRIPTION` (the longer text of `fleetctl NAME --help`)
+and `PASSTHROUGH = True` (it receives what follows `--` unparsed). The help
+line lives here, not in the module, so that `fleetctl --help` imports no
+command module and a command imports only its own module: start-up stays
+fast whatever the other commands need (numpy, ZeroMQ, Tk). A module may still
+define `NAME`/`HELP`; tests check they agree with its line here.
 """
 from __future__ import annotations
 
-COMMANDS = ("info", "validate", "convert", "solve", "demo", "keys", "virtual_fleet", "console", "simulate")
+from typing import Tuple
+
+COMMANDS: Tuple[Tuple[str, str, str], ...] = (
+    ("info", "info", "summarise any supported file (map, instance, solution, scen, legacy XML, robot definitions)"),
+    ("validate", "validate", "check a mapf-IR solution: cells, moves, vertex and swap conflicts, rotations, header claims"),
+    ("convert", "convert", "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"),
+    ("solve", "solve", "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp or mapf-IR; write a solution"),
+    ("demo", "demo", "check and plan the embedded lab scenario and print a summary"),
+    ("keys", "keys", "make the CurveZMQ key pairs of the manager and the robots"),
+    ("virtual-fleet", "virtual_fleet", "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"),
+    ("console", "console", "play a mapf-IR solution (or show an instance) in a window; --screenshot renders a PNG"),
+    ("simulate", "simulate", "run a solution on simulated robots with delays: metrics, collisions, who waited for whom"),
+)

@@ -25,7 +25,7 @@ from ..options import add_map_dir, map_dirs
 NAME = "solve"
 #: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)
 PASSTHROUGH = True
-HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, pp or mapf-IR; write a solution"
+HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp or mapf-IR; write a solution"
 MAPF_IR_PREFIX = "mapf-ir:"
 DEFAULT_SOLVER = "lacam"
 #: Time limit when neither --time-limit nor the instance's max_comp_time gives one.
