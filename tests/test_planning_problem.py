@@ -88,11 +88,11 @@ def test_unknown_solver_names_the_built_in_ones() -> None:
     with pytest.raises(UnknownSolverError) as err:
         solve("astar", ROOMS, [], [])
     assert "unknown solver 'astar'" in str(err.value)
-    assert "pibt, lacam, cbs, pp" in str(err.value)
+    assert "pibt, lacam, cbs, ecbs, pp" in str(err.value)
 
 
 def test_a_solver_bug_surfaces_as_an_error_not_as_a_bad_plan(monkeypatch) -> None:
-    def teleporting(grid, starts, goals, deadline, seed, rotations=False):
+    def teleporting(grid, starts, goals, deadline, seed, rotations=False, **options):
         return SolveResult(Plan.from_paths([[starts[0], goals[0]]]), "teleport", "solved")
 
     monkeypatch.setitem(SOLVERS, "pibt", teleporting)
@@ -104,7 +104,7 @@ def test_a_plan_with_a_rotation_is_a_solver_bug_unless_rotations_are_allowed(mon
     square = [(0, 0), (1, 0), (1, 1), (0, 1)]
     turned = square[1:] + square[:1]
 
-    def turning(grid, starts, goals, deadline, seed, rotations=False):
+    def turning(grid, starts, goals, deadline, seed, rotations=False, **options):
         return SolveResult(Plan.from_paths([[a, b] for a, b in zip(starts, goals)]), "turn", "solved")
 
     monkeypatch.setitem(SOLVERS, "pibt", turning)

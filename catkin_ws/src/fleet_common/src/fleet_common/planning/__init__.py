@@ -27,7 +27,7 @@ from typing import Any, Callable, Dict, Optional, Sequence, Union
 from ..errors import FleetError
 from ..formats.instance import DEFAULT_MAX_TIMESTEP
 from ..grid import Coord, Grid
-from ..validate import validate_plan
+from ..validate import ROTATION, validate_plan
 from .deadline import Deadline, as_deadline
 from .problem import InvalidProblemError, ProblemTooLargeError, check_problem, check_size
 from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult, SolverError
@@ -35,7 +35,7 @@ from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult, SolverError
 Solver = Callable[..., SolveResult]
 
 #: Solvers that stop by themselves at `max_timestep`; for the others `solve` checks the plan.
-_STEP_LIMITED = ("pibt", "lacam")
+_STEP_LIMITED = ("pibt",)
 
 
 def _lazy(module: str, function: str) -> Solver:
@@ -109,10 +109,12 @@ def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: 
                label: Optional[str] = None, rotations: bool = False) -> None:
     """Raise `SolverError` unless `result.plan` is valid and goes from `starts` to `goals`.
 
-    With `rotations` False, a rotation in the plan is an error too.
+    With `rotations` False, a rotation in the plan is an error too; with it
+    True, `result.stats["rotations"]` says how many the plan has.
     """
     report = validate_plan(result.plan, grid, starts=starts, goals=goals,  # type: ignore[arg-type]
                            strict_rotations=not rotations)
+    result.stats["rotations"] = report.count(ROTATION)
     if not report.ok:
         errors = report.errors
         raise SolverError("solver '{}' returned an invalid plan ({} problems), first: {}".format(

@@ -15,9 +15,13 @@ Two searches fill them, whichever is cheaper for the map:
   word); each wavefront step grows every goal's reached set with four shifted
   ORs, and distances are counted in bit-sliced binary counters (one uint64
   plane per bit of the count). Its cost grows with cells x diameter, cheap here.
-- large maps: 64 goals at a time over the free cells only, one frontier of
-  (goal, cell) pairs per step, so the work is goals x free cells whatever the
-  diameter and the temporary arrays stay a few tens of MB.
+- large maps: many goals at a time over the free cells only, one frontier of
+  (goal, cell) pairs per step (`bfs`), so the work is goals x free cells
+  whatever the diameter and the temporary arrays stay a few tens of MB.
+
+These are complete tables over all grid cells, for solvers that look
+anywhere (space-time A*). PIBT and LaCAM use `goal_distances` instead:
+free cells only, searched as far as agents need.
 
 `dist_lists` hands solvers' inner loops plain Python lists while all tables
 together stay under `LIST_ENTRIES` entries (fastest to index); above that,
@@ -30,17 +34,16 @@ from typing import Dict, List, Sequence, Tuple, Union
 import numpy as np
 
 from ..grid import Coord, Grid
+from .bfs import UNREACHED
+from .free_cells import FreeCells
+from .goal_distances import GoalDistances
 
-#: Marks "unreachable" in the uint16 tables; larger than any distance they hold.
-UNREACHED = 65535
 #: Maps with fewer cells use the bit-parallel search (all distances then fit below UNREACHED).
 BITS_MAX_CELLS = 65535
 #: Goals x cells up to which `dist_lists` returns Python lists (about 0.1-0.3 GB at this size).
 LIST_ENTRIES = 10_000_000
 #: Goals searched together by the bit-parallel search; bounds its temporaries to tens of MB.
 _CELLS_PER_BATCH = 64_000_000
-#: Goals searched together by the frontier search.
-_FRONTIER_BATCH = 64
 
 DistList = Union[List[int], memoryview]
 
@@ -74,7 +77,7 @@ def dist_codes(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     if grid.num_cells < BITS_MAX_CELLS:
         search, batch = _bfs, max(1, _CELLS_PER_BATCH // max(grid.num_cells, 1))
     else:
-        search, batch = _frontier_bfs, _FRONTIER_BATCH
+        search, batch = _frontier_bfs, len(missing) or 1
     for k in range(0, len(missing), batch):
         chunk = missing[k:k + batch]
         for goal, table in zip(chunk, search(grid, chunk)):
@@ -107,10 +110,18 @@ def dist_lists(grid: Grid, goals: Sequence[Coord], unreachable: int) -> List[Dis
 
 
 def lower_bounds(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> Tuple[int, int]:
-    """(sum, max) of start-to-goal distances: mapf-IR's lb_soc and lb_makespan."""
+    """(sum, max) of start-to-goal distances: mapf-IR's lb_soc and lb_makespan.
+
+    Read from the tables a solver left on the grid when it has them (complete
+    ones, or the lazy `goal_distances`, searched only as far as the starts).
+    """
     if not starts:
         return 0, 0
-    d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_codes(grid, goals))]
+    if all(_key(g, "dist16") in grid.derived for g in goals):
+        d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_codes(grid, goals))]
+    else:
+        free = FreeCells.of(grid)
+        d = GoalDistances.of(grid, free.to_free(goals)).distances(range(len(starts)), free.to_free(starts))
     if max(d) == UNREACHED:
         raise ValueError("a goal is unreachable from its start; check the problem first")
     return sum(d), max(d)
@@ -146,57 +157,14 @@ def _bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     return list(np.ascontiguousarray(dist[:, :n].T.astype(np.uint16)))
 
 
-def _free_neighbours(grid: Grid) -> Tuple[np.ndarray, List[np.ndarray]]:
-    """Cell ids of the free cells, and per direction each free cell's neighbour (free index, -1 none)."""
-    ids = np.flatnonzero(grid.free.ravel())
-    index = np.full(grid.num_cells, -1, dtype=np.int64)
-    index[ids] = np.arange(ids.size)
-    w, h = grid.width, grid.height
-    x, y = ids % w, ids // w
-    out = []
-    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-        nx, ny = x + dx, y + dy
-        inside = (nx >= 0) & (nx < w) & (ny >= 0) & (ny < h)
-        nb = np.full(ids.size, -1, dtype=np.int64)
-        nb[inside] = index[(ny * w + nx)[inside]]
-        out.append(nb)
-    return ids, out
-
-
 def _frontier_bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
-    ids, neighbours = _free_neighbours(grid)
-    f = ids.size
-    # one row of free-cell distances per goal, flattened: entry g * f + c
-    dist = np.full(len(goals) * f, UNREACHED, dtype=np.uint16)
-    slot = np.zeros(len(goals) * f, dtype=np.int64)  # scratch for dropping duplicate pairs
-    goal_ids = np.array([y * grid.width + x for x, y in goals], dtype=np.int64)
-    start = np.minimum(np.searchsorted(ids, goal_ids), max(f - 1, 0))
-    on_free = ids[start] == goal_ids if f else np.zeros(len(goals), dtype=bool)
-    frontier = (np.arange(len(goals), dtype=np.int64) * f + start)[on_free]  # a blocked goal reaches nothing
-    dist[frontier] = 0
-    level = 0
-    while frontier.size:
-        level += 1
-        if level >= UNREACHED:
-            raise ValueError("a shortest path on this map is {} moves or longer; distance tables "
-                             "hold at most {}".format(UNREACHED, UNREACHED - 1))
-        row = frontier // f * f
-        cell = frontier % f
-        parts = []
-        for nb in neighbours:
-            n = nb[cell]
-            ok = n >= 0
-            parts.append(row[ok] + n[ok])
-        cand = np.concatenate(parts)
-        cand = cand[dist[cand] == UNREACHED]
-        order = np.arange(cand.size)
-        slot[cand] = order
-        frontier = cand[slot[cand] == order]
-        dist[frontier] = level
+    free = FreeCells.of(grid)
+    rows = GoalDistances(free, free.to_free(goals))
+    rows.complete()
     out = []
     for k in range(len(goals)):
         table = np.full(grid.num_cells, UNREACHED, dtype=np.uint16)
-        table[ids] = dist[k * f:(k + 1) * f]
+        table[free.ids] = rows.table[rows.row_of[k], :free.count]
         out.append(table)
     return out
 

@@ -32,33 +32,96 @@ reverting the whole cycle is vertex-safe, and it leaves no new cycle.
 Inheritance is an explicit stack, not recursion, so chains of thousands of
 agents do not reach Python's recursion limit. `step` also accepts next cells
 fixed in advance: LaCAM uses it as its configuration generator.
+
+Cells are free-cell ids (`free_cells`). Distances come from complete tables
+(Python lists, fastest to index) while goals x free cells stays under
+`LIST_ENTRIES`; above that from `goal_distances`, searched lazily: before
+each step every agent's row is made exact to `MARGIN` levels past its cell,
+which covers every distance the step reads near the agent; the swap rule's
+reads further along a corridor go through `_far`, which grows a row on demand.
+An agent resting on its goal whose cell nobody claimed stays without a search
+(staying is its unique best move), which is most agents late in a plan.
 """
 from __future__ import annotations
 
-from typing import List, Sequence, Tuple
+from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..grid import Coord, Grid
+from ..plan import Plan
 from ..rotations import step_cycles
-from .cells import NIL, moves, to_ids
-from .dist_table import dist_lists
+from .bfs import UNREACHED
+from .cells import NIL
+from .dist_table import dist_codes
+from .free_cells import FreeCells
+from .goal_distances import COMPLETE, GoalDistances
+
+#: Goals x free cells up to which distances are complete Python lists (about 0.1-0.3 GB).
+LIST_ENTRIES = 10_000_000
+#: Lazy rows are kept exact this many levels past every agent's distance.
+MARGIN = 4
+#: A lazy row that must grow grows by at least this many levels, so it grows rarely.
+GROW_AT_LEAST = 16
 
 
 class PIBTStep:
     """Next configurations by PIBT, for one grid and one set of goals."""
 
     def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False) -> None:
-        self.moves = moves(grid)
-        self.adj = grid.adjacency()
-        self.dist = dist_lists(grid, goals, unreachable=grid.num_cells + 1)
-        self.goals = to_ids(grid, goals)
+        self.free = FreeCells.of(grid)
+        self.moves = self.free.moves()
+        self.adj = self.free.adjacency()
+        self.goals = self.free.to_free(goals)
         self.swap = swap
         self.rotations = rotations
+        n = len(self.goals)
+        self.lazy: Optional[GoalDistances] = None
+        if len(set(self.goals)) * self.free.count <= LIST_ENTRIES:
+            # small problems: complete tables (the bit-parallel search of dist_table), as lists
+            far = self.free.count + 1
+            ids = self.free.ids
+            self.dist: List[Any] = [[far if d == UNREACHED else d for d in codes[ids].tolist()]
+                                    for codes in dist_codes(grid, goals)]
+            self.limit = [COMPLETE] * n
+        else:
+            self.lazy = GoalDistances.of(grid, self.goals)
+            self.dist = self.lazy.views()
+            self.limit = [self.lazy.radius(i) - MARGIN for i in range(n)]
         #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
-        self.occ_now = [NIL] * grid.num_cells
-        self.occ_nxt = [NIL] * grid.num_cells
+        self.occ_now = [NIL] * self.free.count
+        self.occ_nxt = [NIL] * self.free.count
+
+    def to_ids(self, cells: Sequence[Coord]) -> List[int]:
+        """Free-cell ids of coordinates: the cells `step` works on."""
+        return self.free.to_free(cells)
+
+    def plan(self, configs: Sequence[Sequence[int]]) -> Plan:
+        """The plan of a list of configurations (free-cell ids per agent)."""
+        return self.free.plan(configs, len(self.goals))
+
+    def cover(self, q: Sequence[int]) -> None:
+        """Make every agent's distances exact around its cell in `q` (a no-op for complete tables)."""
+        dist, limit = self.dist, self.limit
+        short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
+        if short and self.lazy is not None:
+            lazy = self.lazy
+            lazy.cover(short, [q[i] for i in short], MARGIN)
+            grow = [i for i in short if lazy.radius(i) - MARGIN < dist[i][q[i]] + GROW_AT_LEAST]
+            if grow:  # a little further than needed now: the agent is heading out
+                lazy.cover(grow, [q[i] for i in grow], MARGIN + GROW_AT_LEAST)
+            for i in short:
+                limit[i] = lazy.radius(i) - MARGIN
+
+    def _far(self, i: int, cell: int) -> int:
+        """Agent i's distance at `cell`, growing its lazy row if it does not reach that far yet."""
+        d = self.dist[i][cell]
+        if d > self.limit[i] + MARGIN and self.lazy is not None and self.lazy.radius(i) < COMPLETE:
+            self.lazy.cover([i], [cell], 0)
+            self.limit[i] = self.lazy.radius(i) - MARGIN
+            d = self.dist[i][cell]
+        return d
 
     def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int) -> bool:
         """Fill the NIL entries of `q_to` (next cells); the others are fixed in advance.
@@ -68,6 +131,7 @@ class PIBTStep:
         Unless `rotations` is set, the step has no rotation: one closed through
         fixed entries is undone by making its agents stay (fixed or not).
         """
+        self.cover(q_from)
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
         for i, v in enumerate(q_from):
@@ -84,8 +148,16 @@ class PIBTStep:
             claimed.append(v)
         fixed = len(claimed)
         if ok:
+            goals = self.goals
             for i in order:
-                if q_to[i] == NIL and not self._plan_agent(i, q_from, q_to, salt, claimed):
+                if q_to[i] != NIL:
+                    continue
+                v = q_from[i]
+                if v == goals[i] and occ_nxt[v] == NIL:
+                    q_to[i] = v  # resting on its goal, unclaimed: staying is its best move
+                    occ_nxt[v] = i
+                    claimed.append(v)
+                elif not self._plan_agent(i, q_from, q_to, salt, claimed):
                     ok = False
                     break
         for v in q_from:
@@ -216,6 +288,9 @@ class PIBTStep:
             if not exits:
                 break
             at_pusher, at_puller = at_puller, exits[0]
+        if d_pull[at_puller] > self.limit[puller]:  # the corridor may lead past the known part
+            return self._far(puller, at_pusher) < self._far(puller, at_puller) and (
+                d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
         return d_pull[at_pusher] < d_pull[at_puller] and (
             d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
 
