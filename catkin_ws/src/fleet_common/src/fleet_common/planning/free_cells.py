@@ -9,7 +9,7 @@ off-map neighbour reads F, and F's own neighbours are F.
 """
 from __future__ import annotations
 
-from typing import List, Sequence
+from typing import List, Optional, Sequence
 
 import numpy as np
 
@@ -24,9 +24,10 @@ _STEPS = ((-1, 0), (1, 0), (0, -1), (0, 1))
 class FreeCells:
     """Free cell k is grid cell `ids[k]`; `index[grid cell]` is k, or -1 for a blocked cell."""
 
-    def __init__(self, grid: Grid) -> None:
+    def __init__(self, grid: Grid, free: Optional[np.ndarray] = None) -> None:
+        """The free cells of `grid`, or those of the mask `free` (e.g. with robots as walls)."""
         self.grid = grid
-        self.ids = np.flatnonzero(grid.free.ravel())
+        self.ids = np.flatnonzero((grid.free if free is None else free).ravel())
         self.count = int(self.ids.size)
         self.index = np.full(grid.num_cells, -1, dtype=np.int64)
         self.index[self.ids] = np.arange(self.count)

@@ -101,11 +101,20 @@ class PIBTStep:
         """The plan of a list of configurations (free-cell ids per agent)."""
         return self.free.plan(configs, len(self.goals))
 
-    def cover(self, q: Sequence[int]) -> None:
-        """Make every agent's distances exact around its cell in `q` (a no-op for complete tables)."""
+    def cover(self, q: Sequence[int], agents: Optional[Sequence[int]] = None) -> None:
+        """Make the agents' distances (default: all) exact around their cells in `q`.
+
+        A no-op for complete tables. Agents resting on their goals need no
+        check: everything within MARGIN of the goal is known from the start.
+        """
+        if self.lazy is None:
+            return
         dist, limit = self.dist, self.limit
-        short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
-        if short and self.lazy is not None:
+        if agents is None:
+            short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
+        else:
+            short = [i for i in agents if dist[i][q[i]] > limit[i]]
+        if short:
             lazy = self.lazy
             lazy.cover(short, [q[i] for i in short], MARGIN)
             grow = [i for i in short if lazy.radius(i) - MARGIN < dist[i][q[i]] + GROW_AT_LEAST]
@@ -123,21 +132,23 @@ class PIBTStep:
             d = self.dist[i][cell]
         return d
 
-    def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int) -> bool:
+    def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int,
+             moving: Optional[Sequence[int]] = None) -> bool:
         """Fill the NIL entries of `q_to` (next cells); the others are fixed in advance.
 
-        Returns False when the fixed entries conflict (two in one cell, or a
+        `moving`, if given, lists every agent not resting on its goal (the
+        others' distance rows need no check). Returns False when the fixed entries conflict (two in one cell, or a
         swap) or leave some agent nowhere to go; `q_to` is then meaningless.
         Unless `rotations` is set, the step has no rotation: one closed through
         fixed entries is undone by making its agents stay (fixed or not).
         """
-        self.cover(q_from)
+        self.cover(q_from, moving)
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
         for i, v in enumerate(q_from):
             occ_now[v] = i
         ok = True
-        for i, v in enumerate(q_to):
+        for i, v in enumerate(q_to if q_to.count(NIL) < len(q_to) else ()):
             if v == NIL:
                 continue
             j = occ_now[v]
