@@ -25,17 +25,19 @@ after the first plan until the deadline. Every configuration remembers the
 configurations it has led to and its cost from the start (the sum of loss:
 per step, the agents that are not resting on their goals); when a known
 configuration is reached again more cheaply, the cheaper parents spread
-through those links (a Dijkstra relaxation), and a node whose cost plus its
-sum of distances cannot beat the best plan is not expanded. The best plan
+through those links (a Dijkstra relaxation), a node whose cost plus its
+sum of distances cannot beat the best plan is not expanded, and now and then
+the search dives again from the start. The best plan
 only improves; when nothing is left to expand it is optimal for the sum of
 loss. `stats["anytime"]` lists (milliseconds, soc) at each improvement.
 """
 from __future__ import annotations
 
+import heapq
 import random
 import time
 from collections import deque
-from typing import Deque, Dict, List, Optional, Sequence, Set, Tuple
+from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -47,6 +49,8 @@ from .pibt_step import PIBTStep
 from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
 
 NAME = "lacam"
+#: After the first plan, the chance per iteration of diving again from the start (as LaCAM*'s code).
+RESTART_RATE = 0.001
 Config = Tuple[int, ...]
 
 
@@ -73,7 +77,8 @@ class _Node:
         self.tree: Deque[_Constraint] = deque([_Constraint()])
         self.g = g
         self.h = h
-        self.links: Set["_Node"] = set()  # configurations reached from this one (anytime only)
+        #: configurations reached from this one, with the cost of that step (anytime only)
+        self.links: Dict["_Node", int] = {}
 
 
 def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
@@ -88,11 +93,11 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
     tie = initial_ties(stepper, start_cfg, rng)
     dist = stepper.dist
 
-    def h_of(cfg: Config) -> int:
-        return sum(dist[i][v] for i, v in enumerate(cfg))
+    def h_of(cfg: Config) -> int:  # sum of distances: no plan from cfg has a smaller loss
+        return sum(dist[i][v] for i, v in enumerate(cfg)) if anytime else 0
 
-    def loss(a: Config, b: Config) -> int:
-        return sum(1 for x, y, g in zip(a, b, goal_cfg) if x != g or y != g)
+    def loss(a: Config, b: Config) -> int:  # agents not resting on their goals during the step
+        return sum(1 for x, y, g in zip(a, b, goal_cfg) if x != g or y != g) if anytime else 0
 
     root = _Node(start_cfg, None, list(tie), 0, h_of(start_cfg))
     open_: List[_Node] = [root]
@@ -120,6 +125,8 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
                 break
         if best is not None and best.g < best_g:
             improved()
+        if best is not None and rng.random() < RESTART_RATE:
+            open_.append(root)  # LaCAM*'s random restart: dive again from the start
         if best is not None and node.g + node.h >= best.g:
             open_.pop()  # cannot lead to a cheaper plan
             continue
@@ -142,15 +149,15 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         cfg = tuple(nxt)
         known = explored.get(cfg)
         if known is not None:
-            if anytime:
-                node.links.add(known)
-                _relax(node, loss)
+            if anytime and known not in node.links:
+                node.links[known] = loss(node.config, cfg)
+                _relax(node)
             open_.append(known)  # go back to it: its next constraint may lead elsewhere
             continue
         child = _Node(cfg, node, _next_priorities(node.prio, cfg, goal_cfg, tie), node.g + loss(node.config, cfg),
                       h_of(cfg))
         if anytime:
-            node.links.add(child)
+            node.links[child] = child.g - node.g
         explored[cfg] = child
         open_.append(child)
     stats = dict(explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
@@ -166,17 +173,24 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
     return failed(NAME, NO_SOLUTION, "every reachable configuration was explored: no plan exists", **stats)
 
 
-def _relax(start: _Node, loss) -> None:  # type: ignore[no-untyped-def]
-    """Spread a cheaper cost from `start` through the links (Dijkstra's relaxation)."""
-    queue: Deque[_Node] = deque([start])
-    while queue:
-        a = queue.popleft()
-        for b in a.links:
-            g = a.g + loss(a.config, b.config)
-            if g < b.g:
-                b.g = g
-                b.parent = a
-                queue.append(b)
+def _relax(start: _Node) -> None:
+    """Spread a cheaper cost from `start` through the links (Dijkstra)."""
+    heap: List[Tuple[int, int, _Node]] = []
+    count = 0
+    for b, cost in start.links.items():
+        if start.g + cost < b.g:
+            b.g, b.parent = start.g + cost, start
+            count += 1
+            heapq.heappush(heap, (b.g, count, b))
+    while heap:
+        g, _, a = heapq.heappop(heap)
+        if g > a.g:
+            continue  # improved again since it was queued
+        for b, cost in a.links.items():
+            if g + cost < b.g:
+                b.g, b.parent = g + cost, a
+                count += 1
+                heapq.heappush(heap, (b.g, count, b))
 
 
 def _next_priorities(prio: List[float], cfg: Config, goal: Config, tie: List[float]) -> List[float]:
