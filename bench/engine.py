@@ -7,7 +7,7 @@
    and "rings" (125 rings of 16 cells, 12 agents each in groups of three, all
    moving every step: every action enters a cell just left by another robot,
    a third of them following moves, so 1.5 million type-2 edges).
-2. The cost of one completion event (`Engine.handle(Completed(...))`, the
+2. The cost of one completion event (`Engine.handle(ActionCompleted(...))`, the
    dispatch decisions it causes included), measured on every completion of a
    simulated run with moderate random delays: on the shipped mapf-IR plan
    pibt_sample.txt (100 robots, 218 following moves), and on rings at 300
@@ -29,7 +29,7 @@ from typing import List
 
 import numpy as np
 
-from fleet_common.execution import Completed, Engine
+from fleet_common.execution import ActionCompleted, Engine
 from fleet_common.execution.actions import ActionTable
 from fleet_common.execution.adg import build_adg
 from fleet_common.execution.delays import parse_delay_model
@@ -76,7 +76,7 @@ def event_costs(plan: Plan, strategy: str, seed: int = 0) -> np.ndarray:
     clock = time.perf_counter
 
     def timed(event):  # type: ignore[no-untyped-def]
-        if type(event) is Completed:
+        if type(event) is ActionCompleted:
             t0 = clock()
             out = handle(event)
             costs.append(clock() - t0)

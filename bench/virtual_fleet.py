@@ -29,9 +29,9 @@ import zmq
 
 from fleet_common.robots import read_robot_definitions
 from fleet_common.wire import Accepted, Completed, Failed, PoseFeedback, Status
-from fleet_common.wire.curve_keys import load_manager_keys, make_keys
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import LinkUp, RobotLink, RobotReply
+from fleet_common.transport.curve_keys import load_manager_keys, make_keys
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
 
 SQUARE = [(1, 0), (1, 1), (0, 1), (0, 0)]  # corners relative to the robot's start cell
 

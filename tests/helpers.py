@@ -3,6 +3,7 @@ a naive rotation checker (the oracle for the vectorised one).
 """
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -34,6 +35,27 @@ def free_ports(n: int) -> List[int]:
 
 def free_port() -> int:
     return free_ports(1)[0]
+
+
+def free_port_block(count: int) -> int:
+    """`count` consecutive ports free now, below the kernel's ephemeral range (32768 and up,
+    where the processes' own outgoing connections would take them), from a per-process
+    offset so that test runs side by side rarely meet."""
+    base = 10000 + (os.getpid() * 37) % 20000
+    while base + count < 32768:
+        socks = []
+        try:
+            for port in range(base, base + count):
+                s = socket.socket()
+                socks.append(s)
+                s.bind(("127.0.0.1", port))
+            return base
+        except OSError:
+            base += count
+        finally:
+            for s in socks:
+                s.close()
+    raise RuntimeError("no {} consecutive free ports".format(count))
 
 
 def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int, ...]]]:

@@ -16,7 +16,7 @@ from agv_package.wire_navigator import BUMPER, NOT_LOCALIZED, WireNavigator
 from fleet_common.lab import node_table
 from fleet_common.wire import (Accepted, CommandExecutor, Completed, DriveToPosition, Failed,
                                GetStatus, Stop, Turn)
-from fleet_common.wire.navigator import MotionRefused
+from fleet_common.wire.command_check import CommandCheck
 
 
 class FakeNavigator(Navigator):
@@ -71,12 +71,13 @@ def settle(executor: CommandExecutor, timeout: float = 2.0) -> list:
 @pytest.fixture
 def robot() -> Tuple[FakeNavigator, WireNavigator, CommandExecutor]:
     fake = FakeNavigator()
-    wire = WireNavigator(fake, GridFrame(), node_table().grid())
-    return fake, wire, CommandExecutor(wire)
+    wire = WireNavigator(fake, GridFrame())
+    return fake, wire, CommandExecutor(wire, check=CommandCheck(node_table().grid()))
 
 
 def test_commands_in_cells_reach_the_navigator_in_metres(robot: tuple) -> None:
     fake, wire, executor = robot
+    fake.where = Pose2D(2.1, 3.5, 0.0)  # cell (2, 2)
     assert executor.handle("e", DriveToPosition(1, 2.0, 3.0, 4.5)) == [("e", Accepted(1))]
     time.sleep(0.05)
     kind, (x, y, arrival) = fake.calls[0]
@@ -88,7 +89,7 @@ def test_commands_in_cells_reach_the_navigator_in_metres(robot: tuple) -> None:
     assert fake.calls[1] == ("turn", (pytest.approx(math.pi / 2),))
     fake.finish(NavResult(False, "timed out"))
     assert settle(executor) == [Failed(2, "timed out")]
-    fake.where = Pose2D(2.1, 4.2, math.pi)
+    fake.where = Pose2D(2.1, 4.2, math.pi)  # cell (2, 3)
     status = executor.handle("e", GetStatus(3))[0][1]
     assert (status.pose.x, status.pose.y) == pytest.approx((2.0, 3.0))
     assert status.pose.theta == pytest.approx(math.pi) and status.faults == ()
@@ -107,16 +108,21 @@ def test_a_command_sent_twice_moves_the_robot_once(robot: tuple) -> None:
 
 def test_targets_off_the_free_grid_are_refused(robot: tuple) -> None:
     fake, wire, executor = robot
-    with pytest.raises(MotionRefused, match="not a free cell"):
-        wire.start_drive(4.0, 1.0, 0.0)  # the lab's blocked cell (4, 1)
-    reply = executor.handle("e", DriveToPosition(1, 20.0, 1.0, 0.0))[0][1]
-    assert isinstance(reply, Failed) and "13x14 grid" in reply.reason
+    fake.where = Pose2D(4.2, 2.8, 0.0)  # cell (5, 1), beside the lab's blocked cell (4, 1)
+    reply = executor.handle("e", DriveToPosition(1, 4.0, 1.0, 0.0))[0][1]
+    assert reply == Failed(1, "target (4, 1) is on the blocked cell (4, 1)")
+    reply = executor.handle("e", DriveToPosition(2, 20.0, 1.0, 0.0))[0][1]
+    assert reply == Failed(2, "target (20, 1) is off the 13x14 map")
+    reply = executor.handle("e", DriveToPosition(3, 3.0, 1.0, 0.0))[0][1]
+    assert isinstance(reply, Failed) and "one drive goes at most 1.5" in reply.reason
     assert fake.calls == []
+    assert executor.handle("e", DriveToPosition(4, 5.0, 2.0, 0.0)) == [("e", Accepted(4))]
+    fake.finish()
 
 
 def test_stop_abandons_the_motion_and_reports_it_once(robot: tuple) -> None:
     fake, wire, executor = robot
-    executor.handle("e", DriveToPosition(1, 2.0, 0.0, 0.0))
+    executor.handle("e", DriveToPosition(1, 1.0, 0.0, 0.0))
     time.sleep(0.05)
     replies = [reply for _, reply in executor.handle("e", Stop(2))]
     assert replies == [Failed(1, "stopped by command 2"), Accepted(2), Completed(2)]
@@ -127,13 +133,13 @@ def test_stop_abandons_the_motion_and_reports_it_once(robot: tuple) -> None:
 def test_bumper_stops_the_robot_and_holds_a_fault_until_released_and_stopped(
         robot: tuple) -> None:
     fake, wire, executor = robot
-    executor.handle("e", DriveToPosition(1, 2.0, 0.0, 0.0))
+    executor.handle("e", DriveToPosition(1, 1.0, 0.0, 0.0))
     time.sleep(0.05)
     wire.bumper(True)
     assert ("stop", ()) in fake.calls
     assert settle(executor) == [Failed(1, "bumper pressed: stopped on contact")]
     assert wire.faults() == [BUMPER] and wire.interlock() is not None
-    refused = executor.handle("e", DriveToPosition(2, 2.0, 0.0, 0.0))[0][1]
+    refused = executor.handle("e", DriveToPosition(2, 1.0, 0.0, 0.0))[0][1]
     assert isinstance(refused, Failed) and "faults: bumper" in refused.reason
     executor.handle("e", Stop(3))  # still pressed: the stop does not clear it
     assert wire.faults() == [BUMPER]
@@ -141,7 +147,7 @@ def test_bumper_stops_the_robot_and_holds_a_fault_until_released_and_stopped(
     assert wire.faults() == [BUMPER]  # released, not yet acknowledged
     executor.handle("e", Stop(4))
     assert wire.faults() == [] and wire.interlock() is None
-    assert executor.handle("e", DriveToPosition(5, 2.0, 0.0, 0.0)) == [("e", Accepted(5))]
+    assert executor.handle("e", DriveToPosition(5, 1.0, 0.0, 0.0)) == [("e", Accepted(5))]
     fake.finish()
 
 

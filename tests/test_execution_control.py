@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fleet_common.execution import (
-    STRATEGIES, Completed, Disabled, Enabled, Engine, EventError, Failed, Pause, Resume, Started,
-    StepRound, Strategy, SwitchStrategy, UnknownStrategyError, make_strategy, register,
+    STRATEGIES, ActionCompleted, ActionStarted, Disabled, Enabled, Engine, EventError, Pause, Resume,
+    RobotFailed, StepRound, Strategy, SwitchStrategy, UnknownStrategyError, make_strategy, register,
 )
 from fleet_common.execution.delays import parse_delay_model
 from fleet_common.execution.events import CELL, PAUSED
@@ -44,7 +44,7 @@ def drive(engine: Engine, pending: List, time: float = 1.0) -> List:
     while pending:
         d = pending.pop(0)
         seen.append(d)
-        pending.extend(engine.handle(Completed(d.robot, d.index, time)))
+        pending.extend(engine.handle(ActionCompleted(d.robot, d.index, time)))
     return seen
 
 
@@ -76,13 +76,13 @@ def test_a_robot_disabled_mid_move_may_still_finish_that_move_but_gets_nothing_n
     engine = Engine(CORRIDOR, "adg", lookahead=3)
     sent = [d for d in engine.handle(Resume(0.0)) if d.robot == 0]
     assert [d.index for d in sent] == [0, 1, 2]  # three free cells ahead: sent at once
-    engine.handle(Started(0, 0, 0.0))
+    engine.handle(ActionStarted(0, 0, 0.0))
     engine.handle(Disabled(0, 0.5))  # the unstarted two are taken back
-    released = engine.handle(Completed(0, 0, 1.0))  # robot 1 may now enter (3, 0), no further
+    released = engine.handle(ActionCompleted(0, 0, 1.0))  # robot 1 may now enter (3, 0), no further
     assert [(d.robot, d.index, d.dst) for d in released] == [(1, 0, (3, 0))]
     assert engine.run.completed[0] == 1 and engine.run.dispatched[0] == 1
     with pytest.raises(EventError):
-        engine.handle(Completed(0, 2, 1.5))
+        engine.handle(ActionCompleted(0, 2, 1.5))
     again = engine.handle(Enabled(0, 2.0))
     assert [(d.robot, d.index) for d in again] == [(0, 1), (0, 2)]
 
@@ -90,10 +90,10 @@ def test_a_robot_disabled_mid_move_may_still_finish_that_move_but_gets_nothing_n
 def test_a_failed_robot_holds_both_cells_of_its_move_and_retries_it_when_enabled():
     engine = Engine(EXAMPLE, "adg")
     pending = engine.handle(Resume(0.0))
-    pending = engine.handle(Completed(0, 0, 1.0))  # robot 0 in B, sent B->C
+    pending = engine.handle(ActionCompleted(0, 0, 1.0))  # robot 0 in B, sent B->C
     assert [(d.robot, d.index) for d in pending] == [(0, 1)]
-    engine.handle(Started(0, 1, 1.0))
-    assert engine.handle(Failed(0, 1.5)) == []
+    engine.handle(ActionStarted(0, 1, 1.0))
+    assert engine.handle(RobotFailed(0, 1.5)) == []
     assert engine.waiting() == [(1, (0,), (2, 0), CELL)] and engine.blocked_by() == {0: [1]}
     retry = engine.handle(Enabled(0, 9.0))
     assert [(d.robot, d.index, d.src, d.dst) for d in retry] == [(0, 1, (1, 0), (2, 0))]
@@ -121,7 +121,7 @@ def test_a_run_starts_paused_and_pause_stops_new_actions(sample):
     assert len(pending) > 50
     engine.handle(Pause(0.5))
     for d in pending:  # robots finish what they were sent, nothing new is sent
-        assert engine.handle(Completed(d.robot, d.index, 1.0)) == []
+        assert engine.handle(ActionCompleted(d.robot, d.index, 1.0)) == []
     assert engine.paused and not engine.stalled and engine.waiting()
     assert len(engine.handle(Resume(2.0))) > 50
 
@@ -200,7 +200,7 @@ def control_schedules(draw):
             events.append(SwitchStrategy(make_strategy(name, **settings_), time))
         elif kind in ("disable", "fail"):
             out.add(robot)
-            events.append((Disabled if kind == "disable" else Failed)(robot, time))
+            events.append((Disabled if kind == "disable" else RobotFailed)(robot, time))
         elif kind == "enable":
             events.append(Enabled(robot, time))
         else:
@@ -226,18 +226,18 @@ def test_events_that_contradict_the_progress_are_refused_and_change_nothing():
     engine.handle(Resume(0.0))
     before = (list(engine.run.completed), list(engine.run.dispatched), bytes(engine.run.done))
     with pytest.raises(EventError, match="robot 1 reports completing action 0, but .* it was sent 0"):
-        engine.handle(Completed(1, 0, 1.0))
+        engine.handle(ActionCompleted(1, 0, 1.0))
     with pytest.raises(EventError, match="robot 0 reports completing action 1, but its next action to complete is 0"):
-        engine.handle(Completed(0, 1, 1.0))
+        engine.handle(ActionCompleted(0, 1, 1.0))
     with pytest.raises(EventError, match="no robot 7 in this plan of 2 robots"):
-        engine.handle(Started(7, 0, 1.0))
+        engine.handle(ActionStarted(7, 0, 1.0))
     with pytest.raises(EventError, match="not an engine event"):
         engine.handle("go")
     other = Engine(EXAMPLE, "step")
     with pytest.raises(EventError, match="needs a new strategy"):
         engine.handle(SwitchStrategy(other.strategy, 1.0))
     assert (list(engine.run.completed), list(engine.run.dispatched), bytes(engine.run.done)) == before
-    assert engine.handle(Completed(0, 0, 1.0))  # still accepts the right one
+    assert engine.handle(ActionCompleted(0, 0, 1.0))  # still accepts the right one
 
 
 def test_strategy_names_and_settings_are_checked_with_the_valid_ones_listed():

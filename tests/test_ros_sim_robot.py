@@ -16,16 +16,10 @@ from __future__ import annotations
 
 import math
 import os
-import re
-import shutil
-import signal
-import subprocess
 import sys
 import threading
 import time
-import xmlrpc.client
-from pathlib import Path
-from typing import Callable, Dict, Iterator, List, Optional, Tuple
+from typing import Callable, Iterator, List, Optional, Tuple
 
 import numpy as np
 import pytest
@@ -38,118 +32,18 @@ from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.wire import (Connection, DriveToPosition, GetStatus, Heartbeat, Hello, Role,
                                Stop, Turn)
 from fleet_common.wire.codec import decode
-from fleet_common.wire.curve_keys import ManagerKeys, load_manager_keys, make_keys
+from fleet_common.transport.curve_keys import ManagerKeys, load_manager_keys, make_keys
 from helpers import free_port
+from live import Proc
+from ros_procs import master_up, netns_marker, ros_environment, run_inside_netns, wait_for
 
 pytestmark = pytest.mark.slow
-REPO_ROOT = Path(__file__).resolve().parents[1]
-VENV_BIN = Path(sys.executable).parent
 
-# roscore's rosout (a C++ node) listens on every interface whatever ROS_IP says, and our rule
-# is that a test's servers listen on loopback only or inside a network namespace the test
-# makes. So, when it can (root, unshare, ip), this module runs itself again inside a fresh
-# network namespace that has nothing but a loopback interface, and the outer run checks that
-# inner run; the tests below are then skipped in the outer run only.
-IN_NETNS = os.environ.get("FLEETCONTROL_ROS_NETNS") == "1"
-NETNS_WRAPPER = (not IN_NETNS and os.geteuid() == 0
-                 and shutil.which("unshare") is not None and shutil.which("ip") is not None)
-inside_netns = pytest.mark.skipif(
-    NETNS_WRAPPER, reason="run inside a fresh network namespace by test_ros_in_own_network_namespace")
+inside_netns = netns_marker(__file__)
 
 
-@pytest.mark.skipif(not NETNS_WRAPPER, reason="this is the run inside the namespace" if IN_NETNS
-                    else "not root or no unshare/ip: the tests below run directly")
 def test_ros_in_own_network_namespace() -> None:
-    script = 'ip link set lo up && exec "$0" -m pytest -q -p no:cacheprovider "$1"'
-    proc = subprocess.run(["unshare", "--net", "--", "sh", "-c", script, sys.executable, __file__],
-                          env=dict(os.environ, FLEETCONTROL_ROS_NETNS="1"), capture_output=True,
-                          text=True, timeout=900, cwd=str(REPO_ROOT))
-    report = proc.stdout[-6000:] + proc.stderr[-3000:]
-    assert proc.returncode == 0, report
-    passed = re.search(r"(\d+) passed", proc.stdout)
-    assert passed and int(passed.group(1)) >= 2 and "failed" not in proc.stdout, report
-
-
-
-
-
-def ros_environment(master_port: int, home: Path) -> Dict[str, str]:
-    env = dict(os.environ)
-    env.update({
-        "PATH": "{}:/usr/bin:/bin".format(VENV_BIN),
-        "ROS_MASTER_URI": "http://127.0.0.1:{}".format(master_port),
-        "ROS_IP": "127.0.0.1",  # nodes advertise and (rospy) listen on loopback only
-        "ROS_HOME": str(home),
-        "ROS_LOG_DIR": str(home / "log"),
-        "ROS_PACKAGE_PATH": "{}:/usr/share".format(REPO_ROOT / "catkin_ws" / "src"),
-        "PYTHONUNBUFFERED": "1",
-    })
-    env.pop("ROS_HOSTNAME", None)
-    env.pop("PYTHONPATH", None)
-    return env
-
-
-class Process:
-    """A command in its own process group, output to `log`; `stop()` ends the group."""
-
-    def __init__(self, args: List[str], env: Dict[str, str], log: Path) -> None:
-        self.log = log
-        self._out = open(log, "wb")
-        self.popen = subprocess.Popen(args, env=env, stdout=self._out, stderr=subprocess.STDOUT,
-                                      stdin=subprocess.DEVNULL, start_new_session=True)
-
-    def tail(self, lines: int = 40) -> str:
-        text = self.log.read_text(encoding="utf-8", errors="replace").splitlines()
-        return "\n".join(text[-lines:])
-
-    def stop(self, grace: float = 10.0) -> None:
-        group = self.popen.pid  # start_new_session: the group id is the leader's pid
-        for sig, wait in ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)):
-            try:
-                os.killpg(group, sig)
-            except ProcessLookupError:
-                break
-            try:
-                self.popen.wait(wait)
-                # the leader is gone; give its children (nodes) a moment, then check the group
-                deadline = time.monotonic() + wait
-                while time.monotonic() < deadline and _group_alive(group):
-                    time.sleep(0.1)
-                if not _group_alive(group):
-                    break
-            except subprocess.TimeoutExpired:
-                continue
-        self._out.close()
-
-
-def _group_alive(group: int) -> bool:
-    try:
-        os.killpg(group, 0)
-    except ProcessLookupError:
-        return False
-    return True
-
-
-def wait_for(condition: Callable[[], bool], timeout: float, what: str,
-             process: Optional[Process] = None) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        if process is not None and process.popen.poll() is not None:
-            raise AssertionError("{} exited ({}) while waiting for {}:\n{}".format(
-                process.log.name, process.popen.returncode, what, process.tail()))
-        time.sleep(0.1)
-    raise AssertionError("timed out after {:.0f} s waiting for {}{}".format(
-        timeout, what, "\n" + process.tail() if process is not None else ""))
-
-
-def master_up(uri: str) -> bool:
-    try:
-        code, _, _ = xmlrpc.client.ServerProxy(uri).getPid("/fleet_test")
-        return code == 1
-    except OSError:
-        return False
+    run_inside_netns(__file__, min_passed=2)
 
 
 class Manager:
@@ -326,7 +220,7 @@ class Observer:
 
 class SimRobot:
     def __init__(self, manager: Manager, observer: Observer, frame: GridFrame,
-                 launch: Process) -> None:
+                 launch: Proc) -> None:
         self.manager = manager
         self.observer = observer
         self.frame = frame
@@ -347,20 +241,21 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
     definitions = home / "robot_definitions.txt"
     definitions.write_text(format_robot_definitions([RobotDefinition(
         ROBOT_ID, "127.0.0.1", command_port, "turtlebot", "turtlebot3", "blue")]))
-    started: List[Process] = []
+    started: List[Proc] = []
     saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME",
                                              "ROS_LOG_DIR", "ROS_HOSTNAME")}
     manager: Optional[Manager] = None
     try:
-        roscore = Process(["roscore", "-p", str(master_port)], env, home / "roscore.log")
+        roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
         started.append(roscore)
         wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
-        launch = Process(
+        launch = Proc(
             ["roslaunch", "agv_package", "sim_robot.launch",
              "robot_id:={}".format(ROBOT_ID), "definitions:={}".format(definitions),
              "keys_dir:={}".format(keys_dir), "feedback_port:={}".format(feedback_port),
-             "start_x:={}".format(START[0]), "start_y:={}".format(START[1]), "seed:=7"],
-            env, home / "roslaunch.log")
+             "start_x:={}".format(START[0]), "start_y:={}".format(START[1]), "seed:=7",
+             "max_step:=2.5"],  # the route below drives two cells at a time
+            home / "roslaunch.log", env)
         started.append(launch)
         # The test's own node joins the same master (loopback only).
         for key in saved:

@@ -6,7 +6,7 @@ import math
 import random
 import time
 from pathlib import Path
-from typing import Iterator, List
+from typing import Iterator, List, Tuple
 
 import pytest
 import zmq
@@ -14,13 +14,14 @@ import zmq
 from fleet_common.errors import FleetError, RobotDefinitionsError
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Completed, Failed, Pose, Status
-from fleet_common.wire.curve_keys import load_manager_keys, load_robot_keys, make_keys
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import LinkUp, RobotLink, RobotReply
+from fleet_common.wire.command_check import CommandCheck, CommandLimits
+from fleet_common.transport.curve_keys import load_manager_keys, load_robot_keys, make_keys
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
 from virtual_fleet.delays import DelayModel, parse_delay_model
 from virtual_fleet.fleet import FleetThread, VirtualFleet
 from virtual_fleet.kinematics import VirtualNavigator
-from helpers import free_ports
+from helpers import free_port_block
 
 
 class FakeClock:
@@ -142,17 +143,15 @@ def context() -> Iterator[zmq.Context]:
     ctx.destroy(linger=0)
 
 
-def definitions(n: int) -> List[RobotDefinition]:
-    ports = free_ports(n)
-    return [RobotDefinition(i + 1, "192.168.2.{}".format(10 + i), port, "u", "v{}".format(i), "red")
-            for i, port in enumerate(ports)]
+def definitions(n: int) -> Tuple[List[RobotDefinition], int]:
+    """n robots on consecutive free command ports, and the base of n free feedback ports."""
+    base = free_port_block(2 * n)
+    return [RobotDefinition(i + 1, "192.168.2.{}".format(10 + i), base + i, "u", "v{}".format(i), "red")
+            for i in range(n)], base + n
 
 
 def test_fifty_virtual_robots_each_complete_a_command_round_trip(keys: Path, context) -> None:
-    robots = definitions(50)
-    feedback = free_ports(1)[0]
-    while any(p in range(feedback, feedback + 50) for p in (r.command_port for r in robots)):
-        feedback = free_ports(1)[0]
+    robots, feedback = definitions(50)
     fleet = VirtualFleet(robots, keys=load_robot_keys(keys), feedback_base=feedback,
                          time_scale=20.0)
     with FleetThread(fleet):
@@ -188,9 +187,10 @@ def test_fifty_virtual_robots_each_complete_a_command_round_trip(keys: Path, con
 
 
 def test_a_robot_that_drops_out_comes_back_restarted(keys: Path, context) -> None:
-    [robot] = definitions(1)
-    fleet = VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=free_ports(1)[0],
-                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3)
+    [robot], feedback = definitions(1)
+    fleet = VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=feedback,
+                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3,
+                         check=CommandCheck(limits=CommandLimits(max_step=None)))
     with FleetThread(fleet):
         links = LinkSet([RobotLink(context, robot, "epoch", keys=load_manager_keys(keys),
                                    host="127.0.0.1")])

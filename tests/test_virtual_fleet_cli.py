@@ -15,10 +15,10 @@ import zmq
 
 from fleet_common.robots import read_robot_definitions
 from fleet_common.wire import Completed
-from fleet_common.wire.curve_keys import load_manager_keys
-from fleet_manager.links import LinkSet
-from fleet_manager.robot_link import RobotLink, RobotReply
-from helpers import fleetctl, free_ports
+from fleet_common.transport.curve_keys import load_manager_keys
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import RobotLink, RobotReply
+from helpers import fleetctl, free_port_block, free_ports
 
 
 
@@ -30,8 +30,9 @@ def test_keys_are_made_once_with_private_secrets(tmp_path: Path) -> None:
     made = fleetctl("keys", "--dir", folder)
     assert made.returncode == 0, made.stderr
     names = sorted(p.name for p in folder.iterdir())
-    assert names == ["manager.key", "manager.key_secret", "robot.key", "robot.key_secret"]
-    for name in ("manager.key_secret", "robot.key_secret"):
+    assert names == ["console.key", "console.key_secret", "manager.key", "manager.key_secret",
+                     "robot.key", "robot.key_secret"]
+    for name in ("console.key_secret", "manager.key_secret", "robot.key_secret"):
         assert stat.S_IMODE((folder / name).stat().st_mode) == 0o600
     before = (folder / "manager.key").read_bytes()
     again = fleetctl("keys", "--dir", folder)
@@ -40,6 +41,18 @@ def test_keys_are_made_once_with_private_secrets(tmp_path: Path) -> None:
     assert (folder / "manager.key").read_bytes() == before
     assert fleetctl("keys", "--dir", folder, "--force").returncode == 0
     assert (folder / "manager.key").read_bytes() != before
+
+
+def test_a_key_folder_from_before_consoles_gets_the_console_pair_added(tmp_path: Path) -> None:
+    folder = tmp_path / "keys"
+    assert fleetctl("keys", "--dir", folder).returncode == 0
+    manager = (folder / "manager.key_secret").read_bytes()
+    for name in ("console.key", "console.key_secret"):
+        (folder / name).unlink()
+    again = fleetctl("keys", "--dir", folder)
+    assert again.returncode == 0, again.stderr
+    assert (folder / "console.key_secret").is_file()
+    assert (folder / "manager.key_secret").read_bytes() == manager  # the robots' keys are kept
 
 
 def test_keys_go_to_the_folder_named_by_the_environment(tmp_path: Path) -> None:
@@ -60,7 +73,7 @@ def fleet_files(tmp_path: Path) -> Path:
 
 @pytest.fixture
 def running_fleet(fleet_files: Path) -> Iterator[subprocess.Popen]:
-    feedback = free_ports(1)[0]
+    feedback = free_port_block(3)
     proc = subprocess.Popen(
         [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions",
          str(fleet_files / "robots.txt"), "--keys", str(fleet_files / "keys"),

@@ -69,21 +69,22 @@ def test_a_drive_frame_reads_as_documented() -> None:
 
 
 @pytest.mark.parametrize("data, message", [
-    (b"\xff", "not JSON text"),
+    (b"\xff", "not UTF-8 text"),
+    (b"{", "not JSON text"),
     (b"[1, 2]", "not a JSON object"),
     (b'{"t":"teleport","v":1}', "unknown message type 'teleport'; known: accepted, bye"),
     (b'{"t":"stop"}', "stop message without an integer protocol version"),
     (b'{"t":"drive","v":1,"id":7,"x":3,"y":4}', "drive message lacks field 'time'"),
     (b'{"t":"stop","v":1,"id":7,"urgent":true}', "stop message has unknown field(s) 'urgent'"),
     (b'{"t":"stop","v":1,"id":-1}', "field 'id' of a stop message must be a non-negative integer, got -1"),
-    (b'{"t":"stop","v":1,"id":true}', "must be a non-negative integer, got true"),
+    (b'{"t":"stop","v":1,"id":true}', "must be a non-negative integer, got True"),
     (b'{"t":"turn","v":1,"id":1,"angle":"north"}', "field 'angle' of a turn message must be a finite number"),
-    (b'{"t":"turn","v":1,"id":1,"angle":NaN}', "must be a finite number, got NaN"),
-    (b'{"t":"turn","v":1,"id":1,"angle":1e999}', "must be a finite number, got Infinity"),
+    (b'{"t":"turn","v":1,"id":1,"angle":NaN}', "NaN is not a number JSON allows"),
+    (b'{"t":"turn","v":1,"id":1,"angle":1e999}', "number 1e999 is out of range"),
     (b'{"t":"status","v":1,"id":1,"pose":[1,2],"current":null,"faults":[]}',
      "field 'pose' of a status message must be [x, y, theta]"),
     (b'{"t":"status","v":1,"id":1,"pose":[1,2,3],"current":null,"faults":"bumper"}',
-     "field 'faults' of a status message must be a list of strings"),
+     "field 'faults' of a status message must be a list of at most 32 strings"),
     (b'{"t":"accepted","v":1,"id":1,"duplicate":0}', "must be true or false, got 0"),
 ])
 def test_malformed_frames_say_what_is_wrong(data: bytes, message: str) -> None:
@@ -104,3 +105,55 @@ def test_a_bye_of_any_version_is_readable() -> None:
     # a newer bye may carry more fields; its reason still gets through
     data = b'{"t":"bye","v":7,"reason":"version mismatch","code":"version","extra":1}'
     assert decode(data) == Bye("version mismatch", "version")
+
+
+# ---- hostile frames: any bytes give a message or RemoteProtocolError --------------------
+
+@given(st.binary(max_size=300))
+def test_any_bytes_decode_to_a_message_or_a_protocol_error(data: bytes) -> None:
+    try:
+        decode(data)
+    except RemoteProtocolError:
+        pass
+
+
+MUTATIONS = [b"[", b"]", b"{", b"}", b'"', b"\\", b"1" * 400, b"1e400", b"-1e400", b"NaN",
+             b"Infinity", b"\xff\xfe", b"null", b"true", b"[" * 30000, b"-", b".", b"e",
+             b'"x":1,', b"\x00", b"\r\n"]
+
+
+@given(MESSAGES, st.data())
+def test_mutated_frames_decode_to_a_message_or_a_protocol_error(message: object,
+                                                                 data: st.DataObject) -> None:
+    raw = bytearray(encode(message))
+    for _ in range(data.draw(st.integers(1, 3))):
+        at = data.draw(st.integers(0, len(raw)))
+        raw[at:at + data.draw(st.integers(0, 3))] = data.draw(st.sampled_from(MUTATIONS))
+    try:
+        decode(bytes(raw))
+    except RemoteProtocolError as err:
+        assert len(str(err)) < 300 and "\n" not in str(err)
+
+
+@pytest.mark.parametrize("data, message", [
+    (b'{"t":"drive","v":1,"id":1,"x":' + b"1" * 400 + b',"y":0,"time":0}', "400 characters"),
+    (b"[" * 30000, "nested 30,000 deep"),
+    (b'{"t":"stop","v":1,"id":' + b"9" * 30 + b"}", "must be a non-negative integer"),
+    (b'{"t":"failed","v":1,"id":1,"reason":"' + b"x" * 2000 + b'"}', "at most 1000 characters"),
+    (b'{"t":"status","v":1,"id":1,"pose":[0,0,0],"current":null,"faults":['
+     + b",".join([b'"f"'] * 40) + b"]}", "at most 32 strings"),
+    (b'{"t":"stop","v":1,"id":1,"id":2}', "'id' appears twice"),
+    (b'{"t":"' + b"q" * 5000 + b'","v":1}', "(5,000 characters)"),
+])
+def test_the_hostile_frames_are_refused_with_a_short_reason(data: bytes, message: str) -> None:
+    with pytest.raises(RemoteProtocolError) as err:
+        decode(data)
+    assert message in str(err.value)
+    assert len(str(err.value)) < 300
+
+
+def test_our_own_long_texts_are_cut_to_what_the_peer_accepts() -> None:
+    frame = encode(Failed(3, "r" * 5000))
+    assert decode(frame) == Failed(3, "r" * 1000)
+    status = Status(1, Pose(0, 0, 0), None, tuple("f{}".format(i) for i in range(50)))
+    assert len(decode(encode(status)).faults) == 32

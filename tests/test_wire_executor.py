@@ -92,7 +92,7 @@ def test_one_command_at_a_time(nav: FakeNavigator) -> None:
 
 def test_stop_preempts_and_a_repeated_stop_does_not_stop_a_later_command(nav: FakeNavigator) -> None:
     ex = CommandExecutor(nav)
-    ex.handle("e", DriveToPosition(1, 5, 5, 10))
+    ex.handle("e", DriveToPosition(1, 2, 2, 10))
     assert ex.handle("e", Stop(2)) == [
         ("e", Failed(1, "stopped by command 2")), ("e", Accepted(2)), ("e", Completed(2))]
     assert ex.current is None and nav.halts == 1
@@ -103,7 +103,7 @@ def test_stop_preempts_and_a_repeated_stop_does_not_stop_a_later_command(nav: Fa
 
 def test_a_failed_motion_is_reported_with_the_navigators_reason(nav: FakeNavigator) -> None:
     ex = CommandExecutor(nav)
-    ex.handle("e", DriveToPosition(1, 5, 5, 10))
+    ex.handle("e", DriveToPosition(1, 2, 2, 10))
     assert ex.poll() == []
     nav.outcome = MotionOutcome(False, "bumper pressed")
     nav.fault_list = ["bumper"]
@@ -114,9 +114,9 @@ def test_a_failed_motion_is_reported_with_the_navigators_reason(nav: FakeNavigat
 
 def test_refusals_by_the_navigator_and_bad_times(nav: FakeNavigator) -> None:
     ex = CommandExecutor(nav)
-    nav.refuse = "cell (20, 3) is off the grid"
-    assert replies(ex.handle("e", DriveToPosition(1, 20, 3, 0))) == [
-        Failed(1, "cell (20, 3) is off the grid")]
+    nav.refuse = "cell (2, 2) is taken"
+    assert replies(ex.handle("e", DriveToPosition(1, 2, 2, 0))) == [
+        Failed(1, "cell (2, 2) is taken")]
     assert replies(ex.handle("e", DriveToPosition(2, 1, 1, -1))) == [
         Failed(2, "time must be 0 (as fast as allowed) or more seconds, got -1")]
     assert ex.current is None
@@ -167,7 +167,7 @@ def test_a_command_resent_over_a_new_connection_runs_once(nav: FakeNavigator) ->
         manager, robot = Connection(Role.MANAGER, 1), Connection(Role.ROBOT, 1)
         robot.receive(manager.send(Hello(1, "epoch-7")))
         manager.receive(robot.send(Welcome(1, "s", 9980)))
-        command = robot.receive(manager.send(DriveToPosition(10, 4, 2, 3)))
+        command = robot.receive(manager.send(DriveToPosition(10, 2, 2, 3)))
         got = [manager.receive(robot.send(r)) for _, r in ex.handle(robot.epoch, command)]
         assert got == [Accepted(10, duplicate=attempt == 1)]
     nav.outcome = MotionOutcome(True)

@@ -6,6 +6,11 @@ definition order) driving a `VirtualNavigator`. Dropouts from the delay model
 are carried out here: the robot's sockets close without a goodbye, as at a
 power cut, and after the model's pause a new endpoint (new session, empty
 command memory) comes up where the robot stopped.
+
+Each robot checks commands against `check` (its map and limits: see
+fleet_common.wire.command_check), as a TurtleBot does. The loop never dies of
+one robot, one peer or one scheduled call: whatever raises is logged and the
+fleet serves on.
 """
 from __future__ import annotations
 
@@ -14,19 +19,25 @@ import logging
 import random
 import threading
 import time
+from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import zmq
 
+from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition
-from fleet_common.wire.curve_keys import RobotKeys
+from fleet_common.transport.curve_keys import RobotKeys
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports, on_localhost
-from fleet_common.wire.zap import ZapHandler
-from fleet_common.wire.zmq_transport import RobotEndpoint, RobotLoop
+from fleet_common.transport.robot_endpoint import RobotEndpoint
+from fleet_common.transport.robot_loop import RobotLoop
+from fleet_common.transport.truth_stream import TruthPublisher
+from fleet_common.transport.zap import ZapHandler
+from fleet_common.wire.command_check import CommandCheck
 
 from .delays import DelayModel
 from .kinematics import VirtualNavigator
+from .truth import TruthRecorder, load_state
 
 __all__ = ["VirtualFleet", "FleetThread", "row_poses"]
 
@@ -47,9 +58,18 @@ class VirtualFleet:
                  turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
                  clock: Callable[[], float] = time.monotonic,
-                 log: Optional[logging.Logger] = None) -> None:
+                 log: Optional[logging.Logger] = None,
+                 check: Optional[CommandCheck] = None, truth: Optional[Path] = None,
+                 state: Optional[Path] = None, truth_port: Optional[int] = None,
+                 drift: Optional[Dict[int, float]] = None,
+                 bumps: Sequence[Tuple[int, int]] = ()) -> None:
         self.robots = on_localhost(robots, path)
+        self.check = check or CommandCheck()
         self.ports = feedback_ports(self.robots, feedback_base, path)
+        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps})):
+            unknown = sorted(named - {r.id for r in self.robots})
+            if unknown:
+                raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path))
         self.keys = keys
         self.model = model or DelayModel()
         self.clock = clock
@@ -57,17 +77,34 @@ class VirtualFleet:
         self.log = log or logging.getLogger("virtual_fleet")
         self.context = zmq.Context()
         self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
-        self.loop = RobotLoop(self.zap, clock)
-        poses = start_poses or row_poses(self.robots)
+        self.loop = RobotLoop(self.zap, clock, self.log)
+        poses = dict(start_poses or row_poses(self.robots))
+        resumed = load_state(state) if state is not None else {}
+        poses.update({r: p for r, p in resumed.items() if r in poses})
+        self.publisher: Optional[TruthPublisher] = None
+        try:
+            self.publisher = TruthPublisher(self.context, truth_port) if truth_port else None
+            self.recorder = TruthRecorder(truth, state, self.publisher.publish if self.publisher else None)
+        except BaseException:
+            if self.publisher is not None:
+                self.publisher.close()
+            self.context.destroy(linger=0)
+            raise
         self.navigators: Dict[int, VirtualNavigator] = {
             r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
                                    time_scale=time_scale, model=self.model,
                                    rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
             for r in self.robots}
+        for robot_id, rate in (drift or {}).items():
+            self.navigators[robot_id].start_drifting(rate)
+        for robot_id, drive in bumps:
+            self.navigators[robot_id].bumps.add(drive)
+        self.recorder.started({r: n.true_pose() for r, n in self.navigators.items()}, bool(resumed))
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back
         self.dropouts = 0
         self._next_check = clock()
+        self._next_truth = clock()
         self._calls: "collections.deque[Callable[[], None]]" = collections.deque()
         try:
             for robot in self.robots:
@@ -80,7 +117,10 @@ class VirtualFleet:
         endpoint = RobotEndpoint(self.context, robot.id, self.navigators[robot.id],
                                  robot.command_port, self.ports[robot.id], bind="127.0.0.1",
                                  keys=self.keys, zap=self.zap, clock=self.clock,
-                                 log=self.log, feedback_rate=self.feedback_rate)
+                                 log=self.log, feedback_rate=self.feedback_rate,
+                                 check=self.check,
+                                 on_execute=lambda epoch, command, rid=robot.id:
+                                 self.recorder.executed(rid, epoch, command))
         self.endpoints[robot.id] = endpoint
         self.loop.add(endpoint)
 
@@ -90,13 +130,26 @@ class VirtualFleet:
 
     def run_once(self, max_wait: float = 0.1) -> None:
         while self._calls:
-            self._calls.popleft()()
-        self.loop.run_once(min(max_wait, _DROPOUT_CHECK) if self.model.dropout_p or self.away
-                           else max_wait)
+            call = self._calls.popleft()
+            try:
+                call()
+            except Exception:  # a caller's mistake, not the fleet's end
+                self.log.exception("virtual fleet: a scheduled call failed; serving on")
+        if self.model.dropout_p or self.away:
+            max_wait = min(max_wait, _DROPOUT_CHECK)
+        if self.recorder.active:
+            max_wait = min(max_wait, max(0.0, self._next_truth - self.clock()))
+        self.loop.run_once(max_wait)
         now = self.clock()
+        if self.recorder.active and now >= self._next_truth:
+            self._next_truth = self.recorder.tick(self.true_poses, now)
         if now >= self._next_check:
             self._next_check = now + _DROPOUT_CHECK
-            self._dropouts(now)
+            try:
+                self._dropouts(now)
+            except Exception:
+                self.loop.failures.event(logging.ERROR, "dropouts", "failures", "virtual fleet: "
+                                         "carrying out dropouts failed; serving on", exc_info=True)
 
     def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
         while not should_stop():
@@ -112,11 +165,17 @@ class VirtualFleet:
         self.dropouts += 1
         self.log.info("robot %s dropped out; back in %.1f s", robot_id, seconds)
 
+    def true_poses(self) -> Dict[int, Pose]:
+        return {r: n.true_pose() for r, n in self.navigators.items()}
+
     def close(self) -> None:
         for endpoint in self.endpoints.values():
             self.loop.remove(endpoint)
             endpoint.close()
         self.endpoints.clear()
+        self.recorder.close(self.true_poses())
+        if self.publisher is not None:
+            self.publisher.close()
         if self.zap is not None:
             self.zap.socket.close(linger=0)
         self.context.term()

@@ -16,7 +16,7 @@ import math
 import random
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, List, Optional, Set, Tuple
 
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
@@ -59,6 +59,16 @@ class VirtualNavigator:
         self._rest = pose
         self._segments: List[_Segment] = []
         self.dropout_time: Optional[float] = None  # fleet seconds; the fleet acts on it
+        #: (cells/s along x, along y, since fleet second): the robot's own localization drifts
+        #: away from the truth at this rate (a lost robot, for tests of the Vicon cross-check)
+        self.drift: Optional[Tuple[float, float, float]] = None
+        #: drives (1-based) during which the bumper is pressed halfway, as by a visitor's foot
+        self.bumps: Set[int] = set()
+        self.bump_seconds = 1.0
+        self._drives = 0
+        self._bump_at: Optional[float] = None       # fleet second the bumper is hit in this drive
+        self._pressed_until: Optional[float] = None  # fleet second the foot goes away
+        self._fault = False
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -67,25 +77,40 @@ class VirtualNavigator:
     # ---- Navigator -------------------------------------------------------------------
 
     def start_drive(self, x: float, y: float, time: float) -> None:
-        start = self.pose()
+        start = self.true_pose()
         dx, dy = x - start.x, y - start.y
         dist = math.hypot(dx, dy)
         heading = math.atan2(dy, dx) if dist > 1e-9 else start.theta
         turn = abs(wrap_angle(heading - start.theta)) / self.turn_speed
         drive = max(dist / self.speed, time - turn)
         self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
+        self._drives += 1
+        if self._drives in self.bumps and self._segments:
+            first, last = self._segments[0].start, self._segments[-1].end
+            self._bump_at = first + 0.5 * (last - first)
 
     def start_turn(self, angle: float) -> None:
-        start = self.pose()
+        start = self.true_pose()
         turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
         self._lay_out(start, wrap_angle(angle), turn, None, 0.0)
 
     def halt(self) -> None:
-        self._rest = self.pose()
+        self._rest = self.true_pose()
         self._segments = []
         self.dropout_time = None
+        self._bump_at = None
+        if not self._pressed():
+            self._fault = False  # a stop clears the fault once the bumper is free, as on the robot
 
     def poll(self) -> Optional[MotionOutcome]:
+        if self._bump_at is not None and self._segments and self.now() >= self._bump_at:
+            self._rest = self.true_pose()  # stops where the foot hit it, mid-move
+            self._segments = []
+            self._bump_at = None
+            self.dropout_time = None
+            self._fault = True
+            self._pressed_until = self.now() + self.bump_seconds
+            return MotionOutcome(False, "bumper pressed")
         if not self._segments or self.now() < self._segments[-1].end:
             return None
         self._rest = self._segments[-1].b
@@ -94,6 +119,19 @@ class VirtualNavigator:
         return MotionOutcome(True)
 
     def pose(self) -> Pose:
+        """Where the robot believes it is: the truth, unless its localization drifts."""
+        truth = self.true_pose()
+        if self.drift is None:
+            return truth
+        vx, vy, since = self.drift
+        dt = max(0.0, self.now() - since)
+        return Pose(truth.x + vx * dt, truth.y + vy * dt, truth.theta)
+
+    def start_drifting(self, vx: float, vy: float = 0.0) -> None:
+        self.drift = (vx, vy, self.now())
+
+    def true_pose(self) -> Pose:
+        """Where the robot really is."""
         if not self._segments:
             return self._rest
         t = self.now()
@@ -106,8 +144,15 @@ class VirtualNavigator:
                             wrap_angle(seg.a.theta + wrap_angle(seg.b.theta - seg.a.theta) * f))
         return self._segments[-1].b
 
+    @property
+    def moving(self) -> bool:
+        return bool(self._segments)
+
     def faults(self) -> Tuple[str, ...]:
-        return ()
+        return ("bumper",) if self._fault else ()
+
+    def _pressed(self) -> bool:
+        return self._pressed_until is not None and self.now() < self._pressed_until
 
     def seconds_to_change(self) -> float:
         """Wall seconds until poll() or the dropout may change (the loop sleeps that long)."""
@@ -116,6 +161,8 @@ class VirtualNavigator:
         due = self._segments[-1].end
         if self.dropout_time is not None:
             due = min(due, self.dropout_time)
+        if self._bump_at is not None:
+            due = min(due, self._bump_at)
         return max(0.0, (due - self.now()) / self.time_scale)
 
     # ---- internals -------------------------------------------------------------------

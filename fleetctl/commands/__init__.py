@@ -26,4 +26,6 @@ COMMANDS: Tuple[Tuple[str, str, str], ...] = (
     ("virtual-fleet", "virtual_fleet", "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"),
     ("console", "console", "play a mapf-IR solution (or show an instance) in a window; --screenshot renders a PNG"),
     ("simulate", "simulate", "run a solution on simulated robots with delays: metrics, collisions, who waited for whom"),
+    ("manager", "manager", "execute a plan on the robots (real or virtual), steered from consoles"),
+    ("trace", "trace", "a run folder as a mapf-IR solution (where robots really were) and its summary"),
 )

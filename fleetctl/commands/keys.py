@@ -3,7 +3,7 @@
 Writes manager.key / manager.key_secret and robot.key / robot.key_secret into
 the key folder (default $FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys).
 Robots get robot.key_secret and manager.key; the manager machine keeps
-manager.key_secret and robot.key. See fleet_common.wire.curve_keys.
+manager.key_secret and robot.key. See fleet_common.transport.curve_keys.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from fleet_common.wire.curve_keys import default_keys_dir, make_keys
+    from fleet_common.transport.curve_keys import default_keys_dir, make_keys
 
     folder = args.dir or default_keys_dir()
     written = make_keys(folder, force=args.force)

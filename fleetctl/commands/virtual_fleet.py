@@ -3,7 +3,10 @@
 One virtual robot per line of robot_definitions.txt, all on 127.0.0.1: each
 binds its own command port from the file and publishes pose feedback on
 --feedback-base + its index (9980, 9981, ... by default), so a manager started
-for a virtual run cannot tell it from the lab. Runs until interrupted.
+for a virtual run cannot tell it from the lab. Each robot knows its map (--map,
+else the map of --instance, else the lab's) and refuses what a TurtleBot
+refuses: drives off the map, into obstacles, farther than --max-step cells or
+later than --max-time s. Runs until interrupted.
 """
 from __future__ import annotations
 
@@ -11,7 +14,7 @@ import argparse
 import logging
 import signal
 from pathlib import Path
-from typing import Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
@@ -37,8 +40,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--turn-speed", type=_positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
-                        help="start robot i at agent i's start of this instance (default: the "
-                             "lab instance if it has enough agents, else rows from (0, 0))")
+                        help="start robot i at agent i's start of this instance or solution "
+                             "(default: the lab instance if it has enough agents, else rows "
+                             "from (0, 0))")
+    parser.add_argument("--state", type=Path, default=None, metavar="FILE",
+                        help="keep each robot's pose in FILE; a fleet started again with it "
+                             "puts every robot where it stood (as after a power cut)")
+    parser.add_argument("--truth", type=Path, default=None, metavar="FILE",
+                        help="write the ground truth (true poses at 20 Hz, every command "
+                             "started) to FILE as JSON lines")
+    parser.add_argument("--truth-port", type=int, default=None, metavar="PORT",
+                        help="publish the true poses on tcp://127.0.0.1:PORT (for `fleetctl "
+                             "vicon simulate`)")
+    parser.add_argument("--drift", action="append", default=[], type=_drift, metavar="ID:RATE",
+                        help="robot ID's own localization drifts RATE cells/s along x away "
+                             "from the truth (repeatable; to test the Vicon cross-check)")
+    parser.add_argument("--bump", action="append", default=[], type=_bump, metavar="ID@K",
+                        help="robot ID's bumper is pressed halfway through its K-th drive, for "
+                             "1 s: it stops with a 'bumper' fault until a stop clears it "
+                             "(repeatable)")
+    parser.add_argument("--map", type=Path, default=None, metavar="FILE",
+                        help="the robots' map: they refuse drives off it or into its obstacles "
+                             "(default: the map of --instance, else the lab's when the robots "
+                             "start at the lab instance, else none)")
+    parser.add_argument("--max-step", type=_non_negative, default=1.5, metavar="CELLS",
+                        help="longest drive a robot accepts, from where it stands (default 1.5: "
+                             "one cell and some slack; 0: any distance)")
+    parser.add_argument("--max-time", type=_positive, default=120.0, metavar="S",
+                        help="latest arrival time a drive may ask for (default 120 s)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder from `fleetctl keys` (default: "
                              "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
@@ -46,6 +75,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="accept commands from anyone (no CurveZMQ); for local experiments")
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
+
+
+def _drift(text: str) -> tuple:
+    robot, _, rate = text.partition(":")
+    try:
+        return int(robot), float(rate)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected ID:CELLS_PER_S (e.g. 3:0.2), got {!r}".format(text))
+
+
+def _bump(text: str) -> tuple:
+    robot, _, drive = text.partition("@")
+    try:
+        pair = int(robot), int(drive)
+    except ValueError:
+        pair = (0, 0)
+    if pair[1] < 1:
+        raise argparse.ArgumentTypeError("expected ID@K with K >= 1 (e.g. 3@2), got {!r}".format(text))
+    return pair
 
 
 def _positive(text: str) -> float:
@@ -58,10 +106,21 @@ def _positive(text: str) -> float:
     return value
 
 
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError("expected a number >= 0, got {!r}".format(text))
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError
     from fleet_common.robots import default_definitions_path, read_robot_definitions
-    from fleet_common.wire.curve_keys import default_keys_dir, load_robot_keys
+    from fleet_common.transport.curve_keys import default_keys_dir, load_robot_keys
+    from fleet_common.wire.command_check import CommandCheck, CommandLimits
     from virtual_fleet.delays import parse_delay_model
     from virtual_fleet.fleet import VirtualFleet
 
@@ -74,19 +133,25 @@ def run(args: argparse.Namespace) -> int:
         keys = None if args.no_curve else load_robot_keys(args.keys or default_keys_dir())
     except FleetError as err:
         raise FleetError("{}; or run the fleet with --no-curve".format(err)) from err
+    poses, grid, map_name = _world(args.instance, args.map, robots)
+    limits = CommandLimits(args.max_step or None, args.max_time)
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
                          time_scale=args.time_scale, model=model, seed=args.seed,
                          speed=args.speed, turn_speed=args.turn_speed,
-                         start_poses=_start_poses(args.instance, robots), path=str(path))
+                         start_poses=poses, path=str(path), check=CommandCheck(grid, limits),
+                         truth=args.truth, state=args.state, truth_port=args.truth_port,
+                         drift=dict(args.drift), bumps=args.bump)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
     first, last = fleet.robots[0], fleet.robots[-1]
     print("virtual fleet: {} robots on 127.0.0.1, command ports {}..{}, feedback ports {}..{}, "
-          "time x{:g}, {}".format(
+          "time x{:g}, {}, {}".format(
               len(fleet.robots), first.command_port, last.command_port, fleet.ports[first.id],
               fleet.ports[last.id], args.time_scale,
-              "CURVE on" if keys is not None else "no CURVE (anyone may drive)"), flush=True)
+              "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
+              "map {} ({}x{})".format(map_name, grid.width, grid.height) if grid is not None
+              else "no map (drives checked for length and time only)"), flush=True)
     try:
         fleet.run(lambda: bool(stopping))
     finally:
@@ -95,17 +160,35 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _start_poses(instance: Optional[Path], robots: list) -> Optional[Dict]:
+def _world(instance: Optional[Path], map_path: Optional[Path],
+           robots: list) -> Tuple[Optional[Dict], Optional[Any], str]:
+    """(start poses or None for rows from (0, 0), the robots' grid or None, its name)."""
     from fleet_common.errors import FleetError
-    from fleet_common.formats.instance import read_instance
+    from fleet_common.formats.mapfile import read_map
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.problem_file import read_problem
     from fleet_common.lab import lab_instance_path, lab_map_path
     from fleet_common.wire.messages import Pose
 
     path = instance or lab_instance_path()
-    inst = read_instance(str(path), map_dirs=[lab_map_path().parent, Path(path).parent])
-    if len(inst.starts) < len(robots):
-        if instance is not None:
-            raise FleetError("{} has {} agents, fewer than the {} robots".format(
-                instance, len(inst.starts), len(robots)))
-        return None  # rows from (0, 0)
-    return {r.id: Pose(float(s[0]), float(s[1]), 0.0) for r, s in zip(robots, inst.starts)}
+    inst = read_problem(path, [lab_map_path().parent, *default_map_dirs()])
+    poses: Optional[Dict] = None
+    grid, name = None, ""
+    if len(inst.starts) >= len(robots):
+        poses = {r.id: Pose(float(s[0]), float(s[1]), 0.0) for r, s in zip(robots, inst.starts)}
+        grid, name = inst.grid, inst.map_file
+    elif instance is not None:
+        raise FleetError("{} has {} agents, fewer than the {} robots".format(
+            instance, len(inst.starts), len(robots)))
+    if map_path is not None:
+        grid, name = read_map(str(map_path)).grid, str(map_path)
+        if poses is None:
+            from virtual_fleet.fleet import row_poses
+
+            poses = row_poses(robots)
+        for robot in robots:
+            cell = (int(poses[robot.id].x), int(poses[robot.id].y))
+            if not grid.is_free(cell):
+                raise FleetError("robot {} would start at {}, which is not a free cell of {}; give "
+                                 "--instance with starts on that map".format(robot.id, cell, name))
+    return poses, grid, name

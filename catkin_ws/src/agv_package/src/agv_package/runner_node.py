@@ -9,7 +9,9 @@ and raises the "bumper" fault (`wire_navigator`).
 
 Parameters (private, see config/*.yaml and launch/*.launch): robot_id,
 definitions, keys_dir, bind, feedback_port, feedback_rate, bumper_type,
-camera_mount, tag_size, motion, localization. Also publishes `~pose`
+camera_mount, tag_size, motion, localization, commands (what the robot
+refuses: fleet_common.wire.command_check, on the lab's map when it localizes
+on the lab's tags). Also publishes `~pose`
 (geometry_msgs/PoseStamped, frame `world`: the fused pose, robot-frame metres)
 at the feedback rate.
 """
@@ -27,10 +29,11 @@ from std_msgs.msg import UInt8
 from fleet_common.errors import FleetError
 from fleet_common.lab import node_table
 from fleet_common.robots import RobotDefinition, read_robot_definitions
-from fleet_common.wire.curve_keys import load_robot_keys
-from fleet_common.wire.robot_loop import RobotLoop
-from fleet_common.wire.zap import ZapHandler
-from fleet_common.wire.zmq_transport import RobotEndpoint
+from fleet_common.transport.curve_keys import load_robot_keys
+from fleet_common.transport.robot_endpoint import RobotEndpoint
+from fleet_common.transport.robot_loop import RobotLoop
+from fleet_common.transport.zap import ZapHandler
+from fleet_common.wire.command_check import CommandCheck
 from geometry_msgs.msg import PoseStamped
 
 from .grid_frame import GridFrame
@@ -67,6 +70,12 @@ def _subscribe_bumper(kind: str, report: Callable[[bool], None]) -> None:
     rospy.Subscriber("mobile_base/events/bumper", BumperEvent, on_event, queue_size=10)
 
 
+def _log_execution(robot_id: int, epoch: str, command: object) -> None:
+    """One line per command the robot carries out: its log shows that none ran twice."""
+    rospy.loginfo("agv_runner: robot %d executing %s %d of manager %s", robot_id,
+                  getattr(command, "TYPE", "?"), getattr(command, "id", -1), epoch)
+
+
 def main() -> None:
     rospy.init_node("agv_runner")
     log = logging.getLogger("rosout.agv_runner")  # rospy forwards "rosout.*" to /rosout
@@ -81,8 +90,9 @@ def main() -> None:
 
     localization = RosLocalization(settings.localization, settings.mount, tags)
     navigator = make_navigator(settings.motion, localization)
+    # the robot's map: the lab's, or none when it localizes on another tag map
     grid = node_table().grid() if settings.localization.tag_map == LAB else None
-    wire = WireNavigator(navigator, GridFrame(), grid)
+    wire = WireNavigator(navigator, GridFrame())
     navigator.interlock = wire.interlock
     _subscribe_bumper(settings.bumper_type, wire.bumper)
 
@@ -101,14 +111,17 @@ def main() -> None:
     try:
         endpoint = RobotEndpoint(context, robot.id, wire, robot.command_port,
                                  settings.feedback_port, bind=bind, keys=keys, zap=zap, log=log,
-                                 feedback_rate=settings.feedback_rate)
+                                 feedback_rate=settings.feedback_rate,
+                                 check=CommandCheck(grid, settings.commands),
+                                 on_execute=lambda epoch, command: _log_execution(
+                                     robot.id, epoch, command))
     except FleetError as err:
         rospy.logfatal("agv_runner: %s", err)
         context.term()
         sys.exit(2)
     rospy.loginfo("agv_runner: robot %d serving commands on %s:%d, pose feedback on port %d",
                   robot.id, bind, robot.command_port, settings.feedback_port)
-    loop = RobotLoop(zap)
+    loop = RobotLoop(zap, log=log)
     loop.add(endpoint)
     try:
         loop.run(rospy.is_shutdown)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping, NamedTuple
 
+from fleet_common.wire.command_check import CommandLimits
 from fleet_common.wire.ports import FEEDBACK_PORT
 
 from .camera_model import CameraMount
@@ -18,7 +19,7 @@ from .settings import (LocalizationSettings, MotionSettings, SettingsError, chec
 BUMPER_TYPES = ("mask", "kobuki")
 
 _TOP = ("robot_id", "definitions", "keys_dir", "bind", "feedback_port", "feedback_rate",
-        "bumper_type", "camera_mount", "tag_size", "motion", "localization")
+        "bumper_type", "camera_mount", "tag_size", "motion", "localization", "commands")
 
 
 def _text(params: Mapping[str, Any], key: str) -> str:
@@ -39,6 +40,7 @@ class RunnerSettings(NamedTuple):
     mount: CameraMount
     motion: MotionSettings
     localization: LocalizationSettings
+    commands: CommandLimits  # what the robot refuses: drives longer than a step or too slow
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> "RunnerSettings":
@@ -71,4 +73,15 @@ class RunnerSettings(NamedTuple):
                                                    ("x", "y", "z", "yaw_deg"), "camera_mount")),
             motion=MotionSettings.from_dict(params["motion"]),
             localization=LocalizationSettings.from_dict(params["localization"], tag_size),
+            commands=_command_limits(params.get("commands", {})),
         )
+
+
+def _command_limits(data: Any) -> CommandLimits:
+    where = "commands"
+    check_keys(data, ("max_step", "max_time"), where)
+    default = CommandLimits()
+    return CommandLimits(max_step=number(data, "max_step", where, default=default.max_step,
+                                         low=0.5, high=100.0),
+                         max_time=number(data, "max_time", where, default=default.max_time,
+                                         low=1.0, high=3600.0))

@@ -6,7 +6,8 @@ adapter gives it one:
 
 - it converts between base cells and robot metres with the `GridFrame` (the
   only conversion on the robot, thesis 5.5), so commands and feedback on the
-  wire are cells and everything below is metres;
+  wire are cells and everything below is metres (whether a target is on the
+  map, free and one step away, the executor's `CommandCheck` has said);
 - it runs each blocking motion in a worker thread and reports its outcome
   once through `poll`;
 - it owns the faults: a bumper press stops the robot at once (thesis 3.6.1:
@@ -23,7 +24,6 @@ import math
 import threading
 from typing import Callable, List, Optional
 
-from fleet_common.grid import Grid
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome, MotionRefused
 
@@ -40,10 +40,9 @@ WIND_DOWN = 2.0
 class WireNavigator:
     """Implements `fleet_common.wire.navigator.Navigator` over an agv `Navigator`."""
 
-    def __init__(self, navigator: Navigator, frame: GridFrame, grid: Optional[Grid] = None) -> None:
+    def __init__(self, navigator: Navigator, frame: GridFrame) -> None:
         self.navigator = navigator
         self.frame = frame
-        self.grid = grid
         self._lock = threading.Lock()
         self._worker: Optional[threading.Thread] = None
         self._outcome: Optional[MotionOutcome] = None
@@ -57,7 +56,6 @@ class WireNavigator:
     def start_drive(self, x: float, y: float, time: float) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MotionRefused("target ({}, {}) is not a point".format(x, y))
-        self._check_target(x, y)
         goal = self.frame.point_to_robot(x, y)
         arrival = self.navigator.now() + time
         self._start(lambda: self.navigator.drive_to_position(goal[0], goal[1], arrival))
@@ -120,14 +118,6 @@ class WireNavigator:
         return self.navigator.pose()
 
     # ---- internals ---------------------------------------------------------------
-
-    def _check_target(self, x: float, y: float) -> None:
-        if self.grid is None:
-            return
-        cell = (int(math.floor(x + 0.5)), int(math.floor(y + 0.5)))
-        if not self.grid.in_bounds(cell) or not self.grid.is_free(cell):
-            raise MotionRefused("target ({:g}, {:g}) is not a free cell of the {}x{} grid".format(
-                x, y, self.grid.width, self.grid.height))
 
     def _start(self, motion: Callable[[], NavResult]) -> None:
         previous = self._worker

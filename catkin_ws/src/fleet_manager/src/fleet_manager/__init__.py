@@ -1,7 +1,7 @@
-"""FleetControl's manager: it connects to the robots (robots are servers, thesis 6.4).
+"""FleetControl's manager: it drives the fleet through a plan (thesis 5.3).
 
-`robot_link.RobotLink` is one robot's connection (reporting `link_events`),
-`pose_feedback` its subscription to the robot's poses, `links.LinkSet` runs
-many links in one poll loop. No rospy here: the manager runs on any lab PC.
+Robots are servers and the manager connects to them (thesis 6.4) through
+`fleet_common.transport` (robot links, one poll loop for the fleet). No
+rospy here: the manager runs on any lab PC.
 """
 from __future__ import annotations

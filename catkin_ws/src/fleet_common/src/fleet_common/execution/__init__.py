@@ -2,7 +2,7 @@
 
 A pure library (no sockets, ROS, threads or clocks): the manager, the virtual
 fleet, the console and the tests drive the same code. `Engine` takes a
-`Plan` and a strategy, then events in (`Started`, `Completed`, `Failed`,
+`Plan` and a strategy, then events in (`ActionStarted`, `ActionCompleted`, `RobotFailed`,
 `Disabled`, `Enabled`, `Resume`, `Pause`, `StepRound`, `SwitchStrategy`),
 decisions out (`Dispatch`: robot r may start its action k now).
 
@@ -23,8 +23,8 @@ from .adg_strategy import AdgStrategy
 from .engine import Engine
 from .errors import EventError, PlanError, UnknownStrategyError
 from .events import (
-    Completed, Disabled, Dispatch, Enabled, Failed, Pause, Resume, Started, StepRound,
-    SwitchStrategy, Wait,
+    ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume, RobotFailed,
+    StepRound, SwitchStrategy, Wait,
 )
 from .metrics import Metrics, RobotMetrics
 from .step import DiscreteTimeStep
@@ -32,8 +32,9 @@ from .strategy import STRATEGIES, Strategy, make_strategy, register
 
 __all__ = [
     "Action", "ActionTable", "ActionDependencyGraph", "build_adg", "AdgStrategy", "Engine",
-    "EventError", "PlanError", "UnknownStrategyError", "Completed", "Disabled", "Dispatch",
-    "Enabled", "Failed", "Pause", "Resume", "Started", "StepRound", "SwitchStrategy", "Wait",
+    "EventError", "PlanError", "UnknownStrategyError", "ActionCompleted", "ActionStarted",
+    "Disabled", "Dispatch", "Enabled", "Pause", "Resume", "RobotFailed", "StepRound",
+    "SwitchStrategy", "Wait",
     "Metrics", "RobotMetrics", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
     "register",
 ]

@@ -37,8 +37,8 @@ from .adg import build_adg
 from .blocking import blocked_by
 from .errors import EventError, UnknownStrategyError
 from .events import (
-    CELL, PAUSED, Completed, Disabled, Dispatch, Enabled, Failed, Pause, Resume, Started, StepRound,
-    SwitchStrategy, Wait,
+    CELL, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
+    RobotFailed, StepRound, SwitchStrategy, Wait,
 )
 from .metrics import Metrics
 from .run import DISABLED, FAILED, RunState
@@ -72,7 +72,7 @@ class Engine:
         self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_robots)])
         self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
         self._handlers: Dict[type, Callable[..., Recheck]] = {
-            Completed: self._completed, Started: self._started, Failed: self._failed,
+            ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
             Disabled: self._disabled, Enabled: self._enabled, Resume: self._resume,
             Pause: self._pause, StepRound: self._step_round, SwitchStrategy: self._switch,
         }
@@ -134,7 +134,7 @@ class Engine:
                 event, r, self.run.num_robots))
         return r
 
-    def _started(self, e: Started) -> Recheck:
+    def _started(self, e: ActionStarted) -> Recheck:
         run, r = self.run, self._robot(e.robot, e)
         if not run.completed[r] <= e.index < run.sent[r]:
             raise EventError("robot {} reports starting action {}, but it was sent actions up to {} "
@@ -143,7 +143,7 @@ class Engine:
         run.dispatched[r] = max(run.dispatched[r], e.index + 1)  # a withdrawn action it began anyway
         return (), None
 
-    def _completed(self, e: Completed) -> Recheck:
+    def _completed(self, e: ActionCompleted) -> Recheck:
         run, r = self.run, self._robot(e.robot, e)
         k = e.index
         if k != run.completed[r] or k >= run.sent[r]:
@@ -161,7 +161,7 @@ class Engine:
             robots.extend(extra)
         return robots, r
 
-    def _failed(self, e: Failed) -> Recheck:
+    def _failed(self, e: RobotFailed) -> Recheck:
         run, r = self.run, self._robot(e.robot, e)
         was_active = run.out[r] is None
         run.out[r] = FAILED

@@ -2,17 +2,22 @@
 
 Every input is an event carrying `time`, a number the caller chooses (seconds
 of a wall clock, simulated time, plan steps): the engine never reads a clock,
-it only passes times on to the metrics. Robots report progress (`Started`,
-`Completed`, `Failed`); the operator or the manager controls the run
+it only passes times on to the metrics. Robots report progress (`ActionStarted`,
+`ActionCompleted`, `RobotFailed`); the operator or the manager controls the run
 (`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`).
 A run starts paused: the first `Resume` starts it.
 
 `Engine.handle(event)` answers with `Dispatch` decisions: robot r may start
 its action `index` now (move from `src` to `dst`, plan step `step`). The
-caller sends each one to its robot exactly once. An action that `Failed` or
+caller sends each one to its robot exactly once. An action that `RobotFailed` or
 `Disabled` took back (sent, not started) is dispatched again when the robot
 is enabled: that is a new decision, to be sent again. `Wait` reports who is
 waiting for whom and where, for the console's red highlight.
+
+Names: the wire protocol's replies are `fleet_common.wire.Completed` and
+`Failed` (one command on one robot); the engine's events say what they are
+about (`ActionCompleted`: a plan action; `RobotFailed`: the robot is out), so
+the manager, which translates one into the other, never confuses them.
 """
 from __future__ import annotations
 
@@ -24,7 +29,7 @@ from .strategy import Strategy
 
 
 @dataclass(frozen=True)
-class Started:
+class ActionStarted:
     """Robot `robot` began its action `index` (optional: completion implies it)."""
 
     robot: int
@@ -33,7 +38,7 @@ class Started:
 
 
 @dataclass(frozen=True)
-class Completed:
+class ActionCompleted:
     """Robot `robot` finished its action `index`: it is wholly in the action's `dst`."""
 
     robot: int
@@ -42,7 +47,7 @@ class Completed:
 
 
 @dataclass(frozen=True)
-class Failed:
+class RobotFailed:
     """Robot `robot` stopped with a fault; it is out until `Enabled`, then retries."""
 
     robot: int

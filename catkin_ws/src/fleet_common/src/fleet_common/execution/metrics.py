@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
-from .events import Completed, Disabled, Enabled, Failed, Resume, StepRound
+from .events import ActionCompleted, Disabled, Enabled, RobotFailed, Resume, StepRound
 
 
 @dataclass
@@ -42,14 +42,14 @@ class Metrics:
         self._done = [0] * len(self.counts)
 
     def record(self, event: object) -> None:
-        if isinstance(event, Completed):
+        if isinstance(event, ActionCompleted):
             self._completed(event.robot, event.time)
         elif isinstance(event, (Resume, StepRound)) and self.begin is None:
             self.begin = event.time
             self._ready = [event.time] * len(self.counts)
         elif isinstance(event, Enabled):
             self._ready[event.robot] = event.time
-        elif isinstance(event, (Disabled, Failed)):
+        elif isinstance(event, (Disabled, RobotFailed)):
             self._ready[event.robot] = None
 
     def record_dispatch(self, robot: int, index: int, time: float, released_by: Optional[int]) -> None:

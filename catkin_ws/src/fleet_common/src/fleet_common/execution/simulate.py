@@ -4,7 +4,7 @@ Each simulated robot keeps a queue of the actions it was sent and drives them
 one after the other, each taking its drawn duration (`delays`); the
 simulator turns their progress into engine events in time order and records
 the executed trace, which `trace.find_collisions` then judges. Control
-events (`Pause`, `SwitchStrategy`, `Disabled`, `Enabled`, `Failed`, ...) may be
+events (`Pause`, `SwitchStrategy`, `Disabled`, `Enabled`, `RobotFailed`, ...) may be
 scheduled at given times. The run starts with `Resume` at time 0 and ends
 when nothing is left to happen: finished, or stalled because robots wait for
 an out robot.
@@ -12,7 +12,7 @@ an out robot.
 `disable={robot: step}` models a battery dying: the robot stops where the
 plan has it at that step (before its first action of that step or later) and
 is disabled there; its in-flight moves are never cut short.
-A `Failed` robot stops mid-move: it keeps both cells of that move, and when
+A robot that `RobotFailed` stops mid-move: it keeps both cells of that move, and when
 it is enabled again it is sent the same action and completes it.
 """
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 from ..plan import Plan
 from .delays import DelayModel
 from .engine import Engine
-from .events import Completed, Disabled, Dispatch, Enabled, Failed, Resume, Started
+from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed
 from .metrics import Metrics
 from .trace import Collision, Trace, find_collisions
 
@@ -106,16 +106,16 @@ class _Simulation:
                 d, start, _ = current
                 self.busy[r] = None
                 self.trace.add(r, start, time, d.src, d.dst)
-                self._deliver(self.engine.handle(Completed(r, d.index, time)))
+                self._deliver(self.engine.handle(ActionCompleted(r, d.index, time)))
                 self._try_start(r)
             else:
                 self._control(payload)
 
     def _control(self, event: object) -> None:
         robot = getattr(event, "robot", None)
-        if isinstance(event, (Disabled, Failed)):
+        if isinstance(event, (Disabled, RobotFailed)):
             self.queue[robot].clear()  # type: ignore[index]
-        if isinstance(event, Failed) and self.busy[robot] is not None:  # type: ignore[index]
+        if isinstance(event, RobotFailed) and self.busy[robot] is not None:  # type: ignore[index]
             d, start, _ = self.busy[robot]  # type: ignore[index, misc]
             self.stuck[robot] = (d, start)  # type: ignore[index]
             self.busy[robot] = None  # type: ignore[index]
@@ -146,7 +146,7 @@ class _Simulation:
         if stuck is not None and stuck[0].index == d.index:
             start = stuck[1]  # resuming the move it stopped in: it held both cells since then
         self.stuck[r] = None
-        self.engine.handle(Started(r, d.index, self.now))
+        self.engine.handle(ActionStarted(r, d.index, self.now))
         self.seq += 1
         self.busy[r] = (d, start, self.seq)
         heapq.heappush(self.heap, (self.now + self.dur[self.engine.run.first[r] + d.index], self.seq,

@@ -21,21 +21,20 @@ and, outside the connection, the robot publishes `PoseFeedback` 10 times a
 second on its feedback port (9980, or one per robot when they share a host:
 `ports`).
 
-Pure modules (stdlib only, Python 3.8): `messages`, `codec`, `states` (the
-transition tables), `connection` (`Connection`: bytes in, messages out; an
-illegal message raises `LocalProtocolError` or `RemoteProtocolError` and
-changes nothing), `executor` (`CommandExecutor`: a command id seen before is
-acknowledged again, never executed twice; one command at a time; stop
-preempts), `navigator` (the `Navigator` interface it drives), `liveness`
-(heartbeat timing), `ports`. Sockets live in `zmq_transport` (the robot's
-endpoint), `robot_loop`, `zap` and `curve_keys` (pyzmq; the only modules here
-that import it, and this package does not import them), and on the manager
-side in fleet_manager.robot_link.
+Every module here is pure (stdlib only, Python 3.8): `messages`, `codec`,
+`states` (the transition tables), `connection` (`Connection`: bytes in,
+messages out; an illegal message raises `LocalProtocolError` or
+`RemoteProtocolError` and changes nothing), `executor` (`CommandExecutor`: a
+command id seen before is acknowledged again, never executed twice; one
+command at a time; stop preempts), `navigator` (the `Navigator` interface it
+drives), `liveness` (heartbeat timing), `ports`. The sockets, robot side and
+manager side, live in `fleet_common.transport`.
 """
 from __future__ import annotations
 
 from .connection import Connection
-from .errors import LocalProtocolError, ProtocolError, RemoteProtocolError, VersionMismatchError
+from .errors import (LocalProtocolError, MalformedFrameError, ProtocolError, RemoteProtocolError,
+                     VersionMismatchError)
 from .executor import CommandExecutor
 from .liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from .messages import (COMMAND_TYPES, MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Command,
@@ -46,7 +45,7 @@ from .ports import FEEDBACK_PORT, feedback_ports, on_localhost
 from .states import Phase, Role, State
 
 __all__ = [
-    "Connection", "LocalProtocolError", "ProtocolError", "RemoteProtocolError",
+    "Connection", "LocalProtocolError", "MalformedFrameError", "ProtocolError", "RemoteProtocolError",
     "VersionMismatchError", "CommandExecutor", "HEARTBEAT_INTERVAL", "PEER_TIMEOUT", "Liveness",
     "COMMAND_TYPES", "MESSAGE_TYPES", "PROTOCOL_VERSION", "Accepted", "Bye", "Command",
     "Completed", "DriveToPosition", "Failed", "GetStatus", "Heartbeat", "Hello", "Message", "Pose",

@@ -7,9 +7,16 @@ needs no extra package, unlike msgpack), a frame can be read in a packet dump
 or typed by hand while debugging, and the messages are a few dozen bytes sent
 tens of times a second per robot, where encoding cost does not matter.
 `t` is the message type, `v` the protocol version, the rest are the record's
-fields (a `Pose` is `[x, y, theta]`). Decoding is strict: unknown types or
-fields, missing fields, wrong types and non-finite numbers raise
-`RemoteProtocolError`, because bytes come from the peer. A `Bye` of any version
+fields (a `Pose` is `[x, y, theta]`). Decoding is strict and total: any bytes
+give a message or `MalformedFrameError` (a `RemoteProtocolError`: the bytes
+come from the peer), or `VersionMismatchError` for a hello of another version:
+frames
+beyond the limits of `fleet_common.limits` (size, nesting, number length,
+text length, list length), unknown types or fields, missing fields, wrong
+types and non-finite numbers. Whether a number makes sense (a drive off the
+map, a time of 1e300) is the robot's to judge (`command_check`), so that it can
+answer `Failed` instead of dropping the connection. Encoding cuts our own text
+fields to the limit, so that the peer never refuses a frame of ours. A `Bye` of any version
 decodes (its layout is frozen); a `Hello` or `Welcome` of another version
 raises `VersionMismatchError`, so both ends can say clearly what is wrong.
 """
@@ -18,9 +25,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Tuple
 
-from .errors import RemoteProtocolError, VersionMismatchError
+from ..limits import MAX_WIRE_LIST, MAX_WIRE_TEXT, DecodeError, excerpt, loads_frame
+from .errors import MalformedFrameError, VersionMismatchError
 from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose
 
 __all__ = ["encode", "decode"]
@@ -48,27 +56,29 @@ def encode(message: Message, version: int = PROTOCOL_VERSION) -> bytes:
         if kind == "pose":
             value = [value.x, value.y, value.theta]
         elif kind == "strs":
-            value = list(value)
+            value = [v[:MAX_WIRE_TEXT] for v in value[:MAX_WIRE_LIST]]
+        elif kind == "str":
+            value = value[:MAX_WIRE_TEXT]
         frame[name] = value
     # allow_nan=False: a NaN would be sent as a token the peer must refuse
     return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")
 
 
 def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
-    """The message in frame `data`; RemoteProtocolError if it is not a valid one."""
+    """The message in frame `data`; MalformedFrameError if it is not a valid one."""
     try:
-        frame = json.loads(data.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise RemoteProtocolError("frame is not JSON text: {}".format(err)) from err
+        frame = loads_frame(data)
+    except DecodeError as err:
+        raise MalformedFrameError(str(err)) from None
     if not isinstance(frame, dict):
-        raise RemoteProtocolError("frame is not a JSON object")
+        raise MalformedFrameError("frame is not a JSON object")
     kind = frame.pop("t", None)
     their = frame.pop("v", None)
-    if kind not in MESSAGE_TYPES:
-        raise RemoteProtocolError("unknown message type {!r}; known: {}".format(
-            kind, ", ".join(sorted(MESSAGE_TYPES))))
+    if not isinstance(kind, str) or kind not in MESSAGE_TYPES:
+        raise MalformedFrameError("unknown message type {}; known: {}".format(
+            excerpt(kind), ", ".join(sorted(MESSAGE_TYPES))))
     if not _is_int(their):
-        raise RemoteProtocolError("{} message without an integer protocol version 'v'".format(kind))
+        raise MalformedFrameError("{} message without an integer protocol version 'v'".format(kind))
     if their != version:
         if kind == "bye":  # frozen layout: readable whatever the version
             frame = {k: frame[k] for k in ("reason", "code") if k in frame}
@@ -79,11 +89,11 @@ def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
     values = {}
     for name, field_kind in _SCHEMA[kind]:
         if name not in frame:
-            raise RemoteProtocolError("{} message lacks field {!r}".format(kind, name))
+            raise MalformedFrameError("{} message lacks field {!r}".format(kind, name))
         values[name] = _check(kind, name, field_kind, frame.pop(name))
     if frame:
-        raise RemoteProtocolError("{} message has unknown field(s) {}".format(
-            kind, ", ".join(sorted(map(repr, frame)))))
+        raise MalformedFrameError("{} message has unknown field(s) {}".format(
+            kind, excerpt(", ".join(sorted(frame)), 80)))
     if kind in ("hello", "welcome"):
         values["version"] = their
     return MESSAGE_TYPES[kind](**values)
@@ -99,7 +109,7 @@ def _is_number(value: Any) -> bool:
 
 
 def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
-    """`value` as the record wants it, or RemoteProtocolError naming what was expected."""
+    """`value` as the record wants it, or MalformedFrameError naming what was expected."""
     if field_kind == "int" or (field_kind == "opt_int" and value is not None):
         if _is_int(value) and 0 <= value <= _MAX_ID:
             return value
@@ -111,29 +121,22 @@ def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
             return float(value)
         expected = "a finite number"
     elif field_kind == "str":
-        if isinstance(value, str):
+        if isinstance(value, str) and len(value) <= MAX_WIRE_TEXT:
             return value
-        expected = "a string"
+        expected = "a string of at most {} characters".format(MAX_WIRE_TEXT)
     elif field_kind == "bool":
         if isinstance(value, bool):
             return value
         expected = "true or false"
     elif field_kind == "strs":
-        if isinstance(value, list) and all(isinstance(v, str) for v in value):
+        if (isinstance(value, list) and len(value) <= MAX_WIRE_LIST
+                and all(isinstance(v, str) and len(v) <= MAX_WIRE_TEXT for v in value)):
             return tuple(value)
-        expected = "a list of strings"
+        expected = "a list of at most {} strings of at most {} characters".format(
+            MAX_WIRE_LIST, MAX_WIRE_TEXT)
     else:  # pose
         if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
             return Pose(float(value[0]), float(value[1]), float(value[2]))
         expected = "[x, y, theta] (three finite numbers)"
-    raise RemoteProtocolError("field {!r} of a {} message must be {}, got {}".format(
-        name, kind, expected, _short(value)))
-
-
-def _short(value: Any, limit: int = 40) -> str:
-    text: Optional[str] = None
-    try:
-        text = json.dumps(value)
-    except (TypeError, ValueError):
-        text = repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    raise MalformedFrameError("field {!r} of a {} message must be {}, got {}".format(
+        name, kind, expected, excerpt(value)))

@@ -27,6 +27,10 @@ class RemoteProtocolError(ProtocolError):
     """The peer sent something undecodable or not allowed now."""
 
 
+class MalformedFrameError(RemoteProtocolError):
+    """The peer's bytes are not a message at all (whatever the connection's state)."""
+
+
 class VersionMismatchError(RemoteProtocolError):
     """The two ends speak different protocol versions; neither can go on."""
 

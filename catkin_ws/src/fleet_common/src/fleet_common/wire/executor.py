@@ -14,18 +14,23 @@ Rules, in the order they are applied to a command:
   at or below the highest seen that has dropped out of the bounded memory is
   refused, not run;
 - `GetStatus` is answered at once (reading has no effect to repeat);
+- a drive or turn the robot's world forbids is refused (`command_check`: off
+  the map, into an obstacle, more than a step, an unreasonable time);
 - `Stop` preempts: the navigator halts, the running command fails with
   "stopped by command N", the stop is accepted and completed at once;
 - a drive or turn is refused while the robot has faults or another command
   runs (one at a time: the manager sends `Stop` first to change its mind),
-  or when the navigator refuses it; otherwise it starts and is accepted, and
-  `poll()` reports its `Completed` or `Failed` when the navigator says so.
+  or when the navigator refuses it (or fails starting it: its error is the
+  reason); otherwise it starts and is accepted, and `poll()` reports its
+  `Completed` or `Failed` when the navigator says so.
 """
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
+from ..limits import one_line
+from .command_check import CommandCheck
 from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Reply,
                        Status, Stop, Turn)
 from .navigator import MotionRefused, Navigator
@@ -37,13 +42,20 @@ _Key = Tuple[str, int]
 
 
 class CommandExecutor:
-    """Runs commands through `navigator`; remembers the last `memory` outcomes."""
+    """Runs commands through `navigator`; remembers the last `memory` outcomes. `check`
+    says what the robot's world forbids (default: no map, the default limits)."""
 
-    def __init__(self, navigator: Navigator, memory: int = 4096) -> None:
+    def __init__(self, navigator: Navigator, memory: int = 4096,
+                 check: Optional[CommandCheck] = None,
+                 on_execute: Optional[Callable[[str, Command], None]] = None) -> None:
         if memory < 1:
             raise ValueError("memory must be at least 1 command, got {}".format(memory))
         self.navigator = navigator
+        self.check = check if check is not None else CommandCheck()
         self.memory = memory
+        #: told (epoch, command) each time a motion starts or a stop is carried out: the
+        #: virtual fleet's ground truth of what ran, to check that nothing ran twice
+        self.on_execute = on_execute
         # (epoch, id) -> (was accepted, final reply or None while running)
         self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
         self._highest: Dict[str, int] = {}
@@ -75,13 +87,15 @@ class CommandExecutor:
                                        command.id, self.memory)))]
         self._highest[epoch] = command.id
         if isinstance(command, Stop):
-            return self._stop(key)
+            return self._stop(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
         self._remember(key, True, None)
         self._running = key
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(epoch, command)
         return [(epoch, Accepted(command.id))]
 
     def poll(self) -> List[Routed]:
@@ -99,8 +113,9 @@ class CommandExecutor:
 
     def _refusal(self, command: Command) -> Optional[str]:
         """Why `command` cannot start now (None: it has started)."""
-        if isinstance(command, DriveToPosition) and command.time < 0:
-            return "time must be 0 (as fast as allowed) or more seconds, got {}".format(command.time)
+        refusal = self.check.refusal(command, self.navigator.pose())
+        if refusal is not None:
+            return refusal
         faults = list(self.navigator.faults())
         if faults:
             return "robot has faults: {}".format(", ".join(faults))
@@ -113,11 +128,15 @@ class CommandExecutor:
                 self.navigator.start_turn(command.angle)
         except MotionRefused as err:
             return str(err) or "refused by the navigator"
+        except Exception as err:  # a navigator bug must not leave the command unanswered
+            return one_line("navigator failed: {}: {}".format(type(err).__name__, err), 200)
         return None
 
-    def _stop(self, key: _Key) -> List[Routed]:
+    def _stop(self, key: _Key, command: Command) -> List[Routed]:
         self.navigator.halt()
         self.executed += 1
+        if self.on_execute is not None:
+            self.on_execute(key[0], command)
         out: List[Routed] = []
         if self._running is not None:
             running, self._running = self._running, None

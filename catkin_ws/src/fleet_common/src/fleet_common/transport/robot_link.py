@@ -16,6 +16,16 @@ sent go out. A version mismatch or a robot of another id stops the link for
 good (`LinkDown(fatal=True)`): retrying cannot help.
 
 Commands may be issued while the link is down; they are sent once it is up.
+
+A hostile or broken robot cannot stop the manager: frames beyond the limits
+are dropped by libzmq (MAXMSGSIZE), anything else that does not decode is a
+protocol error (the link says bye and reconnects), each frame is handled
+inside its own boundary (an unexpected exception is logged with its traceback
+and the next frame is served), a call reads at most a budget of frames, and
+repeated complaints are logged once a minute per robot, then counted. libzmq
+does not reconnect a socket it dropped for an oversized frame, so a command
+socket gone quiet is replaced after `PEER_TIMEOUT`, like any silent link, and
+so is a pose stream silent that long while the link is up.
 """
 from __future__ import annotations
 
@@ -26,19 +36,24 @@ from typing import Callable, List, Optional, Tuple
 
 import zmq
 
-from fleet_common.robots import RobotDefinition
-from fleet_common.wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed,
-                               GetStatus, Heartbeat, Hello, Liveness, RemoteProtocolError, Role,
-                               Status, Stop, Turn, VersionMismatchError, Welcome)
-from fleet_common.wire.curve_keys import ManagerKeys
-
+from ..limits import excerpt
+from ..ratelimit import RateLimitedLog
+from ..robots import RobotDefinition
+from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed, GetStatus,
+                    Heartbeat, Hello, Liveness, RemoteProtocolError, Role, Status, Stop, Turn,
+                    VersionMismatchError, Welcome)
+from .curve_keys import ManagerKeys
 from .link_events import LinkDown, LinkEvent, LinkUp, RobotReply
 from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
-__all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
+__all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOME_UNKNOWN"]
+
+#: The end of the reason of a command failed here because its robot restarted under it.
+OUTCOME_UNKNOWN = "its outcome is unknown"
 
 
 _SUPERSEDED_RETRY = 5.0  # another manager took the robot: do not fight over it every second
+_BUDGET = 100            # frames read per call, so one chatty robot cannot starve the rest
 
 
 class RobotLink:
@@ -57,10 +72,12 @@ class RobotLink:
         self.clock = clock
         self.retry = retry
         self.log = log or logging.getLogger("fleet_manager.robot{}".format(robot.id))
+        self.refusals = RateLimitedLog(self.log, clock=clock)
         self.state = "connecting"  # connecting | up | down | failed
         self.session: Optional[str] = None
         self.feedback_port: Optional[int] = None
         self.feedback: Optional[zmq.Socket] = None
+        self._feedback_heard = 0.0  # when the pose stream last sent anything
         self.command: Optional[zmq.Socket] = None
         self.conn = Connection(Role.MANAGER, self.robot_id)
         self.live = Liveness(clock())
@@ -109,20 +126,29 @@ class RobotLink:
         """Events from what is waiting on `sock` (one of `sockets()`)."""
         events: List[LinkEvent] = []
         now = self.clock()
-        while sock is self.command or sock is self.feedback:
+        for _ in range(_BUDGET):
+            if sock is not self.command and sock is not self.feedback:
+                break  # replaced while handling a frame (the link reconnected)
             try:
                 data = sock.recv(zmq.NOBLOCK)
             except zmq.Again:
                 break
             if sock is self.feedback:
-                events += poses_in(data, self.robot_id, self.log)
-            else:
+                self._feedback_heard = now
+                events += poses_in(data, self.robot_id, self.refusals)
+                continue
+            try:
                 events += self._on_command_frame(data, now)
+            except Exception:
+                self.refusals.event(logging.ERROR, "robot {}".format(self.robot_id), "failures",
+                                    "robot %s: failed on frame %s; going on", self.robot_id,
+                                    excerpt(data), exc_info=True)
         return events
 
     def tick(self, now: float) -> Tuple[List[LinkEvent], float]:
         """Heartbeats, timeouts and retries; (events, the next time to call tick)."""
         events: List[LinkEvent] = []
+        self.refusals.flush(now)
         if self.state == "failed":
             return events, now + 3600.0
         if self.state == "down":
@@ -138,7 +164,13 @@ class RobotLink:
             return events, self.live.last_heard + self.live.timeout
         if self.live.heartbeat_due(now):
             self._send(Heartbeat(), now)
-        return events, self.live.next_deadline()
+        stream_due = self._feedback_heard + self.live.timeout
+        if self.feedback_port is not None and now >= stream_due:
+            self.log.info("robot %s: pose feedback silent for %.1f s; subscribing again",
+                          self.robot_id, self.live.timeout)
+            self._subscribe(self.feedback_port)
+            self._feedback_heard = stream_due = now
+        return events, min(self.live.next_deadline(), stream_due + self.live.timeout)
 
     def close(self) -> None:
         if self.command is not None and self.conn.can_send(Bye("manager closing")):
@@ -195,7 +227,8 @@ class RobotLink:
             if err.code == "robot-id":
                 self.log.error("robot %s: %s", self.robot_id, err)
                 return self._fail(str(err))
-            self.log.error("robot %s broke the protocol: %s", self.robot_id, err)
+            self.refusals.event(logging.ERROR, "robot {}".format(self.robot_id), "protocol errors",
+                                "robot %s broke the protocol: %s", self.robot_id, err)
             if self.conn.can_send(Bye("", "protocol")):
                 self._send(Bye(str(err), err.code), now)
             return self._lost("protocol error: {}".format(err), now, retry=self.retry)
@@ -203,15 +236,19 @@ class RobotLink:
         if isinstance(message, Welcome):
             return self._on_welcome(message, now)
         if isinstance(message, Bye) and message.code == "robot-id":
-            self.log.error("robot %s refused us: %s", self.robot_id, message.reason)
-            return self._fail("robot refused the connection: {}".format(message.reason))
+            self.log.error("robot %s refused us: %s", self.robot_id, excerpt(message.reason, 200))
+            return self._fail("robot refused the connection: {}".format(excerpt(message.reason, 200)))
         if isinstance(message, Bye):
+            # no-session on a link that was up: the robot restarted, say hello at once; in
+            # answer to our hello it is a robot that misbehaves: do not spin on it
             retry = _SUPERSEDED_RETRY if message.code == "superseded" else (
-                0.0 if message.code == "no-session" else self.retry)
+                0.0 if message.code == "no-session" and self.state == "up" else self.retry)
             level = logging.WARNING if message.code == "superseded" else logging.INFO
-            self.log.log(level, "robot %s said bye (%s): %s", self.robot_id, message.code,
-                         message.reason)
-            return self._lost("robot said bye: {}".format(message.reason), now, retry)
+            reason = excerpt(message.reason, 200)
+            self.refusals.event(level, "robot {}".format(self.robot_id), "byes",
+                                "robot %s said bye (%s): %s", self.robot_id, excerpt(message.code),
+                                reason)
+            return self._lost("robot said bye: {}".format(reason), now, retry)
         if isinstance(message, (Completed, Failed, Status)):
             self._unsettled.pop(message.id, None)
         if isinstance(message, Heartbeat):
@@ -229,11 +266,11 @@ class RobotLink:
             if sent_to is not None and sent_to != welcome.session:
                 del self._unsettled[cid]
                 events.append(RobotReply(self.robot_id, Failed(cid, (
-                    "robot {} restarted while command {} was in flight; its outcome is "
-                    "unknown").format(self.robot_id, cid))))
+                    "robot {} restarted while command {} was in flight; {}").format(
+                        self.robot_id, cid, OUTCOME_UNKNOWN))))
             else:
                 self._send_command(command, now)
-        self.log.info("robot %s: link up (session %s%s)", self.robot_id, welcome.session,
+        self.log.info("robot %s: link up (session %s%s)", self.robot_id, excerpt(welcome.session),
                       ", restarted" if restarted else "")
         return events
 
@@ -241,6 +278,7 @@ class RobotLink:
         if self.feedback is not None:
             self.feedback.close(linger=0)
         self.feedback = subscribe_feedback(self.context, self.host, port, self.keys)
+        self._feedback_heard = self.clock()
         self.feedback_port = port
 
     def _lost(self, reason: str, now: float, retry: float) -> List[LinkEvent]:

@@ -5,9 +5,11 @@ files (`NAME.key` holds the public key, `NAME.key_secret` both; Z85 text):
 
     manager.key  manager.key_secret   the lab's manager (the only client robots obey)
     robot.key    robot.key_secret     every robot (one pair for the fleet)
+    console.key  console.key_secret   operator consoles (the only clients the manager obeys)
 
 A robot needs `robot.key_secret` and `manager.key`; the manager needs
-`manager.key_secret` and `robot.key`. The folder is $FLEETCONTROL_KEYS, else
+`manager.key_secret`, `robot.key` and `console.key`; a console needs
+`console.key_secret` and `manager.key`. The folder is $FLEETCONTROL_KEYS, else
 $XDG_CONFIG_HOME/fleetcontrol/keys (~/.config/fleetcontrol/keys); secret files
 are made readable by their owner only. Keys never go into the repository.
 """
@@ -24,11 +26,11 @@ from zmq.utils import z85
 
 from ..errors import FleetError
 
-__all__ = ["RobotKeys", "ManagerKeys", "default_keys_dir", "make_keys", "load_robot_keys",
-           "load_manager_keys", "KEY_NAMES"]
+__all__ = ["RobotKeys", "ManagerKeys", "ConsoleKeys", "default_keys_dir", "make_keys",
+           "load_robot_keys", "load_manager_keys", "load_console_keys", "KEY_NAMES"]
 
 ENV_VAR = "FLEETCONTROL_KEYS"
-KEY_NAMES = ("manager", "robot")
+KEY_NAMES = ("manager", "robot", "console")
 
 
 @dataclass(frozen=True)
@@ -42,11 +44,22 @@ class RobotKeys:
 
 @dataclass(frozen=True)
 class ManagerKeys:
-    """What the manager needs: its key pair and the robots' public key (Z85 bytes)."""
+    """What the manager needs: its key pair, the robots' public key and the consoles'
+    (Z85 bytes; `console_public` is None in a key folder made before consoles had keys)."""
 
     public: bytes
     secret: bytes
     robot_public: bytes
+    console_public: Optional[bytes] = None
+
+
+@dataclass(frozen=True)
+class ConsoleKeys:
+    """What an operator console needs: its key pair and the manager's public key."""
+
+    public: bytes
+    secret: bytes
+    manager_public: bytes
 
 
 def default_keys_dir() -> Path:
@@ -58,19 +71,22 @@ def default_keys_dir() -> Path:
 
 
 def make_keys(folder: Union[str, Path, None] = None, force: bool = False) -> List[Path]:
-    """Create both key pairs in `folder`; the files written. Existing keys are kept
-    unless `force` (replacing them locks out every robot until it gets the new ones)."""
+    """Create the key pairs in `folder`; the files written. Existing pairs are kept
+    unless `force` (replacing them locks out every robot until it gets the new ones);
+    pairs missing from an older folder (the console's) are added."""
     folder = Path(folder) if folder is not None else default_keys_dir()
-    existing = [folder / (n + ext) for n in KEY_NAMES for ext in (".key", ".key_secret")
-                if (folder / (n + ext)).exists()]
-    if existing and not force:
+    have = [n for n in KEY_NAMES if (folder / (n + ".key")).exists()
+            or (folder / (n + ".key_secret")).exists()]
+    if have and not force and len(have) == len(KEY_NAMES):
         raise FleetError("{} already has keys ({}); use --force to replace them (robots then "
                          "need the new robot.key_secret and manager.key)".format(
-                             folder, ", ".join(p.name for p in existing)))
+                             folder, ", ".join(n + ".key" for n in have)))
     folder.mkdir(parents=True, exist_ok=True)
     os.chmod(folder, 0o700)
     written: List[Path] = []
     for name in KEY_NAMES:
+        if name in have and not force:
+            continue
         public, secret = zmq.auth.create_certificates(str(folder), name)
         os.chmod(secret, 0o600)
         written += [Path(public), Path(secret)]
@@ -112,7 +128,16 @@ def load_manager_keys(folder: Union[str, Path, None] = None) -> ManagerKeys:
     folder = Path(folder) if folder is not None else default_keys_dir()
     public, secret = _load(folder, "manager", secret=True)
     robot_public, _ = _load(folder, "robot", secret=False)
-    return ManagerKeys(public, secret or b"", robot_public)
+    console_public = (_load(folder, "console", secret=False)[0]
+                      if (folder / "console.key").is_file() else None)
+    return ManagerKeys(public, secret or b"", robot_public, console_public)
+
+
+def load_console_keys(folder: Union[str, Path, None] = None) -> ConsoleKeys:
+    folder = Path(folder) if folder is not None else default_keys_dir()
+    public, secret = _load(folder, "console", secret=True)
+    manager_public, _ = _load(folder, "manager", secret=False)
+    return ConsoleKeys(public, secret or b"", manager_public)
 
 
 def curve_available() -> bool:

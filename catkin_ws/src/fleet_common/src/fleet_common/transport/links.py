@@ -1,34 +1,46 @@
-"""Many robot links in one thread: one zmq.Poller and a heap of due times.
+"""Many robot links in one thread: one zmq.Poller and a heap of due times (and other sockets).
 
 The manager talks to the whole fleet from one loop (300 virtual robots are 600
 sockets, not 300 threads). A link replaces its sockets when it reconnects, so
 after each call into a link the poller's registrations are brought in line
 with `link.sockets()`.
+
+The set is a boundary: a link that raises (a bug, whatever a robot sent) is
+logged (once a minute per robot, then a count) and served again at its next
+turn; the other links never notice.
 """
 from __future__ import annotations
 
 import heapq
+import logging
 import time
-from typing import Callable, Dict, Iterable, List, Tuple
+from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
 
 import zmq
 
+from ..ratelimit import RateLimitedLog
 from .robot_link import LinkEvent, RobotLink
 
 __all__ = ["LinkSet"]
+
+_RETRY = 1.0  # seconds before a link whose tick failed is ticked again
 
 
 class LinkSet:
     """Polls every link's sockets and ticks each link when it is due."""
 
-    def __init__(self, links: Iterable[RobotLink], clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, links: Iterable[RobotLink], clock: Callable[[], float] = time.monotonic,
+                 log: Optional[logging.Logger] = None) -> None:
         self.clock = clock
+        self.failures = RateLimitedLog(log or logging.getLogger("fleet_common.transport.links"),
+                                       clock=clock)
         self.links: Dict[int, RobotLink] = {link.robot_id: link for link in links}
         self.poller = zmq.Poller()
         self._registered: Dict[int, List[zmq.Socket]] = {}
         self._owner: Dict[zmq.Socket, RobotLink] = {}
         self._due: Dict[int, float] = {}
         self._heap: List[Tuple[float, int]] = []
+        self._watched: Dict[Any, Callable[[], None]] = {}
         now = clock()
         for robot_id, link in self.links.items():
             self._sync(link)
@@ -37,15 +49,30 @@ class LinkSet:
     def __getitem__(self, robot_id: int) -> RobotLink:
         return self.links[robot_id]
 
+    def watch(self, sock: Any, on_readable: Callable[[], None]) -> None:
+        """Also wait for `sock` (a zmq socket or a file descriptor) in `poll`, and call
+        `on_readable()` when it is readable: the manager's one loop serves consoles and
+        Vicon beside the robots."""
+        self._watched[sock] = on_readable
+        self.poller.register(sock, zmq.POLLIN)
+
     def poll(self, max_wait: float = 0.1) -> List[LinkEvent]:
         """Wait at most `max_wait` s for traffic or a due link; the events that came of it."""
         events: List[LinkEvent] = []
         now = self.clock()
         wait = max_wait if not self._heap else min(max_wait, max(0.0, self._heap[0][0] - now))
         for sock, _ in self.poller.poll(wait * 1000.0):
+            watcher = self._watched.get(sock)
+            if watcher is not None:
+                try:
+                    watcher()
+                except Exception:  # a console or Vicon handler's bug: logged, the fleet goes on
+                    self.failures.event(logging.ERROR, "watched {!r}".format(sock), "failures",
+                                        "%s: handler failed; serving on", sock, exc_info=True)
+                continue
             link = self._owner.get(sock)
             if link is not None:
-                events += link.handle(sock)
+                events += self._guard(link, "handling a frame", lambda: link.handle(sock)) or []
                 self._sync(link)
                 self._schedule(link.robot_id, self.clock())
         now = self.clock()
@@ -55,16 +82,28 @@ class LinkSet:
                 continue
             del self._due[robot_id]
             link = self.links[robot_id]
-            more, due = link.tick(now)
+            ticked = self._guard(link, "ticking", lambda: link.tick(now))
+            more, due = ticked if ticked is not None else ([], now + _RETRY)
             events += more
             self._sync(link)
             self._schedule(robot_id, max(due, now + 0.001))  # never spin on one link
+        self.failures.flush(now)
         return events
 
     def close(self) -> None:
         for link in self.links.values():
             link.close()
             self._sync(link)
+
+    def _guard(self, link: RobotLink, doing: str, call: Callable[[], Any]) -> Any:
+        """`call()`, or None after logging what it raised: one robot's failure is its own."""
+        try:
+            return call()
+        except Exception:
+            what = "robot {}".format(link.robot_id)
+            self.failures.event(logging.ERROR, what, "failures", "%s: link failed %s; serving on",
+                                what, doing, exc_info=True)
+            return None
 
     def _sync(self, link: RobotLink) -> None:
         now_socks = link.sockets()

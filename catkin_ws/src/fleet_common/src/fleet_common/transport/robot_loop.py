@@ -3,33 +3,46 @@
 Each endpoint says when it next needs a `tick` (a heartbeat, a pose to
 publish, a motion about to end); the loop sleeps in `poll` until a socket is
 readable or the earliest due time, so idle robots cost nothing. The context's
-ZAP handler is served from the same loop.
+ZAP handler and the endpoints' handshake monitors are served from the same loop.
+
+The loop is the last boundary: an endpoint that raises (a bug, a navigator
+that fails) is logged and served again at its next turn; the others never
+notice.
 """
 from __future__ import annotations
 
 import heapq
+import logging
 import time
-from typing import TYPE_CHECKING, Callable, Dict, List, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Tuple
 
 import zmq
 
+from ..ratelimit import RateLimitedLog
 from .zap import ZapHandler
 
-if TYPE_CHECKING:  # zmq_transport re-exports this module's RobotLoop
-    from .zmq_transport import RobotEndpoint
+if TYPE_CHECKING:
+    from .robot_endpoint import RobotEndpoint
 
 __all__ = ["RobotLoop"]
+
+_RETRY = 1.0  # seconds before an endpoint whose tick failed is ticked again
 
 
 class RobotLoop:
     """Runs endpoints (and the ZAP handler) in the calling thread."""
 
     def __init__(self, zap: Optional[ZapHandler] = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 log: Optional[logging.Logger] = None) -> None:
         self.zap = zap
         self.clock = clock
+        self.failures = RateLimitedLog(log or logging.getLogger("fleet_common.transport.robot_loop"),
+                                       clock=clock)
         self.poller = zmq.Poller()
         self.by_socket: Dict[zmq.Socket, RobotEndpoint] = {}
+        self.monitors: Dict[zmq.Socket, RobotEndpoint] = {}
+        self._next_flush = clock()
         self.due: Dict[int, float] = {}
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.heap: List[Tuple[float, int]] = []
@@ -41,6 +54,9 @@ class RobotLoop:
         self.endpoints[key] = endpoint
         self.by_socket[endpoint.command] = endpoint
         self.poller.register(endpoint.command, zmq.POLLIN)
+        if endpoint.monitor is not None:
+            self.monitors[endpoint.monitor.socket] = endpoint
+            self.poller.register(endpoint.monitor.socket, zmq.POLLIN)
         self._schedule(key, self.clock())
 
     def remove(self, endpoint: RobotEndpoint) -> None:
@@ -50,6 +66,9 @@ class RobotLoop:
         self.due.pop(key, None)
         if self.by_socket.pop(endpoint.command, None) is not None:
             self.poller.unregister(endpoint.command)
+        for sock in [s for s, e in self.monitors.items() if e is endpoint]:
+            del self.monitors[sock]
+            self.poller.unregister(sock)
 
     def run_once(self, max_wait: float = 0.1) -> None:
         """Wait (at most `max_wait` s) for a socket or a due time, and serve it."""
@@ -57,11 +76,12 @@ class RobotLoop:
         wait = max_wait if not self.heap else min(max_wait, max(0.0, self.heap[0][0] - now))
         for sock, _ in self.poller.poll(wait * 1000.0):
             if self.zap is not None and sock is self.zap.socket:
-                self.zap.handle()
-                continue
-            endpoint = self.by_socket.get(sock)
-            if endpoint is not None:
-                endpoint.handle_readable()
+                self._guard(None, self.zap.handle)
+            elif sock in self.monitors:
+                self._guard(self.monitors[sock], self.monitors[sock].monitor.handle)
+            elif sock in self.by_socket:
+                endpoint = self.by_socket[sock]
+                self._guard(endpoint, endpoint.handle_readable)
                 self._schedule(id(endpoint), self.clock())  # replies and new motions: tick now
         now = self.clock()
         while self.heap and self.heap[0][0] <= now:
@@ -69,11 +89,29 @@ class RobotLoop:
             if self.due.get(key) != when:
                 continue  # rescheduled or removed since
             del self.due[key]
-            self._schedule(key, max(self.endpoints[key].tick(now), now + 0.001))
+            endpoint = self.endpoints[key]
+            due = self._guard(endpoint, lambda: endpoint.tick(now))
+            self._schedule(key, max(now + _RETRY if due is None else due, now + 0.001))
+        if now >= self._next_flush:
+            self._next_flush = now + 1.0
+            self.failures.flush(now)
+            if self.zap is not None:
+                self._guard(None, self.zap.flush)
 
     def run(self, should_stop: Callable[[], bool], max_wait: float = 0.1) -> None:
         while not should_stop():
             self.run_once(max_wait)
+
+    def _guard(self, endpoint: Optional["RobotEndpoint"], call: Callable[[], Any]) -> Any:
+        """`call()`, or None after logging what it raised: one robot's failure is its own
+        (logged once a minute per robot, then counted)."""
+        try:
+            return call()
+        except Exception:
+            what = "the ZAP handler" if endpoint is None else "robot {}".format(endpoint.robot_id)
+            self.failures.event(logging.ERROR, what, "failures", "%s failed; serving on", what,
+                                exc_info=True)
+            return None
 
     def _schedule(self, key: int, when: float) -> None:
         if key in self.due and self.due[key] <= when:

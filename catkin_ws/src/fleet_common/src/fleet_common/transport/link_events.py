@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Union
 
-from fleet_common.wire import PoseFeedback, Reply
+from ..wire import PoseFeedback, Reply
 
 __all__ = ["LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
 

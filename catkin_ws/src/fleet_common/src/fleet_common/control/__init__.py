@@ -1,0 +1,22 @@
+"""The manager <-> console protocol, sans-I/O (thesis 5.1.1, 5.4).
+
+    messages   what a console sees (Scene, State, Event, Proposal) and asks (Request)
+    schema     composable checkers that make decoding total
+    codec      messages <-> JSON frames, with size and depth limits
+    requests   the actions and their arguments, checked (what `Request.args` may hold)
+    desk       the manager's end: consoles, versions (the Lamport clock), answers
+    session    the console's end: what it has seen, what it asked, what came back
+
+No sockets here (they are in `fleet_common.transport.console_channel`): a
+console and a manager can be wired together in memory in tests.
+"""
+from __future__ import annotations
+
+from .codec import ControlProtocolError, decode, encode
+from .messages import (ACTIONS, PROTOCOL_VERSION, Activity, Answer, Bye, Event, Heartbeat, Hello,
+                       PlanData, Proposal, Request, RobotInfo, RobotState, RunInfo, Scene, State,
+                       Waiting, Welcome)
+
+__all__ = ["ControlProtocolError", "decode", "encode", "ACTIONS", "PROTOCOL_VERSION", "Activity",
+           "Answer", "Bye", "Event", "Heartbeat", "Hello", "PlanData", "Proposal", "Request",
+           "RobotInfo", "RobotState", "RunInfo", "Scene", "State", "Waiting", "Welcome"]

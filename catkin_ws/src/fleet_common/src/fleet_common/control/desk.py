@@ -1,0 +1,169 @@
+"""The manager's end of the console channel: who is connected, the version, the answers.
+
+Pure, in the manner of `fleet_common.wire.connection`: the manager's socket
+hands over (peer, bytes) and the desk answers with (peer, bytes) to send and,
+for a request that may go ahead, the request itself. The manager carries it
+out and calls `answer`. What the desk decides alone:
+
+- a frame that does not decode gets an error `Answer` (id 0 when it has none)
+  and nothing else happens; the peer is named in the returned `Refusal` so
+  the manager can log it (rate-limited);
+- a request from a console that has not said hello is refused;
+- a request based on an older `version` than the desk's is refused, naming
+  the changes made since (thesis 5.1.1: nobody acts on an outdated picture);
+- heartbeats: a console silent for 1 s is sent one; a console silent for
+  `timeout` is forgotten (its socket identity may come back with a hello).
+
+The version is the Lamport clock of the controlled state: `bump(why)` when
+the manager changes something a decision may rest on.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any, Deque, Dict, List, Optional, Tuple
+
+from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
+from . import messages as m
+from .codec import ControlProtocolError, decode, encode
+from .requests import check_args
+from .schema import SchemaError
+
+__all__ = ["ControlDesk", "Refusal", "Console"]
+
+Peer = bytes
+Out = List[Tuple[Peer, bytes]]
+
+
+@dataclass
+class Console:
+    name: str
+    live: Liveness
+    requests: int = 0
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """A frame the desk refused, for the manager's log."""
+
+    peer: Peer
+    name: str
+    reason: str
+
+
+@dataclass
+class Intake:
+    """What one received frame led to."""
+
+    out: Out = field(default_factory=list)
+    request: Optional[m.Request] = None   # checked; the manager carries it out and answers
+    args: Dict[str, Any] = field(default_factory=dict)
+    joined: Optional[Peer] = None         # a console said hello: send it the scene
+    refusal: Optional[Refusal] = None
+
+
+class ControlDesk:
+    """Consoles, the version clock, and the answers; see the module docstring."""
+
+    def __init__(self, session: str, now: float, history: int = 64,
+                 timeout: float = PEER_TIMEOUT, interval: float = HEARTBEAT_INTERVAL) -> None:
+        self.session = session
+        self.version = 1
+        self.consoles: Dict[Peer, Console] = {}
+        self.timeout = timeout
+        self.interval = interval
+        self._changes: Deque[Tuple[int, str]] = deque(maxlen=history)
+        self._now = now
+
+    # ---- the clock ------------------------------------------------------------------------
+
+    def bump(self, why: str) -> int:
+        """The controlled state changed (`why`, for refusals): the next version."""
+        self.version += 1
+        self._changes.append((self.version, why))
+        return self.version
+
+    def changes_since(self, version: int) -> List[str]:
+        return [why for v, why in self._changes if v > version]
+
+    # ---- frames in ----------------------------------------------------------------------
+
+    def receive(self, peer: Peer, data: bytes, now: float) -> Intake:
+        intake = Intake()
+        console = self.consoles.get(peer)
+        try:
+            message = decode(data, m.CONSOLE_MESSAGES)
+        except ControlProtocolError as err:
+            reason = "not a valid console message: {}".format(err)
+            intake.refusal = Refusal(peer, console.name if console else "", reason)
+            intake.out.append((peer, encode(m.Answer(0, False, reason, self.version))))
+            return intake
+        if console is not None:
+            console.live.heard(now)
+        if isinstance(message, m.Hello):
+            self.consoles[peer] = Console(message.name, Liveness(now, self.interval, self.timeout))
+            intake.out.append((peer, encode(m.Welcome(self.session, self.version))))
+            intake.joined = peer
+        elif isinstance(message, m.Bye):
+            self.consoles.pop(peer, None)
+        elif isinstance(message, m.Request):
+            self._request(peer, console, message, intake)
+        return intake
+
+    def _request(self, peer: Peer, console: Optional[Console], request: m.Request,
+                 intake: Intake) -> None:
+        def refuse(reason: str) -> None:
+            intake.out.append((peer, encode(m.Answer(request.id, False, reason, self.version))))
+
+        if console is None:
+            refuse(m.HELLO_FIRST + " (this manager does not know this console: it restarted, "
+                   "or the console was silent too long)")
+            intake.refusal = Refusal(peer, "", "request before hello")
+            return
+        console.requests += 1
+        try:
+            args = check_args(request.action, request.args)
+        except SchemaError as err:
+            refuse(str(err))
+            return
+        if request.based_on < self.version:
+            changes = self.changes_since(request.based_on)
+            what = "; ".join(changes[-3:]) if changes else "older than this manager remembers"
+            refuse("refused: the state changed since you looked (version {} -> {}: {}); look "
+                   "again and retry".format(request.based_on, self.version, what))
+            return
+        if request.based_on > self.version:
+            refuse("refused: version {} is newer than this manager's {} (a restarted "
+                   "manager?); look again and retry".format(request.based_on, self.version))
+            return
+        intake.request = request
+        intake.args = args
+
+    # ---- frames out ---------------------------------------------------------------------
+
+    def answer(self, peer: Peer, request: m.Request, ok: bool, reason: str = "") -> Out:
+        return [(peer, encode(m.Answer(request.id, ok, reason, self.version)))]
+
+    def broadcast(self, message: Any, now: Optional[float] = None) -> Out:
+        """`message` to every console (encoded once)."""
+        if not self.consoles:
+            return []
+        data = encode(message)
+        for console in self.consoles.values():
+            console.live.sent(self._now if now is None else now)
+        return [(peer, data) for peer in self.consoles]
+
+    def to(self, peer: Peer, message: Any) -> Out:
+        return [(peer, encode(message))] if peer in self.consoles else []
+
+    def tick(self, now: float) -> Out:
+        """Heartbeats to quiet consoles; forget consoles silent for `timeout`."""
+        self._now = now
+        out: Out = []
+        for peer, console in list(self.consoles.items()):
+            if console.live.peer_gone(now):
+                del self.consoles[peer]
+            elif console.live.heartbeat_due(now):
+                console.live.sent(now)
+                out.append((peer, encode(m.Heartbeat())))
+        return out

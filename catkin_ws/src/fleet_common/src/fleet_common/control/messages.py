@@ -1,0 +1,234 @@
+"""The manager <-> console messages: what a console sees and what it may ask.
+
+    console                                   manager
+    Hello(name)                         ->
+                                        <-    Welcome(session, version)
+                                        <-    Scene(map, robots, plan)      (and on every plan change)
+                                        <-    State(...)                    10+ times a second
+                                        <-    Event(...)                    faults, links, operators, ...
+    Request(id, action, args, based_on) ->
+                                        <-    Answer(id, ok, reason, version)
+                                        <-    Proposal(...)                 a replan to accept or reject
+    Heartbeat()                        <->    Heartbeat()                   (after 1 s of silence)
+    Bye(reason)                        <->    Bye(reason)
+
+Versions (thesis 5.1.1): the manager keeps a Lamport clock, `version`, that
+moves on every change an operator's decision may rest on (run state,
+strategy, plan, a robot enabled, disabled, failed or losing its link, a
+position source). Every State and Answer carries it; a Request carries the
+version its sender last saw (`based_on`), and the manager refuses a request
+based on an older version, saying what changed, so nobody acts on a
+picture that is no longer true. Telemetry (poses, progress, waits) does not
+move it: it changes ten times a second and no decision depends on it.
+
+Coordinates are base-grid cells (origin bottom-left, y up), angles radians.
+Robots are named by their robot_definitions.txt id.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Dict, Optional, Tuple
+
+import numpy as np
+
+PROTOCOL_VERSION = 1
+
+#: What a console may ask, and the arguments each action takes (see `requests.py`).
+ACTIONS = ("start", "pause", "stop", "step", "halt", "strategy", "enable", "disable", "source",
+           "load", "replan", "accept", "reject")
+
+#: How a refusal to a console the manager does not know begins: the console says hello again.
+HELLO_FIRST = "say hello first"
+
+RUN_STATES = ("waiting", "running", "paused", "stopped", "done", "failed")
+LINK_STATES = ("connecting", "up", "down", "failed")
+SOURCES = ("robot", "vicon")
+
+
+# ---- console -> manager ---------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Hello:
+    TYPE: ClassVar[str] = "hello"
+    name: str
+
+
+@dataclass(frozen=True)
+class Request:
+    """Do `action` with `args`; `based_on` is the newest version the console has seen."""
+
+    TYPE: ClassVar[str] = "request"
+    id: int
+    action: str
+    args: Dict[str, Any]
+    based_on: int
+
+
+@dataclass(frozen=True)
+class Heartbeat:
+    TYPE: ClassVar[str] = "heartbeat"
+
+
+@dataclass(frozen=True)
+class Bye:
+    TYPE: ClassVar[str] = "bye"
+    reason: str
+
+
+# ---- manager -> console ---------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Welcome:
+    TYPE: ClassVar[str] = "welcome"
+    session: str
+    version: int
+
+
+@dataclass(frozen=True)
+class RobotInfo:
+    """What does not change during a run: a robot's id, colour and its agent in the plan."""
+
+    id: int
+    colour: str
+    vicon_name: str
+
+
+@dataclass(frozen=True, eq=False)
+class PlanData:
+    """A plan as the console draws it: `positions[t, i]` is agent i's cell [x, y] at step t
+    (an int32 array of shape (steps, agents, 2), the layout of `fleet_common.plan.Plan`)."""
+
+    id: int
+    robots: Tuple[int, ...]  # robot id of each agent
+    positions: "np.ndarray"
+    name: str = ""
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, PlanData) and (self.id, self.robots, self.name) == (
+            other.id, other.robots, other.name) and np.array_equal(self.positions, other.positions))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True)
+class Scene:
+    """The map, the fleet and the plan: sent after Welcome and whenever the plan changes."""
+
+    TYPE: ClassVar[str] = "scene"
+    map_name: str
+    rows: Tuple[str, ...]  # top row first, '.' free, '@' blocked (like a .map file)
+    robots: Tuple[RobotInfo, ...]
+    plan: PlanData
+    strategies: Tuple[str, ...]
+    step_time: float  # seconds a plan step is expected to take, for the planned-position ghost
+
+
+@dataclass(frozen=True)
+class Waiting:
+    """The robot is ready to move but waits: for robots `on`, to enter `cell`, because `reason`
+    ("cell": the cell is not free yet; "barrier": the time step; "paused"; "link": its own
+    link is down; "fault")."""
+
+    on: Tuple[int, ...]
+    cell: Optional[Tuple[int, int]]
+    reason: str
+
+
+@dataclass(frozen=True)
+class Activity:
+    """The command a robot is carrying out: a turn or a drive of plan action `index`."""
+
+    kind: str  # "turn" | "drive" | "stop"
+    index: Optional[int]
+    x: Optional[float] = None
+    y: Optional[float] = None
+    angle: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class RobotState:
+    id: int
+    link: str
+    link_reason: str
+    x: Optional[float]
+    y: Optional[float]
+    theta: Optional[float]
+    source: str           # where the pose comes from: "robot" or "vicon"
+    age: Optional[float]  # seconds since that source last saw it (None: never)
+    stale: bool
+    faults: Tuple[str, ...]
+    out: Optional[str]    # None, "disabled" or "failed"
+    activity: Optional[Activity]
+    done: int             # plan actions completed
+    total: int            # plan actions in all
+    step: int             # plan step of its next action (the plan's makespan once done)
+    waiting: Optional[Waiting]
+    behind: float         # plan steps behind the plan's clock (0 if on time or ahead)
+    vicon_age: Optional[float] = None  # None: Vicon does not see it (or there is no Vicon)
+    disagree: bool = False  # its own pose and Vicon's differ by more than the threshold
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    state: str
+    reason: str
+    strategy: str
+    lookahead: int
+    clock: float          # seconds since the run started (0 before)
+    plan_time: float      # clock / step_time: where the plan's clock stands, in steps
+    plan_id: int
+    arrived: int
+    robots: int
+    min_distance: Optional[float]  # the smallest distance between two robots so far, cells
+    collisions: int
+    proposal: Optional[int]        # id of the replan proposal awaiting an answer
+    replanning: bool = False       # a replan is being computed (or waits for a safe point)
+
+
+@dataclass(frozen=True)
+class State:
+    TYPE: ClassVar[str] = "state"
+    seq: int
+    version: int
+    run: RunInfo
+    robots: Tuple[RobotState, ...]
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The answer to Request `id`: done (`ok`) or refused with a `reason` a person can read."""
+
+    TYPE: ClassVar[str] = "answer"
+    id: int
+    ok: bool
+    reason: str
+    version: int
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something an operator should see in the event list (seq counts from 1 per manager)."""
+
+    TYPE: ClassVar[str] = "event"
+    seq: int
+    time: float
+    kind: str             # "fault", "link", "operator", "strategy", "run", "plan", "vicon", ...
+    robot: Optional[int]
+    text: str
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A replan waiting for an operator: accept or reject it by `id`."""
+
+    TYPE: ClassVar[str] = "proposal"
+    id: int
+    plan: PlanData
+    message: str
+    soc: int
+    makespan: int
+    unreachable: Tuple[int, ...] = field(default=())
+
+
+CONSOLE_MESSAGES = (Hello, Request, Heartbeat, Bye)
+MANAGER_MESSAGES = (Welcome, Scene, State, Answer, Event, Proposal, Heartbeat, Bye)

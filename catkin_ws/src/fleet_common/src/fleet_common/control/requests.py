@@ -1,0 +1,51 @@
+"""What each console action takes: the arguments of a `Request`, checked.
+
+    start, pause, stop, step, halt    {}
+    strategy   {"name": "adg" | "step" | ..., "lookahead": K (adg, optional)}
+    enable     {"robot": ID}          disable  {"robot": ID}
+    source     {"source": "robot" | "vicon", "robot": ID (optional: every robot)}
+    load       {"path": FILE on the manager's machine} or {"text": FILE CONTENT, "name": NAME}
+    replan     {"time_limit": SECONDS (optional), "method": "pp" | "lacam" (optional)}
+    accept     {"proposal": ID}       reject   {"proposal": ID}
+
+`check_args(action, args)` returns the arguments with defaults filled in, or
+raises `SchemaError` whose text is the refusal a console shows.
+"""
+from __future__ import annotations
+
+from typing import Any, Dict
+
+from .codec import MAX_REQUEST_BYTES
+from .messages import ACTIONS, SOURCES
+from .schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
+
+__all__ = ["ARGS", "check_args"]
+
+_ROBOT = Int(0, 2 ** 31)
+_NONE: Obj = Obj({})
+
+ARGS: Dict[str, Checker] = {
+    "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
+    "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
+    "enable": Obj({"robot": _ROBOT}),
+    "disable": Obj({"robot": _ROBOT}),
+    "source": Obj({"source": Str(choices=SOURCES), "robot": Opt(_ROBOT)}, optional={"robot": None}),
+    "load": Obj({"path": Opt(Str(4096)), "text": Opt(Str(MAX_REQUEST_BYTES)), "name": Str(200)},
+                optional={"path": None, "text": None, "name": "plan"}),
+    "replan": Obj({"time_limit": Opt(Num(0.1, 600.0)), "method": Opt(Str(choices=("pp", "lacam")))},
+                  optional={"time_limit": None, "method": None}),
+    "accept": Obj({"proposal": Int(0, 2 ** 53)}),
+    "reject": Obj({"proposal": Int(0, 2 ** 53)}),
+}
+assert set(ARGS) == set(ACTIONS)  # one table per action, checked at import (not input)
+
+
+def check_args(action: str, args: Dict[str, Any]) -> Dict[str, Any]:
+    """The checked arguments of `action` (SchemaError says what is wrong)."""
+    checker = ARGS.get(action)
+    if checker is None:
+        raise SchemaError("unknown action {!r}; actions: {}".format(action, ", ".join(ACTIONS)))
+    checked = checker(args, "{} arguments".format(action))
+    if action == "load" and (checked["path"] is None) == (checked["text"] is None):
+        raise SchemaError("load needs either a path (on the manager's machine) or the file's text")
+    return checked

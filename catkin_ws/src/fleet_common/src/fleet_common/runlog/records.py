@@ -1,0 +1,71 @@
+"""What a line of events.jsonl says: one kind per line, its fields listed here.
+
+Every line is a JSON object with `t` (seconds since the run started: wall
+seconds for the manager, plan steps for `fleetctl simulate`; the `run`
+record's `time_unit` says which) and `k` (the kind). Robots are named by
+their id from robot_definitions.txt (`robot`); the `run` and `plan` records
+map plan agents to robot ids (`robots[i]` is agent i's robot). Cells are
+base-grid `[x, y]`; headings radians. Fields not listed are allowed (readers
+ignore what they do not know), so later versions can add detail.
+
+    run        version, started (ISO 8601, UTC), source ("manager" | "simulate"),
+               time_unit ("s" | "step"), plan (file name), definitions (file
+               name or null), robots [ids by agent], strategy, settings {}
+    plan       file, robots [ids by agent], reason ("loaded" | "replan"),
+               at (plan step of the old plan the new one starts from, or null)
+    state      run ("waiting" | "running" | "paused" | "stopped" | "done" |
+               "failed"), reason
+    strategy   name, settings {}, by ("start" | operator's console id)
+    operator   console, action, args {}, ok (bool), reason
+    command    robot, id, type ("drive" | "turn" | "stop" | "get_status"),
+               x, y, time (drive) | angle (turn), action (plan action index or null)
+    reply      robot, id, type ("accepted" | "completed" | "failed" | "status"),
+               reason (failed), duplicate (accepted)
+    dispatch   robot, index, step, src, dst, waited (s the robot was ready
+               before it), released_by (robot id or null)
+    action     robot, index, phase ("started" | "completed"), src, dst
+    out        robot, why ("disabled" | "failed" | null = back in), reason
+    link       robot, state ("up" | "down" | "failed"), reason, restarted
+    fault      robot, faults [strings] (a change of the robot's fault list)
+    poses      p [[robot, x, y, theta, source ("robot" | "vicon"), age_s], ...]
+               (every robot's pose, at 10 Hz or more)
+    waits      w [[robot, [robot ids it waits for], cell or null, reason], ...]
+               (written when the set of waits changes)
+    vicon      robot, event ("disagree" | "agree" | "stale" | "seen"), distance
+    end        reason, arrived, robots (counts), summary {} (the figures the
+               manager printed)
+"""
+from __future__ import annotations
+
+from typing import Dict, Tuple
+
+#: Bumped when a field changes meaning; readers refuse newer major versions.
+FORMAT_VERSION = 1
+
+#: Every kind and the fields a writer must give it (others may follow).
+KINDS: Dict[str, Tuple[str, ...]] = {
+    "run": ("version", "started", "source", "time_unit", "plan", "robots", "strategy"),
+    "plan": ("file", "robots", "reason"),
+    "state": ("run",),
+    "strategy": ("name",),
+    "operator": ("action", "ok"),
+    "command": ("robot", "id", "type"),
+    "reply": ("robot", "id", "type"),
+    "dispatch": ("robot", "index", "step", "src", "dst"),
+    "action": ("robot", "index", "phase"),
+    "out": ("robot", "why"),
+    "link": ("robot", "state"),
+    "fault": ("robot", "faults"),
+    "poses": ("p",),
+    "waits": ("w",),
+    "vicon": ("robot", "event"),
+    "end": ("reason",),
+}
+
+EVENTS_FILE = "events.jsonl"
+DEFINITIONS_FILE = "robot_definitions.txt"
+
+
+def plan_file(number: int) -> str:
+    """File name of the run's `number`-th plan (1 = the plan it started with)."""
+    return "plan-{}.txt".format(number)

@@ -1,0 +1,185 @@
+"""A run's figures from its records alone: arrivals, makespan, costs, waits, collisions, distances.
+
+The manager feeds each record to a `SummaryBuilder` as it writes it, and
+`fleetctl trace` feeds the records read back from a run folder: one
+computation, so what the manager printed at the end and what the folder says
+later are the same numbers.
+
+- the run begins at its first `state` record with run "running"; times are
+  seconds (or plan steps) from there;
+- a robot *arrives* when it completes the last action of the current plan
+  (a robot with none has arrived at the start); the executed makespan is the
+  latest arrival, the sum of costs adds the arrivals of the robots that
+  arrived, as mapf-IR counts them for plans;
+- total wait adds the `waited` of every dispatch: the time robots were ready
+  to move but not allowed to;
+- collisions are judged from the executed moves (drive sent until completed:
+  a robot holds both cells meanwhile) by `fleet_common.execution.trace`, the
+  checker `fleetctl simulate` uses;
+- the smallest distance between two robots is taken over every `poses`
+  record (the positions the run used: robot feedback or Vicon).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Tuple
+
+from ..execution.trace import SWAP, Trace, find_collisions
+from ..spacing import closest_pair
+
+__all__ = ["RunSummary", "SummaryBuilder"]
+
+Record = Dict[str, Any]
+
+
+@dataclass
+class RunSummary:
+    unit: str
+    robots: int
+    arrived: List[int]
+    enabled: int
+    makespan: float
+    soc: float
+    wait: float
+    collisions: int
+    swaps: int
+    min_distance: Optional[float]
+    closest: Optional[Tuple[int, int, float]]  # robots and the time
+    disabled: List[int] = field(default_factory=list)
+    failed: List[int] = field(default_factory=list)
+
+    def lines(self) -> List[str]:
+        unit = "s" if self.unit == "s" else "steps"
+        out = ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
+                                         else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
+               "executed makespan: {:.2f} {}".format(self.makespan, unit),
+               "sum of costs: {:.2f} {}".format(self.soc, unit),
+               "total wait: {:.2f} {}".format(self.wait, unit),
+               "collisions: {}{}".format(self.collisions, " ({} swaps)".format(self.swaps) if self.swaps else "")]
+        if self.min_distance is None:
+            out.append("min distance: - (fewer than two robots seen)")
+        else:
+            a, b, t = self.closest or (0, 0, 0.0)
+            out.append("min distance: {:.2f} cells (robots {} and {} at {:.1f} {})".format(
+                self.min_distance, a, b, t, unit))
+        if self.disabled:
+            out.append("disabled: robots {}".format(", ".join(map(str, self.disabled))))
+        if self.failed:
+            out.append("failed: robots {}".format(", ".join(map(str, self.failed))))
+        return out
+
+    def as_dict(self) -> Dict[str, Any]:
+        return {"arrived": len(self.arrived), "enabled": self.enabled, "robots": self.robots,
+                "makespan": round(self.makespan, 3), "soc": round(self.soc, 3),
+                "wait": round(self.wait, 3), "collisions": self.collisions,
+                "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
+                "unit": self.unit}
+
+
+class SummaryBuilder:
+    """Fed records in order (`feed`); `summary()` at any time."""
+
+    def __init__(self) -> None:
+        self.unit = "s"
+        self.robots: List[int] = []           # robot id by agent
+        self.agent: Dict[int, int] = {}       # robot id -> agent
+        self.actions: List[int] = []          # actions per agent in the current plan
+        self.done: List[int] = []             # of them completed
+        self.begin: Optional[float] = None
+        self.arrival: Dict[int, float] = {}   # agent -> arrival (absolute t)
+        self.last_completion: Dict[int, float] = {}
+        self.out: Dict[int, str] = {}         # robot id -> "disabled" | "failed"
+        self.wait = 0.0
+        self.trace: Optional[Trace] = None
+        self.sent: Dict[Tuple[int, int], float] = {}  # (robot, action) -> drive sent
+        self.started: Dict[int, Tuple[float, Tuple[int, int], Tuple[int, int]]] = {}
+        self.min_distance: Optional[float] = None
+        self.closest: Optional[Tuple[int, int, float]] = None
+
+    def feed(self, record: Record) -> None:
+        kind = record.get("k")
+        t = float(record.get("t", 0.0))
+        if kind == "run":
+            self.unit = str(record.get("time_unit", "s"))
+            self._plan(record, t, first=True)
+        elif kind == "plan" and record.get("reason") != "loaded":
+            self._plan(record, t, first=False)
+        elif kind == "state" and record.get("run") == "running" and self.begin is None:
+            self.begin = t
+        elif kind == "dispatch":
+            self.wait += float(record.get("waited") or 0.0)
+        elif kind == "command" and record.get("type") == "drive" and record.get("action") is not None:
+            self.sent.setdefault((record["robot"], record["action"]), t)
+        elif kind == "action":
+            self._action(record, t)
+        elif kind == "out":
+            why = record.get("why")
+            if why is None:
+                self.out.pop(record["robot"], None)
+            else:
+                self.out[record["robot"]] = why
+        elif kind == "poses":
+            self._poses(record, t)
+
+    def _plan(self, record: Record, t: float, first: bool) -> None:
+        robots = list(record.get("robots") or [])
+        self.robots = robots
+        self.agent = {r: i for i, r in enumerate(robots)}
+        self.actions = list(record.get("actions") or [0] * len(robots))
+        self.done = [0] * len(robots)
+        self.sent.clear()
+        starts = [tuple(c) for c in record.get("starts") or []]
+        if first and len(starts) == len(robots):
+            self.trace = Trace(starts)
+        for i, n in enumerate(self.actions):
+            if n == 0:
+                self.arrival.setdefault(i, self.last_completion.get(i, t if not first else t))
+            else:
+                self.arrival.pop(i, None)
+
+    def _action(self, record: Record, t: float) -> None:
+        i = self.agent.get(record.get("robot"))  # type: ignore[arg-type]
+        if i is None:
+            return
+        src, dst = record.get("src"), record.get("dst")
+        if record.get("phase") == "started" and src is not None and dst is not None:
+            since = self.sent.get((record["robot"], record.get("index")), t)
+            self.started[i] = (since, tuple(src), tuple(dst))  # type: ignore[assignment]
+        elif record.get("phase") == "completed":
+            began = self.started.pop(i, None)
+            if self.trace is not None and src is not None and dst is not None:
+                start = began[0] if began is not None else t
+                try:
+                    self.trace.add(i, start, t, tuple(src), tuple(dst))  # type: ignore[arg-type]
+                except ValueError:
+                    pass  # a hole in the log (a crash): the trace skips the move, not the run
+            self.done[i] = min(self.done[i] + 1, self.actions[i] if i < len(self.actions) else 0)
+            self.last_completion[i] = t
+            if i < len(self.actions) and self.done[i] >= self.actions[i]:
+                self.arrival[i] = t
+
+    def _poses(self, record: Record, t: float) -> None:
+        points = {}
+        for entry in record.get("p") or []:
+            if isinstance(entry, list) and len(entry) >= 3 and entry[1] is not None and entry[2] is not None:
+                points[entry[0]] = (float(entry[1]), float(entry[2]))
+        found = closest_pair(points)
+        if found is not None and (self.min_distance is None or found[0] < self.min_distance):
+            self.min_distance = found[0]
+            self.closest = (found[1], found[2], t)
+
+    def summary(self) -> RunSummary:
+        begin = self.begin if self.begin is not None else 0.0
+        enabled = [i for i, r in enumerate(self.robots) if r not in self.out]
+        arrived = sorted(self.robots[i] for i in enabled if i in self.arrival)
+        times = [max(0.0, self.arrival[i] - begin) for i in enabled if i in self.arrival]
+        collisions = find_collisions(self.trace) if self.trace is not None else []
+        return RunSummary(
+            unit=self.unit, robots=len(self.robots), arrived=arrived, enabled=len(enabled),
+            makespan=max(times, default=0.0), soc=sum(times), wait=self.wait,
+            collisions=len(collisions), swaps=sum(1 for c in collisions if c.kind == SWAP),
+            min_distance=self.min_distance,
+            closest=None if self.closest is None else (
+                self.closest[0], self.closest[1], max(0.0, self.closest[2] - begin)),
+            disabled=sorted(r for r, why in self.out.items() if why == "disabled"),
+            failed=sorted(r for r, why in self.out.items() if why == "failed"))

@@ -1,0 +1,126 @@
+"""Appending to a run folder as the run goes.
+
+`RunLog.record(kind, **fields)` writes one line; the file is flushed when a
+second has passed since the last flush (and by `flush()`/`close()`), so a
+crash loses at most the last second while a busy run does not pay a system
+call per line. Times are taken from the clock given (monotonic by default)
+relative to the log's start, unless the caller passes `t` (the simulator's
+plan steps).
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable, Optional, TextIO, Union
+
+from ..errors import FleetError
+from .records import DEFINITIONS_FILE, EVENTS_FILE, FORMAT_VERSION, KINDS
+
+__all__ = ["RunLog", "new_run_folder"]
+
+FLUSH_EVERY = 1.0  # seconds: the most a crash may lose
+
+
+def new_run_folder(parent: Union[str, Path], now: Optional[datetime] = None) -> Path:
+    """A new, empty `parent/<UTC timestamp>/` (suffixed -2, -3 ... if taken)."""
+    stamp = (now or datetime.now(timezone.utc)).strftime("%Y%m%d-%H%M%S")
+    parent = Path(parent)
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        for n in range(1, 1000):
+            folder = parent / (stamp if n == 1 else "{}-{}".format(stamp, n))
+            try:
+                folder.mkdir()
+                return folder
+            except FileExistsError:
+                continue
+    except OSError as err:
+        raise FleetError("cannot make a run folder in {}: {}".format(parent, err.strerror)) from err
+    raise FleetError("cannot make a run folder in {}: 999 runs in one second".format(parent))
+
+
+def _clean(value: Any) -> Any:
+    """JSON-ready: tuples as lists, numpy numbers as Python ones, non-finite floats as null."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if hasattr(value, "item") and callable(value.item):  # numpy scalar
+        return _clean(value.item())
+    return value
+
+
+class RunLog:
+    """The open events.jsonl of one run folder."""
+
+    def __init__(self, folder: Union[str, Path], clock: Callable[[], float] = time.monotonic) -> None:
+        self.folder = Path(folder)
+        self.clock = clock
+        self.start = clock()
+        self._last_flush = self.start
+        try:
+            self._file: Optional[TextIO] = open(self.folder / EVENTS_FILE, "a", encoding="utf-8")
+        except OSError as err:
+            raise FleetError("cannot write {}: {}".format(self.folder / EVENTS_FILE, err.strerror)) from err
+        self.lines = 0
+
+    def now(self) -> float:
+        """Seconds since the log started, by its clock."""
+        return self.clock() - self.start
+
+    def record(self, kind: str, t: Optional[float] = None, **fields: Any) -> None:
+        """Append one line of `kind` (see records.py); a programming error if fields are missing."""
+        required = KINDS.get(kind)
+        if required is None:
+            raise ValueError("unknown run log kind {!r}; known: {}".format(kind, ", ".join(KINDS)))
+        missing = [f for f in required if f not in fields]
+        if missing:
+            raise ValueError("run log {} record lacks {}".format(kind, ", ".join(missing)))
+        if self._file is None:
+            return
+        line = {"t": round(self.now() if t is None else float(t), 4), "k": kind}
+        line.update(_clean(fields))
+        self._file.write(json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n")
+        self.lines += 1
+        now = self.clock()
+        if now - self._last_flush >= FLUSH_EVERY:
+            self.flush(now)
+
+    def run_started(self, *, source: str, time_unit: str, plan: str, robots: list,
+                    strategy: str, **more: Any) -> None:
+        """The first record: what this run is."""
+        self.record("run", version=FORMAT_VERSION, started=datetime.now(timezone.utc).isoformat(
+            timespec="milliseconds"), source=source, time_unit=time_unit, plan=plan,
+            robots=robots, strategy=strategy, **more)
+
+    def copy_in(self, source: Union[str, Path], name: str = DEFINITIONS_FILE) -> str:
+        """Copy a file (the definitions) into the folder; its name there."""
+        shutil.copyfile(str(source), str(self.folder / name))
+        return name
+
+    def write_text(self, name: str, text: str) -> str:
+        (self.folder / name).write_text(text, encoding="utf-8")
+        return name
+
+    def flush(self, now: Optional[float] = None) -> None:
+        if self._file is not None:
+            self._file.flush()
+        self._last_flush = self.clock() if now is None else now
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.flush()
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> "RunLog":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,20 @@
+"""Every ZeroMQ socket of FleetControl, robot side and manager side, in one place.
+
+`fleet_common.wire` is the protocol without I/O (messages, codec, state
+tables, the command executor); this package puts it on sockets. Both ends
+import it, so the robot runner, the virtual fleet and the manager share one
+way of binding, connecting, securing (CurveZMQ) and polling.
+
+    curve_keys       key files: who may drive the robots
+    zap              the ZAP handler that admits only the manager key
+    robot_endpoint   one robot's command (ROUTER) and feedback (PUB) sockets
+    robot_loop       many robot endpoints served from one thread
+    robot_link       the manager's connection to one robot (DEALER + SUB), reconnecting
+    pose_feedback    the manager's subscription to a robot's pose stream
+    link_events      what a robot link reports (LinkUp, LinkDown, RobotReply)
+    links            many robot links polled from one thread (`LinkSet`)
+
+Nothing here is imported by `fleet_common` itself or by `fleet_common.wire`:
+code that only reads files or plans never needs pyzmq.
+"""
+from __future__ import annotations

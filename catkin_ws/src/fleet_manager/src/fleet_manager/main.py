@@ -1,0 +1,200 @@
+"""The manager's command line: `fleetctl manager` and the lab PC's `fleet_manager` node (thesis 5.3).
+
+Connects to every robot of the fleet, checks that each stands on its start
+cell, and on Start executes the plan under the chosen synchronization
+strategy, feeding the robots' acknowledgements and completions into the
+execution engine. Consoles connect to --bind (state stream 20 times a
+second, commands: start, pause, stop, step, halt, strategy, enable/disable,
+position source, load, replan). Every run leaves a run folder.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+from pathlib import Path
+from typing import List, Optional
+
+DESCRIPTION = (
+    "Execute PLAN (a mapf-IR solution, or an instance planned first with a built-in solver) on "
+    "the fleet: plan agent i runs on the i-th robot of the definitions (or of --robots). Without "
+    "--start the run waits for a console's Start. With --until-done it ends when every enabled "
+    "robot is at its goal (exit 0) or the run cannot go on (exit 1, saying why), and prints a "
+    "summary: arrivals, executed makespan, sum of costs, waits, collisions and the smallest "
+    "distance between two robots. Ctrl-C stops every robot and closes the run log.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from fleet_common.execution import STRATEGIES
+    from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
+
+    parser.add_argument("plan", type=Path, metavar="PLAN",
+                        help="mapf-IR solution (run as it is) or instance (planned first)")
+    parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
+                        help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
+                             "repository's robot_definitions.txt)")
+    parser.add_argument("--robots", type=_ids, default=None, metavar="ID,...",
+                        help="run on these robots, agent i on the i-th (default: every robot)")
+    parser.add_argument("--host", default=None, metavar="HOST",
+                        help="connect to every robot at HOST instead of its definitions address "
+                             "(127.0.0.1 for `fleetctl virtual-fleet`)")
+    parser.add_argument("--strategy", choices=list(STRATEGIES), default="adg",
+                        help="synchronization strategy (default adg; switchable from a console)")
+    parser.add_argument("--lookahead", type=int, default=1, metavar="K",
+                        help="adg: actions a robot may be sent ahead (default 1)")
+    parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
+                        help="where consoles connect (default {})".format(DEFAULT_ENDPOINT))
+    parser.add_argument("--log", type=Path, default=None, metavar="DIR",
+                        help="run folders go in DIR/<timestamp>/ (default: $FLEETCONTROL_RUNS, else "
+                             "~/.local/share/fleetcontrol/runs)")
+    parser.add_argument("--no-log", action="store_true", help="write no run folder")
+    parser.add_argument("--start", action="store_true",
+                        help="start as soon as every robot is connected and on its start cell")
+    parser.add_argument("--until-done", action="store_true",
+                        help="exit when the run is over, printing its summary")
+    parser.add_argument("--time-limit", type=float, default=None, metavar="S",
+                        help="with --until-done: give up (exit 1) after S seconds")
+    parser.add_argument("--connect-timeout", type=float, default=60.0, metavar="S",
+                        help="with --start: how long to wait for every robot (default 60 s)")
+    parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
+                        help="CurveZMQ key folder (default: $FLEETCONTROL_KEYS, else "
+                             "~/.config/fleetcontrol/keys)")
+    parser.add_argument("--no-curve", action="store_true",
+                        help="no CurveZMQ to robots or consoles; for local experiments")
+    parser.add_argument("--step-time", type=float, default=2.5, metavar="S",
+                        help="seconds a plan step is expected to take: the consoles' planned "
+                             "position and 'behind plan' (default 2.5)")
+    parser.add_argument("--state-rate", type=float, default=20.0, metavar="HZ",
+                        help="state messages to consoles per second (default 20)")
+    parser.add_argument("--no-preturn", action="store_true",
+                        help="robots do not turn towards their next cell while they wait")
+    parser.add_argument("-s", "--solver", default=None,
+                        help="built-in solver for an instance (default cbs for up to 12 agents, "
+                             "falling back to lacam; lacam above)")
+    parser.add_argument("--plan-time-limit", type=float, default=10.0, metavar="S",
+                        help="how long planning an instance may take (default 10 s)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--map-dir", metavar="D", action="append", default=[], type=Path,
+                        help="folder to search for map_file= (repeatable), before the defaults")
+    parser.add_argument("--log-level", default="warning",
+                        choices=["debug", "info", "warning", "error"])
+
+
+def _ids(text: str) -> List[int]:
+    try:
+        ids = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        ids = []
+    if not ids:
+        raise argparse.ArgumentTypeError("expected robot ids like 1,2,5, got {!r}".format(text))
+    return ids
+
+
+def default_runs_dir() -> Path:
+    env = os.environ.get("FLEETCONTROL_RUNS")
+    if env:
+        return Path(env)
+    data = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(data) / "fleetcontrol" / "runs"
+
+
+def run(args: argparse.Namespace) -> int:
+    import logging
+
+    from fleet_common.errors import FleetError
+    from fleet_common.robots import default_definitions_path, read_robot_definitions
+    from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
+    from fleet_common.formats.mapsearch import default_map_dirs
+
+    from .manager import Manager, ManagerSettings
+    from .plan_source import load_plan, pick_robots
+
+    dirs = list(args.map_dir) + default_map_dirs()
+
+    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(message)s")
+    definitions = args.definitions or default_definitions_path()
+    fleet = pick_robots(read_robot_definitions(definitions), args.robots, str(definitions))
+    loaded = load_plan(args.plan, len(fleet), str(definitions) if args.robots is None
+                       else "--robots", dirs, solver=args.solver,
+                       time_limit=args.plan_time_limit, seed=args.seed)
+    try:
+        keys = None if args.no_curve else load_manager_keys(args.keys or default_keys_dir())
+    except FleetError as err:
+        raise FleetError("{}; or run with --no-curve (and the robots too)".format(err)) from err
+    settings = ManagerSettings(
+        strategy=args.strategy, lookahead=args.lookahead, bind=args.bind,
+        log_dir=None if args.no_log else (args.log or default_runs_dir()),
+        step_time=args.step_time, state_rate=args.state_rate, preturn=not args.no_preturn,
+        definitions=definitions, map_dirs=dirs)
+    manager = Manager(loaded, fleet, settings, keys=keys, host=args.host)
+    stopping: List[str] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, _frame: stopping.append(signal.Signals(signum).name))
+    print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}; consoles on {} ({}){}".format(
+        len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
+        loaded.plan.makespan, manager.engine.strategy.describe(), manager.consoles.endpoint,
+        "CURVE" if keys is not None else "no CURVE",
+        "; run folder {}".format(manager.folder) if manager.folder else ""), flush=True)
+    outcome: Optional[str] = None
+    try:
+        if args.start:
+            outcome = _start_when_ready(manager, args.connect_timeout, lambda: bool(stopping))
+        if outcome is None and not stopping:
+            outcome = manager.run(lambda: bool(stopping), until_done=args.until_done,
+                                  time_limit=args.time_limit)
+    finally:
+        reason = ("interrupted ({})".format(stopping[0]) if stopping else outcome
+                  or ("done" if manager.run_state == "done" else "manager stopped"))
+        manager.stop_robots()
+        manager.close(reason)
+    summary = manager.summary()
+    if args.until_done or stopping or outcome:
+        for line in summary.lines():
+            print(line, flush=True)
+    if manager.folder is not None:
+        print("run folder: {}".format(manager.folder), flush=True)
+    if stopping:
+        return 130
+    if outcome is not None:
+        print("fleetctl manager: {}".format(outcome), flush=True)
+        return 1
+    if args.until_done:
+        return 0 if summary.collisions == 0 and len(summary.arrived) == summary.enabled else 1
+    return 0
+
+
+def _start_when_ready(manager, timeout: float, should_stop) -> Optional[str]:
+    """Serve until every robot is up and on its start, then Start; the reason if not in time."""
+    deadline = manager.now() + timeout
+    while not should_stop():
+        until = min(deadline, manager.now() + 0.2)
+        manager.run(lambda: should_stop() or manager.now() >= until)
+        problem = manager.steering.not_ready()
+        if not problem:
+            ok, problem = manager.steering.start({})
+            if ok:
+                print("started: every robot connected and on its start cell", flush=True)
+                return None
+        if manager.now() >= deadline:
+            return "cannot start after {:g} s: {}".format(timeout, problem)
+    return None
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """The lab PC's `fleet_manager` node: the same options; errors as one line, exit 2."""
+    import sys
+
+    from fleet_common.errors import FleetError
+
+    parser = argparse.ArgumentParser(prog="fleet_manager", description=DESCRIPTION)
+    add_arguments(parser)
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        return run(args)
+    except FleetError as err:
+        print("fleet_manager: {}".format(err), file=sys.stderr)
+        return 2
+    except OSError as err:
+        where = "{}: ".format(err.filename) if err.filename is not None else ""
+        print("fleet_manager: {}{}".format(where, err.strerror or err), file=sys.stderr)
+        return 2

@@ -1,0 +1,184 @@
+"""Steering a running fleet from consoles: a real manager and virtual fleet, scripted consoles.
+
+Each control is checked by what the next state says and by what the robots do;
+refusals (a stale picture, garbage) change nothing. Faults and replanning are
+run end to end.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator, Tuple
+
+import pytest
+import zmq
+
+from fleet_common.control import decode
+from fleet_common.control import messages as m
+from fleet_common.lab import lab_instance_path
+from fleet_common.runlog import read_run
+from live import Proc, ScriptedConsole, fleet_definitions, start_fleet, start_manager
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture
+def lab_run(tmp_path: Path, request) -> Iterator[Tuple[Proc, Proc, int, Path]]:
+    """A virtual fleet of the five lab robots and a manager waiting for Start."""
+    fleet_args = getattr(request, "param", ())
+    definitions, feedback, port = fleet_definitions(tmp_path, 5)
+    fleet = start_fleet(tmp_path, definitions, feedback, "--time-scale", "4", *fleet_args)
+    manager = start_manager(tmp_path, lab_instance_path(), definitions, port, "--log",
+                            tmp_path / "runs", "--step-time", "0.6", "--until-done",
+                            "--time-limit", "200")
+    try:
+        yield fleet, manager, port, tmp_path
+    finally:
+        manager.stop()
+        fleet.stop()
+
+
+def ready(console: ScriptedConsole) -> None:
+    console.wait_for(lambda c: c.state and all(r.link == "up" and r.age is not None
+                                               for r in c.state.robots), why="robots up")
+
+
+def done_moves(console: ScriptedConsole) -> int:
+    return sum(r.done for r in console.state.robots)
+
+
+def robot(console: ScriptedConsole, rid: int) -> m.RobotState:
+    return next(r for r in console.state.robots if r.id == rid)
+
+
+def test_every_control_shows_in_the_next_state_and_stale_requests_are_refused(lab_run) -> None:
+    fleet, manager, port, folder = lab_run
+    ops, other = ScriptedConsole(port, "ops"), ScriptedConsole(port, "visitor desk")
+    try:
+        ready(ops)
+        other.wait_for(lambda c: c.state is not None)
+        assert ops.ask("start").ok
+        ops.wait_for(lambda c: c.state.run.state == "running" and done_moves(c) >= 5, why="moving")
+        # pause: robots finish the move they make, then nothing more happens
+        assert ops.ask("pause").ok
+        ops.wait_for(lambda c: c.state.run.state == "paused" and all(r.activity is None or r.activity.kind != "drive"
+                                                                      for r in c.state.robots),
+                     why="paused, no drive under way")
+        held = done_moves(ops)
+        ops.pump(1.0)
+        assert done_moves(ops) == held
+        # step: one round, each robot at most one action further
+        before = {r.id: r.done for r in ops.state.robots}
+        assert ops.ask("step").ok
+        ops.wait_for(lambda c: done_moves(c) > held, why="a round")
+        ops.pump(1.0)
+        assert all(r.done - before[r.id] <= 1 for r in ops.state.robots)
+        assert ops.state.run.state == "paused"
+        # switch, disable, enable: each in the next state
+        assert ops.ask("strategy", name="step").ok
+        assert ops.wait_for(lambda c: c.state.run.strategy == "step")
+        looked_at = other.wait_for(lambda c: c.state.run.strategy == "step" and c.state.version)
+        assert ops.ask("disable", robot=2).ok
+        assert ops.wait_for(lambda c: robot(c, 2).out == "disabled")
+        # the other operator acts on what they looked at, from before the disable: refused, why
+        stale = other.ask("enable", robot=2, based_on=looked_at)
+        assert not stale.ok and "robot 2 disabled" in stale.reason and "look again" in stale.reason
+        assert robot(ops, 2).out == "disabled"
+        assert ops.ask("enable", robot=2).ok
+        assert ops.wait_for(lambda c: robot(c, 2).out is None)
+        refused = ops.ask("disable", robot=99)
+        assert not refused.ok and "not in this run" in refused.reason
+        assert ops.ask("start").ok
+        assert manager.wait(200) == 0, manager.text()[-3000:]
+    finally:
+        ops.close()
+        other.close()
+    run = read_run(next((folder / "runs").iterdir()))
+    actions = [(r["action"], r["ok"]) for r in run.of("operator")]
+    assert ("enable", False) not in actions[:3]  # the stale request never reached the manager
+    assert [a for a, ok in actions if ok] == ["start", "pause", "step", "strategy", "disable", "enable",
+                                              "start"]
+
+
+def test_garbage_from_a_console_is_answered_and_changes_nothing(lab_run) -> None:
+    fleet, manager, port, _ = lab_run
+    ops = ScriptedConsole(port)
+    context = zmq.Context()
+    raw = context.socket(zmq.DEALER)
+    raw.linger = 0
+    try:
+        ready(ops)
+        version = ops.state.version
+        raw.connect("tcp://127.0.0.1:{}".format(port))
+        for frame in (b"\x00\xff" * 100, b"[" * 50000, b'{"t":"request","v":1,"id":1e999}',
+                      b'{"t":"hello","v":1,"name":"' + b"x" * 5000 + b'"}'):
+            raw.send(frame)
+            assert raw.poll(5000), "no answer to garbage"
+            answer = decode(raw.recv(), m.MANAGER_MESSAGES)
+            assert isinstance(answer, m.Answer) and not answer.ok and answer.reason
+        ops.pump(0.5)
+        assert ops.state.version == version and ops.state.run.state == "waiting"
+        assert ops.ask("start").ok  # and it still obeys a proper request
+        ops.wait_for(lambda c: done_moves(c) >= 1)
+    finally:
+        raw.close()
+        context.term()
+        ops.close()
+    assert manager.popen.poll() is None
+
+
+@pytest.mark.parametrize("lab_run", [("--bump", "2@2")], indirect=True)
+def test_a_robot_that_bumps_into_something_is_held_until_enabled(lab_run) -> None:
+    fleet, manager, port, folder = lab_run
+    ops = ScriptedConsole(port)
+    try:
+        ready(ops)
+        assert ops.ask("start").ok
+        bumped = ops.wait_for(lambda c: robot(c, 2) if robot(c, 2).out == "failed" else None,
+                              timeout=60, why="robot 2 held")
+        assert "bumper" in bumped.faults
+        assert any(e.kind == "fault" and e.robot == 2 and "bumper" in e.text for e in ops.session.events)
+        done = robot(ops, 2).done
+        ops.pump(1.5)
+        assert robot(ops, 2).done == done  # held: nothing is sent to it
+        assert ops.ask("enable", robot=2).ok  # a stop clears the fault, then it drives on
+        ops.wait_for(lambda c: robot(c, 2).done > done and not robot(c, 2).faults, timeout=60,
+                     why="robot 2 moving again")
+        assert manager.wait(200) == 0, manager.text()[-3000:]
+    finally:
+        ops.close()
+    out = manager.text()
+    assert "arrived: 5/5" in out and "collisions: 0" in out
+
+
+def test_replanning_around_a_robot_disabled_for_good(lab_run) -> None:
+    fleet, manager, port, folder = lab_run
+    ops = ScriptedConsole(port)
+    try:
+        ready(ops)
+        assert ops.ask("start").ok
+        ops.wait_for(lambda c: done_moves(c) >= 8)
+        assert ops.ask("disable", robot=5).ok
+        answer = ops.ask("replan", time_limit=5.0)
+        assert answer.ok, answer.reason
+        proposal = ops.wait_for(lambda c: c.session.proposal, timeout=60, why="a proposal")
+        assert ops.state.run.proposal == proposal.id and ops.state.run.state == "paused"
+        plan = proposal.plan.positions
+        robots = list(proposal.plan.robots)
+        stays = plan[:, robots.index(5)]
+        assert (stays == stays[0]).all()  # the disabled robot is an obstacle where it stands
+        # nobody moved across the switch: every robot stands on the proposal's first cell (as
+        # soon as its pose feedback, 10 a second, has caught up with the move it finished)
+        def on_first_cells(c: ScriptedConsole) -> bool:
+            return all(abs(r.x - plan[0, robots.index(r.id)][0]) < 0.05 and
+                       abs(r.y - plan[0, robots.index(r.id)][1]) < 0.05 for r in c.state.robots)
+        ops.wait_for(on_first_cells, timeout=3, why="every robot on the proposal's first cell")
+        assert ops.state.run.proposal == proposal.id
+        assert ops.ask("accept", proposal=proposal.id).ok
+        assert manager.wait(200) == 0, manager.text()[-3000:]
+    finally:
+        ops.close()
+    out = manager.text()
+    assert "arrived: 4/4 (of 5 robots; 1 out)" in out and "collisions: 0" in out
+    run = read_run(next((folder / "runs").iterdir()))
+    assert [p.name for p in run.plan_files()] == ["plan-1.txt", "plan-2.txt"]
+    assert all(p.is_file() for p in run.plan_files())

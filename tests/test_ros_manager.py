@@ -1,0 +1,153 @@
+"""The real robot path once: `fleetctl manager` drives two simulated TurtleBots (sim_robot.launch,
+agv_runner over sim_turtlebot, each in its own ROS namespace under one real roscore) through a
+short lab plan with ADG, over CurveZMQ.
+
+The two robots' paths cross at one cell, so the Action Dependency Graph has to order them.
+Judged by the simulator's ground truth (each robot ends within 5 cm of its goal cell) and by the
+runners' own logs (each command id carried out once). About a minute and a half; runs in its own
+network namespace (tests/ros_procs.py).
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import sys
+import threading
+from pathlib import Path
+from typing import Dict, List, Tuple
+
+import pytest
+
+from agv_package.geometry import Pose2D
+from agv_package.grid_frame import GridFrame
+from fleet_common.robots import RobotDefinition, format_robot_definitions
+from fleet_common.transport.curve_keys import make_keys
+from helpers import free_port_block
+from live import Proc, fleetctl_args
+from ros_procs import master_up, netns_marker, ros_environment, run_inside_netns, wait_for
+
+pytestmark = pytest.mark.slow
+inside_netns = netns_marker(__file__)
+
+#: robot id -> (start, goal), base cells of lab nodes; the paths cross at (2, 2)
+ROBOTS: Dict[int, Tuple[Tuple[int, int], Tuple[int, int]]] = {1: ((0, 2), (4, 2)), 2: ((2, 4), (2, 0))}
+
+
+def test_ros_manager_in_own_network_namespace() -> None:
+    run_inside_netns(__file__, min_passed=1)
+
+
+def launch_file(home: Path, definitions: Path, keys: Path, feedback: Dict[int, int]) -> Path:
+    groups = []
+    for rid, (start, _) in ROBOTS.items():
+        groups.append(
+            '  <group ns="robot{rid}">\n'
+            '    <include file="$(find agv_package)/launch/sim_robot.launch">\n'
+            '      <arg name="robot_id" value="{rid}"/>\n'
+            '      <arg name="definitions" value="{defs}"/>\n'
+            '      <arg name="keys_dir" value="{keys}"/>\n'
+            '      <arg name="feedback_port" value="{fb}"/>\n'
+            '      <arg name="start_x" value="{x}"/>\n'
+            '      <arg name="start_y" value="{y}"/>\n'
+            '      <arg name="seed" value="{rid}"/>\n'
+            '    </include>\n'
+            '  </group>\n'.format(rid=rid, defs=definitions, keys=keys, fb=feedback[rid],
+                                 x=start[0], y=start[1]))
+    path = home / "two_robots.launch"
+    path.write_text("<launch>\n{}</launch>\n".format("".join(groups)))
+    return path
+
+
+class Truth:
+    """The simulator's ground truth of each robot, in base cells (a rospy node of the test's)."""
+
+    def __init__(self) -> None:
+        import rospy
+        from nav_msgs.msg import Odometry
+
+        self.frame = GridFrame()
+        self.latest: Dict[int, Pose2D] = {}
+        self._lock = threading.Lock()
+        self._subs = [rospy.Subscriber("/robot{}/sim/ground_truth".format(rid), Odometry,
+                                       self._on(rid), queue_size=10) for rid in ROBOTS]
+
+    def _on(self, rid: int):
+        def callback(msg: object) -> None:
+            p = msg.pose.pose  # type: ignore[attr-defined]
+            theta = 2.0 * math.atan2(p.orientation.z, p.orientation.w)
+            with self._lock:
+                self.latest[rid] = self.frame.pose_to_base(Pose2D(p.position.x, p.position.y, theta))
+        return callback
+
+    def where(self, rid: int) -> Pose2D:
+        with self._lock:
+            return self.latest[rid]
+
+
+@inside_netns
+def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Path) -> None:
+    home = tmp_path
+    base = free_port_block(6)
+    master_port, console_port = base, base + 1
+    commands = {1: base + 2, 2: base + 3}
+    feedback = {1: base + 4, 2: base + 5}
+    env = ros_environment(master_port, home)
+    keys = home / "keys"
+    make_keys(keys)
+    definitions = home / "robot_definitions.txt"
+    definitions.write_text(format_robot_definitions([
+        RobotDefinition(rid, "127.0.0.1", commands[rid], "turtlebot", "turtlebot{}".format(rid), colour)
+        for rid, colour in zip(ROBOTS, ("red", "green"))]))
+    instance = home / "crossing.txt"
+    instance.write_text("map_file=lab.map\nagents=2\norientation=base\n" + "".join(
+        "{},{},{},{}\n".format(s[0], s[1], g[0], g[1]) for s, g in ROBOTS.values()))
+    started: List[Proc] = []
+    saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR",
+                                             "ROS_HOSTNAME")}
+    try:
+        roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
+        started.append(roscore)
+        wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
+        launch = Proc(["roslaunch", str(launch_file(home, definitions, keys, feedback))],
+                      home / "roslaunch.log", env)
+        started.append(launch)
+        wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)
+        for key in saved:
+            if key in env:
+                os.environ[key] = env[key]
+            else:
+                os.environ.pop(key, None)
+        import rospy
+
+        rospy.init_node("fleet_test_truth", anonymous=True, disable_signals=True)
+        truth = Truth()
+        wait_for(lambda: len(truth.latest) == 2, 30.0, "ground truth of both robots", launch)
+        manager = Proc(fleetctl_args("manager", instance, "--definitions", definitions, "--keys", keys,
+                                     "--host", "127.0.0.1", "--bind",
+                                     "tcp://127.0.0.1:{}".format(console_port), "--start",
+                                     "--until-done", "--log", home / "runs", "--time-limit", "300",
+                                     "--connect-timeout", "120", "--strategy", "adg"),
+                       home / "manager.log", env)
+        started.append(manager)
+        assert manager.wait(420) == 0, manager.tail(60) + "\n" + launch.tail(30)
+        out = manager.text()
+        assert "arrived: 2/2" in out and "collisions: 0" in out, out
+        for rid, (_, goal) in ROBOTS.items():
+            where = truth.where(rid)
+            off = math.hypot(where.x - goal[0], where.y - goal[1]) * GridFrame().cell_size()
+            assert off < 0.05, "robot {} ended {:.3f} m from its goal cell {}".format(rid, off, goal)
+        executed = re.findall(r"robot (\d+) executing (\w+) (\d+) of manager (\w+)", launch.text())
+        drives = [e for e in executed if e[1] == "drive"]
+        assert len(drives) == 8, executed  # four moves each, none twice
+        assert len(set(executed)) == len(executed), "a command ran twice: {}".format(executed)
+    finally:
+        if "rospy" in sys.modules and sys.modules["rospy"].core.is_initialized():
+            sys.modules["rospy"].signal_shutdown("integration test done")
+        for process in reversed(started):
+            process.stop()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value

@@ -1,0 +1,112 @@
+"""Run folders: what the manager and the simulator write is what the tools read back."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from fleet_common.runlog import RunLog, new_run_folder, read_run
+from fleet_common.runlog.reader import RunLogError
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def started(folder: Path, clock: FakeClock = None) -> RunLog:
+    log = RunLog(folder, clock=clock) if clock else RunLog(folder)
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[3, 1],
+                    strategy="adg")
+    return log
+
+
+def test_records_come_back_in_order_with_their_times(tmp_path: Path) -> None:
+    clock = FakeClock()
+    with started(tmp_path, clock) as log:
+        clock.now += 0.25
+        log.record("command", robot=3, id=1, type="drive", x=1.0, y=2.0, time=0.0, action=0)
+        clock.now += 0.5
+        log.record("reply", robot=3, id=1, type="accepted")
+    run = read_run(tmp_path)
+    assert [r["k"] for r in run.records] == ["run", "command", "reply"]
+    assert [r["t"] for r in run.records] == [0.0, 0.25, 0.75]
+    assert run.robots == [3, 1] and not run.torn and not run.ended
+    assert run.plan_files() == [tmp_path / "plan-1.txt"]
+
+
+def test_a_line_is_on_disk_within_a_second_without_close(tmp_path: Path) -> None:
+    clock = FakeClock()
+    log = started(tmp_path, clock)
+    log.record("state", run="running")
+    clock.now += 1.0
+    log.record("state", run="paused")  # a second later: flushed with it
+    text = (tmp_path / "events.jsonl").read_text()
+    assert text.count("\n") == 3  # the crash would lose nothing so far
+    log.close()
+
+
+def test_a_torn_last_line_is_dropped_and_reported(tmp_path: Path) -> None:
+    with started(tmp_path) as log:
+        log.record("state", run="running")
+    with open(tmp_path / "events.jsonl", "a") as f:
+        f.write('{"t":1.5,"k":"poses","p":[[3,1.0')  # the crash came mid-line
+    run = read_run(tmp_path)
+    assert run.torn and [r["k"] for r in run.records] == ["run", "state"]
+
+
+def test_a_damaged_line_in_the_middle_is_an_error_naming_it(tmp_path: Path) -> None:
+    with started(tmp_path) as log:
+        log.record("state", run="running")
+    lines = (tmp_path / "events.jsonl").read_text().splitlines()
+    lines.insert(1, "garbage")
+    (tmp_path / "events.jsonl").write_text("\n".join(lines) + "\n")
+    with pytest.raises(RunLogError, match=r"events\.jsonl:2: damaged line"):
+        read_run(tmp_path)
+
+
+def test_not_a_run_folder(tmp_path: Path) -> None:
+    with pytest.raises(RunLogError, match="not a run folder"):
+        read_run(tmp_path)
+    (tmp_path / "events.jsonl").write_text(json.dumps({"t": 0, "k": "state", "run": "x"}) + "\n")
+    with pytest.raises(RunLogError, match=":1: the first line is not"):
+        read_run(tmp_path)
+
+
+def test_a_newer_format_is_refused_not_misread(tmp_path: Path) -> None:
+    (tmp_path / "events.jsonl").write_text(json.dumps({"t": 0, "k": "run", "version": 99}) + "\n")
+    with pytest.raises(RunLogError, match="version 99"):
+        read_run(tmp_path)
+
+
+def test_writer_refuses_unknown_kinds_and_missing_fields(tmp_path: Path) -> None:
+    with started(tmp_path) as log:
+        with pytest.raises(ValueError, match="unknown run log kind"):
+            log.record("chatter", text="hi")
+        with pytest.raises(ValueError, match="lacks robot"):
+            log.record("command", id=1, type="drive")
+
+
+def test_new_run_folders_never_collide(tmp_path: Path) -> None:
+    folders = {new_run_folder(tmp_path) for _ in range(5)}
+    assert len(folders) == 5 and all(f.is_dir() and f.parent == tmp_path for f in folders)
+
+
+@given(st.lists(st.tuples(st.integers(0, 10 ** 6), st.floats(allow_nan=True, allow_infinity=True),
+                          st.text(max_size=20)), max_size=20))
+def test_any_values_round_trip_as_json(values: list) -> None:
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        with started(Path(d)) as log:
+            for robot, x, note in values:
+                log.record("fault", robot=robot, faults=[note], x=x)
+        faults = list(read_run(d).of("fault"))
+    assert [(r["robot"], r["faults"][0]) for r in faults] == [(v[0], v[2]) for v in values]
+    # non-finite numbers become null rather than an unreadable token
+    assert all(r["x"] is None or r["x"] == r["x"] for r in faults)

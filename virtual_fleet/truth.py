@@ -1,0 +1,126 @@
+"""The virtual fleet's ground truth, written down: where each robot really was, what really ran.
+
+Tests and benchmarks judge a run by it, not by what the manager believed:
+
+- `--truth FILE` (JSON lines, wall-clock `t` = time.time()): a `start` line
+  (each robot's pose at start, and whether it was resumed), a `poses` line
+  every 1/20 s with every robot's true pose `[id, x, y, theta]`, and an
+  `exec` line each time a robot starts a command (`robot`, the manager's
+  `epoch`, command `id`, `type`): a command run twice shows as two lines with
+  the same (robot, epoch, id);
+- `--truth-port PORT`: the same poses, live (`fleet_common.transport.truth_stream`);
+- `--state FILE`: each robot's pose, rewritten atomically five times a
+  second; a fleet started with an existing state file puts its robots where
+  they stood, as real robots relocalize on the floor tags after a restart.
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, TextIO
+
+from fleet_common.errors import FleetError
+from fleet_common.wire.messages import Command, Pose
+
+__all__ = ["TruthRecorder", "load_state"]
+
+POSE_PERIOD = 0.05   # s between truth poses
+STATE_PERIOD = 0.2   # s between state file writes
+
+
+def load_state(path: Path) -> Dict[int, Pose]:
+    """Poses by robot id from a state file ({} if there is none yet)."""
+    if not path.exists():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        return {int(k): Pose(float(v[0]), float(v[1]), float(v[2])) for k, v in data["robots"].items()}
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as err:
+        raise FleetError("{}: not a virtual fleet state file ({}); delete it to start afresh".format(
+            path, err)) from err
+
+
+class TruthRecorder:
+    def __init__(self, truth: Optional[Path], state: Optional[Path],
+                 publish: Optional[Callable[[int, float, float, float, float], None]] = None,
+                 wall: Callable[[], float] = time.time) -> None:
+        self.wall = wall
+        self.state = state
+        self.publish = publish
+        self._file: Optional[TextIO] = None
+        if truth is not None:
+            try:
+                self._file = open(truth, "a", encoding="utf-8")
+            except OSError as err:
+                raise FleetError("cannot write {}: {}".format(truth, err.strerror)) from err
+        self._next_pose = self._next_state = 0.0
+
+    @property
+    def active(self) -> bool:
+        return self._file is not None or self.state is not None or self.publish is not None
+
+    def started(self, poses: Dict[int, Pose], resumed: bool) -> None:
+        self._write({"k": "start", "resumed": resumed,
+                     "robots": {str(r): [p.x, p.y, p.theta] for r, p in poses.items()}})
+
+    def executed(self, robot: int, epoch: str, command: Command) -> None:
+        line = {"k": "exec", "robot": robot, "epoch": epoch, "id": command.id, "type": command.TYPE}
+        for name in ("x", "y", "time", "angle"):
+            if hasattr(command, name):
+                line[name] = getattr(command, name)
+        self._write(line)
+
+    def tick(self, poses: Callable[[], Dict[int, Pose]], now: float) -> float:
+        """Record what is due at monotonic `now`; the next time something is due."""
+        if not self.active:
+            return now + 1.0
+        if now >= self._next_pose:
+            self._next_pose = now + POSE_PERIOD
+            current = poses()
+            wall = self.wall()
+            if self._file is not None:
+                self._write({"k": "poses", "p": [[r, round(p.x, 4), round(p.y, 4), round(p.theta, 4)]
+                                                 for r, p in sorted(current.items())]}, wall)
+            if self.publish is not None:
+                for r, p in current.items():
+                    self.publish(r, wall, p.x, p.y, p.theta)
+            if self.state is not None and now >= self._next_state:
+                self._next_state = now + STATE_PERIOD
+                self._save(current)
+        return min(self._next_pose, self._next_state if self.state is not None else self._next_pose)
+
+    def close(self, poses: Optional[Dict[int, Pose]] = None) -> None:
+        if poses is not None and self.state is not None:
+            self._save(poses)
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def _save(self, poses: Dict[int, Pose]) -> None:
+        assert self.state is not None
+        tmp = self.state.with_name(self.state.name + ".tmp")
+        data = {"robots": {str(r): [p.x, p.y, p.theta] for r, p in poses.items()}}
+        tmp.write_text(json.dumps(data), encoding="utf-8")
+        os.replace(tmp, self.state)  # atomic: a kill never leaves half a file
+
+    def _write(self, line: Dict[str, object], wall: Optional[float] = None) -> None:
+        if self._file is None:
+            return
+        line = dict({"t": round(self.wall() if wall is None else wall, 4)}, **line)
+        self._file.write(json.dumps(line, separators=(",", ":")) + "\n")
+        self._file.flush()  # the fleet may be killed at any moment: what is written stays
+
+
+def exec_lines(path: Path) -> List[dict]:
+    """The `exec` lines of a truth file (for tests: a command run twice appears twice)."""
+    out = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        try:
+            record = json.loads(line)
+        except ValueError:
+            continue  # the last line of a killed fleet may be cut
+        if record.get("k") == "exec":
+            out.append(record)
+    return out
