@@ -4,12 +4,14 @@ a naive rotation checker (the oracle for the vectorised one).
 from __future__ import annotations
 
 import os
+from collections import deque
 import socket
 import subprocess
 import sys
 from pathlib import Path
 from typing import Dict, List, Optional, Set, Tuple
 
+from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 
 
@@ -78,3 +80,21 @@ def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int
             if k == i and len(cycle) >= min_length and i == min(cycle):
                 found.add((t + 1, tuple(cycle)))
     return found
+
+
+def python_bfs(grid: Grid, goal: Coord) -> List[int]:
+    """Moves from every cell to `goal` (cell id = y * width + x), -1 where it cannot be reached."""
+    adj = grid.adjacency()
+    d = [-1] * grid.num_cells
+    if not grid.is_free(goal):
+        return d
+    s = grid.index(goal)
+    d[s] = 0
+    q = deque([s])
+    while q:
+        u = q.popleft()
+        for v in adj[u]:
+            if d[v] < 0:
+                d[v] = d[u] + 1
+                q.append(v)
+    return d

@@ -158,19 +158,24 @@ CROWDED = settings(max_examples=40, derandomize=True,
                    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 
 
+@pytest.mark.parametrize("solver, rotations, w", [("cbs", False, 1.0), ("ecbs", False, 1.5), ("ecbs", True, 1.5)])
 @CROWDED
 @given(problem=st.one_of(square_instances(), tiny_instances(max_agents=4, max_side=3)))
-def test_rotation_free_cbs_equals_the_rotation_free_exhaustive_optimum(problem) -> None:
+def test_cbs_and_ecbs_against_the_exhaustive_optimum_with_four_agents(solver: str, rotations: bool, w: float,
+                                                                       problem) -> None:
+    """cbs (every improvement on) gives the optimum; ecbs stays within w times it."""
     grid, starts, goals = problem
-    best = optimal_soc(grid, starts, goals, rotations=False)
-    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0)
+    best = optimal_soc(grid, starts, goals, rotations=rotations)
+    options = {"w": w} if solver == "ecbs" else {}
+    result = solve(solver, grid, starts, goals, deadline=0.2 if best is None else 3.0, rotations=rotations,
+                   **options)
     if best is None:
         assert not result.solved
         return
     assert result.solved or result.status == "timeout", result.summary()
     if result.solved:
-        assert result.plan.soc == best
-        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=True).ok
+        assert best <= result.plan.soc <= w * best
+        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=not rotations).ok
 
 
 @pytest.mark.parametrize("rotations", [True, False])
@@ -233,22 +238,6 @@ def test_cbs_stops_at_the_deadline_with_timeout(shared_data: Path) -> None:
     assert result.status == "timeout" and result.plan is None
     assert result.comp_time_ms < 3000
     assert "time limit" in result.message
-
-
-@pytest.mark.parametrize("rotations", [True, False])
-@CROWDED
-@given(problem=st.one_of(square_instances(), tiny_instances(max_agents=4, max_side=3)))
-def test_ecbs_stays_within_its_bound_of_the_exhaustive_optimum(rotations: bool, problem) -> None:
-    grid, starts, goals = problem
-    best = optimal_soc(grid, starts, goals, rotations=rotations)
-    result = solve("ecbs", grid, starts, goals, deadline=0.2 if best is None else 3.0, rotations=rotations, w=1.5)
-    if best is None:
-        assert not result.solved
-        return
-    assert result.solved or result.status == "timeout", result.summary()
-    if result.solved:
-        assert best <= result.plan.soc <= 1.5 * best
-        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=not rotations).ok
 
 
 def test_cbs_solves_the_30_agent_benchmark_instance_optimally(shared_data: Path) -> None:

@@ -6,13 +6,13 @@ plain breadth-first search and with the complete tables' plans.
 """
 from __future__ import annotations
 
-from collections import deque
 from typing import List
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from helpers import python_bfs
 
 from fleet_common.grid import Coord, Grid
 from fleet_common.planning import bfs, dist_table, pibt_step, solve
@@ -20,20 +20,6 @@ from fleet_common.planning.components import component_labels
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.free_cells import FreeCells
 from fleet_common.planning.goal_distances import COMPLETE, GoalDistances
-
-
-def plain_bfs(grid: Grid, goal: Coord) -> List[int]:
-    adj = grid.adjacency()
-    d = [-1] * grid.num_cells
-    d[grid.index(goal)] = 0
-    q = deque([grid.index(goal)])
-    while q:
-        u = q.popleft()
-        for v in adj[u]:
-            if d[v] < 0:
-                d[v] = d[u] + 1
-                q.append(v)
-    return d
 
 
 @st.composite
@@ -72,7 +58,7 @@ def test_a_lazy_row_is_exact_as_far_as_it_says_and_unreached_beyond(problem, mar
     agents = data.draw(st.lists(st.integers(0, len(goals) - 1), max_size=len(goals)))
     rows.cover(agents, free.to_free([starts[a] for a in agents]), margin)
     for a, goal in enumerate(goals):
-        want = [plain_bfs(grid, goal)[c] for c in free.ids.tolist()]
+        want = [python_bfs(grid, goal)[c] for c in free.ids.tolist()]
         got = rows.table[rows.row_of[a], :free.count].tolist()
         radius = rows.radius(a)
         if a in agents:
@@ -84,7 +70,7 @@ def test_a_lazy_row_is_exact_as_far_as_it_says_and_unreached_beyond(problem, mar
                 assert g == bfs.UNREACHED  # not searched yet, or unreachable
     rows.complete()
     for a, goal in enumerate(goals):
-        want = [plain_bfs(grid, goal)[c] for c in free.ids.tolist()]
+        want = [python_bfs(grid, goal)[c] for c in free.ids.tolist()]
         assert [bfs.UNREACHED if w < 0 else w for w in want] == rows.table[rows.row_of[a], :free.count].tolist()
 
 

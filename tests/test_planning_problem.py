@@ -1,13 +1,13 @@
 """The solver interface: deadlines, problem checks, distance tables, results, `solve`."""
 from __future__ import annotations
 
-from collections import deque
-from typing import List
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+from helpers import python_bfs
 
 from fleet_common.errors import FleetError
 from fleet_common.formats.instance import read_instance
@@ -123,23 +123,6 @@ def test_result_has_a_plan_exactly_when_solved() -> None:
         SolveResult(None, "x", "gave-up")
     r = SolveResult(None, "x", "no-solution", 1.0, "exhausted")
     assert not r.solved and "exhausted" in r.summary()
-
-
-def python_bfs(grid: Grid, goal) -> List[int]:
-    adj = grid.adjacency()
-    d = [-1] * grid.num_cells
-    if not grid.is_free(goal):
-        return d
-    s = grid.index(goal)
-    d[s] = 0
-    q = deque([s])
-    while q:
-        u = q.popleft()
-        for v in adj[u]:
-            if d[v] < 0:
-                d[v] = d[u] + 1
-                q.append(v)
-    return d
 
 
 grids = st.integers(1, 9).flatmap(lambda w: st.integers(1, 9).flatmap(
