@@ -226,19 +226,19 @@ def test_the_instances_max_timestep_is_honoured_unless_the_command_line_override
 def test_comp_time_counts_the_distance_tables_built_for_the_instance(shared_data, tmp_path, monkeypatch):
     # a stub clock that the distance search moves on by 5 s: comp_time must include those 5 s,
     # so the command may not build the tables (e.g. for the lower bounds) before the solve starts
-    from fleet_common.planning import dist_table
+    from fleet_common.planning import goal_distances
     from fleet_common.planning.deadline import Deadline
     from fleetctl.cli import main
     from fleetctl.commands import solve as solve_command
 
     now = [1000.0]
-    search = dist_table._bfs
+    search = goal_distances.grow
 
     def slow_search(*args, **kwargs):
         now[0] += 5.0
         return search(*args, **kwargs)
 
-    monkeypatch.setattr(dist_table, "_bfs", slow_search)
+    monkeypatch.setattr(goal_distances, "grow", slow_search)
     monkeypatch.setattr(solve_command, "Deadline", lambda seconds: Deadline(seconds, clock=lambda: now[0]))
     out = tmp_path / "out.txt"
     assert main(["solve", str(shared_data / "instances" / "makespan-soc-pareto.txt"), "-s", "pibt",

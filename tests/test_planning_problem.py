@@ -179,14 +179,13 @@ def test_problems_too_large_for_distance_tables_are_refused_before_any_search(mo
 @settings(max_examples=60)
 @given(rows=grids, data=st.data())
 def test_large_map_search_and_compact_tables_equal_a_plain_bfs(rows, data) -> None:
-    # the frontier search and memoryview tables are what maps of 65535+ cells get; force them here
+    # memoryview tables are what problems of more than LIST_ENTRIES entries get; force them here
     from fleet_common.planning import dist_table
 
     grid = Grid(np.array(rows, dtype=bool))
     cells = [(x, y) for y in range(grid.height) for x in range(grid.width)]
     goals = data.draw(st.lists(st.sampled_from(cells), min_size=1, max_size=70))
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(dist_table, "BITS_MAX_CELLS", 0)
         mp.setattr(dist_table, "LIST_ENTRIES", 0)
         views = dist_table.dist_lists(grid, goals, unreachable=grid.num_cells + 1)
     for goal, view in zip(goals, views):

@@ -9,18 +9,12 @@ instead of int32's 4 and far less than a Python list's, which is what lets
 1,500 agents on a 530x481 map fit in under a GB. A shortest path of 65535
 moves or more is refused (`dist_codes` raises), never wrapped around.
 
-Two searches fill them, whichever is cheaper for the map:
-- small maps (fewer than 65535 cells, e.g. the lab's and the benchmark's): all
-  goals at once, bit-parallel. Goals are bits of uint64 words (64 goals a
-  word); each wavefront step grows every goal's reached set with four shifted
-  ORs, and distances are counted in bit-sliced binary counters (one uint64
-  plane per bit of the count). Its cost grows with cells x diameter, cheap here.
-- large maps: many goals at a time over the free cells only, one frontier of
-  (goal, cell) pairs per step (`bfs`), so the work is goals x free cells
-  whatever the diameter and the temporary arrays stay a few tens of MB.
+The search (`bfs`, through `goal_distances`) runs many goals at once, one
+frontier of (goal, cell) pairs per level, so the work is goals x free cells
+whatever the diameter and the temporary arrays stay a few tens of MB.
 
 These are complete tables over all grid cells, for solvers that look
-anywhere (space-time A*). PIBT and LaCAM use `goal_distances` instead:
+anywhere (space-time A*). PIBT and LaCAM use `goal_distances` directly:
 free cells only, searched as far as agents need.
 
 `dist_lists` hands solvers' inner loops plain Python lists while all tables
@@ -38,12 +32,8 @@ from .bfs import UNREACHED
 from .free_cells import FreeCells
 from .goal_distances import GoalDistances
 
-#: Maps with fewer cells use the bit-parallel search (all distances then fit below UNREACHED).
-BITS_MAX_CELLS = 65535
 #: Goals x cells up to which `dist_lists` returns Python lists (about 0.1-0.3 GB at this size).
 LIST_ENTRIES = 10_000_000
-#: Goals searched together by the bit-parallel search; bounds its temporaries to tens of MB.
-_CELLS_PER_BATCH = 64_000_000
 
 DistList = Union[List[int], memoryview]
 
@@ -74,13 +64,8 @@ def dist_arrays(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
 def dist_codes(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     """Distances to each goal as uint16 per cell, `UNREACHED` where unreachable (cached, read-only)."""
     missing = sorted({_key(g)[1] for g in goals if _key(g, "dist16") not in grid.derived})
-    if grid.num_cells < BITS_MAX_CELLS:
-        search, batch = _bfs, max(1, _CELLS_PER_BATCH // max(grid.num_cells, 1))
-    else:
-        search, batch = _frontier_bfs, len(missing) or 1
-    for k in range(0, len(missing), batch):
-        chunk = missing[k:k + batch]
-        for goal, table in zip(chunk, search(grid, chunk)):
+    if missing:
+        for goal, table in zip(missing, _complete_tables(grid, missing)):
             table.setflags(write=False)
             grid.derived[_key(goal, "dist16")] = table
     return [grid.derived[_key(g, "dist16")] for g in goals]  # type: ignore[misc]
@@ -127,37 +112,7 @@ def lower_bounds(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) ->
     return sum(d), max(d)
 
 
-def _bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
-    h, w = grid.height, grid.width
-    n = len(goals)
-    words = (n + 63) // 64
-    # bit k % 64 of word k // 64 at a cell: goal k's search has reached that cell
-    reached = np.zeros((h, w, words), dtype="<u8")
-    for k, (x, y) in enumerate(goals):
-        if grid.is_free((x, y)):
-            reached[y, x, k // 64] |= np.uint64(1) << np.uint64(k % 64)
-    free_mask = np.where(grid.free, ~np.uint64(0), np.uint64(0)).astype("<u8")[:, :, None]
-    planes: List[np.ndarray] = []  # bit-sliced counters: steps each bit was still unreached
-    grown = np.empty_like(reached)
-    while True:
-        np.copyto(grown, reached)
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown[1:, :] |= reached[:-1, :]
-        grown[:-1, :] |= reached[1:, :]
-        grown &= free_mask
-        if np.array_equal(grown, reached):
-            break
-        _increment(planes, ~reached)
-        reached, grown = grown, reached
-    dist = np.zeros((h * w, words * 64), dtype=np.int32)
-    for k, plane in enumerate(planes):
-        dist += _unpack(plane, h * w).astype(np.int32) << k
-    dist[_unpack(reached, h * w) == 0] = UNREACHED
-    return list(np.ascontiguousarray(dist[:, :n].T.astype(np.uint16)))
-
-
-def _frontier_bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
+def _complete_tables(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     free = FreeCells.of(grid)
     rows = GoalDistances(free, free.to_free(goals))
     rows.complete()
@@ -167,21 +122,3 @@ def _frontier_bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
         table[free.ids] = rows.table[rows.row_of[k], :free.count]
         out.append(table)
     return out
-
-
-def _increment(planes: List[np.ndarray], mask: np.ndarray) -> None:
-    """Add one to every counter whose bit is set in `mask` (ripple carry over the planes)."""
-    carry = mask
-    for plane in planes:
-        nxt = plane & carry
-        plane ^= carry
-        carry = nxt
-        if not carry.any():
-            return
-    planes.append(carry)
-
-
-def _unpack(words: np.ndarray, cells: int) -> np.ndarray:
-    """(cells, goals) 0/1 array from a (..., goals/64) uint64 bit array."""
-    as_bytes = np.ascontiguousarray(words).reshape(cells, -1).view(np.uint8)
-    return np.unpackbits(as_bytes, axis=1, bitorder="little")

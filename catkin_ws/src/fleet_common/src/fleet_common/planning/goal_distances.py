@@ -39,8 +39,11 @@ class GoalDistances:
         self.searches: List[Search] = []
         self.goal_cells = list(rows)  # per row, its goal
         for g, r in rows.items():
+            if g < 0:  # a blocked goal (not a free cell) reaches nothing
+                self.searches.append(Search(np.zeros(0, dtype=np.int64)))
+                continue
             self.table[r, g] = 0
-            self.searches.append(Search(np.array([g], dtype=np.int32)))
+            self.searches.append(Search(np.array([g], dtype=np.int64)))
 
     @staticmethod
     def of(grid: Grid, goals: Sequence[int]) -> "GoalDistances":
@@ -71,7 +74,7 @@ class GoalDistances:
         ids, goal = self.free.ids, self.goal_cells
         rows = sorted(wanted, key=lambda r: abs(ids[wanted[r]] % w - ids[goal[r]] % w)
                       + abs(ids[wanted[r]] // w - ids[goal[r]] // w))
-        grow(self.table, self.free.neighbours, [self.searches[r] for r in rows], rows,
+        grow(self.table, self.free, [self.searches[r] for r in rows], rows,
              [COMPLETE] * len(rows), targets=[wanted[r] for r in rows], margin=margin)
         rest = [(a, c) for a, c in zip(agents, cells) if self.table[self.row_of[a], c] == UNREACHED
                 and not self.searches[self.row_of[a]].done
@@ -82,7 +85,7 @@ class GoalDistances:
     def complete(self) -> None:
         """Search every row to the end."""
         rows = list(range(len(self.searches)))
-        grow(self.table, self.free.neighbours, self.searches, rows, [COMPLETE] * len(rows))
+        grow(self.table, self.free, self.searches, rows, [COMPLETE] * len(rows))
 
     def distances(self, agents: Sequence[int], cells: Sequence[int]) -> List[int]:
         """Exact distance of each agent's cell to its goal (`UNREACHED` when it cannot reach it)."""

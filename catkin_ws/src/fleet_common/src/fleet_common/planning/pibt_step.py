@@ -53,7 +53,6 @@ from ..plan import Plan
 from ..rotations import step_cycles
 from .bfs import UNREACHED
 from .cells import NIL
-from .dist_table import dist_codes
 from .free_cells import FreeCells
 from .goal_distances import COMPLETE, GoalDistances
 
@@ -76,18 +75,19 @@ class PIBTStep:
         self.swap = swap
         self.rotations = rotations
         n = len(self.goals)
+        rows = GoalDistances.of(grid, self.goals)
         self.lazy: Optional[GoalDistances] = None
-        if len(set(self.goals)) * self.free.count <= LIST_ENTRIES:
-            # small problems: complete tables (the bit-parallel search of dist_table), as lists
+        if len(rows.searches) * self.free.count <= LIST_ENTRIES:
+            rows.complete()  # small problems: complete tables, as lists
             far = self.free.count + 1
-            ids = self.free.ids
-            self.dist: List[Any] = [[far if d == UNREACHED else d for d in codes[ids].tolist()]
-                                    for codes in dist_codes(grid, goals)]
+            f = self.free.count
+            self.dist: List[Any] = [[far if d == UNREACHED else d for d in rows.table[r, :f].tolist()]
+                                    for r in rows.row_of]
             self.limit = [COMPLETE] * n
         else:
-            self.lazy = GoalDistances.of(grid, self.goals)
-            self.dist = self.lazy.views()
-            self.limit = [self.lazy.radius(i) - MARGIN for i in range(n)]
+            self.lazy = rows
+            self.dist = rows.views()
+            self.limit = [rows.radius(i) - MARGIN for i in range(n)]
         #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
         self.occ_now = [NIL] * self.free.count
