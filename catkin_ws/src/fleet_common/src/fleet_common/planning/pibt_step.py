@@ -79,10 +79,10 @@ class PIBTStep:
         self.lazy: Optional[GoalDistances] = None
         if len(rows.searches) * self.free.count <= LIST_ENTRIES:
             rows.complete()  # small problems: complete tables, as lists
-            far = self.free.count + 1
             f = self.free.count
-            self.dist: List[Any] = [[far if d == UNREACHED else d for d in rows.table[r, :f].tolist()]
-                                    for r in rows.row_of]
+            body = rows.table[:, :f].astype(np.int64)
+            lists = np.where(body == UNREACHED, f + 1, body).tolist()
+            self.dist: List[Any] = [lists[r] for r in rows.row_of]
             self.limit = [COMPLETE] * n
         else:
             self.lazy = rows
