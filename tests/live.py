@@ -25,6 +25,7 @@ import zmq
 from fleet_common.control import Answer
 from fleet_common.control.session import ConsoleSession
 from fleet_common.transport.console_channel import ConsoleClient
+from fleet_common.transport.curve_keys import load_console_keys
 from helpers import free_port_block
 
 COLOURS = ("red", "green", "blue", "orange", "magenta", "cyan", "brown", "purple")
@@ -139,9 +140,10 @@ class ScriptedConsole:
     when the manager forgot it), as a console's network thread does; the test reads
     what the console saw and asks through the methods below, under one lock."""
 
-    def __init__(self, port: int, name: str = "test console") -> None:
+    def __init__(self, port: int, name: str = "test console", keys: Optional[Path] = None) -> None:
         self.context = zmq.Context()
-        self.client = ConsoleClient(self.context, "tcp://127.0.0.1:{}".format(port))
+        self.client = ConsoleClient(self.context, "tcp://127.0.0.1:{}".format(port),
+                                    keys=None if keys is None else load_console_keys(keys))
         self.session = ConsoleSession(name, time.monotonic())
         self.answers: List[Tuple[Answer, Any]] = []
         self.lock = threading.Lock()

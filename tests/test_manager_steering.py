@@ -6,6 +6,9 @@ run end to end.
 """
 from __future__ import annotations
 
+import re
+import signal
+import time
 from pathlib import Path
 from typing import Iterator, Tuple
 
@@ -17,6 +20,7 @@ from fleet_common.control import messages as m
 from fleet_common.lab import lab_instance_path
 from fleet_common.runlog import read_run
 from live import Proc, ScriptedConsole, fleet_definitions, start_fleet, start_manager
+from virtual_fleet.truth import exec_lines
 
 pytestmark = pytest.mark.slow
 
@@ -133,9 +137,8 @@ def test_a_robot_that_bumps_into_something_is_held_until_enabled(lab_run) -> Non
     try:
         ready(ops)
         assert ops.ask("start").ok
-        bumped = ops.wait_for(lambda c: robot(c, 2) if robot(c, 2).out == "failed" else None,
-                              timeout=60, why="robot 2 held")
-        assert "bumper" in bumped.faults
+        ops.wait_for(lambda c: robot(c, 2).out == "failed" and "bumper" in robot(c, 2).faults,
+                     timeout=60, why="robot 2 held with its bumper fault")
         assert any(e.kind == "fault" and e.robot == 2 and "bumper" in e.text for e in ops.session.events)
         done = robot(ops, 2).done
         ops.pump(1.5)
@@ -182,3 +185,45 @@ def test_replanning_around_a_robot_disabled_for_good(lab_run) -> None:
     run = read_run(next((folder / "runs").iterdir()))
     assert [p.name for p in run.plan_files()] == ["plan-1.txt", "plan-2.txt"]
     assert all(p.is_file() for p in run.plan_files())
+
+
+def test_an_unattended_run_that_cannot_go_on_says_why(tmp_path: Path) -> None:
+    """--until-done with nobody at a console: a robot held by its bumper stops the run, which
+    ends with exit 1 naming the robot and who waits for it, robots stopped, the log closed."""
+    definitions, feedback, port = fleet_definitions(tmp_path, 5)
+    fleet = start_fleet(tmp_path, definitions, feedback, "--time-scale", "4", "--bump", "5@1")
+    manager = start_manager(tmp_path, lab_instance_path(), definitions, port, "--start",
+                            "--until-done", "--log", tmp_path / "runs", "--time-limit", "200")
+    try:
+        assert manager.wait(200) == 1, manager.text()[-3000:]
+    finally:
+        manager.stop()
+        fleet.stop()
+    out = manager.text()
+    assert "the run cannot go on without an operator: robot 5 is held by a fault" in out, out
+    arrived = re.search(r"^arrived: (\d)/5$", out, re.M)
+    assert arrived and int(arrived.group(1)) < 5, out
+    run = read_run(next((tmp_path / "runs").iterdir()))
+    assert run.ended and "cannot go on" in run.last("end")["reason"]
+
+
+def test_ctrl_c_stops_every_robot_and_closes_the_run_log(tmp_path: Path) -> None:
+    definitions, feedback, port = fleet_definitions(tmp_path, 5)
+    truth = tmp_path / "truth.jsonl"
+    fleet = start_fleet(tmp_path, definitions, feedback, "--time-scale", "2", "--truth", truth)
+    manager = start_manager(tmp_path, lab_instance_path(), definitions, port, "--start",
+                            "--log", tmp_path / "runs")
+    ops = ScriptedConsole(port)
+    try:
+        ops.wait_for(lambda c: c.state and sum(r.done for r in c.state.robots) >= 3, why="moving")
+        manager.popen.send_signal(signal.SIGINT)
+        assert manager.wait(30) == 130, manager.text()[-2000:]
+        time.sleep(0.3)  # the fleet writes what it carried out as it goes
+    finally:
+        ops.close()
+        manager.stop()
+        fleet.stop()
+    stops = {e["robot"] for e in exec_lines(truth) if e["type"] == "stop"}
+    assert stops == {1, 2, 3, 4, 5}
+    run = read_run(next((tmp_path / "runs").iterdir()))
+    assert not run.torn and run.last("end")["reason"] == "interrupted (SIGINT)"

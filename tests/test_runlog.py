@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -110,3 +111,73 @@ def test_any_values_round_trip_as_json(values: list) -> None:
     assert [(r["robot"], r["faults"][0]) for r in faults] == [(v[0], v[2]) for v in values]
     # non-finite numbers become null rather than an unreadable token
     assert all(r["x"] is None or r["x"] == r["x"] for r in faults)
+
+
+# ---- what is computed from a run folder -----------------------------------------------
+
+def crossing_run(folder: Path, collide: bool = False) -> None:
+    """Two robots in a 3-cell corridor: robot 7 moves (0,0)->(1,0)->(2,0); robot 9 waits at
+    (1,1) and enters (1,0) after robot 7 left it (or, with `collide`, while it is still there)."""
+    clock = FakeClock()
+    log = RunLog(folder, clock=clock)
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[7, 9],
+                    strategy="adg", actions=[2, 1], starts=[[0, 0], [1, 1]])
+
+    def at(t: float, kind: str, **fields) -> None:
+        clock.now = 100.0 + t
+        log.record(kind, **fields)
+
+    at(1.0, "state", run="running")
+    at(1.0, "command", robot=7, id=1, type="drive", action=0)
+    at(1.1, "action", robot=7, index=0, phase="started", src=[0, 0], dst=[1, 0])
+    at(3.0, "action", robot=7, index=0, phase="completed", src=[0, 0], dst=[1, 0])
+    at(3.0, "command", robot=7, id=2, type="drive", action=1)
+    at(3.1, "action", robot=7, index=1, phase="started", src=[1, 0], dst=[2, 0])
+    enter = 4.0 if collide else 5.0
+    at(enter, "dispatch", robot=9, index=0, step=1, src=[1, 1], dst=[1, 0], waited=enter - 1.0,
+       released_by=7)
+    at(enter, "command", robot=9, id=1, type="drive", action=0)
+    at(enter + 0.1, "action", robot=9, index=0, phase="started", src=[1, 1], dst=[1, 0])
+    at(5.0, "action", robot=7, index=1, phase="completed", src=[1, 0], dst=[2, 0])
+    at(enter + 2.0, "action", robot=9, index=0, phase="completed", src=[1, 1], dst=[1, 0])
+    at(4.0, "poses", p=[[7, 1.5, 0.0, 0.0, "robot", 0.0], [9, 1.0, 0.6, 0.0, "robot", 0.0]])
+    at(enter + 2.0, "state", run="done")
+    log.close()
+
+
+def test_the_summary_is_computed_from_the_records_alone(tmp_path: Path) -> None:
+    from fleet_common.runlog.summary import SummaryBuilder
+
+    crossing_run(tmp_path)
+    builder = SummaryBuilder()
+    for record in read_run(tmp_path).records:
+        builder.feed(record)
+    s = builder.summary()
+    assert s.arrived == [7, 9] and s.enabled == 2
+    assert s.makespan == pytest.approx(6.0) and s.soc == pytest.approx(4.0 + 6.0)
+    assert s.wait == pytest.approx(4.0) and s.collisions == 0
+    assert s.min_distance == pytest.approx(math.hypot(0.5, 0.6))
+    assert "arrived: 2/2" in s.lines() and "collisions: 0" in s.lines()
+
+
+def test_a_robot_entering_a_cell_not_yet_left_is_a_collision(tmp_path: Path) -> None:
+    from fleet_common.runlog.summary import SummaryBuilder
+
+    crossing_run(tmp_path, collide=True)
+    builder = SummaryBuilder()
+    for record in read_run(tmp_path).records:
+        builder.feed(record)
+    assert builder.summary().collisions == 1
+
+
+def test_the_executed_plan_holds_each_cell_until_the_move_out_completes(tmp_path: Path) -> None:
+    from fleet_common.runlog.executed import executed_plan
+
+    crossing_run(tmp_path)
+    plan = executed_plan(read_run(tmp_path), 1.0, [(0, 0), (1, 1)])
+    rows = [[tuple(c) for c in row] for row in plan.positions.tolist()]
+    # rows at t = 1, 2, ..., 7 (begin 1.0, end 7.0)
+    assert rows == [[(0, 0), (1, 1)], [(0, 0), (1, 1)], [(1, 0), (1, 1)], [(1, 0), (1, 1)],
+                    [(2, 0), (1, 1)], [(2, 0), (1, 1)], [(2, 0), (1, 0)]]
+    with pytest.raises(ValueError):
+        executed_plan(read_run(tmp_path), 0.0, [(0, 0), (1, 1)])

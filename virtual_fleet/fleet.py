@@ -22,10 +22,10 @@ import time
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
-import zmq
 
 from fleet_common.errors import FleetError
 from fleet_common.robots import RobotDefinition
+from fleet_common.transport.context import fleet_context
 from fleet_common.transport.curve_keys import RobotKeys
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports, on_localhost
@@ -75,7 +75,7 @@ class VirtualFleet:
         self.clock = clock
         self.feedback_rate = feedback_rate
         self.log = log or logging.getLogger("virtual_fleet")
-        self.context = zmq.Context()
+        self.context = fleet_context(len(self.robots))
         self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
         self.loop = RobotLoop(self.zap, clock, self.log)
         poses = dict(start_poses or row_poses(self.robots))
@@ -178,7 +178,7 @@ class VirtualFleet:
             self.publisher.close()
         if self.zap is not None:
             self.zap.socket.close(linger=0)
-        self.context.term()
+        self.context.destroy(linger=0)  # also what a robot that failed to start left open
 
     def _dropouts(self, now: float) -> None:
         by_id = {r.id: r for r in self.robots}

@@ -27,7 +27,6 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence
 
-import zmq
 
 from fleet_common.control import Event, PlanData, Proposal, RobotInfo, Scene, Waiting
 from fleet_common.execution import Disabled, Engine, RobotFailed
@@ -40,6 +39,7 @@ from fleet_common.runlog.records import FORMAT_VERSION, plan_file
 from fleet_common.runlog.summary import RunSummary, SummaryBuilder
 from fleet_common.control.desk import ControlDesk
 from fleet_common.spacing import closest_pair
+from fleet_common.transport.context import fleet_context
 from fleet_common.transport.console_channel import DEFAULT_ENDPOINT, ConsoleServer
 from fleet_common.transport.curve_keys import ManagerKeys
 from fleet_common.transport.link_events import LinkDown, LinkEvent, LinkUp
@@ -56,6 +56,12 @@ from .snapshot import build_state, robot_waits
 from .steering import Steering
 
 __all__ = ["Manager", "ManagerSettings"]
+
+
+def _robots_wait(ids: List[int]) -> str:
+    if len(ids) == 1:
+        return "robot {} waits".format(ids[0])
+    return "robots {} wait".format(", ".join(map(str, ids)))
 
 
 def _utc_now() -> str:
@@ -111,7 +117,7 @@ class Manager:
         self._seq = 0
         self._last_waits: Optional[Dict[int, Waiting]] = None
         self._stalled_since: Optional[float] = None
-        self.context = zmq.Context()
+        self.context = fleet_context(len(self.robots))
         self.runlog: Optional[RunLog] = None
         self.folder: Optional[Path] = None
         try:
@@ -241,7 +247,7 @@ class Manager:
         message = self.replanner.poll(self)
         if message is not None:
             self._replan_progress(message)
-        if self.run_state == "running" and self.engine.finished and not self.driver.moving:
+        if self.run_state == "running" and self.all_arrived() and not self.driver.moving:
             self.set_state("done", "every robot taking part is at its goal")
             self.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
             self._publish(now)
@@ -292,10 +298,22 @@ class Manager:
         if found is not None and (self.min_distance is None or found[0] < self.min_distance):
             self.min_distance = round(found[0], 3)
 
+    def all_arrived(self) -> bool:
+        """Every robot not disabled by an operator is at its goal (a robot held by a fault
+        has not arrived: it still takes part, and waits for someone to clear the fault)."""
+        run = self.engine.run
+        return all(run.out[r] == "disabled" or run.finished_robot(r) for r in range(run.num_robots))
+
+    def stuck(self) -> bool:
+        """Running, not everyone arrived, and nothing can happen without an operator."""
+        run = self.engine.run
+        return (self.run_state == "running" and not self.engine.paused and not self.all_arrived()
+                and not run.moving and not self.driver.moving and not self.replanner.busy
+                and not any(s.hold == "recover" or not s.link_up for s in self.driver.slots))
+
     def _cannot_go_on(self, now: float) -> Optional[str]:
         """Why an unattended run (--until-done) cannot finish, once that has lasted a while."""
-        if self.run_state != "running" or not self.engine.stalled or self.replanner.busy \
-                or any(s.hold == "recover" or not s.link_up for s in self.driver.slots):
+        if not self.stuck():
             self._stalled_since = None
             return None
         if self._stalled_since is None:
@@ -307,11 +325,13 @@ class Manager:
         parts = []
         for agent, waiting in sorted(blocked.items()):
             slot = self.driver.slots[agent]
-            parts.append("robot {} is out ({}){}".format(
-                slot.robot_id, slot.hold_reason or self.engine.run.out[agent],
-                "; robots {} wait for it".format(", ".join(str(self.driver.slots[a].robot_id) for a in waiting))
+            why = self.engine.run.out[agent]
+            parts.append("robot {} is {}{}{}".format(
+                slot.robot_id, "held by a fault" if why == "failed" else "disabled",
+                " ({})".format(slot.hold_reason) if slot.hold_reason else "",
+                "; {} for it".format(_robots_wait([self.driver.slots[a].robot_id for a in waiting]))
                 if waiting else ""))
-        return "the run cannot go on: " + ("; ".join(parts) or "nothing can move")
+        return "the run cannot go on without an operator: " + ("; ".join(parts) or "nothing can move")
 
     # ---- consoles ---------------------------------------------------------------------------
 

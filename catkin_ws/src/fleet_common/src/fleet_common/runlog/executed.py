@@ -52,12 +52,13 @@ def executed_plan(run: RunFolder, dt: float, starts: Sequence[Tuple[int, int]]) 
         times[i].append(float(record["t"]))
         cells[i].append((int(dst[0]), int(dst[1])))
     begin, end = run_span(run)
-    steps = int(np.floor(max(0.0, end - begin) / dt + 1e-9)) + 1
+    # rows at begin, begin + dt, ... and a last one at the end (moves finish between rows)
+    steps = int(np.ceil(max(0.0, end - begin) / dt - 1e-9)) + 1
     positions = np.empty((steps, len(robots), 2), dtype=np.int32)
     for i in range(len(robots)):
         first = tuple(starts[i])
         for k in range(steps):
-            j = bisect.bisect_right(times[i], begin + k * dt) - 1
+            j = bisect.bisect_right(times[i], min(begin + k * dt, end)) - 1
             positions[k, i] = cells[i][j] if j >= 0 else first
     return Plan(positions)
 

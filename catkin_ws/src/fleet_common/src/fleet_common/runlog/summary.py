@@ -170,7 +170,8 @@ class SummaryBuilder:
 
     def summary(self) -> RunSummary:
         begin = self.begin if self.begin is not None else 0.0
-        enabled = [i for i, r in enumerate(self.robots) if r not in self.out]
+        # a robot held by a fault still takes part (it has not arrived); disabled ones do not
+        enabled = [i for i, r in enumerate(self.robots) if self.out.get(r) != "disabled"]
         arrived = sorted(self.robots[i] for i in enabled if i in self.arrival)
         times = [max(0.0, self.arrival[i] - begin) for i in enabled if i in self.arrival]
         collisions = find_collisions(self.trace) if self.trace is not None else []

@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import heapq
 import logging
+import math
 import time
 from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
 
 import zmq
 
 from ..ratelimit import RateLimitedLog
+from .robot_loop import QUANTUM
 from .robot_link import LinkEvent, RobotLink
 
 __all__ = ["LinkSet"]
@@ -119,6 +121,7 @@ class LinkSet:
         self._registered[link.robot_id] = list(now_socks)
 
     def _schedule(self, robot_id: int, when: float) -> None:
+        when = math.ceil(when / QUANTUM) * QUANTUM  # links due together wake the loop once
         if robot_id in self._due and self._due[robot_id] <= when:
             return
         self._due[robot_id] = when

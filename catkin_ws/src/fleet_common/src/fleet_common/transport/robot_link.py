@@ -123,20 +123,32 @@ class RobotLink:
         return [s for s in (self.command, self.feedback) if s is not None]
 
     def handle(self, sock: zmq.Socket) -> List[LinkEvent]:
-        """Events from what is waiting on `sock` (one of `sockets()`)."""
+        """Events from what is waiting on `sock` (one of `sockets()`). Of the poses waiting
+        only the newest counts (each is the robot's whole state), so only that one is decoded:
+        a manager that fell behind catches up at once instead of working through old poses."""
         events: List[LinkEvent] = []
         now = self.clock()
+        if sock is self.feedback:
+            frames = []
+            for _ in range(_BUDGET):
+                try:
+                    frames.append(sock.recv(zmq.NOBLOCK))
+                except zmq.Again:
+                    break
+            if frames:
+                self._feedback_heard = now
+            for data in reversed(frames[-3:]):  # the newest that is a pose (a bad frame skipped)
+                poses = poses_in(data, self.robot_id, self.refusals)
+                if poses:
+                    return poses
+            return events
         for _ in range(_BUDGET):
-            if sock is not self.command and sock is not self.feedback:
+            if sock is not self.command:
                 break  # replaced while handling a frame (the link reconnected)
             try:
                 data = sock.recv(zmq.NOBLOCK)
             except zmq.Again:
                 break
-            if sock is self.feedback:
-                self._feedback_heard = now
-                events += poses_in(data, self.robot_id, self.refusals)
-                continue
             try:
                 events += self._on_command_frame(data, now)
             except Exception:

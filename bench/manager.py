@@ -1,0 +1,189 @@
+"""Benchmark: the manager driving 300 virtual robots (two processes on this machine, CURVE on).
+
+Starts `fleetctl virtual-fleet` for N robots at the starts of an instance (arena_300agents_1
+by default) and `fleetctl manager` on that instance (planned by the built-in lacam), with
+--start --until-done and a run folder; a scripted console watches the state stream. Prints:
+
+- state messages received per second by the console (min over 1 s windows, and mean);
+- command round trip, drive or turn sent -> Accepted, from the run log (p50, p99, max);
+- CPU of each process (share of one core) over the run;
+- the overhead ratio: executed makespan over the engine-only makespan for the same plan
+  and the same move durations. Each move's duration is measured in the run (from the
+  robot's first Accepted command for it after its dispatch to its completion), so the
+  engine-only run (fleet_common.execution.simulate_engine) has every move take exactly
+  what it took on the virtual robot; what the ratio shows is what dispatching over the
+  wire adds (replies, decisions, commands), nothing else.
+
+    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from fleet_common.execution import Engine  # noqa: E402
+from fleet_common.execution.simulate import simulate_engine  # noqa: E402
+from fleet_common.formats.instance import make_instance, read_instance, write_instance  # noqa: E402
+from fleet_common.formats.solution import read_solution  # noqa: E402
+from fleet_common.runlog import read_run  # noqa: E402
+from fleet_common.transport.curve_keys import make_keys  # noqa: E402
+from live import Proc, fleetctl_args, free_port_block  # noqa: E402
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path("/proc/{}/stat".format(pid)).read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def percentile(values: List[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+
+def round_trips(records: List[dict]) -> List[float]:
+    sent: Dict[Tuple[int, int], float] = {}
+    out = []
+    for r in records:
+        if r["k"] == "command" and r.get("type") in ("drive", "turn"):
+            sent[(r["robot"], r["id"])] = r["t"]
+        elif r["k"] == "reply" and r.get("type") == "accepted":
+            t = sent.pop((r["robot"], r["id"]), None)
+            if t is not None:
+                out.append(r["t"] - t)
+    return out
+
+
+def move_durations(records: List[dict], robots: List[int], first: np.ndarray) -> np.ndarray:
+    """Per flat action: completion minus the first Accepted command for it after its dispatch."""
+    agent = {rid: i for i, rid in enumerate(robots)}
+    dispatched: Dict[Tuple[int, int], float] = {}
+    began: Dict[Tuple[int, int], float] = {}
+    cmd_action: Dict[Tuple[int, int], int] = {}
+    durations = np.zeros(int(first[-1]), dtype=np.float64)
+    for r in records:
+        k = r["k"]
+        if k == "dispatch":
+            dispatched[(r["robot"], r["index"])] = r["t"]
+        elif k == "command" and r.get("action") is not None:
+            cmd_action[(r["robot"], r["id"])] = r["action"]
+        elif k == "reply" and r.get("type") == "accepted":
+            a = cmd_action.get((r["robot"], r["id"]))
+            key = (r["robot"], a)
+            if a is not None and key in dispatched and key not in began:
+                began[key] = max(r["t"], dispatched[key])
+        elif k == "action" and r.get("phase") == "completed":
+            key = (r["robot"], r["index"])
+            start = began.get(key, dispatched.get(key, r["t"]))
+            durations[int(first[agent[r["robot"]]]) + r["index"]] = r["t"] - start
+    return durations
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", type=int, default=300)
+    parser.add_argument("--time-scale", type=float, default=4.0)
+    parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
+    parser.add_argument("--strategy", default="adg")
+    args = parser.parse_args()
+
+    work = Path(tempfile.mkdtemp(prefix="fleet-bench-manager-"))
+    make_keys(work / "keys")
+    inst = read_instance(str(args.instance), map_dirs=[SHARED / "maps"])
+    if args.robots > len(inst.starts):
+        raise SystemExit("{} has only {} agents".format(args.instance, len(inst.starts)))
+    if args.robots < len(inst.starts):  # the first N agents, as a file of their own
+        first = make_instance(inst.grid, inst.map_file, inst.starts[:args.robots],
+                              inst.goals[:args.robots])
+        args.instance = work / "first-{}-{}".format(args.robots, args.instance.name)
+        write_instance(first, str(args.instance))
+        (work / inst.map_file).write_text((SHARED / "maps" / inst.map_file).read_text())
+    base = free_port_block(2 * args.robots + 1)
+    (work / "robots.txt").write_text("".join(
+        "{} 127.0.0.1 {} u tb{} red\n".format(i + 1, base + i, i + 1) for i in range(args.robots)))
+    console_port, feedback = base + 2 * args.robots, base + args.robots
+    fleet = Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
+                               work / "keys", "--time-scale", args.time_scale, "--feedback-base",
+                               feedback, "--instance", args.instance, "--log-level", "warning"),
+                 work / "fleet.log")
+    manager = None
+    try:
+        fleet.wait_line(r"^virtual fleet: ", timeout=120)
+        manager = Proc(fleetctl_args(
+            "manager", args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
+            "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
+            "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
+            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale)),
+            work / "manager.log")
+        from live import ScriptedConsole
+        console = ScriptedConsole(console_port, "bench", keys=work / "keys")
+        states: List[float] = []
+        seen = -1
+        cpu0 = None
+        t0 = time.monotonic()
+        while manager.popen.poll() is None:
+            time.sleep(0.01)
+            with console.lock:
+                state = console.session.state
+            if state is not None and state.seq != seen:
+                seen = state.seq
+                states.append(time.monotonic())
+                if cpu0 is None and state.run.state == "running":
+                    cpu0 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
+            if cpu0 is not None and state is not None and state.run.state == "running":
+                cpu1 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
+        if cpu0 is None:
+            print("the console saw no running state ({} states); manager said:\n{}".format(
+                len(states), manager.tail(20)))
+            return 1
+        console.close()
+        if manager.popen.wait() != 0:
+            print(manager.tail(30))
+            return 1
+        elapsed = time.monotonic() - t0
+    finally:
+        if manager is not None:
+            manager.stop()
+        fleet.stop()
+    out = manager.text()
+    folder = Path(out.split("run folder: ")[1].split()[0])
+    run = read_run(folder)
+    records = run.records
+    rtt = round_trips(records)
+    plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps"]).plan
+    engine = Engine(plan, args.strategy)
+    durations = move_durations(records, run.robots, engine.table.first)
+    engine_only = simulate_engine(engine, durations).metrics.makespan
+    executed = float([line for line in out.splitlines() if line.startswith("executed makespan")][0]
+                     .split(":")[1].split()[0])
+    running = [t for t in states if cpu0 is not None and cpu0[0] <= t <= cpu1[0]]
+    windows = [sum(1 for t in running if w <= t < w + 1.0)
+               for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else [0]
+    span = cpu1[0] - cpu0[0]
+    ms = 1000.0
+    print("robots {}, instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
+        args.robots, args.instance.name, args.strategy, args.time_scale, elapsed))
+    print("state at the console: min {} per 1 s window, mean {:.1f}/s while running".format(
+        min(windows), len(running) / max(1e-9, running[-1] - running[0]) if len(running) > 1 else 0))
+    print("command sent -> Accepted: p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms over {}".format(
+        percentile(rtt, 0.5) * ms, percentile(rtt, 0.99) * ms, max(rtt) * ms, len(rtt)))
+    print("CPU while running (share of one core): manager {:.0f}%, virtual fleet {:.0f}%".format(
+        100 * (cpu1[2] - cpu0[2]) / span, 100 * (cpu1[1] - cpu0[1]) / span))
+    print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
+          "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
+    print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
