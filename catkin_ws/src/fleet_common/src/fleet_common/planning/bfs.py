@@ -27,7 +27,7 @@ from .free_cells import FreeCells
 #: Distance of a cell not reached (yet); larger than any distance the tables hold.
 UNREACHED = 65535
 #: Bytes of grid rows a batch lays out at most (it always takes at least 8 searches).
-BATCH_BYTES = 48_000_000
+BATCH_BYTES = 32_000_000
 
 
 class Search:

@@ -52,10 +52,10 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
         if deadline.expired():
             return failed(NAME, TIMEOUT, "time limit reached at step {}".format(t - 1), timesteps=t - 1)
         prio = [p + 1.0 if v != g else tv for p, v, g, tv in zip(prio, q, goal_ids, tie)]
-        # agents resting on their goals come last whatever their order: step() lets them stay
         moving = [i for i in range(n) if q[i] != goal_ids[i]]
+        # agents resting on their goals come last whatever their order: left out, step() lets them
+        # stay unless another agent needs their cell
         order = sorted(moving, key=prio.__getitem__, reverse=True)
-        order += [i for i in range(n) if q[i] == goal_ids[i]]
         nxt = [NIL] * n
         if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving):
             return failed(NAME, NO_SOLUTION, "PIBT found no next configuration at step {}".format(t))

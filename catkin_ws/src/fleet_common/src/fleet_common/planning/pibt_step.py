@@ -70,6 +70,8 @@ class PIBTStep:
     def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False) -> None:
         self.free = FreeCells.of(grid)
         self.moves = self.free.moves()
+        #: per cell, its moves in each rotation (the tie orders of `_open`)
+        self.turns = [[m[r:] + m[:r] for r in range(len(m))] for m in self.moves]
         self.adj = self.free.adjacency()
         self.goals = self.free.to_free(goals)
         self.swap = swap
@@ -137,7 +139,9 @@ class PIBTStep:
         """Fill the NIL entries of `q_to` (next cells); the others are fixed in advance.
 
         `moving`, if given, lists every agent not resting on its goal (the
-        others' distance rows need no check). Returns False when the fixed entries conflict (two in one cell, or a
+        others' distance rows need no check). Agents missing from `order`
+        must rest on their goals: they stay unless another agent needs their
+        cell. Returns False when the fixed entries conflict (two in one cell, or a
         swap) or leave some agent nowhere to go; `q_to` is then meaningless.
         Unless `rotations` is set, the step has no rotation: one closed through
         fixed entries is undone by making its agents stay (fixed or not).
@@ -171,6 +175,10 @@ class PIBTStep:
                 elif not self._plan_agent(i, q_from, q_to, salt, claimed):
                     ok = False
                     break
+            if ok and NIL in q_to:
+                # agents left out of `order` rest on their goals and nobody asked for their cell
+                # (asking makes an agent plan at once): they stay
+                q_to[:] = [f if v == NIL else v for v, f in zip(q_to, q_from)]
         for v in q_from:
             occ_now[v] = NIL
         for v in claimed:
@@ -184,13 +192,6 @@ class PIBTStep:
             self.reverted += 1
             for i in agents:
                 q_to[i] = q_from[i]
-
-    def _candidates(self, i: int, v: int, salt: int) -> List[int]:
-        m = self.moves[v]
-        r = (salt + i) % len(m)  # rotating the tie order stands in for a shuffle, cheaply
-        c = m[r:] + m[:r]
-        c.sort(key=self.dist[i].__getitem__)
-        return c
 
     def _plan_agent(self, agent: int, q_from: Sequence[int], q_to: List[int], salt: int,
                     claimed: List[int]) -> bool:
@@ -241,7 +242,9 @@ class PIBTStep:
 
     def _open(self, i: int, q_from: Sequence[int], q_to: List[int], salt: int) -> Tuple[List[int], int]:
         """Candidates of agent i, best first (reversed when it must lead a swap), and its partner."""
-        cands = self._candidates(i, q_from[i], salt)
+        turns = self.turns[q_from[i]]
+        # rotating the tie order stands in for a shuffle, cheaply
+        cands = sorted(turns[(salt + i) % len(turns)], key=self.dist[i].__getitem__)
         partner = self._swap_partner(i, cands[0], q_from, q_to) if self.swap else NIL
         if partner != NIL:
             cands.reverse()
@@ -267,12 +270,15 @@ class PIBTStep:
         if (j != NIL and q_to[j] == NIL and self._swap_required(i, j, here, best)
                 and self._swap_possible(best, here)):
             return j  # i wants j's cell and j wants through i: i leads, pulling j
+        dist = self.dist
         for u in self.adj[here]:
             k = occ_now[u]
             if k == NIL or u == best or q_to[k] != NIL:
                 continue
             # k, were it where i is, would have to pass i: i backs off and pulls k along
-            if self._swap_required(k, i, here, best) and self._swap_possible(best, here):
+            # (never unless `best` brings k nearer its goal: then _swap_required is False at once)
+            dk = dist[k]
+            if dk[best] < dk[here] and self._swap_required(k, i, here, best) and self._swap_possible(best, here):
                 return k
         return NIL
 
