@@ -15,14 +15,13 @@ import importlib
 import os
 import sys
 from types import ModuleType
-from typing import List, Optional
-
-from fleet_common.errors import FleetError, FormatError
 
 from .commands import COMMANDS
 
+# no `typing` and no fleet_common here: `fleetctl --help` imports only what it prints
 
-def command_module(name: str) -> Optional[ModuleType]:
+
+def command_module(name: str) -> ModuleType | None:
     """The module of command `name` (as typed on the command line), imported now; None if unknown."""
     for command, module, _ in COMMANDS:
         if command == name:
@@ -30,7 +29,7 @@ def command_module(name: str) -> Optional[ModuleType]:
     return None
 
 
-def build_parser(chosen: Optional[str] = None) -> argparse.ArgumentParser:
+def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
     """The parser; only command `chosen` gets its arguments (the others just their help line)."""
     parser = argparse.ArgumentParser(
         prog="fleetctl",
@@ -48,19 +47,21 @@ def build_parser(chosen: Optional[str] = None) -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Optional[List[str]] = None) -> int:
+def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # the top level has no options but -h, so the first other word names the command
     chosen = next((a for a in argv if not a.startswith("-")), None)
     module = command_module(chosen) if chosen is not None else None
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
-    passthrough: List[str] = []
+    passthrough: list[str] = []
     if module is not None and "--" in argv and getattr(module, "PASSTHROUGH", False):
         cut = argv.index("--")
         argv, passthrough = argv[:cut], argv[cut + 1:]
     args = build_parser(chosen if module is not None else None).parse_args(argv)
     args.passthrough = passthrough
+    from fleet_common.errors import FleetError, FormatError
+
     try:
         return int(args._run(args))
     except FormatError as err:

@@ -14,9 +14,7 @@ define `NAME`/`HELP`; tests check they agree with its line here.
 """
 from __future__ import annotations
 
-from typing import Tuple
-
-COMMANDS: Tuple[Tuple[str, str, str], ...] = (
+COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("info", "info", "summarise any supported file (map, instance, solution, scen, legacy XML, robot definitions)"),
     ("validate", "validate", "check a mapf-IR solution: cells, moves, vertex and swap conflicts, rotations, header claims"),
     ("convert", "convert", "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"),
