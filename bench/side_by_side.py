@@ -37,6 +37,10 @@ from fleet_common.planning.mapf_ir import APP_ENV, find_map_dir, resolve_app
 
 FLEETCTL = str(Path(sys.executable).with_name("fleetctl"))
 GNU_TIME = "/usr/bin/time"
+#: The dense case: this many agents on random-32-32-20's 819 free cells (mapf-IR's PIBT fails there).
+DENSE_AGENTS = 400
+#: Time limit of the anytime LaCAM (LaCAM*) row.
+ANYTIME_S = 10.0
 #: Builds only mapf-IR's `app` (its own root CMakeLists also wants googletest for its tests).
 _WRAPPER = """cmake_minimum_required(VERSION 3.16)
 project(mapf-ir-app CXX)
@@ -134,7 +138,11 @@ class Case:
     instance: Path
     ours: str  # fleetctl solve -s ...
     theirs: Tuple[str, ...]  # mapf-IR solver names
-    extra: Tuple[str, ...] = ()
+    anytime_s: float = 0.0  # > 0: ours is `-s lacam --anytime` with this time limit, run once
+
+    @property
+    def extra(self) -> Tuple[str, ...]:
+        return ("--anytime", "--time-limit", "{:g}".format(self.anytime_s)) if self.anytime_s else ()
 
 
 def dense_instance(data: Path, folder: Path, agents: int, seed: int) -> Path:
@@ -167,14 +175,19 @@ def in_process(case: Case, data: Path, repeats: int) -> str:
     result = None
     for _ in range(repeats):
         inst = read_instance(case.instance, [data / "maps"])
-        opts = {"anytime": True} if "--anytime" in case.extra else {}
+        opts = {"anytime": True} if case.anytime_s else {}
+        limit = case.anytime_s or (inst.max_comp_time / 1000.0 if inst.max_comp_time else 60.0)
         t0 = time.perf_counter()
         result = solve(case.ours, inst.grid, inst.starts, inst.goals, seed=inst.seed or 0,
-                       deadline=Deadline(inst.max_comp_time / 1000.0 if inst.max_comp_time else 60.0),
-                       max_timestep=inst.max_timestep, **opts)
+                       deadline=Deadline(limit), max_timestep=inst.max_timestep, **opts)
         best = min(best, (time.perf_counter() - t0) * 1000.0)
     assert result is not None
-    return "{:.0f} ms ({})".format(best, result.status)
+    soc = ", soc {}".format(result.plan.soc) if result.plan is not None else ""
+    history = result.stats.get("anytime")
+    if history:  # LaCAM*: the sum of costs at each improvement
+        print("{:>34}  in-process LaCAM*, soc over time: {}".format("", ", ".join(
+            "{} at {:.1f} s".format(soc_, ms / 1000) for ms, soc_ in history)))
+    return "{:.0f} ms ({}{})".format(best, result.status, soc)
 
 
 def find_app(src: Optional[Path]) -> Optional[Path]:
@@ -198,8 +211,11 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
         Case("random-32-32-20 first 25, CBS", first_agents(data, work, "random-32-32-20_30agents_1", 25), "cbs",
              ("CBS",)),
         Case("random-32-32-20 30, CBS", inst_dir / "random-32-32-20_30agents_1.txt", "cbs", ("CBS",)),
-        Case("dense random-32-32-20 300, LaCAM", dense_instance(data, work, 300, 0), "lacam",
-             ("PIBT", "PIBT_COMPLETE")),
+    ]
+    dense = dense_instance(data, work, DENSE_AGENTS, 0)
+    cases += [
+        Case("dense random-32-32-20 {}, LaCAM".format(DENSE_AGENTS), dense, "lacam", ("PIBT", "PIBT_COMPLETE")),
+        Case("dense random-32-32-20 {}, LaCAM*".format(DENSE_AGENTS), dense, "lacam", (), anytime_s=ANYTIME_S),
     ]
     cases = [c for c in cases if not only or any(o in c.label for o in only)]
     for case in cases:  # mapf-IR opens map_file= in its compiled-in map folder
@@ -217,7 +233,7 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
         ours = Run()
         theirs = {name: Run() for name in case.theirs}
         out = str(work / "out.txt")
-        for _ in range(repeats):
+        for _ in range(1 if case.anytime_s else repeats):
             for name, run in theirs.items():
                 Path(out).unlink(missing_ok=True)
                 record(run, *timed([str(app), "-i", str(case.instance.resolve()), "-o", out, "-s", name],
@@ -230,11 +246,13 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
             rows.append((case.label, "mapf-IR " + name, run.status + (" ({})".format(run.note) if run.note else ""),
                          "{:.3f} s".format(run.ms / 1000), "{:.0f} MB".format(run.rss_mb), str(run.soc or "-"), "", ""))
         ratio = "{:.2f}x".format(ours.ms / reference) if reference and ours.status == "solved" else "-"
+        lb = _lower_bound(case.instance, data)
         rows.append((case.label, "fleetctl " + case.ours + "".join(" " + e for e in case.extra),
                      ours.status + (" ({})".format(ours.note) if ours.note and ours.status != "solved" else ""),
                      "{:.3f} s".format(ours.ms / 1000), "{:.0f} MB".format(ours.rss_mb), str(ours.soc or "-"), ratio,
-                     in_process(case, data, repeats)))
+                     in_process(case, data, 1 if case.anytime_s else repeats)))
         _print(rows)
+        print("{:>34}  lower bound of the sum of costs: {}".format("", lb))
         rows = []
         sys.stdout.flush()
     print()
@@ -246,6 +264,13 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
 
 
 _WIDTHS = (34, 30, 40, 10, 9, 8, 11, 20)
+
+
+def _lower_bound(instance: Path, data: Path) -> int:
+    from fleet_common.planning.dist_table import lower_bounds
+
+    inst = read_instance(instance, [data / "maps"])
+    return lower_bounds(inst.grid, inst.starts, inst.goals)[0]
 
 
 def _print(rows: Sequence[Sequence[str]]) -> None:
