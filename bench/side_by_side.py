@@ -5,7 +5,8 @@ Used by `bench/solvers.py` (its first table).
 Each case runs both programs on the same instance file, alternately, `repeats`
 times; a figure is the best wall time from start to exit (and the peak memory
 of that process), so both pay for start-up, reading, distance tables, the
-search and writing the result. The ratio is ours over theirs in the same run.
+search and writing the result. The ratio is ours over theirs in the same run, by wall time and (in brackets) by
+CPU time, which other programs on the machine disturb less.
 Beside it, labelled "in-process", the same solver called inside this process
 (`solve()`, a freshly read grid each time): what the Python API costs without
 interpreter start-up and file handling.
@@ -75,6 +76,7 @@ class Run:
     """One program's figures on one case: best wall time, its peak RSS, and what it printed or wrote."""
 
     ms: float = float("inf")
+    cpu_s: float = float("inf")  # user + system seconds of the run with the best wall time
     rss_mb: float = 0.0
     status: str = "-"
     soc: Optional[int] = None
@@ -82,17 +84,19 @@ class Run:
     times: List[float] = field(default_factory=list)
 
 
-def timed(argv: Sequence[str], cwd: Optional[str] = None, limit_s: float = 600.0) -> Tuple[float, float, int, str]:
-    """(wall ms, peak RSS MB, exit status, output) of one whole process.
+def timed(argv: Sequence[str], cwd: Optional[str] = None,
+          limit_s: float = 600.0) -> Tuple[float, float, float, int, str]:
+    """(wall ms, CPU s, peak RSS MB, exit status, output) of one whole process.
 
     The peak RSS comes from GNU time (`/usr/bin/time -f %M`), which forks the
     program from its own small process: a child forked from this (large)
     Python process would report this process's size as its peak. Without GNU
-    time it is NaN.
+    time they are NaN. CPU time (user + system) suffers less than wall time
+    when other programs share the machine.
     """
     rss_file = tempfile.NamedTemporaryFile(prefix="fleetcontrol-rss-", delete=False)
     rss_file.close()
-    wrap = [GNU_TIME, "-f", "%M", "-o", rss_file.name] if os.access(GNU_TIME, os.X_OK) else []
+    wrap = [GNU_TIME, "-f", "%U %S %M", "-o", rss_file.name] if os.access(GNU_TIME, os.X_OK) else []
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(wrap + list(argv), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -104,17 +108,19 @@ def timed(argv: Sequence[str], cwd: Optional[str] = None, limit_s: float = 600.0
     text = Path(rss_file.name).read_text().split()
     os.unlink(rss_file.name)
     rss = float(text[-1]) / 1024.0 if text and text[-1].isdigit() else float("nan")
+    cpu = float(text[-3]) + float(text[-2]) if len(text) >= 3 else float("nan")
     if wrap and text and text[0] == "Command":  # "Command terminated by signal N" / "... exit status N"
-        words = " ".join(text[:-1]).split()
+        words = " ".join(text[:-3]).split()
         if "signal" in words:
             code = -int(words[words.index("signal") + 1])
-    return ms, rss, code, out
+    return ms, cpu, rss, code, out
 
 
-def record(run: Run, ms: float, rss: float, code: int, out: str, result: Path, maps: Path) -> None:
+def record(run: Run, ms: float, cpu: float, rss: float, code: int, out: str, result: Path, maps: Path) -> None:
     run.times.append(ms)
     if ms < run.ms:
         run.ms, run.rss_mb = ms, rss
+    run.cpu_s = min(run.cpu_s, cpu)
     if code < 0:
         run.status, run.note = "crashed", "signal {}".format(-code)
         return
@@ -227,7 +233,8 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
     print("mapf-IR: {}; ours: {}".format(app, FLEETCTL))
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     print()
-    head = ("case", "program", "status", "best wall", "peak RSS", "soc", "ours/theirs", "in-process (ours)")
+    head = ("case", "program", "status", "best wall", "best CPU", "peak RSS", "soc", "ours/theirs",
+            "in-process (ours)")
     rows = [head]
     for case in cases:
         ours = Run()
@@ -241,15 +248,20 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
             Path(out).unlink(missing_ok=True)
             record(ours, *timed([FLEETCTL, "solve", str(case.instance), "-s", case.ours, "-o", out,
                                  "--map-dir", str(data / "maps"), *case.extra]), Path(out), data / "maps")
-        reference = min((r.ms for r in theirs.values() if r.status == "solved"), default=None)
+        solved = [r for r in theirs.values() if r.status == "solved"]
+        reference = min(solved, key=lambda r: r.ms) if solved else None
         for name, run in theirs.items():
             rows.append((case.label, "mapf-IR " + name, run.status + (" ({})".format(run.note) if run.note else ""),
-                         "{:.3f} s".format(run.ms / 1000), "{:.0f} MB".format(run.rss_mb), str(run.soc or "-"), "", ""))
-        ratio = "{:.2f}x".format(ours.ms / reference) if reference and ours.status == "solved" else "-"
+                         "{:.3f} s".format(run.ms / 1000), "{:.3f} s".format(run.cpu_s),
+                         "{:.0f} MB".format(run.rss_mb), str(run.soc or "-"), "", ""))
+        ratio = "-"
+        if reference is not None and ours.status == "solved":
+            ratio = "{:.2f}x ({:.2f}x)".format(ours.ms / reference.ms, ours.cpu_s / max(reference.cpu_s, 0.01))
         lb = _lower_bound(case.instance, data)
         rows.append((case.label, "fleetctl " + case.ours + "".join(" " + e for e in case.extra),
                      ours.status + (" ({})".format(ours.note) if ours.note and ours.status != "solved" else ""),
-                     "{:.3f} s".format(ours.ms / 1000), "{:.0f} MB".format(ours.rss_mb), str(ours.soc or "-"), ratio,
+                     "{:.3f} s".format(ours.ms / 1000), "{:.3f} s".format(ours.cpu_s), "{:.0f} MB".format(ours.rss_mb),
+                     str(ours.soc or "-"), ratio,
                      in_process(case, data, 1 if case.anytime_s else repeats)))
         _print(rows)
         print("{:>34}  lower bound of the sum of costs: {}".format("", lb))
@@ -258,12 +270,13 @@ def run(app: Path, data: Path, repeats: int, only: Sequence[str] = ()) -> None:
     print()
     print("load average after: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     startup = [timed([FLEETCTL, "--help"])[0] for _ in range(20)]
-    print("fleetctl --help: best {:.1f} ms, median {:.1f} ms over 20 runs".format(
-        min(startup), sorted(startup)[10]))
+    bare = [timed([sys.executable, "-c", "pass"])[0] for _ in range(20)]
+    print("fleetctl --help: best {:.1f} ms, median {:.1f} ms over 20 runs (python -c pass: best {:.1f} ms, "
+          "median {:.1f} ms)".format(min(startup), sorted(startup)[10], min(bare), sorted(bare)[10]))
     shutil.rmtree(str(work), ignore_errors=True)
 
 
-_WIDTHS = (34, 30, 40, 10, 9, 8, 11, 20)
+_WIDTHS = (34, 30, 20, 10, 9, 9, 8, 16, 20)
 
 
 def _lower_bound(instance: Path, data: Path) -> int:

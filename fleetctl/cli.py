@@ -30,7 +30,7 @@ def command_module(name: str) -> ModuleType | None:
 
 
 def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
-    """The parser; only command `chosen` gets its arguments (the others just their help line)."""
+    """The parser of command `chosen` alone, or (None) of all commands with just their help lines."""
     parser = argparse.ArgumentParser(
         prog="fleetctl",
         description="FleetControl: check, convert, solve and run MAPF plans on the lab's robots.",
@@ -38,6 +38,8 @@ def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name, _, help_line in COMMANDS:
+        if chosen is not None and name != chosen:
+            continue  # argparse makes a parser per command; the others cost start-up for nothing
         p = sub.add_parser(name, help=help_line, description=help_line)
         if name == chosen:
             module = command_module(name)
@@ -51,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # the top level has no options but -h, so the first other word names the command
     chosen = next((a for a in argv if not a.startswith("-")), None)
+    if chosen is not None and argv.index(chosen) > 0:
+        chosen = None  # `fleetctl -h solve`: the top level's help, with every command
     module = command_module(chosen) if chosen is not None else None
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
