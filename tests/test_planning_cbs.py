@@ -246,3 +246,19 @@ def test_cbs_solves_the_30_agent_benchmark_instance_optimally(shared_data: Path)
                          map_dirs=[shared_data / "maps"])
     result = solve("cbs", inst.grid, inst.starts, inst.goals, deadline=60.0)
     assert result.solved and result.plan.soc == 678 == result.stats["lower_bound"]
+
+
+@settings(max_examples=200, derandomize=True)
+@given(edges=st.sets(st.tuples(st.integers(0, 20), st.integers(0, 20)).filter(lambda e: e[0] < e[1]), max_size=30))
+def test_the_cg_bound_is_a_minimum_vertex_cover_or_less(edges) -> None:
+    # CBS adds it to a node's cost: it must never exceed the true minimum (admissible), and it is
+    # exact for the small conflict graphs nodes have
+    from fleet_common.planning.cbs_conflicts import EXACT_COVER_AGENTS, vertex_cover_size
+
+    vertices = sorted({v for e in edges for v in e})
+    best = next(k for k in range(len(vertices) + 1) for cover in itertools.combinations(vertices, k)
+                if all(a in cover or b in cover for a, b in edges))
+    got = vertex_cover_size(set(edges))
+    assert got <= best
+    if len(vertices) <= EXACT_COVER_AGENTS:
+        assert got == best

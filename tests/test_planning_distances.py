@@ -1,7 +1,7 @@
 """Distance tables searched lazily give the same plans, comp_time counts them, max_timestep holds.
 
 The lazy tables (`goal_distances`) are what large maps get; tests force them
-on small maps by setting `pibt_step.LIST_ENTRIES` to 0, and compare with a
+on small maps by setting `agent_distances.LIST_ENTRIES` to 0, and compare with a
 plain breadth-first search and with the complete tables' plans.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from helpers import python_bfs
 
 from fleet_common.grid import Coord, Grid
-from fleet_common.planning import bfs, pibt_step, solve
+from fleet_common.planning import agent_distances, bfs, solve
 from fleet_common.planning.components import component_labels
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.free_cells import FreeCells
@@ -82,10 +82,12 @@ def test_lazy_tables_give_the_plans_of_complete_tables(problem, solver) -> None:
         return
     complete = solve(solver, grid, starts, goals, deadline=5.0, seed=3)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(pibt_step, "LIST_ENTRIES", 0)
-        mp.setattr(pibt_step, "MARGIN", 2)  # the least that keeps every read exact: rows grow often
-        mp.setattr(pibt_step, "GROW_AT_LEAST", 0)
+        mp.setattr(agent_distances, "LIST_ENTRIES", 0)
+        mp.setattr(agent_distances, "MARGIN", 2)  # the least that keeps every read exact: rows grow often
+        mp.setattr(agent_distances, "GROW_AT_LEAST", 0)
         lazy = solve(solver, Grid(grid.free.copy()), starts, goals, deadline=5.0, seed=3)
+    if "timeout" in (lazy.status, complete.status):
+        return  # a loaded machine: the deadline, not the tables, decided (a timed outcome proves nothing)
     assert lazy.status == complete.status
     if complete.plan is not None:
         assert np.array_equal(lazy.plan.positions, complete.plan.positions)
@@ -112,7 +114,7 @@ def test_comp_time_counts_building_the_distance_tables(monkeypatch, lazy: bool) 
         return slow_search(*args, **kwargs)
 
     if lazy:
-        monkeypatch.setattr(pibt_step, "LIST_ENTRIES", 0)
+        monkeypatch.setattr(agent_distances, "LIST_ENTRIES", 0)
     monkeypatch.setattr("fleet_common.planning.goal_distances.grow", slow)
     result = solve("pibt", grid, [(0, 0), (5, 2)], [(5, 0), (0, 2)], deadline=Deadline(None, clock=clock))
     assert result.solved

@@ -35,7 +35,7 @@ import heapq
 from typing import Dict, List, Optional, Sequence, Set, Tuple
 
 from ..grid import Coord, Grid
-from .cbs_conflicts import ROTATION, SWAP, Conflict, Constraint, all_conflicts
+from .cbs_conflicts import ROTATION, SWAP, Conflict, Constraint, all_conflicts, vertex_cover_size
 from .cells import moves, plan_from_paths, to_ids
 from .deadline import Deadline
 from .dist_table import dist_codes, dist_lists
@@ -221,41 +221,3 @@ class _Open:
         self.heap.pop()
         heapq.heapify(self.heap)
         return entry[3]
-
-
-#: Conflict graphs with more agents than this get a matching's size as their bound (still admissible).
-EXACT_COVER_AGENTS = 16
-
-
-def vertex_cover_size(edges: Set[Tuple[int, int]]) -> int:
-    """Size of a minimum vertex cover of the graph, or a lower bound of it for large graphs."""
-    adj: Dict[int, Set[int]] = {}
-    for u, v in edges:
-        adj.setdefault(u, set()).add(v)
-        adj.setdefault(v, set()).add(u)
-    if len(adj) > EXACT_COVER_AGENTS:
-        matched: Set[int] = set()
-        for u, v in sorted(edges):  # a maximal matching: each edge needs its own cover vertex
-            if u not in matched and v not in matched:
-                matched |= {u, v}
-        return len(matched) // 2
-    return _cover(adj)
-
-
-def _cover(adj: Dict[int, Set[int]]) -> int:
-    """Exact minimum vertex cover by branching on a vertex of largest degree: it, or all its neighbours."""
-    adj = {u: set(vs) for u, vs in adj.items() if vs}
-    if not adj:
-        return 0
-    u = max(adj, key=lambda k: len(adj[k]))
-    without_u = _remove(adj, [u])
-    take_u = 1 + _cover(without_u)
-    nbrs = list(adj[u])
-    if len(nbrs) >= take_u:
-        return take_u
-    return min(take_u, len(nbrs) + _cover(_remove(adj, nbrs + [u])))
-
-
-def _remove(adj: Dict[int, Set[int]], gone: List[int]) -> Dict[int, Set[int]]:
-    drop = set(gone)
-    return {k: vs - drop for k, vs in adj.items() if k not in drop}

@@ -7,10 +7,13 @@ swapping cells (swap), and, unless rotations are allowed, k >= 3 agents each
 entering the cell the next one leaves (rotation: k branches, each forbidding
 one agent its move; every rotation-free plan leaves out one of those moves).
 Paths wait at their last cell after their end (mapf-IR's cost semantics).
+
+`vertex_cover_size` is CBS's CG bound: agents joined by cardinal conflicts
+form a graph, and each edge costs one of its two agents at least a step.
 """
 from __future__ import annotations
 
-from typing import Dict, List, Tuple
+from typing import Dict, List, Set, Tuple
 
 import numpy as np
 
@@ -68,3 +71,41 @@ def all_conflicts(paths: List[List[int]], rotations: bool) -> List[Conflict]:
                                                   for i in agents]))
         out.sort(key=lambda c: c.t)
     return out
+
+
+#: Conflict graphs with more agents than this get a matching's size as their bound (still admissible).
+EXACT_COVER_AGENTS = 16
+
+
+def vertex_cover_size(edges: Set[Tuple[int, int]]) -> int:
+    """Size of a minimum vertex cover of the graph, or a lower bound of it for large graphs."""
+    adj: Dict[int, Set[int]] = {}
+    for u, v in edges:
+        adj.setdefault(u, set()).add(v)
+        adj.setdefault(v, set()).add(u)
+    if len(adj) > EXACT_COVER_AGENTS:
+        matched: Set[int] = set()
+        for u, v in sorted(edges):  # a maximal matching: each edge needs its own cover vertex
+            if u not in matched and v not in matched:
+                matched |= {u, v}
+        return len(matched) // 2
+    return _cover(adj)
+
+
+def _cover(adj: Dict[int, Set[int]]) -> int:
+    """Exact minimum vertex cover by branching on a vertex of largest degree: it, or all its neighbours."""
+    adj = {u: set(vs) for u, vs in adj.items() if vs}
+    if not adj:
+        return 0
+    u = max(adj, key=lambda k: len(adj[k]))
+    without_u = _remove(adj, [u])
+    take_u = 1 + _cover(without_u)
+    nbrs = list(adj[u])
+    if len(nbrs) >= take_u:
+        return take_u
+    return min(take_u, len(nbrs) + _cover(_remove(adj, nbrs + [u])))
+
+
+def _remove(adj: Dict[int, Set[int]], gone: List[int]) -> Dict[int, Set[int]]:
+    drop = set(gone)
+    return {k: vs - drop for k, vs in adj.items() if k not in drop}

@@ -33,35 +33,23 @@ Inheritance is an explicit stack, not recursion, so chains of thousands of
 agents do not reach Python's recursion limit. `step` also accepts next cells
 fixed in advance: LaCAM uses it as its configuration generator.
 
-Cells are free-cell ids (`free_cells`). Distances come from complete tables
-(Python lists, fastest to index) while goals x free cells stays under
-`LIST_ENTRIES`; above that from `goal_distances`, searched lazily: before
-each step every agent's row is made exact to `MARGIN` levels past its cell,
-which covers every distance the step reads near the agent; the swap rule's
-reads further along a corridor go through `_far`, which grows a row on demand.
-An agent resting on its goal whose cell nobody claimed stays without a search
+Cells are free-cell ids (`free_cells`); distances come from
+`agent_distances` (complete lists, or rows searched lazily that each step
+first makes exact around every agent's cell). An agent resting on its goal whose cell nobody claimed stays without a search
 (staying is its unique best move), which is most agents late in a plan.
 """
 from __future__ import annotations
 
-from typing import Any, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..grid import Coord, Grid
 from ..plan import Plan
 from ..rotations import step_cycles
-from .bfs import UNREACHED
+from .agent_distances import AgentDistances
 from .cells import NIL
 from .free_cells import FreeCells
-from .goal_distances import COMPLETE, GoalDistances
-
-#: Goals x free cells up to which distances are complete Python lists (about 0.1-0.3 GB).
-LIST_ENTRIES = 10_000_000
-#: Lazy rows are kept exact this many levels past every agent's distance.
-MARGIN = 4
-#: A lazy row that must grow grows by at least this many levels, so it grows rarely.
-GROW_AT_LEAST = 16
 
 
 class PIBTStep:
@@ -76,20 +64,9 @@ class PIBTStep:
         self.goals = self.free.to_free(goals)
         self.swap = swap
         self.rotations = rotations
-        n = len(self.goals)
-        rows = GoalDistances.of(grid, self.goals)
-        self.lazy: Optional[GoalDistances] = None
-        if len(rows.searches) * self.free.count <= LIST_ENTRIES:
-            rows.complete()  # small problems: complete tables, as lists
-            f = self.free.count
-            body = rows.table[:, :f].astype(np.int64)
-            lists = np.where(body == UNREACHED, f + 1, body).tolist()
-            self.dist: List[Any] = [lists[r] for r in rows.row_of]
-            self.limit = [COMPLETE] * n
-        else:
-            self.lazy = rows
-            self.dist = rows.views()
-            self.limit = [rows.radius(i) - MARGIN for i in range(n)]
+        self.distances = AgentDistances(grid, self.goals)
+        self.dist = self.distances.dist
+        self.limit = self.distances.limit
         #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
         self.occ_now = [NIL] * self.free.count
@@ -104,35 +81,8 @@ class PIBTStep:
         return self.free.plan(configs, len(self.goals))
 
     def cover(self, q: Sequence[int], agents: Optional[Sequence[int]] = None) -> None:
-        """Make the agents' distances (default: all) exact around their cells in `q`.
-
-        A no-op for complete tables. Agents resting on their goals need no
-        check: everything within MARGIN of the goal is known from the start.
-        """
-        if self.lazy is None:
-            return
-        dist, limit = self.dist, self.limit
-        if agents is None:
-            short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
-        else:
-            short = [i for i in agents if dist[i][q[i]] > limit[i]]
-        if short:
-            lazy = self.lazy
-            lazy.cover(short, [q[i] for i in short], MARGIN)
-            grow = [i for i in short if lazy.radius(i) - MARGIN < dist[i][q[i]] + GROW_AT_LEAST]
-            if grow:  # a little further than needed now: the agent is heading out
-                lazy.cover(grow, [q[i] for i in grow], MARGIN + GROW_AT_LEAST)
-            for i in short:
-                limit[i] = lazy.radius(i) - MARGIN
-
-    def _far(self, i: int, cell: int) -> int:
-        """Agent i's distance at `cell`, growing its lazy row if it does not reach that far yet."""
-        d = self.dist[i][cell]
-        if d > self.limit[i] + MARGIN and self.lazy is not None and self.lazy.radius(i) < COMPLETE:
-            self.lazy.cover([i], [cell], 0)
-            self.limit[i] = self.lazy.radius(i) - MARGIN
-            d = self.dist[i][cell]
-        return d
+        """Make the agents' distances (default: all) exact around their cells in `q`."""
+        self.distances.cover(q, agents)
 
     def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int,
              moving: Optional[Sequence[int]] = None) -> bool:
@@ -146,7 +96,7 @@ class PIBTStep:
         Unless `rotations` is set, the step has no rotation: one closed through
         fixed entries is undone by making its agents stay (fixed or not).
         """
-        self.cover(q_from, moving)
+        self.distances.cover(q_from, moving)
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
         for i, v in enumerate(q_from):
@@ -306,7 +256,8 @@ class PIBTStep:
                 break
             at_pusher, at_puller = at_puller, exits[0]
         if d_pull[at_puller] > self.limit[puller]:  # the corridor may lead past the known part
-            return self._far(puller, at_pusher) < self._far(puller, at_puller) and (
+            far = self.distances.far
+            return far(puller, at_pusher) < far(puller, at_puller) and (
                 d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
         return d_pull[at_pusher] < d_pull[at_puller] and (
             d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
