@@ -21,9 +21,11 @@ PACKAGE_ROOTS: Dict[str, str] = {
     "fleet_common": "catkin_ws/src/fleet_common/src",
     "fleet_manager": "catkin_ws/src/fleet_manager/src",
     "virtual_fleet": ".",
+    "deploy": ".",
     "agv_package": "catkin_ws/src/agv_package/src",
     "fleetctl": ".",
     "console": ".",
+    "evaluation": ".",
 }
 
 #: Data files shipped inside packages (globs relative to the package folder).
@@ -63,6 +65,12 @@ setup(
         "networkx>=3,<4",
         "Pillow>=9.4,<14",
         "pyzmq>=24,<28",  # >=24: Debian 12's python3-zmq, which ROS nodes import
+        "paramiko>=3.4,<5",  # deploy: SSH to the server and the robots
+        # sweeps and reports (fleetctl experiment, fleetctl report): tables, plots, clusters
+        "pyarrow>=14,<21",  # 21+ need numpy 2; Debian 12 has 1.24
+        "matplotlib>=3.7,<3.11",
+        "contourpy>=1.2,<1.3.3",  # matplotlib's; <1.3.3 keeps Debian 12's numpy 1.24
+        "dask[distributed]>=2024.1,<2027",
     ],
     extras_require={
         # The robot's tag detector and the simulated base's tag drawing (agv_package).

@@ -32,7 +32,7 @@ import numpy as np
 from fleet_common.execution import ActionCompleted, Engine
 from fleet_common.execution.actions import ActionTable
 from fleet_common.execution.adg import build_adg
-from fleet_common.execution.delays import parse_delay_model
+from fleet_common.delays import parse_delay_model, simulator_durations
 from fleet_common.execution.simulate import simulate_engine
 from fleet_common.formats import default_map_dirs, read_solution
 from fleet_common.plan import Plan
@@ -84,8 +84,9 @@ def event_costs(plan: Plan, strategy: str, seed: int = 0) -> np.ndarray:
         return handle(event)
 
     engine.handle = timed  # type: ignore[method-assign]
-    durations = parse_delay_model(["moderate"]).durations(engine.table, seed)
-    result = simulate_engine(engine, durations)
+    waits, durations = simulator_durations(parse_delay_model("moderate"), engine.table.robot,
+                                           engine.table.num_robots, seed)
+    result = simulate_engine(engine, durations, waits=waits)
     if not result.finished or result.collisions:
         raise SystemExit("benchmark run failed: finished={}, collisions={}".format(
             result.finished, len(result.collisions)))

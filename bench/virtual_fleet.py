@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import os
 import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -28,31 +27,13 @@ from typing import Dict, List
 import zmq
 
 from fleet_common.robots import read_robot_definitions
+from fleetctl.local_fleet import free_port_block
 from fleet_common.wire import Accepted, Completed, Failed, PoseFeedback, Status
 from fleet_common.transport.curve_keys import load_manager_keys, make_keys
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
 
 SQUARE = [(1, 0), (1, 1), (0, 1), (0, 0)]  # corners relative to the robot's start cell
-
-
-def free_base(count: int, start: int) -> int:
-    """The first base >= start with `count` consecutive free ports on 127.0.0.1."""
-    base = start
-    while base + count < 65000:
-        socks = []
-        try:
-            for port in range(base, base + count):
-                s = socket.socket()
-                socks.append(s)
-                s.bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            base += count
-        finally:
-            for s in socks:
-                s.close()
-    raise SystemExit("no {} free consecutive ports".format(count))
 
 
 def percentile(values: List[float], q: float) -> float:
@@ -74,8 +55,8 @@ def main() -> int:
 
     work = Path(tempfile.mkdtemp(prefix="fleet-bench-"))
     make_keys(work / "keys")
-    command_base = free_base(args.robots, 31000)
-    feedback_base = free_base(args.robots, command_base + args.robots)
+    command_base = free_port_block(2 * args.robots)
+    feedback_base = command_base + args.robots
     (work / "robots.txt").write_text("".join(
         "{} 127.0.0.1 {} u tb{} red\n".format(i, command_base + i - 1, i)
         for i in range(1, args.robots + 1)))

@@ -29,9 +29,9 @@ MAX_CANVAS = (1100, 760)
 MIN_HEADER_WIDTH = 560
 
 
-def default_canvas_size(width: int, height: int) -> Tuple[int, int]:
-    """A canvas that shows the whole `width` x `height` map at a readable cell size."""
-    cell = min((MAX_CANVAS[0] - 2 * MARGIN) / width, (MAX_CANVAS[1] - HEADER_HEIGHT - 2 * MARGIN) / height)
+def default_canvas_size(width: int, height: int, limit: Tuple[int, int] = MAX_CANVAS) -> Tuple[int, int]:
+    """A canvas that shows the whole `width` x `height` map at a readable cell size, within `limit`."""
+    cell = min((limit[0] - 2 * MARGIN) / width, (limit[1] - HEADER_HEIGHT - 2 * MARGIN) / height)
     cell = min(max(cell, 1.0), 48.0)
     if cell >= 4:
         cell = math.floor(cell)

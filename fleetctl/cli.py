@@ -1,9 +1,12 @@
 """Entry point of `fleetctl`: argument parsing and the one place errors become exit codes.
 
 Exit statuses: 0 success; 1 the input is well formed but wrong (a plan with
-conflicts, a failed run); 2 the input cannot be read (one line `FILE:LINE: message`)
-or the command line is wrong; 3 no plan found within the limit (`solve`);
-130 interrupted. Users never see a traceback; set FLEETCTL_DEBUG=1 to get one.
+conflicts, a failed run); 2 the input cannot be read (one line `FILE:LINE: message`,
+at most 299 characters, control characters escaped) or the command line is
+wrong; 3 no plan found within the limit (`solve`); 70 a bug of ours (one line
+too); 130 interrupted. Users never see a traceback; set FLEETCTL_DEBUG=1 to get
+one. What a reader doubts (`FormatWarning`: an unknown header key) is printed
+as `FILE:LINE: warning: ...` on stderr and leaves the exit status alone.
 
 Only the chosen command's module is imported (see `commands`), after the
 command line names it: `fleetctl --help` imports none.
@@ -14,11 +17,13 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 from types import ModuleType
+from typing import Any
 
 from .commands import COMMANDS
 
-# no `typing` and no fleet_common here: `fleetctl --help` imports only what it prints
+# no fleet_common here: `fleetctl --help` imports only what it prints (it is imported in main)
 
 
 def command_module(name: str) -> ModuleType | None:
@@ -64,6 +69,15 @@ def main(argv: list[str] | None = None) -> int:
         argv, passthrough = argv[:cut], argv[cut + 1:]
     args = build_parser(chosen if module is not None else None).parse_args(argv)
     args.passthrough = passthrough
+    from fleet_common.errors import FormatWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", FormatWarning)
+        warnings.showwarning = _show_warning
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError, FormatError
 
     try:
@@ -81,10 +95,27 @@ def main(argv: list[str] | None = None) -> int:
         return _fail("{}: {}".format(where, err.strerror or err) if where else str(err))
     except KeyboardInterrupt:
         return 130
+    except Exception as err:  # a bug of ours: still one line, no traceback
+        return _fail("fleetctl {}: internal error: {}: {} (FLEETCTL_DEBUG=1 shows the traceback; "
+                     "please report it)".format(args.command, type(err).__name__, err), status=70)
 
 
-def _fail(line: str) -> int:
+def _fail(line: str, status: int = 2) -> int:
     if os.environ.get("FLEETCTL_DEBUG"):
         raise
-    print(line, file=sys.stderr)
-    return 2
+    from fleet_common.limits import one_line
+
+    print(one_line(line), file=sys.stderr)
+    return status
+
+
+def _show_warning(message: Any, category: Any, filename: str, lineno: int, file: Any = None,
+                  line: str | None = None) -> None:
+    """FormatWarnings as `FILE:LINE: warning: ...`; others as Python prints them."""
+    from fleet_common.errors import FormatWarning
+    from fleet_common.limits import one_line
+
+    if isinstance(message, FormatWarning):
+        print(one_line(str(message)), file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))

@@ -6,12 +6,14 @@ set -euo pipefail
 
 # Debian 12 packages FleetControl needs (ROS 1 from Debian, Tk, Xvfb, build tools); numpy
 # and yaml are the catkin packages' exec_depends, for code run by Debian's own python3.
+# git, tmux and OpenSSH are what deployment runs on the server and the robots (the tests
+# start real sshd processes, so the server package is needed here too).
 APT_PACKAGES=(
   ros-core python3-rospy catkin python3-catkin-pkg python3-numpy python3-yaml
   ros-std-msgs ros-geometry-msgs ros-nav-msgs ros-sensor-msgs
   python3-std-msgs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
   python3-tk xvfb fonts-dejavu-core python3-venv python3-dev build-essential cmake
-  python3-zmq iproute2
+  python3-zmq iproute2 openssh-client openssh-server tmux git
 )
 
 # Debian's interpreter, not whatever python3 is first on PATH: rospy lives in its
@@ -21,11 +23,31 @@ VENV=.venv
 PIP_SPEC="pip>=24,<27"
 SETUP_STAMP="$VENV/.fleetcontrol-setup"
 
-# name | function | help; in the order `--help` lists them.
+# name | function | help; in the order `--help` lists them. The server:*, robots:* and
+# net:check lines repeat deploy/cli.py's COMMANDS (a test checks that they agree).
 SUBCOMMANDS=(
   "setup|cmd_setup|Install what FleetControl needs (Debian 12, as root); quick once done."
   "demo|cmd_demo|Set up, then run 'fleetctl demo' on the embedded lab scenario (arguments pass through)."
   "test|cmd_test|Set up, build catkin_ws, check robot code against Python 3.8, run pytest (arguments pass through)."
+  "server:init|cmd_deploy|Clone the repository on the server (deploy key copied first)."
+  "server:update|cmd_deploy|Hard-reset the server's checkout to the branch's newest commit."
+  "server:build|cmd_deploy|Run the server's build command (the project setup)."
+  "server:start|cmd_deploy|Start the server's processes, each in its own tmux session."
+  "server:stop|cmd_deploy|Stop the server's processes (Ctrl-C, then the sessions go)."
+  "server:status|cmd_deploy|Say what runs on the server and which commit it has."
+  "server:ssh|cmd_deploy|Open a shell in the server's checkout."
+  "server:inspect|cmd_deploy|Attach to the server's process (tmux; Ctrl-b d detaches)."
+  "robots:init|cmd_deploy|Clone the repository on robots ID... or all (deploy key copied first)."
+  "robots:update|cmd_deploy|Hard-reset robots ID... or all to the branch's newest commit."
+  "robots:update:all|cmd_deploy|Same as robots:update all."
+  "robots:build|cmd_deploy|Build on robots ID... or all (catkin_make)."
+  "robots:start|cmd_deploy|Start robots ID... or all, each process in its own tmux session."
+  "robots:start:all|cmd_deploy|Same as robots:start all."
+  "robots:stop|cmd_deploy|Stop robots ID... (default all)."
+  "robots:status|cmd_deploy|Say what runs on robots ID... (default all), which commit."
+  "robots:ssh|cmd_deploy|Open a shell in robot ID's checkout."
+  "robots:inspect|cmd_deploy|Attach to robot ID's process (tmux; Ctrl-b d detaches)."
+  "net:check|cmd_deploy|Per robot: reachable, SSH login, command port, wire status."
 )
 
 PROG=$(basename "$0")
@@ -50,9 +72,11 @@ usage() {
   printf 'Usage: %s SUBCOMMAND [ARGS...]\n\nSubcommands:\n' "$PROG"
   for entry in "${SUBCOMMANDS[@]}"; do
     IFS='|' read -r name func help <<<"$entry"
-    printf '  %-8s %s\n' "$name" "$help"
+    printf '  %-17s %s\n' "$name" "$help"
   done
-  printf '\nRuns from the repository root whatever the current directory.\n'
+  printf '\nRobots are named by id (robot_definitions.txt) or "all"; the server and robots\n'
+  printf 'commands take --dry-run, --jobs N, --accept-new-host-keys and more (SUBCOMMAND --help).\n'
+  printf 'Runs from the repository root whatever the current directory.\n'
 }
 
 # ---- setup -------------------------------------------------------------------------
@@ -161,6 +185,14 @@ cmd_test() {
   exec "$VENV/bin/python" -m pytest -p no:cacheprovider "$@"
 }
 
+# ---- deployment: server:*, robots:*, net:check -------------------------------------
+
+# The work is done in Python (deploy/: parallel SSH with paramiko); see deploy.yaml.
+cmd_deploy() {
+  cmd_setup >&2
+  exec "$VENV/bin/python" -m deploy "$SUBCOMMAND" "$@"
+}
+
 # ---- dispatch ----------------------------------------------------------------------
 
 main() {
@@ -173,6 +205,7 @@ main() {
     IFS='|' read -r name func help <<<"$entry"
     if [[ $1 == "$name" ]]; then
       shift
+      SUBCOMMAND=$name
       "$func" "$@"
       return
     fi

@@ -6,7 +6,9 @@ loudly instead of skipping tests.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Iterator
 
 import pytest
 from hypothesis import settings
@@ -35,3 +37,31 @@ def shared_data() -> Path:
             pytrace=False,
         )
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def xvfb() -> Iterator[str]:
+    """One private Xvfb for the whole session: a Tk interpreter keeps its X connection after its
+    windows are gone, and Tk exits the process when that connection breaks, so the server must
+    outlive every Tk window of the session."""
+    from console.xvfb import Xvfb
+
+    server = Xvfb.start(1600, 1024)
+    try:
+        yield server.display
+    finally:
+        server.stop()
+
+
+@pytest.fixture(scope="module")
+def display(xvfb: str) -> Iterator[str]:
+    """The session's Xvfb as DISPLAY while the module runs (for its Tk windows)."""
+    before = os.environ.get("DISPLAY")
+    os.environ["DISPLAY"] = xvfb
+    try:
+        yield xvfb
+    finally:
+        if before is None:
+            os.environ.pop("DISPLAY", None)
+        else:
+            os.environ["DISPLAY"] = before

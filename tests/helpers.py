@@ -1,9 +1,9 @@
 """What several test modules need: `fleetctl` run as a user runs it, free loopback ports,
-a naive rotation checker (the oracle for the vectorised one).
+a naive rotation checker (the oracle for the vectorised one), a huge broken instance (also
+bench/hostile_files.py's).
 """
 from __future__ import annotations
 
-import os
 from collections import deque
 import socket
 import subprocess
@@ -13,6 +13,7 @@ from typing import Dict, List, Optional, Set, Tuple
 
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
+from fleetctl.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
 
 
 def fleetctl(*args: object, cwd: Optional[Path] = None, env: Optional[Dict[str, str]] = None,
@@ -39,27 +40,6 @@ def free_port() -> int:
     return free_ports(1)[0]
 
 
-def free_port_block(count: int) -> int:
-    """`count` consecutive ports free now, below the kernel's ephemeral range (32768 and up,
-    where the processes' own outgoing connections would take them), from a per-process
-    offset so that test runs side by side rarely meet."""
-    base = 10000 + (os.getpid() * 37) % 20000
-    while base + count < 32768:
-        socks = []
-        try:
-            for port in range(base, base + count):
-                s = socket.socket()
-                socks.append(s)
-                s.bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            base += count
-        finally:
-            for s in socks:
-                s.close()
-    raise RuntimeError("no {} consecutive free ports".format(count))
-
-
 def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int, ...]]]:
     """(step, agents from the smallest, in cycle order) of every cycle of movers each entering
     the cell the next one leaves, found by walking each mover; `min_length=2` counts swaps too."""
@@ -80,6 +60,78 @@ def naive_rotations(plan: Plan, min_length: int = 3) -> Set[Tuple[int, Tuple[int
             if k == i and len(cycle) >= min_length and i == min(cycle):
                 found.add((t + 1, tuple(cycle)))
     return found
+
+
+class Forwarder:
+    """A TCP forwarder on 127.0.0.1 whose server-to-client direction can be held: a slow network
+    between a console and its manager, made to order. `port` is where clients connect."""
+
+    def __init__(self, target_port: int) -> None:
+        import threading
+
+        self.target = target_port
+        self.listener = socket.socket()
+        self.listener.bind(("127.0.0.1", 0))
+        self.listener.listen(4)
+        self.port = self.listener.getsockname()[1]
+        self.held = threading.Event()  # set: nothing flows from the server to the client
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        import select
+
+        pairs: List[Tuple[socket.socket, socket.socket]] = []
+        self.listener.settimeout(0.02)
+        while not self._stop.is_set():
+            try:
+                client, _ = self.listener.accept()
+                server = socket.create_connection(("127.0.0.1", self.target))
+                pairs.append((client, server))
+            except (socket.timeout, OSError):
+                pass
+            for client, server in list(pairs):
+                watch = [client] + ([] if self.held.is_set() else [server])
+                ready, _, _ = select.select(watch, [], [], 0.01)
+                for sock in ready:
+                    if sock is server and self.held.is_set():
+                        continue  # held while this thread waited in select
+                    data = sock.recv(65536)
+                    if not data:
+                        pairs.remove((client, server))
+                        client.close()
+                        server.close()
+                        break
+                    (server if sock is client else client).sendall(data)
+        for client, server in pairs:
+            client.close()
+            server.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        self.listener.close()
+
+
+def big_broken_instance(path: Path, size: int = 50_000_000) -> Path:
+    """A `size`-byte lab instance whose line 33 puts an agent off the map: 27 good agent
+    lines before it, then comment lines to the end, so that a reader that checks cells only
+    after reading every line finds line 33 last."""
+    from fleet_common.lab import node_table
+
+    free = list(node_table().grid().free_cells())
+    flip = [(x, 13 - y) for x, y in free]  # the lab map is 14 high; files are mapf-IR's way up
+    good = ["{},{},{},{}\n".format(*flip[i], *flip[27 + i]) for i in range(27)]
+    comment = "# " + "-" * 61 + "\n"
+    with open(path, "w") as f:
+        f.write("map_file=lab.map\nagents=28\nseed=0\nrandom_problem=0\nmax_timestep=100\n")
+        f.write("".join(good))
+        f.write("99,5,11,5\n")  # line 33: x = 99 on a map 13 wide
+        block = comment * 100_000
+        while f.tell() < size:
+            f.write(block)
+    return path
 
 
 def python_bfs(grid: Grid, goal: Coord) -> List[int]:

@@ -194,7 +194,7 @@ def test_convert_refuses_to_overwrite_its_input(shared_data, tmp_path):
 
 
 def test_demo_plans_the_lab_scenario():
-    proc = fleetctl("demo")
+    proc = fleetctl("demo", "--plan-only")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "13x14 marker grid" in proc.stdout
     assert re.search(r"plan: \S+ in \d+ ms, soc=\d+, makespan=\d+, valid", proc.stdout)

@@ -8,7 +8,6 @@ top), not by calling the code under test to place them.
 from __future__ import annotations
 
 import gc
-import os
 import threading
 import time
 import tkinter as tk
@@ -24,27 +23,11 @@ from console.scene import Scene, scene_from_solution
 from console.sources import QueueSource
 from console.ui.app import PlayerApp
 from console.view_options import ViewOptions
-from console.xvfb import Xvfb
 from fleet_common.formats import make_solution, map_from_grid, read_solution, write_map, write_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 
 ECBS = "solutions/ecbs_random-32-32-20_30agents_1.txt"
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    server = Xvfb.start()
-    before = os.environ.get("DISPLAY")
-    os.environ["DISPLAY"] = server.display
-    try:
-        yield server.display
-    finally:
-        if before is None:
-            os.environ.pop("DISPLAY", None)
-        else:
-            os.environ["DISPLAY"] = before
-        server.stop()
 
 
 @pytest.fixture

@@ -46,16 +46,34 @@ def test_a_request_on_an_outdated_picture_is_refused_saying_what_changed() -> No
     first, second = joined(desk, "first", b"A"), joined(desk, "second", b"B")
     request, frame = first.request("disable", 0.0, robot=3)
     assert wire(desk, first, b"A", frame)[0].request is not None
-    desk.bump("robot 3 disabled")  # the manager carried it out
-    stale, frame = second.request("enable", 0.0, robot=4)  # second still saw the old version
+    desk.bump("robot 3 disabled", 3)  # the manager carried it out
+    stale, frame = second.request("enable", 0.0, robot=3)  # second still saw the old version
     intake, got = wire(desk, second, b"B", frame)
     assert intake.request is None
     answer, asked = got[0]
     assert not answer.ok and asked == stale
     assert "robot 3 disabled" in answer.reason and "look again" in answer.reason
     # the answer carried the new version: the same request again goes ahead
-    again, frame = second.request("enable", 0.0, robot=4)
+    again, frame = second.request("enable", 0.0, robot=3)
     assert wire(desk, second, b"B", frame)[0].request == again
+
+
+def test_only_changes_that_concern_a_request_make_it_outdated() -> None:
+    desk = ControlDesk("s1", 0.0)
+    console = joined(desk, "ops", b"A")
+    looked = desk.version
+    desk.bump("robot 7 link down", 7)  # telemetry of another robot: no conflict
+    for action, args in (("disable", {"robot": 3}), ("strategy", {"name": "step"}), ("pause", {})):
+        _, frame = console.request(action, 0.0, based_on=looked, **args)
+        assert wire(desk, console, b"A", frame)[0].request is not None, action
+    desk.bump("run paused")  # the whole run: every request on an older picture is refused
+    _, frame = console.request("disable", 0.0, based_on=looked, robot=3)
+    assert wire(desk, console, b"A", frame)[0].request is None
+    for n in range(100):  # so many changes since that the desk no longer remembers them all
+        desk.bump("robot 9 fault {}".format(n), 9)
+    _, frame = console.request("disable", 0.0, based_on=looked + 2, robot=3)
+    intake, got = wire(desk, console, b"A", frame)
+    assert intake.request is None and "older than this manager remembers" in got[0][0].reason
 
 
 def test_a_console_that_did_not_say_hello_is_refused() -> None:

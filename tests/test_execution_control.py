@@ -13,7 +13,7 @@ from fleet_common.execution import (
     STRATEGIES, ActionCompleted, ActionStarted, Disabled, Enabled, Engine, EventError, Pause, Resume,
     RobotFailed, StepRound, Strategy, SwitchStrategy, UnknownStrategyError, make_strategy, register,
 )
-from fleet_common.execution.delays import parse_delay_model
+from fleet_common.delays import parse_delay_model
 from fleet_common.execution.events import CELL, PAUSED
 from fleet_common.execution.simulate import simulate
 from fleet_common.execution.strategy import BARRIER

@@ -1,7 +1,7 @@
 """Property tests: whatever the delays, both strategies are safe, complete and deadlock-free.
 
 Delay realisations are drawn by hypothesis (a per-move factor range, random
-stalls, one permanently slow robot, a seed) and run on shipped mapf-IR plans,
+stalls, one permanently slow robot, delay events before moves, a seed) and run on shipped mapf-IR plans,
 pibt_sample.txt (100 robots, 218 following moves) among them. Each run is
 judged from its executed trace alone (`trace.find_collisions`: vertex and
 swap collisions over continuous time). A naive executor, every robot keeping
@@ -10,15 +10,16 @@ does collide: the checker would catch an unsafe engine.
 """
 from __future__ import annotations
 
-from typing import Dict
+import dataclasses
+from typing import Dict, Optional
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from fleet_common.delays import DelayModel, EventDelays, parse_delay_model, simulator_durations
 from fleet_common.execution.actions import ActionTable
-from fleet_common.execution.delays import DelayModel, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import VERTEX, Trace, find_collisions
 from fleet_common.formats import default_map_dirs, read_solution
@@ -42,19 +43,33 @@ def delay_models(draw) -> DelayModel:
     high = draw(st.floats(low, 4.0))
     stall_p = draw(st.sampled_from([0.0, 0.02, 0.1, 0.3]))
     stall_len = draw(st.floats(0.0, 8.0))
-    slow = {}
+    slow = ()
     if draw(st.booleans()):
-        slow[draw(st.integers(0, 99))] = draw(st.floats(1.0, 6.0))  # taken modulo the robots
-    return DelayModel(low, high, stall_p, stall_len, slow)
+        slow = ((draw(st.integers(0, 99)), draw(st.floats(1.0, 6.0))),)  # taken modulo the robots
+    events = None
+    if draw(st.booleans()):
+        low_events = draw(st.integers(1, 4))
+        events = EventDelays(draw(st.sampled_from(["bernoulli", "poisson"])), draw(st.floats(0.0, 0.5)),
+                             low_events, low_events + draw(st.integers(0, 4)),
+                             draw(st.sampled_from(["uniform", "gaussian"])))
+    return DelayModel(factor=(low, high), stall_p=stall_p, stall_moves=stall_len, robots=slow, events=events)
 
 
-def naive_trace(table: ActionTable, durations: np.ndarray) -> Trace:
-    """Every robot keeps its own timeline: a plan step of waiting takes 1, a move its duration."""
+def draw_delays(model: DelayModel, plan: Plan, seed: int):
+    model = dataclasses.replace(model, robots=tuple((r % plan.num_agents, f) for r, f in model.robots))
+    table = ActionTable.from_plan(plan)
+    return simulator_durations(model, table.robot, table.num_robots, seed)
+
+
+def naive_trace(table: ActionTable, durations: np.ndarray, waits: Optional[np.ndarray] = None) -> Trace:
+    """Every robot keeps its own timeline: a plan step of waiting takes 1, a move its wait and
+    duration."""
     trace = Trace([table.start(r) for r in range(table.num_robots)])
+    waits = np.zeros(table.num_actions) if waits is None else waits
     for r in range(table.num_robots):
         now, step = 0.0, 0
         for a in table.actions_of(r):
-            now += a.step - step
+            now += a.step - step + float(waits[table.first[r] + a.index])
             end = now + float(durations[table.first[r] + a.index])
             trace.add(r, now, end, a.src, a.dst)
             now, step = end, a.step + 1
@@ -75,10 +90,9 @@ def assert_safe_and_complete(result: SimResult, plan: Plan) -> None:
        lookahead=st.integers(1, 3))
 def test_both_strategies_are_safe_and_adg_is_never_slower(plans, model, seed, name, lookahead):
     plan = plans[name]
-    model.slow = {robot % plan.num_agents: factor for robot, factor in model.slow.items()}
-    durations = model.durations(ActionTable.from_plan(plan), seed)
-    step = simulate(plan, "step", durations=durations)
-    adg = simulate(plan, "adg", durations=durations, lookahead=lookahead)
+    waits, durations = draw_delays(model, plan, seed)
+    step = simulate(plan, "step", durations=durations, waits=waits)
+    adg = simulate(plan, "adg", durations=durations, waits=waits, lookahead=lookahead)
     assert_safe_and_complete(step, plan)
     assert_safe_and_complete(adg, plan)
     assert adg.metrics.makespan <= step.metrics.makespan + 1e-9
@@ -90,12 +104,12 @@ def test_both_strategies_are_safe_and_adg_is_never_slower(plans, model, seed, na
 def test_a_naive_executor_collides_under_the_same_delays(plans, model, seed):
     plan = plans["pibt_sample.txt"]
     table = ActionTable.from_plan(plan)
-    durations = model.durations(table, seed)
-    assume(np.ptp(durations) >= 0.2)  # delays too even to upset anyone prove nothing
-    naive = find_collisions(naive_trace(table, durations))
+    waits, durations = draw_delays(model, plan, seed)
+    assume(np.ptp(durations + waits) >= 0.2)  # delays too even to upset anyone prove nothing
+    naive = find_collisions(naive_trace(table, durations, waits))
     # robots driving into robots that stand still: a collision for robots of any size
     assert any(c.kind == VERTEX and not all(c.moving) for c in naive)
-    assert simulate(plan, "adg", durations=durations).collisions == []
+    assert simulate(plan, "adg", durations=durations, waits=waits).collisions == []
 
 
 def test_without_delays_the_naive_executor_only_follows_too_closely(plans):

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from fleet_common.execution import Engine, PlanError
-from fleet_common.execution.delays import parse_delay_model
+from fleet_common.delays import parse_delay_model
 from fleet_common.execution.errors import ROTATION
 from fleet_common.execution.simulate import simulate
 from fleet_common.formats.instance import read_instance

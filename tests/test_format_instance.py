@@ -81,8 +81,10 @@ def test_make_instance_uses_mapf_ir_layout():
 HEAD = "map_file=p.map\nagents=2\n"
 BAD = [
     # (text, line, column or None, message fragment)
-    ("agents=1\n3,1,4,1\n", 1, None, "missing 'map_file='"),
-    ("map_file=p.map\n3,1,4,1\n", 1, None, "missing 'agents='"),
+    ("agents=1\n", 1, None, "missing 'map_file='"),
+    ("map_file=p.map\n", 1, None, "missing 'agents='"),
+    ("agents=1\n3,1,4,1\n", 2, None, "agent line before 'map_file='"),
+    ("map_file=p.map\n3,1,4,1\n", 2, None, "agent line before 'agents='"),
     ("map_file=p.map\nagents=-1\n", 2, None, "'agents=' must be an integer >= 1, got '-1'"),
     ("map_file=p.map\nagents=two\n", 2, None, "'agents=' must be an integer >= 1, got 'two'"),
     ("map_file=p.map\nagents=0\n", 2, None, "'agents=' must be an integer >= 1"),
@@ -100,7 +102,8 @@ BAD = [
     (HEAD + "3,1,4,1\nhello world\n", 4, 1, "expected a comment ('# ...'), a 'key=value' line"),
     (HEAD + "agents=2\n", 3, None, "'agents=' given twice (first on line 2)"),
     (HEAD + "random_problem=1\n3,1,4,1\n1,3,5,1\n", 4, None, "agent line with random_problem=1"),
-    ("map_file=p.map\n3,1,4,1\nagents=1\n", 2, None, "agent line before 'agents=' (line 3)"),
+    ("map_file=p.map\n3,1,4,1\nagents=1\n", 2, None, "agent line before 'agents='"),
+    (HEAD + "3,1,4,1\n1,3,5,1\nrandom_problem=1\n", 5, None, "'random_problem=' after the agent"),
     (HEAD + "seed=abc\n", 3, None, "'seed=' must be an integer >= 0"),
     (HEAD + "well_formed=yes\n", 3, None, "'well_formed=' must be 0 or 1"),
     (HEAD + "orientation=sideways\n3,1,4,1\n1,3,5,1\n", 3, None, "'base' or 'mapf-ir'"),

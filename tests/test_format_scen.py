@@ -53,8 +53,8 @@ BAD = [
     ("version 1\n" + line(3, 1, 4, 1) + "\t9\n", 2, 1, "expected 9 tab-separated fields"),
     ("version 1\n0 p.map 6 4 3 1 4 1 2.0\n", 2, 1, "(fields are separated by tabs)"),
     ("version 1\n" + line(3, 1, 4, 1) + "\n\n" + line(1, 3, 5, 1) + "\n", 3, 1, "got 1"),
-    ("version 1\n" + line("x", 1, 4, 1) + "\n", 2, 13, "start x must be an integer, got 'x'"),
-    ("version 1\n" + line(3, 1, 4, 1, length="far") + "\n", 2, 21, "optimal length must be a number"),
+    ("version 1\n" + line("x", 1, 4, 1) + "\n", 2, 13, "start x must be an integer of at most 9 digits, got 'x'"),
+    ("version 1\n" + line(3, 1, 4, 1, length="far") + "\n", 2, 21, "optimal length must be a finite number"),
     ("version 1\n" + line(3, -1, 4, 1) + "\n", 2, 15, "start y must not be negative"),
 ]
 

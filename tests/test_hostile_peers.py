@@ -30,7 +30,9 @@ from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosi
                                Welcome)
 from fleet_common.wire.codec import encode
 from virtual_fleet.fleet import FleetThread, VirtualFleet
-from helpers import free_ports
+from helpers import fleetctl, free_port_block, free_ports
+
+REPO = Path(__file__).resolve().parents[1]
 
 BIG_X = b'{"t":"drive","v":1,"id":5,"x":' + b"1" * 400 + b',"y":0,"time":0}'
 HOSTILE: Dict[str, bytes] = {
@@ -198,9 +200,9 @@ def test_clients_without_the_keys_are_logged(fleet_process) -> None:
         context.destroy(linger=0)
     log = stop(proc)
     # which end notices the missing key first is a race: libzmq reports either
-    assert any("robot 1: refused a client {} on tcp://127.0.0.1:{}".format(
-        why, robot.command_port) in log for why in (
-            "without a CURVE key", "that broke off the CURVE handshake"))
+    on_port = "on tcp://127.0.0.1:{}; nothing from it is executed".format(robot.command_port)
+    assert any("robot 1: refused a client {} {}".format(why, on_port) in log for why in (
+        "without a CURVE key", "that broke off the CURVE handshake (as one without a key does)"))
     assert "robot 1: refused a client that does not have this robot's public key" in log
     # the stranger keeps reconnecting: one line, the rest counted later
     assert log.count("does not have this robot's public key") == 1
@@ -242,11 +244,12 @@ def test_a_failing_handler_is_logged_and_the_robot_serves_on(caplog) -> None:
 
 def test_a_failing_link_is_logged_and_the_others_go_on(caplog) -> None:
     caplog.set_level(logging.ERROR)
-    ports = free_ports(3)
+    ports = free_ports(2)
     robots = [RobotDefinition(i, "127.0.0.1", ports[i - 1], "u", "v{}".format(i), "red")
               for i in (1, 2)]
+    feedback = free_port_block(2)
     context = zmq.Context()
-    with FleetThread(VirtualFleet(robots, feedback_base=ports[2], time_scale=10.0)):
+    with FleetThread(VirtualFleet(robots, feedback_base=feedback, time_scale=10.0)):
         links = LinkSet([RobotLink(context, r, "lab") for r in robots])
         try:
             collect(links, lambda ev: sum(isinstance(e, LinkUp) for e in ev) == 2)
@@ -340,3 +343,15 @@ def test_no_frame_from_a_robot_brings_the_manager_side_down(caplog) -> None:
     # (which frames reach a new subscriber first is up to PUB/SUB)
     assert len([m for m in logged if "robot 4: bad pose feedback frame: " in m]) == 1
     assert all(len(m) < 1000 and "\n" not in m for m in logged)
+
+
+def test_a_fleet_whose_robots_would_start_off_its_map_is_refused(tmp_path: Path) -> None:
+    command = free_ports(1)[0]
+    (tmp_path / "robots.txt").write_text("1 127.0.0.1 {} u v1 red\n".format(command))
+    tunnel = REPO.parent / "shared" / "data" / "mapf-ir" / "maps" / "tunnel.map"
+    proc = fleetctl("virtual-fleet", "--definitions", tmp_path / "robots.txt", "--no-curve",
+                    "--map", tunnel, timeout=60)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines() == [
+        "fleetctl virtual-fleet: robot 1 would start at (1, 8), which is not a free cell of {}; "
+        "give --instance with starts on that map".format(tunnel)]

@@ -164,7 +164,8 @@ def test_replanning_around_a_robot_disabled_for_good(lab_run) -> None:
         answer = ops.ask("replan", time_limit=5.0)
         assert answer.ok, answer.reason
         proposal = ops.wait_for(lambda c: c.session.proposal, timeout=60, why="a proposal")
-        assert ops.state.run.proposal == proposal.id and ops.state.run.state == "paused"
+        ops.wait_for(lambda c: c.state.run.proposal == proposal.id and c.state.run.state == "paused",
+                     timeout=5, why="the state naming the proposal")
         plan = proposal.plan.positions
         robots = list(proposal.plan.robots)
         stays = plan[:, robots.index(5)]

@@ -11,14 +11,15 @@ from typing import Iterator, List, Tuple
 import pytest
 import zmq
 
-from fleet_common.errors import FleetError, RobotDefinitionsError
+from fleet_common.errors import RobotDefinitionsError
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Completed, Failed, Pose, Status
 from fleet_common.wire.command_check import CommandCheck, CommandLimits
 from fleet_common.transport.curve_keys import load_manager_keys, load_robot_keys, make_keys
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import LinkUp, RobotLink, RobotReply
-from virtual_fleet.delays import DelayModel, parse_delay_model
+from fleet_common.delays import parse_delay_model
+from virtual_fleet.delays import FleetDelays
 from virtual_fleet.fleet import FleetThread, VirtualFleet
 from virtual_fleet.kinematics import VirtualNavigator
 from helpers import free_port_block
@@ -76,23 +77,25 @@ def test_turn_goes_the_short_way_to_an_absolute_heading_and_halt_stops_there() -
 
 
 def test_slow_and_stalled_moves_take_longer_and_the_seed_repeats_them() -> None:
-    def duration(model: DelayModel, seed: int) -> float:
+    def duration(model: FleetDelays, seed: int) -> float:
         clock = FakeClock()
         nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, model=model, rng=random.Random(seed))
         nav.start_drive(2.0, 0.0, 0.0)
         return nav.seconds_to_change()
 
-    assert duration(DelayModel(), 1) == pytest.approx(4.0)
-    assert duration(parse_delay_model("slow=1:2"), 1) == pytest.approx(8.0)
-    assert duration(parse_delay_model("stall=1:3"), 1) == pytest.approx(7.0)
-    waits = [duration(parse_delay_model("delay=2"), s) - 4.0 for s in range(20)]
-    assert all(0 <= w <= 2 for w in waits) and len(set(waits)) > 1
-    assert waits == [duration(parse_delay_model("delay=2"), s) - 4.0 for s in range(20)]
+    # times in nominal moves: 2 s each here (one cell at the default 0.5 cells/s)
+    assert duration(FleetDelays(), 1) == pytest.approx(4.0)
+    assert duration(seconds("slow=1:2"), 1) == pytest.approx(8.0)
+    assert duration(seconds("stall=1:3"), 1) == pytest.approx(10.0)
+    waits = [duration(seconds("delay=2"), s) - 4.0 for s in range(20)]
+    assert all(0 <= w <= 4 for w in waits) and len(set(waits)) > 1
+    assert waits == [duration(seconds("delay=2"), s) - 4.0 for s in range(20)]
+    assert duration(seconds("events=bernoulli:1:3-3"), 1) == pytest.approx(4.0 + 6.0)
 
 
 def test_a_stall_holds_the_robot_still_partway() -> None:
     clock = FakeClock()
-    model = parse_delay_model("stall=1:3")
+    model = seconds("stall=1:1.5")
     nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, model=model, rng=random.Random(5))
     nav.start_drive(4.0, 0.0, 0.0)
     seen = []
@@ -104,26 +107,9 @@ def test_a_stall_holds_the_robot_still_partway() -> None:
     assert seen[-1] == 4.0
 
 
-# ---- the delay model's syntax --------------------------------------------------------
-
-def test_delay_model_reads_every_term() -> None:
-    assert parse_delay_model("delay=0.5, slow=0.1:2,stall=0.05:3,dropout=0.01:10") == DelayModel(
-        0.5, 0.1, 2.0, 0.05, 3.0, 0.01, 10.0)
-    assert parse_delay_model("none") == DelayModel()
-
-
-@pytest.mark.parametrize("spec, message", [
-    ("jitter=1", "delay model term 'jitter=1': expected delay=D, slow=P:F"),
-    ("slow=0.5", "delay model term 'slow=0.5': expected slow=P:F with non-negative numbers"),
-    ("stall=2:1", "the probability P must be 0..1"),
-    ("slow=0.5:0.5", "slow=P:F needs F >= 1"),
-    ("delay=1,delay=2", "delay model names delay twice"),
-    ("delay=-1", "expected delay=D with non-negative numbers"),
-])
-def test_delay_model_errors_name_the_term(spec: str, message: str) -> None:
-    with pytest.raises(FleetError) as err:
-        parse_delay_model(spec)
-    assert message in str(err.value)
+def seconds(spec: str) -> FleetDelays:
+    """The model of `spec` for a fleet whose nominal move takes 2 s."""
+    return FleetDelays(parse_delay_model(spec), nominal_s=2.0)
 
 
 # ---- fleets over TCP -----------------------------------------------------------------
@@ -189,8 +175,8 @@ def test_fifty_virtual_robots_each_complete_a_command_round_trip(keys: Path, con
 def test_a_robot_that_drops_out_comes_back_restarted(keys: Path, context) -> None:
     [robot], feedback = definitions(1)
     fleet = VirtualFleet([robot], keys=load_robot_keys(keys), feedback_base=feedback,
-                         time_scale=4.0, model=parse_delay_model("dropout=1:2"), seed=3,
-                         check=CommandCheck(limits=CommandLimits(max_step=None)))
+                         time_scale=4.0, model=FleetDelays(parse_delay_model("dropout=1:2"), nominal_s=1.0),
+                         seed=3, check=CommandCheck(limits=CommandLimits(max_step=None)))
     with FleetThread(fleet):
         links = LinkSet([RobotLink(context, robot, "epoch", keys=load_manager_keys(keys),
                                    host="127.0.0.1")])

@@ -117,7 +117,7 @@ def test_virtual_fleet_serves_every_robot_and_stops_on_ctrl_c(fleet_files: Path,
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--delay-model", "wobble=1"], "fleetctl virtual-fleet: delay model term 'wobble=1'"),
+    (["--delay-model", "wobble=1"], "delay model 'wobble=1': unknown term 'wobble=1'; expected factor="),
     (["--keys", "{tmp}/nokeys"], "robot.key_secret not found: make the keys with `fleetctl keys"),
 ])
 def test_virtual_fleet_errors_are_one_line(tmp_path: Path, args: List[str], message: str) -> None:

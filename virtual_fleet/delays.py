@@ -1,35 +1,29 @@
-"""The virtual fleet's delay and fault model: what can go wrong with a move, and how often.
+"""The delay model (fleet_common.delays) in the virtual fleet's own seconds.
 
-Written on the command line as comma-separated `name=value` terms:
-
-    delay=D          each move starts after a random wait of 0..D seconds
-    slow=P:F         with probability P a move runs F times slower
-    stall=P:S        with probability P a move halts for S seconds partway, then goes on
-    dropout=P:S      with probability P the robot drops out partway through a move (its
-                     sockets close, as at a power cut) and comes back S seconds later as
-                     a restarted robot (new session, command memory lost), where it stopped
-
-e.g. `--delay-model "delay=0.5,slow=0.1:2,stall=0.05:3,dropout=0.01:10"`. Times are in
-the fleet's own (scaled) seconds. `none` (the default) is a perfect fleet.
-Draws come from a per-robot `random.Random`, so a `--seed` makes a run repeatable.
+The model speaks in nominal moves; the fleet's nominal move is one cell at its
+driving speed (`nominal_s` seconds, 2 s at the default 0.5 cells/s). A virtual
+robot draws the fate of each move as it starts it, from its own
+`random.Random` (so a `--seed` makes a run repeatable), with the same draw the
+simulator uses for a whole plan at once. Per-robot terms (`robot=R:F`, BTPG's
+delay-prone robots) go by the robot's index in the definitions, as plan agents do.
 """
 from __future__ import annotations
 
 import random
 from dataclasses import dataclass
-from typing import Dict, Optional
+from typing import Optional
 
-from fleet_common.errors import FleetError
+import numpy as np
 
-__all__ = ["DelayModel", "MoveFate", "parse_delay_model"]
+from fleet_common.delays import DelayModel, draw_fates, robot_profile
+from fleet_common.delays.draw import COLUMNS
 
-_TERMS = {"delay": 1, "slow": 2, "stall": 2, "dropout": 2}
-_HELP = "delay=D, slow=P:F, stall=P:S, dropout=P:S (comma-separated) or none"
+__all__ = ["FleetDelays", "MoveFate"]
 
 
 @dataclass(frozen=True)
 class MoveFate:
-    """What happens to one move: extra wait, speed factor, a stall, a dropout."""
+    """What happens to one move: extra wait, speed factor, a stall, a dropout (seconds)."""
 
     start_delay: float = 0.0
     slowdown: float = 1.0
@@ -38,57 +32,36 @@ class MoveFate:
     dropout_at: Optional[float] = None  # fraction of the move, None: no dropout
 
 
-@dataclass(frozen=True)
-class DelayModel:
-    delay: float = 0.0
-    slow_p: float = 0.0
-    slow_factor: float = 1.0
-    stall_p: float = 0.0
-    stall_s: float = 0.0
-    dropout_p: float = 0.0
-    dropout_s: float = 0.0
+class FleetDelays:
+    """`model` for a fleet of `num_robots` whose nominal move takes `nominal_s` seconds;
+    `for_robot(i)` gives robot i its own view (its profile)."""
+
+    def __init__(self, model: Optional[DelayModel] = None, nominal_s: float = 2.0, seed: int = 0,
+                 num_robots: int = 0, index: int = 0) -> None:
+        self.model = model or DelayModel()
+        self.nominal_s = nominal_s
+        self.seed = seed
+        self.num_robots = num_robots
+        self.index = index
+        factor, prone = robot_profile(self.model, seed, max(num_robots, index + 1))
+        self._factor, self._prone = factor[index:index + 1], prone[index:index + 1]
+
+    @property
+    def dropout_p(self) -> float:
+        return self.model.dropout_p
+
+    @property
+    def dropout_s(self) -> float:
+        """Seconds a robot that drops out stays away."""
+        return self.model.dropout_moves * self.nominal_s
+
+    def for_robot(self, index: int) -> "FleetDelays":
+        return FleetDelays(self.model, self.nominal_s, self.seed, self.num_robots, index)
 
     def draw(self, rng: random.Random) -> MoveFate:
-        """The fate of the next move. Every term draws, so fates do not shift when one
-        term's probability changes."""
-        start = rng.uniform(0.0, self.delay)
-        slow = self.slow_factor if rng.random() < self.slow_p else 1.0
-        stall = self.stall_s if rng.random() < self.stall_p else 0.0
-        stall_at = rng.random()
-        drop = rng.random() < self.dropout_p
-        dropout_at = rng.random()
-        return MoveFate(start, slow, stall, stall_at, dropout_at if drop else None)
-
-
-def parse_delay_model(text: str) -> DelayModel:
-    """The model `text` describes; FleetError naming the bad term otherwise."""
-    text = text.strip()
-    if text in ("", "none"):
-        return DelayModel()
-    values: Dict[str, list] = {}
-    for term in text.split(","):
-        name, eq, rest = term.strip().partition("=")
-        if name not in _TERMS or not eq:
-            raise FleetError("delay model term {!r}: expected {}".format(term.strip(), _HELP))
-        if name in values:
-            raise FleetError("delay model names {} twice".format(name))
-        parts = rest.split(":")
-        try:
-            numbers = [float(p) for p in parts]
-        except ValueError:
-            numbers = []
-        if len(numbers) != _TERMS[name] or any(n < 0 for n in numbers):
-            raise FleetError("delay model term {!r}: expected {} with non-negative numbers".format(
-                term.strip(), {"delay": "delay=D", "slow": "slow=P:F", "stall": "stall=P:S",
-                               "dropout": "dropout=P:S"}[name]))
-        if name != "delay" and numbers[0] > 1:
-            raise FleetError("delay model term {!r}: the probability P must be 0..1".format(
-                term.strip()))
-        values[name] = numbers
-    if "slow" in values and values["slow"][1] < 1:
-        raise FleetError("delay model: slow=P:F needs F >= 1 (F times slower)")
-    slow = values.get("slow", [0.0, 1.0])
-    stall = values.get("stall", [0.0, 0.0])
-    dropout = values.get("dropout", [0.0, 0.0])
-    return DelayModel(values.get("delay", [0.0])[0], slow[0], slow[1], stall[0], stall[1],
-                      dropout[0], dropout[1])
+        """The fate of this robot's next move."""
+        u = np.array([[rng.random() for _ in range(COLUMNS)]])
+        f = draw_fates(self.model, u, self._factor, self._prone)
+        s = self.nominal_s
+        return MoveFate(float(f.wait[0]) * s, float(f.slowdown[0]), float(f.stall[0]) * s,
+                        float(f.stall_at[0]), float(f.dropout_at[0]) if f.dropout[0] > 0 else None)

@@ -35,8 +35,9 @@ from fleet_common.transport.truth_stream import TruthPublisher
 from fleet_common.transport.zap import ZapHandler
 from fleet_common.wire.command_check import CommandCheck
 
-from .delays import DelayModel
+from .delays import FleetDelays
 from .kinematics import VirtualNavigator
+from .stalls import Stall, stalls_by_robot
 from .truth import TruthRecorder, load_state
 
 __all__ = ["VirtualFleet", "FleetThread", "row_poses"]
@@ -54,7 +55,7 @@ class VirtualFleet:
 
     def __init__(self, robots: Sequence[RobotDefinition], *, keys: Optional[RobotKeys] = None,
                  feedback_base: int = FEEDBACK_PORT, time_scale: float = 1.0,
-                 model: Optional[DelayModel] = None, seed: int = 0, speed: float = 0.5,
+                 model: Optional[FleetDelays] = None, seed: int = 0, speed: float = 0.5,
                  turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
                  clock: Callable[[], float] = time.monotonic,
@@ -62,16 +63,17 @@ class VirtualFleet:
                  check: Optional[CommandCheck] = None, truth: Optional[Path] = None,
                  state: Optional[Path] = None, truth_port: Optional[int] = None,
                  drift: Optional[Dict[int, float]] = None,
-                 bumps: Sequence[Tuple[int, int]] = ()) -> None:
+                 bumps: Sequence[Tuple[int, int]] = (), stalls: Sequence[Stall] = ()) -> None:
         self.robots = on_localhost(robots, path)
         self.check = check or CommandCheck()
         self.ports = feedback_ports(self.robots, feedback_base, path)
-        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps})):
+        for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps}),
+                              ("--stall", {s.robot for s in stalls})):
             unknown = sorted(named - {r.id for r in self.robots})
             if unknown:
                 raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path))
         self.keys = keys
-        self.model = model or DelayModel()
+        self.model = model or FleetDelays()
         self.clock = clock
         self.feedback_rate = feedback_rate
         self.log = log or logging.getLogger("virtual_fleet")
@@ -92,13 +94,15 @@ class VirtualFleet:
             raise
         self.navigators: Dict[int, VirtualNavigator] = {
             r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
-                                   time_scale=time_scale, model=self.model,
+                                   time_scale=time_scale, model=self.model.for_robot(i),
                                    rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
-            for r in self.robots}
+            for i, r in enumerate(self.robots)}
         for robot_id, rate in (drift or {}).items():
             self.navigators[robot_id].start_drifting(rate)
         for robot_id, drive in bumps:
             self.navigators[robot_id].bumps.add(drive)
+        for robot_id, planned in stalls_by_robot(stalls).items():
+            self.navigators[robot_id].stalls.update(planned)
         self.recorder.started({r: n.true_pose() for r, n in self.navigators.items()}, bool(resumed))
         self.endpoints: Dict[int, RobotEndpoint] = {}
         self.away: Dict[int, float] = {}  # robot id -> wall time it comes back

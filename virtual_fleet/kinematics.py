@@ -12,16 +12,17 @@ short way round to an absolute heading.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Set, Tuple
+from typing import Callable, Dict, List, Optional, Set, Tuple
 
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
 
-from .delays import DelayModel, MoveFate
+from .delays import FleetDelays, MoveFate
 
 __all__ = ["VirtualNavigator", "wrap_angle"]
 
@@ -44,7 +45,7 @@ class VirtualNavigator:
     """Kinematic robot; `speed` in cells/s, `turn_speed` in rad/s (fleet seconds)."""
 
     def __init__(self, pose: Pose, *, speed: float = 0.5, turn_speed: float = 1.5,
-                 time_scale: float = 1.0, model: Optional[DelayModel] = None,
+                 time_scale: float = 1.0, model: Optional[FleetDelays] = None,
                  rng: Optional[random.Random] = None,
                  clock: Callable[[], float] = _time.monotonic) -> None:
         if speed <= 0 or turn_speed <= 0 or time_scale <= 0:
@@ -52,7 +53,7 @@ class VirtualNavigator:
         self.speed = speed
         self.turn_speed = turn_speed
         self.time_scale = time_scale
-        self.model = model or DelayModel()
+        self.model = model or FleetDelays()
         self.rng = rng or random.Random(0)
         self.clock = clock
         self._t0 = clock()
@@ -65,6 +66,8 @@ class VirtualNavigator:
         #: drives (1-based) during which the bumper is pressed halfway, as by a visitor's foot
         self.bumps: Set[int] = set()
         self.bump_seconds = 1.0
+        #: drives (1-based) that halt halfway for so many fleet seconds (`virtual_fleet.stalls`)
+        self.stalls: Dict[int, float] = {}
         self._drives = 0
         self._bump_at: Optional[float] = None       # fleet second the bumper is hit in this drive
         self._pressed_until: Optional[float] = None  # fleet second the foot goes away
@@ -83,7 +86,7 @@ class VirtualNavigator:
         heading = math.atan2(dy, dx) if dist > 1e-9 else start.theta
         turn = abs(wrap_angle(heading - start.theta)) / self.turn_speed
         drive = max(dist / self.speed, time - turn)
-        self._lay_out(start, heading, turn, Pose(x, y, heading), drive)
+        self._lay_out(start, heading, turn, Pose(x, y, heading), drive, self.stalls.get(self._drives + 1, 0.0))
         self._drives += 1
         if self._drives in self.bumps and self._segments:
             first, last = self._segments[0].start, self._segments[-1].end
@@ -168,8 +171,10 @@ class VirtualNavigator:
     # ---- internals -------------------------------------------------------------------
 
     def _lay_out(self, start: Pose, heading: float, turn: float, goal: Optional[Pose],
-                 drive: float) -> None:
+                 drive: float, planned_stall: float = 0.0) -> None:
         fate: MoveFate = self.model.draw(self.rng)
+        if planned_stall > 0:  # halfway, whatever the model drew (the draw still happens)
+            fate = dataclasses.replace(fate, stall=fate.stall + planned_stall, stall_at=0.5)
         t = self.now()
         turned = Pose(start.x, start.y, heading)
         plan: List[Tuple[float, Pose]] = [(fate.start_delay, start),

@@ -16,17 +16,20 @@ Tests and benchmarks judge a run by it, not by what the manager believed:
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, TextIO
 
 from fleet_common.errors import FleetError
+from fleet_common.limits import loads_frame, one_line
 from fleet_common.wire.messages import Command, Pose
 
 __all__ = ["TruthRecorder", "load_state"]
 
 POSE_PERIOD = 0.05   # s between truth poses
+MAX_STATE_BYTES = 16 * 1024 * 1024  # a state file of 100,000 robots is 6 MB
 STATE_PERIOD = 0.2   # s between state file writes
 
 
@@ -35,11 +38,14 @@ def load_state(path: Path) -> Dict[int, Pose]:
     if not path.exists():
         return {}
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        return {int(k): Pose(float(v[0]), float(v[1]), float(v[2])) for k, v in data["robots"].items()}
-    except (OSError, ValueError, KeyError, TypeError, IndexError) as err:
+        data = loads_frame(path.read_bytes()[:MAX_STATE_BYTES + 1], max_bytes=MAX_STATE_BYTES)
+        poses = {int(k): Pose(float(v[0]), float(v[1]), float(v[2])) for k, v in data["robots"].items()}
+        if not all(math.isfinite(v) for p in poses.values() for v in (p.x, p.y, p.theta)):
+            raise ValueError("a pose that is not finite")
+        return poses
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError) as err:
         raise FleetError("{}: not a virtual fleet state file ({}); delete it to start afresh".format(
-            path, err)) from err
+            path, one_line(str(err), 100))) from err
 
 
 class TruthRecorder:

@@ -7,5 +7,10 @@ items on it (`AgentLayer`, `ConflictLayer`, `CellIdLayer`, `AxesLayer`,
 source, the keys and the menus. Every layer has the same two methods:
 `relayout(view, options)` when the view or the options change (place
 everything) and `update(state)` for a new fleet state (move what moved).
+
+The live console (`LiveApp`, a `PlayerApp` on a live source) adds `RobotLayer`
+(robots at their reported poses, ghosts, waits, greyed robots),
+`ProposalLayer` and `Banner` on the canvas, and `AdminPanel`, `RobotPanel`
+and `EventList` around it.
 """
 from __future__ import annotations

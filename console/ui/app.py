@@ -42,6 +42,9 @@ FRAME_MS = 33
 class PlayerApp(PlayerActions):
     """The player window on `root`; `source` None plays `scene.plan` with a `PlanClock`."""
 
+    #: milliseconds between polls of the source
+    frame_ms = FRAME_MS
+
     def __init__(self, root: tk.Tk, scene: Scene, options: Optional[ViewOptions] = None,
                  source: Optional[QueueSource] = None, canvas_size: Tuple[int, int] = (900, 680),
                  playing: bool = True, speed: float = DEFAULT_SPEED) -> None:
@@ -131,7 +134,7 @@ class PlayerApp(PlayerActions):
         except Exception:  # one bad frame must not stop the loop
             log.exception("frame failed")
         spent = int((time.perf_counter() - started) * 1000)
-        self._after = self.root.after(max(1, FRAME_MS - spent), self._tick)
+        self._after = self.root.after(max(1, self.frame_ms - spent), self._tick)
 
     def refresh(self) -> None:
         """Poll the source now and draw what changed."""

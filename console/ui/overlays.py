@@ -49,6 +49,10 @@ class HeaderBand:
             if box is None or box[2] <= view.canvas_w - 4:
                 break
 
+    def set_info(self, info: Sequence[str]) -> None:
+        """Line 1 (the live console's plan changes while the window stays)."""
+        self.canvas.itemconfigure(self.line1, text=SEPARATOR.join(info))
+
     def set_status(self, status: str, makespan: int) -> None:
         """The right part of line 2 (play state, speed, orientation)."""
         self._status, self._makespan = status, makespan

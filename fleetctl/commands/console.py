@@ -1,4 +1,4 @@
-"""`fleetctl console`: the operator console; today the plan player (`--replay`)."""
+"""`fleetctl console`: the operator console, live on a manager (`--manager`) or the plan player (`--replay`)."""
 from __future__ import annotations
 
 import argparse
@@ -12,24 +12,51 @@ from .. import filekinds
 from ..options import add_map_dir, map_dirs
 
 NAME = "console"
-HELP = "play a mapf-IR solution (or show an instance) in a window; --screenshot renders a PNG"
+HELP = "watch and steer a running fleet (--manager), or play a mapf-IR solution (--replay)"
 DESCRIPTION = (
-    "Open the console's plan player on a mapf-IR solution (agents move along their paths) or "
-    "instance (agents on their starts, goals marked). Press F1 in the window for the keys. "
-    "With --screenshot PNG the view at time step --at is written as PNG and nothing stays on "
-    "screen (without a display it renders on a private Xvfb). Exit 2 with FILE:LINE: message "
-    "when the file cannot be read."
+    "Without --replay: the live console of the manager at --manager (default tcp://127.0.0.1:7100): the robots "
+    "where they are, the plan, who waits for whom, and the controls of the run; it reconnects "
+    "by itself when the manager comes back. --screenshot PNG saves the window after --after "
+    "seconds and exits; --record DIR saves a frame every --every plan steps; both render on a "
+    "private Xvfb when there is no display. With --replay: the plan player on a mapf-IR "
+    "solution (agents move along their paths) or instance (agents on their starts, goals "
+    "marked); --screenshot PNG writes the view at time step --at. Press F1 in the window for "
+    "the keys. Exit 2 with FILE:LINE: message when a file cannot be read."
 )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--replay", type=Path, metavar="SOLUTION", required=True,
+    from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
+
+    parser.add_argument("--replay", type=Path, metavar="SOLUTION",
                         help="mapf-IR solution (or instance) file to play")
+    live = parser.add_argument_group("live console (without --replay)")
+    live.add_argument("--manager", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
+                      help="the manager's console endpoint (default {})".format(DEFAULT_ENDPOINT))
+    live.add_argument("--keys", type=Path, default=None, metavar="DIR",
+                      help="CurveZMQ key folder with console.key_secret and manager.key (default: "
+                           "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
+    live.add_argument("--no-curve", action="store_true",
+                      help="no CurveZMQ (the manager runs with --no-curve too)")
+    live.add_argument("--name", default=None, help="this console's name in the manager's log and "
+                                                    "event list (default console@HOST)")
+    live.add_argument("--after", type=float, default=5.0, metavar="S",
+                      help="with --screenshot: seconds to watch before saving (default 5)")
+    live.add_argument("--record", type=Path, default=None, metavar="DIR",
+                      help="save the window as DIR/NNNN.png every --every plan steps and at every "
+                           "change of the run (listed in DIR/frames.txt)")
+    live.add_argument("--every", type=float, default=1.0, metavar="N",
+                      help="with --record: plan steps between frames (default 1)")
+    live.add_argument("--close-when-done", type=float, default=None, metavar="S",
+                      help="close the window S seconds after the run is done")
+    live.add_argument("--start-when-ready", action="store_true",
+                      help="press Start once every robot is connected (the demo's console)")
     parser.add_argument("--map", type=Path, metavar="MAP",
                         help="use this .map instead of looking up the file's map_file=")
     add_map_dir(parser)
     parser.add_argument("--screenshot", type=Path, metavar="PNG",
-                        help="write the view at time step --at as PNG and exit")
+                        help="write a PNG and exit: the player's view at time step --at, or the live "
+                             "console's window after --after seconds")
     parser.add_argument("--at", type=float, default=0.0, metavar="T",
                         help="time step for --screenshot (fractions move agents between cells)")
     parser.add_argument("--orientation", choices=("lab", "mapf-ir"), default="lab",
@@ -55,6 +82,40 @@ def _size(text: str) -> Tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.replay is None:
+        return _live(args)
+    return _replay(args)
+
+
+def _live(args: argparse.Namespace) -> int:
+    import socket
+
+    from console.live_console import LiveOptions, run_live_console
+    from console.view_options import ViewOptions
+    from fleet_common.transport.curve_keys import default_keys_dir, load_console_keys
+
+    if args.every <= 0 or args.after < 0:
+        raise FleetError("--every must be positive and --after not negative")
+    try:
+        keys = None if args.no_curve else load_console_keys(args.keys or default_keys_dir())
+    except FleetError as err:
+        raise FleetError("{}; or run with --no-curve (and the manager too)".format(err)) from err
+    options = LiveOptions(
+        name=args.name or "console@{}".format(socket.gethostname()), size=args.size,
+        screenshot=args.screenshot, after=args.after, record=args.record, every=args.every,
+        close_when_done=args.close_when_done, start_when_ready=args.start_when_ready,
+        view=ViewOptions(lines=args.lines, ids=args.ids, orientation=args.orientation))
+    outcome = run_live_console(args.manager, keys, options)
+    if outcome.screenshot is not None:
+        print("{}: the console on {} after {:g} s".format(outcome.screenshot, args.manager, args.after))
+    if args.record is not None:
+        print("{}: {} frames (index in frames.txt)".format(args.record, len(outcome.frames)))
+    print("console closed: {}{}".format(outcome.reason, "; the run is {}".format(outcome.run_state)
+                                        if outcome.run_state else ""), flush=True)
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
     from console.player import run_player, screenshot
     from console.scene import scene_from_instance, scene_from_solution
     from console.view_options import ViewOptions

@@ -1,12 +1,14 @@
-"""`fleetctl demo`: the lab scenario end to end, as far as the product goes today.
+"""`fleetctl demo`: the lab scenario end to end, on virtual robots, in the live console.
 
 Loads the embedded lab (the thesis's 13 x 14 marker grid, its node ids), the
 fleet from robot_definitions.txt and the lab's default instance, checks that
 they agree, plans the run with a built-in solver, validates the plan with the
-one validator, prints what each robot will do, and executes the plan on
-simulated robots with moderate random delays under both synchronization
-strategies (the execution engine the manager uses), reporting collisions.
-Later issues turn this into the virtual run on the robots' own ports.
+one validator, prints what each robot will do and what the execution engine
+predicts under both synchronization strategies with random delays. Then the
+live run (`fleetctl.live_demo`): the virtual fleet, the manager with ADG and
+the live console, a window on a display or headless on a private Xvfb
+recording frames; the run folder gets the run log, the frames and a summary.
+`--plan-only` stops after the predictions.
 """
 from __future__ import annotations
 
@@ -17,7 +19,14 @@ from typing import List
 from fleet_common.errors import FleetError
 
 NAME = "demo"
-HELP = "check and plan the embedded lab scenario and print a summary"
+HELP = "the lab scenario on virtual robots, steered by the manager, watched in the live console"
+DESCRIPTION = (
+    "Check and plan the embedded lab scenario, then run it: five virtual robots on 127.0.0.1 "
+    "(moderate delays, one robot stalls so that another visibly waits for it), the manager with "
+    "ADG and the live console, which presses Start and closes when the run is done (under two "
+    "minutes). With a display the console is a window; without one it runs on a private Xvfb "
+    "and records a frame per plan step. Prints where the run folder (run log, summary, frames) "
+    "is. Ctrl-C stops every process it started.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,8 +40,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--time-limit", type=float, default=10.0, metavar="S")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
-                        help="delays for the simulated execution, as `fleetctl simulate` takes "
+                        help="delays for the predicted execution, as `fleetctl simulate` takes "
                              "them (default: moderate random delays)")
+    parser.add_argument("--log", type=Path, default=None, metavar="DIR",
+                        help="run folders go in DIR: the live run's, and each predicted strategy's "
+                             "simulated run (for `fleetctl report`); default: the live run's where "
+                             "`fleetctl manager` puts them, none for the predictions")
+    parser.add_argument("--plan-only", action="store_true",
+                        help="check, plan and predict; no live run")
+    live = parser.add_argument_group("the live run")
+    live.add_argument("--time-scale", type=float, default=1.5, metavar="K",
+                      help="the virtual robots run K times faster than real ones (default 1.5)")
+    live.add_argument("--fleet-delays", default=None, metavar="SPEC",
+                      help="the virtual fleet's --delay-model (default: moderate start delays "
+                           "and slow moves)")
+    live.add_argument("--stall", default="auto", metavar="auto|none|R:K:S",
+                      help="the stall: auto (a move another robot soon depends on), none, or "
+                           "robot R halts S s in its K-th move (default auto)")
+    live.add_argument("--headless", action="store_true",
+                      help="no window even with a display: a private Xvfb, frames recorded")
+    live.add_argument("--record", action="store_true",
+                      help="record frames with a window too (the window must stay uncovered)")
+    live.add_argument("--linger", type=float, default=3.0, metavar="S",
+                      help="seconds the window stays open after the run is done (default 3)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,27 +105,68 @@ def run(args: argparse.Namespace) -> int:
         print("  " + line)
     if not report.ok:
         return 1
-    return _execute(plan, args)
+    predicted = _execute(plan, args, result.solver, grid, inst)
+    if args.plan_only or predicted != 0:
+        return predicted
+    return _live(inst, plan, result, robots, args)
 
 
-def _execute(plan, args: argparse.Namespace) -> int:
+def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
+    import tempfile
+
+    from fleet_common.formats.solution import make_solution, write_solution
+
+    from ..live_demo import DemoSettings, run_live_demo
+
+    if not args.time_scale > 0 or args.linger < 0:
+        raise FleetError("--time-scale must be positive and --linger not negative")
+    settings = DemoSettings(log_dir=args.log, time_scale=args.time_scale,
+                            seed=args.seed, stall=args.stall, headless=args.headless,
+                            record=args.record, linger=args.linger)
+    if args.fleet_delays is not None:
+        settings.delay_model = args.fleet_delays
+    with tempfile.TemporaryDirectory(prefix="fleetcontrol-plan-") as folder:
+        solution = Path(folder) / "lab_plan.txt"
+        write_solution(make_solution(inst.grid, inst.map_file or "lab.map", plan, inst.starts, inst.goals,
+                                     result.solver, True, int(result.comp_time_ms)), str(solution))
+        return run_live_demo(solution, plan, robots, settings)
+
+
+def _execute(plan, args: argparse.Namespace, solver: str, grid, inst) -> int:
     """The plan on simulated robots under each strategy: what delays do to it."""
     from fleet_common.execution import STRATEGIES
-    from fleet_common.execution.delays import parse_delay_model
+    from fleet_common.delays import parse_delay_model
     from fleet_common.execution.simulate import simulate
 
-    delays = parse_delay_model(args.delay_model)
-    print("execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
+    delays = parse_delay_model(args.delay_model, default="moderate")
+    print("predicted execution on simulated robots ({}; seed {}):".format(delays.describe(), args.seed))
     clean = True
     for name in sorted(STRATEGIES):
-        result = simulate(plan, name, delays, seed=args.seed)
+        result = simulate(plan, name, delays, seed=args.seed, journal=args.log is not None)
         missing = result.unfinished()
         clean = clean and not result.collisions and not missing
         print("  {}: executed makespan {:.1f} (plan {}), {} waits, collisions: {}, "
               "robots at goal: {} of {}".format(
                   name, result.metrics.makespan, plan.makespan, result.metrics.total_waits,
                   len(result.collisions), plan.num_agents - len(missing), plan.num_agents))
+        if args.log is not None:
+            print("    run log: {}".format(_log(args.log, plan, result, solver, grid, inst, delays, args.seed)))
     return 0 if clean else 1
+
+
+def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int) -> Path:
+    """A run folder for one strategy's run, with the plan written as a mapf-IR solution."""
+    import tempfile
+
+    from fleet_common.formats.solution import make_solution, write_solution
+    from fleet_common.runlog.simulated import write_simulation
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "plan.txt"
+        write_solution(make_solution(grid, inst.map_file, plan, inst.starts, inst.goals, solver, True, 0), str(path))
+        lines = ["executed makespan {:.2f} (plan {}), sum of costs {:.2f}, collisions {}".format(
+            result.metrics.makespan, plan.makespan, result.metrics.soc, len(result.collisions))]
+        return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)
 
 
 def _robot_lines(robots, plan, nodes) -> List[str]:

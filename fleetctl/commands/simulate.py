@@ -8,7 +8,7 @@ from typing import Dict, List
 
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
-from fleet_common.execution.delays import FORMS, parse_delay_model
+from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.formats.solution import read_solution
@@ -50,15 +50,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         + " (default adg)")
     parser.add_argument("--lookahead", type=int, default=None, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
-    parser.add_argument("--delay-model", action="append", default=[], metavar="M",
-                        help="how long moves take (repeatable, they combine): " + FORMS
-                        + "; default moderate (random:0.8-1.5 and stall:0.02:3)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed of the delays (default 0)")
+    parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
+                        help="how long moves take, the same language as virtual-fleet's (repeatable, "
+                             "they combine): " + FORMS + "; default moderate (factor=0.8-1.5,stall=0.02:3)")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="random seed of the delays (default: the model's seed=, else 0)")
     parser.add_argument("--disable", action="append", default=[], type=_disable, metavar="ROBOT@STEP",
                         help="robot ROBOT (0-based agent index) stops for good where the plan has it at "
                              "step STEP, like a dead battery (repeatable)")
     parser.add_argument("--per-robot", action="store_true",
                         help="also print a line per robot: moves, arrival, waits, who it waited for")
+    parser.add_argument("--log", type=Path, default=None, metavar="DIR",
+                        help="also write the run as a run folder DIR/<timestamp>/ (plan, events.jsonl "
+                             "in plan steps) for `fleetctl report`")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,8 +80,9 @@ def run(args: argparse.Namespace) -> int:
         print("{}: INVALID: {} problem(s); not simulated (`fleetctl validate` explains)".format(
             name, len(report.errors)))
         return 1
-    delays = parse_delay_model(args.delay_model)
+    delays = parse_delay_model(args.delay_model, default="moderate")
     delays.check_robots(plan.num_agents)
+    seed = args.seed if args.seed is not None else (delays.seed or 0)
     disable: Dict[int, int] = {}
     for robot, step in args.disable:
         if robot >= plan.num_agents:
@@ -86,16 +91,21 @@ def run(args: argparse.Namespace) -> int:
         disable[robot] = step
     settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
     try:
-        result = simulate(plan, args.strategy, delays, seed=args.seed, disable=disable, show=show,
-                          **settings)
+        result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
+                          journal=args.log is not None, **settings)
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
-    for line in _summary(result, plan.makespan, plan.soc, delays.describe(), args.seed):
+    lines = _summary(result, plan.makespan, plan.soc, delays.describe(), seed)
+    for line in lines:
         print(line)
     if args.per_robot:
         for line in _per_robot(result):
             print(line)
+    if args.log is not None:
+        from fleet_common.runlog.simulated import write_simulation
+        print("run log: {}".format(write_simulation(args.log, plan, result, args.solution, delays.spec(),
+                                                    seed, lines)))
     return 0 if not result.collisions and not result.unfinished() else 1
 
 

@@ -16,6 +16,8 @@ import signal
 from pathlib import Path
 from typing import Any, Dict, Optional, Tuple
 
+from fleet_common.delays import FORMS
+
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
 DESCRIPTION = HELP + ". Stops on Ctrl-C or SIGTERM."
@@ -27,11 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "repository's robot_definitions.txt)")
     parser.add_argument("--time-scale", type=_positive, default=1.0, metavar="K",
                         help="run K times faster than real time (default 1)")
-    parser.add_argument("--delay-model", default="none", metavar="SPEC",
-                        help="what goes wrong: comma-separated delay=D, slow=P:F, stall=P:S, "
-                             "dropout=P:S (seconds of fleet time, P a probability per move); "
-                             "default none")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the delay model (default 0)")
+    parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
+                        help="what goes wrong, the same language as `fleetctl simulate --delay-model` "
+                             "(repeatable, they combine): " + FORMS + "; a nominal move is one cell at "
+                             "--speed (2 s by default); default none")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="seed of the delay model (default: the model's seed=, else 0)")
     parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
@@ -59,6 +62,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="robot ID's bumper is pressed halfway through its K-th drive, for "
                              "1 s: it stops with a 'bumper' fault until a stop clears it "
                              "(repeatable)")
+    parser.add_argument("--stall", action="append", default=[], type=_stall, metavar="ID:K:S",
+                        help="robot ID halts S seconds (fleet time) halfway through its K-th drive, "
+                             "then drives on: one robot late on purpose, whatever the delay "
+                             "model says (repeatable)")
     parser.add_argument("--map", type=Path, default=None, metavar="FILE",
                         help="the robots' map: they refuse drives off it or into its obstacles "
                              "(default: the map of --instance, else the lab's when the robots "
@@ -96,6 +103,16 @@ def _bump(text: str) -> tuple:
     return pair
 
 
+def _stall(text: str) -> object:
+    from fleet_common.errors import FleetError
+    from virtual_fleet.stalls import parse_stall
+
+    try:
+        return parse_stall(text)
+    except FleetError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _positive(text: str) -> float:
     try:
         value = float(text)
@@ -120,15 +137,18 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError
     from fleet_common.robots import default_definitions_path, read_robot_definitions
     from fleet_common.transport.curve_keys import default_keys_dir, load_robot_keys
+    from fleet_common.delays import parse_delay_model
     from fleet_common.wire.command_check import CommandCheck, CommandLimits
-    from virtual_fleet.delays import parse_delay_model
+    from virtual_fleet.delays import FleetDelays
     from virtual_fleet.fleet import VirtualFleet
 
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s %(levelname)s %(message)s")
     path = args.definitions or default_definitions_path()
     robots = read_robot_definitions(path)
-    model = parse_delay_model(args.delay_model)
+    spec = parse_delay_model(args.delay_model)
+    seed = args.seed if args.seed is not None else (spec.seed or 0)
+    model = FleetDelays(spec, nominal_s=1.0 / args.speed, seed=seed, num_robots=len(robots))
     try:
         keys = None if args.no_curve else load_robot_keys(args.keys or default_keys_dir())
     except FleetError as err:
@@ -136,11 +156,11 @@ def run(args: argparse.Namespace) -> int:
     poses, grid, map_name = _world(args.instance, args.map, robots)
     limits = CommandLimits(args.max_step or None, args.max_time)
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
-                         time_scale=args.time_scale, model=model, seed=args.seed,
+                         time_scale=args.time_scale, model=model, seed=seed,
                          speed=args.speed, turn_speed=args.turn_speed,
                          start_poses=poses, path=str(path), check=CommandCheck(grid, limits),
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
-                         drift=dict(args.drift), bumps=args.bump)
+                         drift=dict(args.drift), bumps=args.bump, stalls=args.stall)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
@@ -151,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
               fleet.ports[last.id], args.time_scale,
               "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
               "map {} ({}x{})".format(map_name, grid.width, grid.height) if grid is not None
-              else "no map (drives checked for length and time only)"), flush=True)
+              else "no map (drives checked for length and time only)")
+          + "".join("; " + s.describe() for s in args.stall), flush=True)
     try:
         fleet.run(lambda: bool(stopping))
     finally:

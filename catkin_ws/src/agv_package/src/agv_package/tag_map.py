@@ -22,7 +22,8 @@ from typing import Any, Dict, Iterator, NamedTuple, Optional, Union
 
 from fleet_common.errors import FormatError
 from fleet_common.lab import NodeTable, node_table
-from fleet_common.yaml_lines import load_marked, where
+from fleet_common.limits import excerpt
+from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 #: The `tag_map` setting that selects the lab's node table.
 LAB = "lab"
@@ -82,7 +83,7 @@ def node_tag_id(node_id: int) -> int:
 
 def _number(value: Any, what: str, path: str, data: Any, key: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise FormatError("{} must be a number, got {!r}".format(what, value), path,
+        raise FormatError("{} must be a number, got {}".format(what, excerpt(value)), path,
                           *where(data, key))
     return float(value)
 
@@ -101,13 +102,13 @@ def parse_tag_map(text: str, path: str) -> TagMap:
                               path, *where(data["tags"], index))
         tag_id = entry["id"]
         if isinstance(tag_id, bool) or not isinstance(tag_id, int) or tag_id < 0:
-            raise FormatError("id must be a non-negative integer, got {!r}".format(tag_id),
+            raise FormatError("id must be a non-negative integer, got {}".format(excerpt(tag_id)),
                               path, *where(entry, "id"))
         if tag_id in tags:
             raise FormatError("tag {} is listed twice".format(tag_id), path, *where(entry, "id"))
         position = entry["position"]
         if not isinstance(position, list) or len(position) != 2:
-            raise FormatError("position must be [X, Y] in metres, got {!r}".format(position),
+            raise FormatError("position must be [X, Y] in metres, got {}".format(excerpt(position)),
                               path, *where(entry, "position"))
         x = _number(position[0], "position X", path, position, 0)
         y = _number(position[1], "position Y", path, position, 1)
@@ -122,9 +123,7 @@ def load_tag_map(source: Union[str, Path] = LAB) -> TagMap:
     """`"lab"`: the lab's node table; anything else: a YAML tag map file."""
     if str(source) == LAB:
         return TagMap.from_node_table(node_table())
-    try:
-        text = Path(source).read_text(encoding="utf-8")
-    except OSError as err:
-        raise FormatError("cannot read the tag map: {} (or give tag_map: {})".format(
-            err.strerror, LAB), str(source)) from err
-    return parse_tag_map(text, str(source))
+    if not Path(source).is_file():
+        raise FormatError("cannot read the tag map: no such file (or give tag_map: {})".format(
+            LAB), str(source))
+    return parse_tag_map(read_yaml_text(str(source)), str(source))

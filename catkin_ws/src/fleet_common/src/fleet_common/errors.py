@@ -2,7 +2,9 @@
 
 Every reader raises a `FormatError` subclass that names the file, the line (and
 column when known) and what was expected; `str(err)` is the one line the
-command line prints, `FILE:LINE[:COL]: message`.
+command line prints, `FILE:LINE[:COL]: message`. What a reader accepts but
+doubts (an unknown header key) is a `FormatWarning`, issued with
+`warnings.warn` and printed by the command line as `FILE:LINE: warning: ...`.
 """
 from __future__ import annotations
 
@@ -44,6 +46,23 @@ class FormatError(FleetError, ValueError):
         """The same error, naming `path` (readers parse text, then say which file)."""
         self.path = path
         return self
+
+
+class FormatWarning(UserWarning):
+    """Input read as written, but probably not as meant (a misspelled header key)."""
+
+    def __init__(self, message: str, path: Optional[str] = None,
+                 line: Optional[int] = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.path = path
+        self.line = line
+
+    def __str__(self) -> str:
+        where = self.path or "<text>"
+        if self.line is not None:
+            where += ":{}".format(self.line)
+        return "{}: warning: {}".format(where, self.message)
 
 
 class MapFormatError(FormatError):

@@ -35,8 +35,9 @@ import numpy as np
 import yaml
 
 from .errors import TransformError
+from .limits import excerpt
 from .transform2d import FRAMES, Transform2D, check_frame, readable
-from .yaml_lines import load_marked, where
+from .yaml_lines import load_marked, read_yaml_text, where
 
 __all__ = [
     "FRAMES", "Transform2D", "mapf_ir_to_base", "similarity", "scale_translate",
@@ -102,21 +103,18 @@ def parse_transforms(text: str, path: Optional[str] = None) -> Dict[str, Transfo
     out: Dict[str, Transform2D] = {}
     for name, entry in data.items():
         if not isinstance(name, str):
-            raise TransformError("transform name must be text, got {!r}".format(name),
+            raise TransformError("transform name must be text, got {}".format(excerpt(name)),
                                  path, *where(data, name))
         if not isinstance(entry, Mapping):
-            raise TransformError("transform {!r} must be a mapping (source, target, ...), "
-                                 "got {!r}".format(name, entry), path, *where(data, name))
+            raise TransformError("transform {} must be a mapping (source, target, ...), "
+                                 "got {}".format(excerpt(name), excerpt(entry)), path,
+                                 *where(data, name))
         out[name] = Transform2D.from_dict(entry, path)
     return out
 
 
 def load_transforms(path: Union[str, Path]) -> Dict[str, Transform2D]:
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as err:
-        raise TransformError("cannot read: {}".format(err.strerror), str(path)) from err
-    return parse_transforms(text, str(path))
+    return parse_transforms(read_yaml_text(str(path), TransformError), str(path))
 
 
 def dump_transforms(transforms: Mapping[str, Transform2D],

@@ -27,7 +27,7 @@ from .errors import FleetError
 __all__ = [
     "DecodeError", "MAX_FRAME_BYTES", "MAX_JSON_DEPTH", "MAX_NUMBER_CHARS", "MAX_WIRE_TEXT",
     "MAX_WIRE_LIST", "MAX_FILE_BYTES", "MAX_LINE_CHARS", "MAX_INT_DIGITS", "MAX_CELL_DIGITS",
-    "MAX_AGENTS", "MAX_XML_BYTES", "MAX_XML_DEPTH", "MAX_YAML_BYTES", "MAX_DEFINITIONS_BYTES",
+    "MAX_AGENTS", "MAX_GRID_SIDE", "MAX_GRID_CELLS", "MAX_PLAN_STEPS", "MAX_XML_BYTES", "MAX_XML_DEPTH", "MAX_YAML_BYTES", "MAX_DEFINITIONS_BYTES",
     "MAX_NAME_CHARS", "EXCERPT_CHARS", "MAX_MESSAGE_CHARS",
     "loads_frame", "json_depth", "parse_int", "parse_float", "excerpt", "one_line",
 ]
@@ -55,6 +55,11 @@ MAX_INT_DIGITS = 18
 MAX_CELL_DIGITS = 9
 #: Most agents an instance or solution may declare.
 MAX_AGENTS = 1000000
+#: Largest grid built from coordinates (legacy node maps): cells a side, and cells in all.
+MAX_GRID_SIDE = 65536
+MAX_GRID_CELLS = 1 << 24
+#: Most time steps of a plan built from durations (legacy plans).
+MAX_PLAN_STEPS = 100000
 #: Largest legacy XML file, and deepest element nesting in one.
 MAX_XML_BYTES = 64 * 1024 * 1024
 MAX_XML_DEPTH = 256
@@ -212,12 +217,14 @@ def _escape_char(ch: str) -> str:
     return "\\u{:04x}".format(code) if code < 0x10000 else "\\U{:08x}".format(code)
 
 
-def _escaped(text: str, limit: int) -> Tuple[str, int]:
-    """(escaped text of at most about `limit` characters, how many characters it covers)."""
+def _escaped(text: str, limit: int, backslash: bool = True) -> Tuple[str, int]:
+    """(escaped text of at most about `limit` characters, how many characters it covers);
+    `backslash`: escape backslashes too (in quotations, so that escapes are unambiguous)."""
     out: List[str] = []
     size = used = 0
     for ch in text[:limit]:
-        piece = ch if (ch.isprintable() and ch != "\\") else _escape_char(ch)
+        plain = ch.isprintable() and (ch != "\\" or not backslash)
+        piece = ch if plain else _escape_char(ch)
         if size + len(piece) > limit:
             break
         out.append(piece)
@@ -250,10 +257,11 @@ def excerpt(value: Any, limit: int = EXCERPT_CHARS) -> str:
 
 
 def one_line(text: str, limit: int = MAX_MESSAGE_CHARS) -> str:
-    """`text` as one line of at most `limit` characters: control characters escaped,
-    the end cut off with "..." if it is longer."""
-    shown, used = _escaped(text, limit)
+    """`text` as one line of at most `limit` characters: control characters escaped
+    (backslashes are left alone: quotations in it are escaped already), the end cut off
+    with "..." if it is longer."""
+    shown, used = _escaped(text, limit, backslash=False)
     if used == len(text):
         return shown
-    shown, _ = _escaped(text, limit - 3)
+    shown, _ = _escaped(text, limit - 3, backslash=False)
     return shown + "..."

@@ -10,7 +10,10 @@ field, except in the colour field, where `#` and letters or digits are a hex
 colour (`#ff8800`; `#ggg` is then reported as a bad colour).
 Blank lines are ignored. Every field is checked, and ids, host:port pairs and
 Vicon names must be unique; a bad line raises `RobotDefinitionsError` naming
-the file, line and column of the field and what was expected.
+the file, line and column of the field and what was expected, quoting the
+field as a short excerpt. Lines end at LF (a CR before it is dropped) and
+nowhere else, so line numbers are an editor's; the file has at most
+MAX_DEFINITIONS_BYTES of UTF-8.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ from typing import Dict, Iterable, List, Optional, Tuple, Union
 
 from .colours import COLOUR_FORMS, colour_to_rgb, is_tk_colour
 from .errors import RobotDefinitionsError
+from .limits import MAX_DEFINITIONS_BYTES, MAX_INT_DIGITS, MAX_NAME_CHARS, excerpt
 
 __all__ = [
     "RobotDefinition", "parse_robot_definitions", "read_robot_definitions",
@@ -81,30 +85,35 @@ def _valid_host(host: str) -> bool:
 
 def _check_field(name: str, token: str) -> Optional[str]:
     """None when `token` is a valid `name` field, else what was expected."""
+    if not token.isprintable():
+        return "printable characters only"
     if name == "id":
-        return None if token.isdigit() and token.isascii() else "a non-negative integer"
+        ok = token.isdigit() and token.isascii() and len(token) <= MAX_INT_DIGITS
+        return None if ok else "a non-negative integer of at most {} digits".format(MAX_INT_DIGITS)
     if name == "host":
         return None if _valid_host(token) else (
             "an IPv4 address (four numbers 0-255, e.g. 192.168.2.11) or a host name "
             "(letters, digits, hyphens; dot-separated labels)"
         )
     if name == "command_port":
-        ok = token.isdigit() and token.isascii() and 1 <= int(token) <= 65535
+        ok = token.isdigit() and token.isascii() and len(token) <= 5 and 1 <= int(token) <= 65535
         return None if ok else "a port number 1..65535"
     if name == "ssh_user":
         return None if _USER.match(token) else (
             "a user name (letters, digits, '.', '_', '-'; not starting with '-'; at most 32)"
         )
     if name == "colour":
-        return None if is_tk_colour(token) else COLOUR_FORMS
-    return None  # vicon_name: any token
+        return None if len(token) <= MAX_NAME_CHARS and is_tk_colour(token) else COLOUR_FORMS
+    # vicon_name: any token a Vicon name can be
+    return None if len(token) <= MAX_NAME_CHARS else "at most {} characters".format(MAX_NAME_CHARS)
 
 
 def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[RobotDefinition]:
     """The robots defined in `text`, in file order; RobotDefinitionsError if malformed."""
     robots: List[RobotDefinition] = []
     first: Dict[Tuple[str, str], RobotDefinition] = {}  # (what, key) -> first robot using it
-    for number, line in enumerate(text.splitlines(), 1):
+    for number, line in enumerate(text.split("\n"), 1):
+        line = line[:-1] if line.endswith("\r") else line
         fields = _fields(line)
         if not fields:
             continue
@@ -118,7 +127,8 @@ def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[Robot
             expected = _check_field(name, token)
             if expected is not None:
                 raise RobotDefinitionsError(
-                    "bad {} {!r}: expected {}".format(name, token, expected), path, number, column)
+                    "bad {} {}: expected {}".format(name, excerpt(token), expected), path, number,
+                    column)
         values = [token for _, token in fields]
         robot = RobotDefinition(
             int(values[0]), values[1], int(values[2]), values[3], values[4], values[5], number)
@@ -143,11 +153,10 @@ def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[Robot
 
 def read_robot_definitions(path: Union[str, Path, None] = None) -> List[RobotDefinition]:
     """Read and check a definitions file (default: `default_definitions_path()`)."""
+    from .formats.lines import read_text
+
     path = Path(path) if path is not None else default_definitions_path()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise RobotDefinitionsError("cannot read: {}".format(err.strerror), str(path)) from err
+    text = read_text(str(path), RobotDefinitionsError, MAX_DEFINITIONS_BYTES, strict=True)
     return parse_robot_definitions(text, str(path))
 
 

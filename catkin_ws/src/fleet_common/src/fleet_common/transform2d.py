@@ -18,6 +18,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .errors import TransformError
+from .limits import excerpt
 from .yaml_lines import where
 
 #: The frames FleetControl knows (ARCHITECTURE.md): name -> what it is.
@@ -36,8 +37,8 @@ ScaleLike = Union[float, Tuple[float, float]]
 
 def check_frame(name: object, role: str = "frame") -> str:
     if not isinstance(name, str) or name not in FRAMES:
-        raise TransformError("unknown {} {!r}: expected one of {}".format(
-            role, name, ", ".join(sorted(FRAMES))))
+        raise TransformError("unknown {} {}: expected one of {}".format(
+            role, excerpt(name), ", ".join(sorted(FRAMES))))
     return name
 
 
@@ -136,10 +137,10 @@ class Transform2D:
         `yaml_lines.load_marked`, the line and column."""
         if not isinstance(data, Mapping):
             raise _fail("expected a mapping with source, target and either matrix or "
-                        "{}, got {!r}".format("/".join(_READABLE_KEYS), data), path, data)
+                        "{}, got {}".format("/".join(_READABLE_KEYS), excerpt(data)), path, data)
         for key in data:
             if key not in _KEYS:
-                raise _fail("unknown key {!r}: expected {}".format(key, ", ".join(_KEYS)),
+                raise _fail("unknown key {}: expected {}".format(excerpt(key), ", ".join(_KEYS)),
                             path, data, key)
         frames = []
         for key, role in (("source", "reads"), ("target", "writes")):
@@ -207,14 +208,15 @@ def _fail(message: str, path: Optional[str], data: Any, key: Any = None) -> Tran
 
 def _number(value: Any, what: str, path: Optional[str], data: Any, key: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise _fail("{} must be a finite number, got {!r}".format(what, value), path, data, key)
+        raise _fail("{} must be a finite number, got {}".format(what, excerpt(value)), path, data,
+                    key)
     return float(value)
 
 
 def _numbers(value: Any, count: int, what: str, path: Optional[str], data: Any,
              key: Any) -> List[float]:
     if not isinstance(value, list) or len(value) != count:
-        raise _fail("{} must be a list of {} numbers, got {!r}".format(what, count, value),
+        raise _fail("{} must be a list of {} numbers, got {}".format(what, count, excerpt(value)),
                     path, data, key)
     return [_number(v, what, path, value, i) for i, v in enumerate(value)]
 
@@ -235,12 +237,13 @@ def _readable_parts(data: Mapping[str, Any], path: Optional[str]) -> Tuple[Any, 
     else:
         sx = sy = _number(scale, "scale", path, data, "scale")
     if sx <= 0 or sy <= 0:
-        raise _fail("scale must be positive (mirror with flip_y), got {!r}".format(scale),
+        raise _fail("scale must be positive (mirror with flip_y), got {}".format(excerpt(scale)),
                     path, data, "scale")
     rotation = _number(data.get("rotation_deg", 0.0), "rotation_deg", path, data, "rotation_deg")
     translation = _numbers(data.get("translation", [0.0, 0.0]), 2, "translation", path, data,
                            "translation")
     flip = data.get("flip_y", False)
     if not isinstance(flip, bool):
-        raise _fail("flip_y must be true or false, got {!r}".format(flip), path, data, "flip_y")
+        raise _fail("flip_y must be true or false, got {}".format(excerpt(flip)), path, data,
+                    "flip_y")
     return (sx, sy), rotation, translation, flip

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence
 
 
-from fleet_common.control import Event, PlanData, Proposal, RobotInfo, Scene, Waiting
+from fleet_common.control import Bye, Event, PlanData, Proposal, RobotInfo, Scene, Waiting
 from fleet_common.execution import Disabled, Engine, RobotFailed
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
@@ -210,7 +210,7 @@ class Manager:
         if kind in ("fault", "link", "run", "plan", "strategy", "operator", "vicon"):
             self.say("[{:7.1f} s] {}".format(self.now(), text))
         if kind in ("link", "fault", "run", "plan") and robot is not None:
-            self.desk.bump(text)
+            self.desk.bump(text, robot)
 
     def set_state(self, state: str, reason: str = "") -> None:
         if (state, reason) == (self.run_state, self.run_reason):
@@ -475,6 +475,8 @@ class Manager:
                   summary=summary.as_dict())
         self._send(self.desk.broadcast(Event(self._event_seq + 1, round(self.now(), 3), "run", None,
                                              "manager stopping: " + reason), self.clock()))
+        # consoles learn at once that this manager is gone (not after 3.5 s of silence)
+        self._send(self.desk.broadcast(Bye("manager stopping: " + reason), self.clock()))
         if self.runlog is not None:
             self.runlog.close()
         self._close_sockets()

@@ -186,7 +186,7 @@ class Steering:
             return False, "robot {} is already enabled".format(slot.robot_id)
         m.driver.enable(slot, m.now())
         m.note("out", robot=slot.robot_id, why=None, reason="enabled by operator")
-        m.desk.bump("robot {} enabled".format(slot.robot_id))
+        m.desk.bump("robot {} enabled".format(slot.robot_id), slot.robot_id)
         return True, ""
 
     def disable(self, args: Dict[str, Any]) -> Answer:
@@ -200,7 +200,7 @@ class Steering:
         m.driver.handle(Disabled(slot.agent, m.now()), m.now())
         m.driver.drop_pending(slot)
         m.note("out", robot=slot.robot_id, why="disabled", reason="disabled by operator")
-        m.desk.bump("robot {} disabled".format(slot.robot_id))
+        m.desk.bump("robot {} disabled".format(slot.robot_id), slot.robot_id)
         return True, ""
 
     def source(self, args: Dict[str, Any]) -> Answer:
@@ -215,7 +215,7 @@ class Steering:
         changed = m.positions.choose(args["source"], args["robot"])
         if changed:
             m.desk.bump("position source {} for robot{} {}".format(
-                args["source"], "s" if len(changed) > 1 else "", _ids(changed)))
+                args["source"], "s" if len(changed) > 1 else "", _ids(changed)), args["robot"])
         return True, ""
 
     # ---- plans ----------------------------------------------------------------------------

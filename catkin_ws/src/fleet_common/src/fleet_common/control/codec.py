@@ -21,6 +21,7 @@ import numpy as np
 from ..errors import FleetError
 from ..limits import DecodeError, loads_frame
 from . import messages as m
+from .columns import robots_from_columns, robots_to_columns
 from .schema import (AnyObj, Bool, Cell, Checker, Int, ListOf, Num, Obj, Opt, Positions, SchemaError,
                      Str, short)
 
@@ -44,18 +45,18 @@ class ControlProtocolError(FleetError):
     """A console-channel frame that is not a valid message (from the named peer)."""
 
 
+class _RobotColumns(Checker):
+    what = "the robots as columns"
+
+    def __call__(self, value: Any, path: str) -> Any:
+        return robots_from_columns(value, path or "robots")
+
+
 _PLAN = Obj({"id": _ID, "robots": ListOf(_ROBOT), "positions": Positions(),
              "name": _NAME}, optional={"name": ""})
 _WAITING = Obj({"on": ListOf(_ROBOT), "cell": Opt(Cell()), "reason": Str(40)})
 _ACTIVITY = Obj({"kind": Str(20), "index": Opt(Int(0, 2 ** 31)), "x": Opt(_COORD), "y": Opt(_COORD),
                  "angle": Opt(Num(-10.0, 10.0))}, optional={"x": None, "y": None, "angle": None})
-_ROBOT_STATE = Obj({
-    "id": _ROBOT, "link": Str(choices=m.LINK_STATES), "link_reason": _TEXT, "x": Opt(_COORD),
-    "y": Opt(_COORD), "theta": Opt(Num(-10.0, 10.0)), "source": Str(choices=m.SOURCES),
-    "age": Opt(_TIME), "stale": Bool(), "faults": ListOf(_NAME, 32), "out": Opt(Str(20)),
-    "activity": Opt(_ACTIVITY), "done": Int(), "total": Int(), "step": Int(),
-    "waiting": Opt(_WAITING), "behind": Num(0.0, 1e9), "vicon_age": Opt(_TIME),
-    "disagree": Bool()}, optional={"vicon_age": None, "disagree": False})
 _RUN = Obj({
     "state": Str(choices=m.RUN_STATES), "reason": _TEXT, "strategy": _NAME, "lookahead": Int(1, 1000),
     "clock": _TIME, "plan_time": Num(0.0, 1e9), "plan_id": _ID, "arrived": Int(), "robots": Int(),
@@ -73,7 +74,7 @@ SCHEMAS: Dict[str, Checker] = {
     "scene": Obj({"map_name": _NAME, "rows": ListOf(Str(100000), 100000),
                   "robots": ListOf(Obj({"id": _ROBOT, "colour": _NAME, "vicon_name": _NAME}), 100000),
                   "plan": _PLAN, "strategies": ListOf(_NAME, 50), "step_time": Num(0.001, 1e6)}),
-    "state": Obj({"seq": _ID, "version": _ID, "run": _RUN, "robots": ListOf(_ROBOT_STATE, 100000)}),
+    "state": Obj({"seq": _ID, "version": _ID, "run": _RUN, "robots": _RobotColumns()}),
     "answer": Obj({"id": _ID, "ok": Bool(), "reason": _TEXT, "version": _ID}),
     "event": Obj({"seq": _ID, "time": _TIME, "kind": Str(40), "robot": Opt(_ROBOT), "text": _TEXT}),
     "proposal": Obj({"id": _ID, "plan": _PLAN, "message": _TEXT, "soc": Int(0, 2 ** 53),
@@ -85,8 +86,7 @@ SCHEMAS: Dict[str, Checker] = {
 _NESTED: Dict[str, Dict[str, Any]] = {
     "scene": {"plan": m.PlanData, "robots": m.RobotInfo},
     "proposal": {"plan": m.PlanData},
-    "state": {"run": m.RunInfo, "robots": m.RobotState},
-    "robot_state": {"waiting": m.Waiting, "activity": m.Activity},
+    "state": {"run": m.RunInfo},
 }
 
 _TYPES: Dict[str, Type] = {cls.TYPE: cls for cls in m.CONSOLE_MESSAGES + m.MANAGER_MESSAGES}
@@ -95,6 +95,10 @@ _TYPES: Dict[str, Type] = {cls.TYPE: cls for cls in m.CONSOLE_MESSAGES + m.MANAG
 def encode(message: Any) -> bytes:
     """The frame for one of our messages."""
     frame: Dict[str, Any] = {"t": message.TYPE, "v": m.PROTOCOL_VERSION}
+    if isinstance(message, m.State):  # robots as columns (columns.py)
+        frame.update(seq=message.seq, version=message.version, run=_plain(message.run),
+                     robots=robots_to_columns(message.robots))
+        return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")
     frame.update(_plain(message))
     return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")
 
@@ -144,10 +148,7 @@ def _build(cls: Type, fields: Dict[str, Any], where: str) -> Any:
 
 
 def _record(cls: Type, value: Any) -> Any:
-    if value is None:
-        return None
-    key = "robot_state" if cls is m.RobotState else ""
-    return _build(cls, value, key)
+    return None if value is None else _build(cls, value, "")
 
 
 def _load(data: bytes, max_bytes: int) -> Dict[str, Any]:

@@ -14,8 +14,15 @@ out and calls `answer`. What the desk decides alone:
 - heartbeats: a console silent for 1 s is sent one; a console silent for
   `timeout` is forgotten (its socket identity may come back with a hello).
 
-The version is the Lamport clock of the controlled state: `bump(why)` when
-the manager changes something a decision may rest on.
+The version is the Lamport clock of the controlled state: `bump(why, robot)`
+when the manager changes something a decision may rest on, naming the robot
+it concerns (None: the whole run: its state, strategy or plan). A request
+based on an older version is refused when a change since then concerns what
+the request acts on: anything that concerns the whole run, or the robot the
+request names. So an operator disabling robot 3 is refused if robot 3 failed
+(or another console enabled it) since they looked, but not because robot 7's
+link blinked; a strategy switch is refused after another switch or a pause,
+not because a robot restarted.
 """
 from __future__ import annotations
 
@@ -72,19 +79,25 @@ class ControlDesk:
         self.consoles: Dict[Peer, Console] = {}
         self.timeout = timeout
         self.interval = interval
-        self._changes: Deque[Tuple[int, str]] = deque(maxlen=history)
+        self._changes: Deque[Tuple[int, str, Optional[int]]] = deque(maxlen=history)
         self._now = now
 
     # ---- the clock ------------------------------------------------------------------------
 
-    def bump(self, why: str) -> int:
-        """The controlled state changed (`why`, for refusals): the next version."""
+    def bump(self, why: str, robot: Optional[int] = None) -> int:
+        """The controlled state changed (`why`, for refusals), concerning `robot` (None: the
+        whole run): the next version."""
         self.version += 1
-        self._changes.append((self.version, why))
+        self._changes.append((self.version, why, robot))
         return self.version
 
-    def changes_since(self, version: int) -> List[str]:
-        return [why for v, why in self._changes if v > version]
+    def conflicts(self, version: int, robot: Optional[int]) -> Optional[List[str]]:
+        """The changes since `version` that concern a request on `robot` (None: on the whole
+        run); None when they go back further than the desk remembers (all count)."""
+        if version < self.version and (not self._changes or self._changes[0][0] > version + 1):
+            return None
+        return [why for v, why, r in self._changes
+                if v > version and (r is None or (robot is not None and r == robot))]
 
     # ---- frames in ----------------------------------------------------------------------
 
@@ -127,11 +140,13 @@ class ControlDesk:
             refuse(str(err))
             return
         if request.based_on < self.version:
-            changes = self.changes_since(request.based_on)
-            what = "; ".join(changes[-3:]) if changes else "older than this manager remembers"
-            refuse("refused: the state changed since you looked (version {} -> {}: {}); look "
-                   "again and retry".format(request.based_on, self.version, what))
-            return
+            robot = args.get("robot") if request.action in ("enable", "disable", "source") else None
+            changes = self.conflicts(request.based_on, robot)
+            if changes is None or changes:
+                what = "; ".join(changes[-3:]) if changes else "older than this manager remembers"
+                refuse("refused: the state changed since you looked (version {} -> {}: {}); "
+                       "look again and retry".format(request.based_on, self.version, what))
+                return
         if request.based_on > self.version:
             refuse("refused: version {} is newer than this manager's {} (a restarted "
                    "manager?); look again and retry".format(request.based_on, self.version))

@@ -17,8 +17,9 @@ moves on every change an operator's decision may rest on (run state,
 strategy, plan, a robot enabled, disabled, failed or losing its link, a
 position source). Every State and Answer carries it; a Request carries the
 version its sender last saw (`based_on`), and the manager refuses a request
-based on an older version, saying what changed, so nobody acts on a
-picture that is no longer true. Telemetry (poses, progress, waits) does not
+based on an older version when something it acts on changed since (the run,
+or the robot it names; see `desk.py`), saying what changed, so nobody acts on
+a picture that is no longer true. Telemetry (poses, progress, waits) does not
 move it: it changes ten times a second and no decision depends on it.
 
 Coordinates are base-grid cells (origin bottom-left, y up), angles radians.

@@ -13,7 +13,8 @@ decisions out (`Dispatch`: robot r may start its action k now).
     run, engine   progress of a run; the engine
     blocking      robots blocked by out robots, transitively
     metrics       executed makespan, sum of costs, waits, who blocked whom
-    delays, trace, simulate   a one-process simulator and its collision checker
+    trace, simulate   a one-process simulator (delays from fleet_common.delays) and its
+                  collision checker
 """
 from __future__ import annotations
 

@@ -5,6 +5,7 @@
 - `solution`: mapf-IR solution files (solver output, plans)
 - `scen`: MovingAI `.scen` scenarios, convertible to instances
 - `header`: the `key=value` header lines and line plumbing they share
+- `lines`: a file's lines one at a time, within the limits (fleet_common.limits)
 - `mapsearch`: where a `map_file=` name is looked for
 
 Readers return base-frame coordinates (origin bottom-left, y up) and flip

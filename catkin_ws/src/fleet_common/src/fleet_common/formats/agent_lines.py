@@ -3,7 +3,8 @@
 mapf-IR matches agent lines with a regular expression and silently skips any
 line that does not fit (`12, 7,16,18`); here such a line is an error that says
 which field and column break the shape. Cells are checked as written in the
-file (so the message matches what the user sees) and returned in the base frame.
+file (so the message matches what the user sees), one line at a time as the
+file is read (`AgentCells`), and returned in the base frame.
 """
 from __future__ import annotations
 
@@ -12,10 +13,11 @@ from typing import Dict, List, Optional, Tuple
 
 from ..errors import InstanceFormatError
 from ..grid import Coord, Grid
+from ..limits import MAX_CELL_DIGITS
 from .header import MAPF_IR
 
 #: One agent line, exactly as mapf-IR's regular expression reads it.
-AGENT_LINE = re.compile(r"(\d+),(\d+),(\d+),(\d+)")
+AGENT_LINE = re.compile(r"(\d+),(\d+),(\d+),(\d+)", re.ASCII)
 _FIELDS = ("sx", "sy", "gx", "gy")
 
 
@@ -46,33 +48,43 @@ def looks_like_agent_line(line: str) -> bool:
     return "," in line and (first.isdigit() or first in "-+(")
 
 
-def agents_to_base(agent_lines: List[Tuple[int, "re.Match[str]"]], grid: Grid,
-                    orientation: str, path: Optional[str]) -> Tuple[List[Coord], List[Coord]]:
-    """Check every cell (as written in the file) and return base-frame starts, goals."""
-    w, h = grid.width, grid.height
-    flip = orientation == MAPF_IR
-    starts: List[Coord] = []
-    goals: List[Coord] = []
-    taken: Tuple[Dict[Coord, Tuple[int, int]], Dict[Coord, Tuple[int, int]]] = ({}, {})
-    for agent, (no, m) in enumerate(agent_lines):
+class AgentCells:
+    """Checks agent lines one at a time on `grid`: each cell on the map, free, and no two
+    agents starting (or ending) on one cell; `starts` and `goals` in the base frame."""
+
+    def __init__(self, grid: Grid, orientation: str, path: Optional[str]) -> None:
+        self.grid = grid
+        self.flip = orientation == MAPF_IR
+        self.path = path
+        self.starts: List[Coord] = []
+        self.goals: List[Coord] = []
+        self._taken: Tuple[Dict[Coord, Tuple[int, int]], Dict[Coord, Tuple[int, int]]] = ({}, {})
+
+    def add(self, no: int, m: "re.Match[str]") -> None:
+        """Agent line `no`, matched by AGENT_LINE."""
+        agent = len(self.starts)
+        w, h = self.grid.width, self.grid.height
+        for group in range(1, 5):
+            if len(m.group(group)) > MAX_CELL_DIGITS:
+                raise InstanceFormatError("coordinate with more than {} digits".format(
+                    MAX_CELL_DIGITS), self.path, no, m.start(group) + 1)
         sx, sy, gx, gy = (int(v) for v in m.groups())
-        for k, (x, y), out in ((0, (sx, sy), starts), (1, (gx, gy), goals)):
+        for k, (x, y), out in ((0, (sx, sy), self.starts), (1, (gx, gy), self.goals)):
             what = ("start", "goal")[k]
             col = m.start(1 + 2 * k) + 1
             if not (x < w and y < h):
                 raise InstanceFormatError(
                     "{} ({},{}) of agent {} is off the map ({} wide, {} high)".format(
-                        what, x, y, agent, w, h), path, no, col)
-            base = (x, h - 1 - y) if flip else (x, y)
-            if not grid.free[base[1], base[0]]:
+                        what, x, y, agent, w, h), self.path, no, col)
+            base = (x, h - 1 - y) if self.flip else (x, y)
+            if not self.grid.free[base[1], base[0]]:
                 raise InstanceFormatError("{} ({},{}) of agent {} is on a blocked cell".format(
-                    what, x, y, agent), path, no, col)
-            if base in taken[k]:
-                other, other_line = taken[k][base]
+                    what, x, y, agent), self.path, no, col)
+            if base in self._taken[k]:
+                other, other_line = self._taken[k][base]
                 raise InstanceFormatError(
                     "agent {} {}s at ({},{}), where agent {} {}s too (line {})".format(
                         agent, ("start", "end")[k], x, y, other, ("start", "end")[k], other_line),
-                    path, no, col)
-            taken[k][base] = (agent, no)
+                    self.path, no, col)
+            self._taken[k][base] = (agent, no)
             out.append(base)
-    return starts, goals

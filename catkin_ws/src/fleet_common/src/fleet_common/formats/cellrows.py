@@ -4,7 +4,8 @@ A row of a 1,500-agent file is some 15,000 characters and a file has a
 thousand of them, so rows are never parsed entry by entry in Python: each is
 checked by one compiled full match, then all rows become integers in one
 numpy call. Only a row that fails its match is walked entry by entry, to name
-the column and what was expected there.
+the column and what was expected there. `RowReader` takes the rows one at a
+time as the file is read, so a bad row stops the reading there.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ _HEADING = r"[XY]_(?:PLUS|MINUS)"
 # up to 9 digits keeps every coordinate, flipped or not, inside int32
 _ENTRY = r"\(\d{1,9},\d{1,9}\),"
 _ENTRY_HEADING = r"\(\d{1,9},\d{1,9}," + _HEADING + r"\),"
-_ONE = re.compile(r"\((\d{1,9}),(\d{1,9})(?:,(" + _HEADING + r"))?\),")
+_ONE = re.compile(r"\((\d{1,9}),(\d{1,9})(?:,(" + _HEADING + r"))?\),", re.ASCII)
 _NAMES = [o.name for o in sorted(Orientation)]
 _CODES = {name: i for i, name in enumerate(_NAMES)}
 _NAME_ARRAY = np.array(_NAMES, dtype=object)
@@ -32,7 +33,7 @@ def row_pattern(n: int, headings: bool) -> "re.Pattern[str]":
     key = (n, headings)
     if key not in _row_patterns:
         entry = _ENTRY_HEADING if headings else _ENTRY
-        _row_patterns[key] = re.compile("(?:{}){{{}}}".format(entry, n))
+        _row_patterns[key] = re.compile("(?:{}){{{}}}".format(entry, n), re.ASCII)
     return _row_patterns[key]
 
 
@@ -46,7 +47,7 @@ def entries_error(body: str, n: int, headings: Optional[bool], path: Optional[st
         col = offset + pos + 1
         if m is None:
             rest = body[pos:pos + 12]
-            long_number = re.match(r"\(\d*,?\d{10}", body[pos:])
+            long_number = re.match(r"\(\d*,?\d{10}", body[pos:pos + 24], re.ASCII)
             what = ("coordinate with more than 9 digits" if long_number else
                     "expected an entry {}, got {!r}".format(shape, rest))
             return SolutionFormatError(what, path, no, col)
@@ -91,31 +92,41 @@ def parse_cell_list(line: str, prefix: str, n: int, path: Optional[str], no: int
     return _to_int_array(body, 2 * n).reshape(n, 2)
 
 
-def parse_rows(rows: List[str], n: int, path: Optional[str],
-                first_no: int) -> Tuple[np.ndarray, Optional[np.ndarray]]:
-    """Rows `t:(x,y),...` as (T+1, n, 2) ints and (T+1, n) heading codes or None."""
-    head = rows[0].partition(":")[2]
-    headings = re.match(r"\(\d+,\d+,", head) is not None
-    pattern = row_pattern(n, headings)
-    bodies = []
-    for t, row in enumerate(rows):
+class RowReader:
+    """Solution rows `t:(x,y),...` of `n` agents, checked one at a time as they are read
+    (the first row decides whether entries carry headings); `arrays()` at the end."""
+
+    def __init__(self, n: int, path: Optional[str]) -> None:
+        self.n = n
+        self.path = path
+        self.headings = False
+        self.pattern: Optional["re.Pattern[str]"] = None
+        self.bodies: List[str] = []
+
+    def add(self, row: str, no: int) -> None:
+        t = len(self.bodies)
+        if self.pattern is None:
+            self.headings = re.match(r"\(\d+,\d+,", row.partition(":")[2], re.ASCII) is not None
+            self.pattern = row_pattern(self.n, self.headings)
         prefix = "%d:" % t
-        no = first_no + t
         if not row.startswith(prefix):
-            m = re.match(r"(\d+):", row)
+            m = re.match(r"(\d{1,18}):", row, re.ASCII)
             what = ("steps must count 0, 1, 2, ...: expected step {}, got {}".format(t, m.group(1))
                     if m else "expected '{}' (step number and ':') at the start of a solution "
                     "row".format(prefix))
-            raise SolutionFormatError(what, path, no, 1)
+            raise SolutionFormatError(what, self.path, no, 1)
         body = row[len(prefix):]
-        if pattern.fullmatch(body) is None:
-            raise entries_error(body, n, headings, path, no, len(prefix))
-        bodies.append(body)
-    joined = "".join(bodies)
-    if not headings:
-        return _to_int_array(joined, 2 * n * len(rows)).reshape(len(rows), n, 2), None
-    flat = _to_int_array(joined, 3 * n * len(rows)).reshape(len(rows), n, 3)
-    return flat[..., :2], _HEADING_CODE[flat[..., 2]]
+        if self.pattern.fullmatch(body) is None:
+            raise entries_error(body, self.n, self.headings, self.path, no, len(prefix))
+        self.bodies.append(body)
+
+    def arrays(self) -> Tuple[np.ndarray, Optional[np.ndarray]]:
+        """The rows as (T+1, n, 2) ints and (T+1, n) heading codes or None."""
+        joined, rows, n = "".join(self.bodies), len(self.bodies), self.n
+        if not self.headings:
+            return _to_int_array(joined, 2 * n * rows).reshape(rows, n, 2), None
+        flat = _to_int_array(joined, 3 * n * rows).reshape(rows, n, 3)
+        return flat[..., :2], _HEADING_CODE[flat[..., 2]]
 
 
 def flip_cells(cells: np.ndarray, height: int) -> np.ndarray:

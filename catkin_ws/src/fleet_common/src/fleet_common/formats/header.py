@@ -7,25 +7,30 @@ the first `=`, spaces included: older mapf-IR wrote `instance= x`), so writing
 a header back reproduces its bytes. Typed accessors turn a bad value into the
 caller's `FormatError` subclass naming the file and the line of that entry.
 
+Values are quoted in errors as short escaped excerpts (never megabytes, never
+a CR that breaks the one-line message), and numbers are read within the limits
+of `fleet_common.limits` (an integer of 5,000 digits is an error here, not a
+ValueError from `int()`). `unknown_keys` warns about keys a format does not
+know, naming the nearest known one: mapf-IR ignores such keys silently, so a
+misspelled `max_timestep=` would otherwise do nothing without a word.
+
 The text helpers below are shared by every line-based format here: files are
 decoded as UTF-8 with `surrogateescape` and line endings (LF or CRLF) and the
-final newline are remembered, so read-then-write reproduces a file's bytes.
+final newline are remembered, so read-then-write reproduces a file's bytes
+(`lines.py` reads them one at a time).
 """
 from __future__ import annotations
 
+import difflib
 import re
-from typing import Iterator, List, NamedTuple, Optional, Tuple, Type, Union
+from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple, Type, Union
 
-from ..errors import FormatError
+from ..errors import FormatError, FormatWarning
+from ..limits import MAX_INT_DIGITS, DecodeError, excerpt, parse_float, parse_int
+from .lines import read_text  # noqa: F401 (whole-text readers import it from here)
 
-_INT = re.compile(r"-?\d+")
-_NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
-
-
-def read_text(path: str) -> str:
-    """A file's text; undecodable bytes survive a write back unchanged."""
-    with open(path, "rb") as f:
-        return f.read().decode("utf-8", "surrogateescape")
+_INT = re.compile(r"-?\d+", re.ASCII)
+_NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?", re.ASCII)
 
 
 def write_text(path: str, text: str) -> None:
@@ -121,9 +126,9 @@ class Header:
     # -- typed access ------------------------------------------------------
     def _fail(self, key: str, expected: str, error_cls: Type[FormatError]) -> FormatError:
         e = self.entry(key)
-        shown = "" if e is None else e.value
+        shown = excerpt("" if e is None else e.value)
         return error_cls(
-            "'{}=' must be {}, got '{}'".format(key, expected, shown),
+            "'{}=' must be {}, got {}".format(key, expected, shown),
             self.path,
             None if e is None else e.line,
         )
@@ -135,10 +140,14 @@ class Header:
         value = self.get(key)
         if value is None:
             return None
+        expected = "an integer" if minimum is None else "an integer >= {}".format(minimum)
         if _INT.fullmatch(value) is None:
-            expected = "an integer" if minimum is None else "an integer >= {}".format(minimum)
             raise self._fail(key, expected, error_cls)
-        number = int(value)
+        try:
+            number = parse_int(value)
+        except DecodeError:
+            raise self._fail(key, "{} of at most {} digits".format(expected, MAX_INT_DIGITS),
+                             error_cls) from None
         if minimum is not None and number < minimum:
             raise self._fail(key, "an integer >= {}".format(minimum), error_cls)
         return number
@@ -150,23 +159,42 @@ class Header:
             return None
         if not value.isdigit() or not value.isascii():
             raise self._fail(key, "0 or 1", error_cls)
-        return int(value) != 0
+        return value.strip("0") != ""  # any number but 0, however long
 
     def get_number(self, key: str, error_cls: Type[FormatError]) -> Optional[Union[int, float]]:
         """An int when written as one, else a float (comp_time in older mapf-IR)."""
         value = self.get(key)
         if value is None:
             return None
-        if _INT.fullmatch(value):
-            return int(value)
-        if _NUMBER.fullmatch(value) is None:
-            raise self._fail(key, "a number", error_cls)
-        return float(value)
+        try:
+            if _INT.fullmatch(value):
+                return parse_int(value)
+            if _NUMBER.fullmatch(value) is not None:
+                return parse_float(value)
+        except DecodeError:
+            raise self._fail(key, "a number of at most {} digits".format(MAX_INT_DIGITS),
+                             error_cls) from None
+        raise self._fail(key, "a number", error_cls)
 
     def get_str(self, key: str) -> Optional[str]:
         """The value without surrounding spaces (older mapf-IR wrote `instance= x`)."""
         value = self.get(key)
         return None if value is None else value.strip()
+
+    def unknown_keys(self, known: Sequence[str], what: str) -> List[FormatWarning]:
+        """A warning for each entry whose key is not in `known`, naming its line and the
+        nearest known key; `what` names the file kind ("an instance")."""
+        out = []
+        for e in self.entries:
+            if e.key in known:
+                continue
+            lowered = {k.lower(): k for k in known}
+            near = difflib.get_close_matches(e.key.lower(), list(lowered), n=1, cutoff=0.6)
+            hint = " (did you mean '{}'?)".format(lowered[near[0]]) if near else ""
+            out.append(FormatWarning(
+                "unknown key {}{} in {}; mapf-IR ignores it, and so does FleetControl".format(
+                    excerpt(e.key), hint, what), self.path, e.line))
+        return out
 
     # -- protocol ----------------------------------------------------------
     def __iter__(self) -> Iterator[Tuple[str, str]]:

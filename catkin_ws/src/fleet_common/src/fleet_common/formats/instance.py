@@ -12,9 +12,15 @@
 Lines starting with `#` are comments, blank lines are allowed. mapf-IR reads
 these lines by regular expression and silently drops any it does not
 recognise (`12, 7,16,18`, `1,2,3`, surplus agent lines); we raise an
-`InstanceFormatError` naming the line and column instead. With
-`random_problem=1` mapf-IR draws starts and goals itself: such a file has no
-agent lines and `starts`/`goals` stay empty (`is_random`).
+`InstanceFormatError` naming the line and column instead, and a key it does
+not know gets a `FormatWarning` naming the nearest known one (`max_titep=`).
+With `random_problem=1` mapf-IR draws starts and goals itself: such a file
+has no agent lines and `starts`/`goals` stay empty (`is_random`).
+
+Lines are checked as they are read: the header is checked, and the map read,
+at the first agent line (mapf-IR, too, reads agent lines only after the map
+and the number of agents), and each agent line is checked on the map there,
+so a 50 MB file with a bad line 33 is refused after 33 lines.
 
 Coordinates in the file are top-left, y down, unless the header says
 `orientation=base`; `starts`/`goals` are always base frame. Agents are
@@ -24,22 +30,27 @@ endings are kept, so writing an unchanged instance reproduces its bytes.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from ..errors import InstanceFormatError
+from ..errors import FormatWarning, InstanceFormatError
 from ..grid import Coord, Grid
+from ..limits import MAX_AGENTS, excerpt
+from .agent_lines import AGENT_LINE, AgentCells, agent_line_error, looks_like_agent_line
 from .header import (
-    BASE, MAPF_IR, Header, check_orientation, file_orientation, header_for_orientation,
-    join_lines, read_text, split_lines, write_text,
+    BASE, MAPF_IR, ORIENTATION_KEY, Header, check_orientation, file_orientation,
+    header_for_orientation, join_lines, write_text,
 )
-from .agent_lines import AGENT_LINE, agent_line_error, agents_to_base, looks_like_agent_line
+from .lines import Lines, open_lines, text_lines
 from .mapsearch import load_map_grid
 
 _KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 #: Keys mapf-IR understands; each may appear once.
 KNOWN_KEYS = ("map_file", "agents", "seed", "random_problem", "max_timestep",
               "max_comp_time", "well_formed")
+#: Keys that change how agent lines read: they must come before the first one.
+_LAYOUT_KEYS = ("map_file", "agents", "random_problem", ORIENTATION_KEY)
 #: mapf-IR's defaults (default_params.hpp), used for fresh files.
 DEFAULT_MAX_TIMESTEP = 5000
 DEFAULT_MAX_COMP_TIME = 60000
@@ -69,6 +80,8 @@ class Instance:
         self.layout: List[Tuple[str, str]] = list(layout or [])
         self.newline = newline
         self.final_newline = final_newline
+        #: what the reader doubted (unknown header keys), also issued as warnings
+        self.warnings: List[FormatWarning] = []
 
     def _int(self, key: str) -> Optional[int]:
         return self.header.get_int(key, InstanceFormatError, minimum=0)
@@ -118,17 +131,37 @@ def parse_instance(
     The map is looked for in the file's folder, then `map_dirs`
     (None: `default_map_dirs()`).
     """
-    lines, newline, final_newline = split_lines(text)
+    return _parse(text_lines(text, path, InstanceFormatError), path, map_dirs, grid)
+
+
+def read_instance(path: str, map_dirs: Optional[Sequence[Path]] = ()) -> Instance:
+    with open_lines(str(path), InstanceFormatError) as lines:
+        return _parse(lines, str(path), map_dirs, None)
+
+
+def _parse(lines: Lines, path: Optional[str], map_dirs: Optional[Sequence[Path]],
+           grid: Optional[Grid]) -> Instance:
     header = Header(path=path)
     layout: List[Tuple[str, str]] = []
-    agent_lines: List[Tuple[int, "re.Match[str]"]] = []
-    for no, line in enumerate(lines, 1):
+    cells: Optional[AgentCells] = None
+    agents = 0
+    map_file = ""
+    for no, line in lines:
         if line.startswith("#") or not line.strip():
             layout.append(("text", line))
             continue
         m = AGENT_LINE.fullmatch(line)
         if m is not None:
-            agent_lines.append((no, m))
+            if cells is None:  # the first agent line: the header is complete
+                map_file, agents = _check_header(header, no, path)
+                orientation = file_orientation(header, InstanceFormatError)
+                if grid is None:
+                    grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
+                cells = AgentCells(grid, orientation, path)
+            if len(cells.starts) == agents:
+                raise InstanceFormatError("more agent lines than agents={} (line {})".format(
+                    agents, header.line_of("agents")), path, no)
+            cells.add(no, m)
             layout.append(_AGENT_SLOT)
             continue
         key, eq, value = line.partition("=")
@@ -136,6 +169,10 @@ def parse_instance(
             if key in KNOWN_KEYS and key in header:
                 raise InstanceFormatError("'{}=' given twice (first on line {})".format(
                     key, header.line_of(key)), path, no)
+            if cells is not None and key in _LAYOUT_KEYS:
+                raise InstanceFormatError(
+                    "'{}=' after the agent lines; it says how they read, so it must come before "
+                    "them".format(key), path, no)
             header.append(key, value, no)
             layout.append(_KEY_SLOT)
             continue
@@ -143,59 +180,62 @@ def parse_instance(
             raise agent_line_error(line, path, no)
         raise InstanceFormatError(
             "expected a comment ('# ...'), a 'key=value' line or an agent line 'sx,sy,gx,gy'; "
-            "got {!r}".format(line), path, no, 1)
+            "got {}".format(excerpt(line)), path, no, 1)
 
-    map_file = _check_header(header, agent_lines, len(lines), path)
-    orientation = file_orientation(header, InstanceFormatError)
-    if grid is None:
-        grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
-    starts, goals = agents_to_base(agent_lines, grid, orientation, path)
-    return Instance(map_file, grid, starts, goals, header, path, orientation, layout,
-                    newline, final_newline)
+    if cells is None:  # no agent lines: a random problem, or an error
+        map_file, agents = _check_header(header, None, path)
+        if grid is None:
+            grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
+        cells = AgentCells(grid, file_orientation(header, InstanceFormatError), path)
+    _check_values(header)
+    if len(cells.starts) < agents and not header.get_bool("random_problem", InstanceFormatError):
+        raise InstanceFormatError(
+            "agents={} but {} agent line(s) 'sx,sy,gx,gy' follow".format(agents, len(cells.starts)),
+            path, header.line_of("agents"))
+    inst = Instance(map_file, cells.grid, cells.starts, cells.goals, header, path,
+                    file_orientation(header, InstanceFormatError), layout, lines.newline,
+                    lines.final_newline)
+    inst.warnings = header.unknown_keys(KNOWN_KEYS + (ORIENTATION_KEY,), "an instance")
+    for warning in inst.warnings:
+        warnings.warn(warning, stacklevel=3)
+    return inst
 
 
-def _check_header(header: Header, agent_lines: List[Tuple[int, "re.Match[str]"]],
-                  num_lines: int, path: Optional[str]) -> str:
-    """Check the known keys and the agent line count; return map_file."""
-    map_file = header.get_str("map_file")
-    if map_file is None:
-        raise InstanceFormatError("missing 'map_file=' line (the map to plan on)", path, 1)
+def _check_header(header: Header, first_agent_line: Optional[int],
+                  path: Optional[str]) -> Tuple[str, int]:
+    """(map_file, agents) once the header is complete: at the first agent line (its number)
+    or at the end of a file without one (None)."""
+    where = 1 if first_agent_line is None else first_agent_line
+    for key, what in (("map_file", "the map to plan on"), ("agents", "the number of agents")):
+        if key not in header:
+            if first_agent_line is None:
+                raise InstanceFormatError("missing '{}=' line ({})".format(key, what), path, 1)
+            raise InstanceFormatError(
+                "agent line before '{}=' ({}); mapf-IR reads agent lines only after it knows "
+                "the map and the number of agents".format(key, what), path, where)
+    map_file = header.get_str("map_file") or ""
     if not map_file:
         raise InstanceFormatError("'map_file=' is empty; expected a .map file name",
                                   path, header.line_of("map_file"))
-    if "agents" not in header:
-        raise InstanceFormatError("missing 'agents=' line (the number of agents)", path, 1)
-    agents = header.get_int("agents", InstanceFormatError, minimum=1)
+    agents = header.get_int("agents", InstanceFormatError, minimum=1) or 0
+    if agents > MAX_AGENTS:
+        raise InstanceFormatError("agents={:,}: more than the {:,} agents FleetControl "
+                                  "reads".format(agents, MAX_AGENTS), path, header.line_of("agents"))
+    _check_values(header)
+    if first_agent_line is not None and header.get_bool("random_problem", InstanceFormatError):
+        raise InstanceFormatError(
+            "agent line with random_problem=1 (line {}); mapf-IR ignores it and draws "
+            "random starts and goals: remove the agent lines or set random_problem=0".format(
+                header.line_of("random_problem")), path, first_agent_line)
+    return map_file, agents
+
+
+def _check_values(header: Header) -> None:
+    """The known keys' values (a bad one fails naming its line)."""
     for key in ("seed", "max_timestep", "max_comp_time"):
         header.get_int(key, InstanceFormatError, minimum=0)
-    random_problem = header.get_bool("random_problem", InstanceFormatError)
+    header.get_bool("random_problem", InstanceFormatError)
     header.get_bool("well_formed", InstanceFormatError)
-    for key in ("map_file", "agents"):
-        key_line = header.line_of(key) or 0
-        if agent_lines and agent_lines[0][0] < key_line:
-            raise InstanceFormatError(
-                "agent line before '{}=' (line {}); mapf-IR reads agent lines only after "
-                "it knows the map and the number of agents".format(key, key_line),
-                path, agent_lines[0][0])
-    if random_problem:
-        if agent_lines:
-            raise InstanceFormatError(
-                "agent line with random_problem=1 (line {}); mapf-IR ignores it and draws "
-                "random starts and goals: remove the agent lines or set random_problem=0".format(
-                    header.line_of("random_problem")), path, agent_lines[0][0])
-    elif len(agent_lines) > (agents or 0):
-        raise InstanceFormatError(
-            "more agent lines than agents={} (line {})".format(agents, header.line_of("agents")),
-            path, agent_lines[agents or 0][0])
-    elif len(agent_lines) < (agents or 0):
-        raise InstanceFormatError(
-            "agents={} but {} agent line(s) 'sx,sy,gx,gy' follow".format(agents, len(agent_lines)),
-            path, header.line_of("agents"))
-    return map_file
-
-
-def read_instance(path: str, map_dirs: Optional[Sequence[Path]] = ()) -> Instance:
-    return parse_instance(read_text(str(path)), str(path), map_dirs)
 
 
 def format_instance(inst: Instance, orientation: Optional[str] = None) -> str:

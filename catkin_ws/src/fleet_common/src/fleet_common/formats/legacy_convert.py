@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import LegacyFormatError, NotConvertibleError
 from ..grid import Coord, Grid
+from ..limits import MAX_GRID_CELLS, MAX_GRID_SIDE, MAX_PLAN_STEPS
 from ..plan import NO_ORIENTATION, Plan
 from ..transform2d import Transform2D
 from .legacy_xml import HEADING_TOL, LegacyAgent, LegacyNodeMap, LegacyPlan, LegacySection, Pose
@@ -56,8 +57,12 @@ def legacy_nodes_to_grid(nodemap: LegacyNodeMap, transform: Optional[Transform2D
     lines: Dict[Coord, int] = {}
     for node in nodemap.nodes:
         fx, fy = to_cells.apply((node.x, node.y))
-        cell = (int(round(fx)), int(round(fy)))
         where = "node {} at ({:g}, {:g})".format(node.id, node.x, node.y)
+        if not (abs(fx) < MAX_GRID_SIDE and abs(fy) < MAX_GRID_SIDE):
+            raise LegacyFormatError("{} is beyond the largest grid FleetControl builds ({:,} "
+                                    "cells a side)".format(where, MAX_GRID_SIDE),
+                                    nodemap.path, node.line)
+        cell = (int(round(fx)), int(round(fy)))
         if max(abs(fx - cell[0]), abs(fy - cell[1])) > tolerance:
             raise LegacyFormatError("{} is not on a cell centre: it maps to cell ({}, {}) "
                                     "through {}".format(where, _fmt(fx), _fmt(fy),
@@ -73,6 +78,10 @@ def legacy_nodes_to_grid(nodemap: LegacyNodeMap, transform: Optional[Transform2D
         cells[node.id] = cell
     width = max(c[0] for c in cells.values()) + 1
     height = max(c[1] for c in cells.values()) + 1
+    if width * height > MAX_GRID_CELLS:
+        raise LegacyFormatError("the nodes span {:,} x {:,} cells, more than the {:,} of the "
+                                "largest grid FleetControl builds".format(
+                                    width, height, MAX_GRID_CELLS), nodemap.path, 1)
     free = np.zeros((height, width), dtype=bool)
     for x, y in cells.values():
         free[y, x] = True
@@ -106,6 +115,9 @@ class _Converter:
     def cell(self, pose: Pose, section: Optional[LegacySection], what: str) -> Coord:
         fx = (pose.x - self.origin[0]) / self.scale
         fy = (pose.y - self.origin[1]) / self.scale
+        if not (abs(fx) < MAX_GRID_SIDE and abs(fy) < MAX_GRID_SIDE):
+            raise self.fail(section, "{} ({:g}, {:g}) is beyond the largest grid FleetControl "
+                            "builds ({:,} cells a side)".format(what, pose.x, pose.y, MAX_GRID_SIDE))
         cell = (int(round(fx)), int(round(fy)))
         if max(abs(fx - cell[0]), abs(fy - cell[1])) > CELL_TOL:
             raise self.fail(section, "{} ({:g}, {:g}) is not on a grid cell: it is at cell "
@@ -121,6 +133,9 @@ class _Converter:
         if not agent.path_found:
             raise self.fail(None, "the planner found no path (pathfound=false)")
         step_time = self.scale / agent.movespeed
+        if not 0 < step_time < math.inf:
+            raise self.fail(None, "movespeed {:g} makes a step of {:g} s".format(
+                agent.movespeed, step_time))
         cells = [self.cell(agent.start, None, "start")]
         headings = [_orientation(agent.start.heading)]
         for section in agent.sections:
@@ -128,13 +143,21 @@ class _Converter:
             b = self.cell(section.goal, section, "end point")
             heading = _orientation(section.goal.heading)
             if a == b:
-                count = int(math.floor(section.duration / step_time + 0.5))
+                count = section.duration / step_time + 0.5
+                if not count < MAX_PLAN_STEPS - len(cells):
+                    raise self.fail(section, "waits {:g} s, more than the {:,} steps of the longest "
+                                    "plan FleetControl builds".format(section.duration,
+                                                                      MAX_PLAN_STEPS))
+                count = int(math.floor(count))
                 cells += [a] * count
                 if count == 0:  # a quick turn: done by the end of the step before
                     headings[-1] = heading
             elif a[0] == b[0] or a[1] == b[1]:
                 dx, dy = np.sign(b[0] - a[0]), np.sign(b[1] - a[1])
                 count = abs(b[0] - a[0]) + abs(b[1] - a[1])
+                if count >= MAX_PLAN_STEPS - len(cells):
+                    raise self.fail(section, "the plan gets longer than the {:,} steps of the "
+                                    "longest plan FleetControl builds".format(MAX_PLAN_STEPS))
                 cells += [(a[0] + int(dx) * i, a[1] + int(dy) * i) for i in range(1, count + 1)]
             else:
                 raise self.fail(section, "diagonal move ({},{})->({},{}) is not along a grid "

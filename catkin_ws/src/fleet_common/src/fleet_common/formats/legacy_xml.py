@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Dict, List, Optional, Tuple, Union
 
 from ..errors import LegacyFormatError
-from .xml_tree import AttributeReader, Element, parse_xml, read_bytes
+from .xml_tree import AttributeReader, Element, parse_xml, read_xml_bytes
 
 #: Positions closer than this (legacy units) are the same; headings within HEADING_TOL degrees.
 POSITION_TOL = 1e-6
@@ -71,7 +71,7 @@ def parse_legacy_node_map(data: Union[str, bytes], path: Optional[str] = None) -
 
 
 def read_legacy_node_map(path: Union[str, Path]) -> LegacyNodeMap:
-    return parse_legacy_node_map(read_bytes(path, LegacyFormatError), str(path))
+    return parse_legacy_node_map(read_xml_bytes(path, LegacyFormatError), str(path))
 
 
 # ---- execution plan ----------------------------------------------------------------
@@ -196,4 +196,4 @@ def parse_legacy_plan(data: Union[str, bytes], path: Optional[str] = None) -> Le
 
 
 def read_legacy_plan(path: Union[str, Path]) -> LegacyPlan:
-    return parse_legacy_plan(read_bytes(path, LegacyFormatError), str(path))
+    return parse_legacy_plan(read_xml_bytes(path, LegacyFormatError), str(path))

@@ -7,7 +7,9 @@ After the version line, one tab-separated line per agent: bucket, map name,
 map width and height, start x y, goal x y, optimal length. Coordinates are
 top-left, y down, like mapf-IR's, so `Scen` keeps them as written and
 `scen_to_instance` flips them once it knows the grid. MAPF benchmarks take
-the first N entries as the agents of an N-agent instance.
+the first N entries as the agents of an N-agent instance. Lines are checked as
+they are read (formats/lines.py); numbers within the limits of
+`fleet_common.limits` (no 5,000-digit bucket, no infinite optimal length).
 """
 from __future__ import annotations
 
@@ -15,8 +17,9 @@ from typing import List, NamedTuple, Optional
 
 from ..errors import ScenFormatError
 from ..grid import Coord, Grid
-from .header import read_text, split_lines
+from ..limits import MAX_CELL_DIGITS, DecodeError, excerpt, parse_float, parse_int
 from .instance import Instance, make_instance
+from .lines import Lines, open_lines, text_lines
 
 _FIELDS = ("bucket", "map", "width", "height", "start x", "start y", "goal x", "goal y",
            "optimal length")
@@ -55,7 +58,7 @@ def _parse_entry(line: str, no: int, path: Optional[str]) -> ScenEntry:
     if len(fields) != len(_FIELDS):
         hint = " (fields are separated by tabs)" if len(fields) == 1 and " " in line else ""
         raise ScenFormatError("expected {} tab-separated fields (bucket, map, width, height, "
-                              "sx, sy, gx, gy, optimal length), got {}{}".format(
+                              "sx, sy, gx, gy, optimal length), got {:,}{}".format(
                                   len(_FIELDS), len(fields), hint), path, no, 1)
     columns = []
     col = 1
@@ -67,10 +70,11 @@ def _parse_entry(line: str, no: int, path: Optional[str]) -> ScenEntry:
         if k == 1:
             continue
         try:
-            value = float(text) if k == 8 else int(text)
-        except ValueError:
-            kind = "a number" if k == 8 else "an integer"
-            raise ScenFormatError("{} must be {}, got {!r}".format(name, kind, text),
+            value = parse_float(text) if k == 8 else parse_int(text, MAX_CELL_DIGITS)
+        except DecodeError:
+            kind = "a finite number" if k == 8 else "an integer of at most {} digits".format(
+                MAX_CELL_DIGITS)
+            raise ScenFormatError("{} must be {}, got {}".format(name, kind, excerpt(text)),
                                   path, no, columns[k]) from None
         if value < 0:
             raise ScenFormatError("{} must not be negative, got {}".format(name, text),
@@ -82,18 +86,32 @@ def _parse_entry(line: str, no: int, path: Optional[str]) -> ScenEntry:
 
 
 def parse_scen(text: str, path: Optional[str] = None) -> Scen:
-    lines, _, _ = split_lines(text)
-    if not lines or lines[0].strip() not in _VERSIONS:
-        got = repr(lines[0]) if lines else "an empty file"
-        raise ScenFormatError("expected 'version 1' on the first line, got {}".format(got),
-                              path, 1)
-    while len(lines) > 1 and not lines[-1].strip():  # trailing blank lines only
-        lines.pop()
-    return Scen([_parse_entry(line, no, path) for no, line in enumerate(lines[1:], 2)], path)
+    return _parse(text_lines(text, path, ScenFormatError), path)
 
 
 def read_scen(path: str) -> Scen:
-    return parse_scen(read_text(str(path)), str(path))
+    with open_lines(str(path), ScenFormatError) as lines:
+        return _parse(lines, str(path))
+
+
+def _parse(lines: Lines, path: Optional[str]) -> Scen:
+    entries: List[ScenEntry] = []
+    blank: List[int] = []  # blank lines so far: allowed at the end only
+    for no, line in lines:
+        if no == 1:
+            if line.strip() not in _VERSIONS:
+                raise ScenFormatError("expected 'version 1' on the first line, got {}".format(
+                    excerpt(line)), path, 1)
+            continue
+        if not line.strip():
+            blank.append(no)
+            continue
+        if blank:
+            _parse_entry("", blank[0], path)  # a blank line inside: the usual message
+        entries.append(_parse_entry(line, no, path))
+    if lines.count == 0:
+        raise ScenFormatError("expected 'version 1' on the first line, got an empty file", path, 1)
+    return Scen(entries, path)
 
 
 def scen_to_instance(scen: Scen, grid: Grid, map_file: str,

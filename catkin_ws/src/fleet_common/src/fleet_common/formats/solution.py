@@ -18,29 +18,39 @@ y down, unless the header says `orientation=base`; in memory everything is
 base frame, headings too (Y_PLUS and Y_MINUS swap when flipping).
 
 Speed: a 1,500-agent, 1,000-step file is 14 MB. Each row is checked by one
-compiled full match and all rows become integers in one numpy call; only a
-row that fails is walked entry by entry to name the column. Whether the plan
-is valid (moves, collisions, soc, off-map cells) is the validator's job.
+compiled full match as it is read (a bad row stops the reading there) and all
+rows become integers in one numpy call; only a row that fails is walked entry
+by entry to name the column. Whether the plan is valid (moves, collisions,
+soc, off-map cells) is the validator's job. Keys mapf-IR does not write get
+a `FormatWarning` (in `warnings`, and issued) naming the nearest known key.
 """
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ..errors import NotConvertibleError, SolutionFormatError
+from ..errors import FormatWarning, NotConvertibleError, SolutionFormatError
 from ..grid import Coord, Grid
+from ..limits import MAX_AGENTS, MAX_NUMBER_CHARS, excerpt
 from ..plan import Plan
+from .cellrows import FLIP_CODE, RowReader, flip_cells, format_cells, parse_cell_list
 from .header import (
-    MAPF_IR, Header, check_orientation, file_orientation, header_for_orientation, join_lines,
-    read_text, split_lines, write_text,
+    MAPF_IR, ORIENTATION_KEY, Header, check_orientation, file_orientation, header_for_orientation,
+    join_lines, write_text,
 )
-from .cellrows import FLIP_CODE, flip_cells, format_cells, parse_cell_list, parse_rows
+from .lines import Lines, open_lines, text_lines
 from .mapsearch import load_map_grid
 
 _KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: Keys mapf-IR's solvers write (and our `orientation=`); others get a warning.
+KNOWN_KEYS = ("instance", "agents", "map_file", "solver", "solved", "soc", "lb_soc", "makespan",
+              "lb_makespan", "comp_time", "preprocessing_comp_time", "iter", ORIENTATION_KEY)
+
+
 class Solution:
     """A solver's output; starts, goals and plan in the base frame."""
 
@@ -58,6 +68,8 @@ class Solution:
         self.orientation = orientation
         self.newline = newline
         self.final_newline = final_newline
+        #: what the reader doubted (unknown header keys), also issued as warnings
+        self.warnings: List[FormatWarning] = []
 
     def _int(self, key: str) -> Optional[int]:
         return self.header.get_int(key, SolutionFormatError)
@@ -92,8 +104,8 @@ class Solution:
                 key, eq, value = ("iter", "=", part) if i == 0 else part.partition("=")
                 if not eq or not key:
                     raise SolutionFormatError(
-                        "expected 'key=value' after ',' in an iter= line, got {!r}".format(part),
-                        self.header.path, e.line, col)
+                        "expected 'key=value' after ',' in an iter= line, got {}".format(
+                            excerpt(part)), self.header.path, e.line, col)
                 record[key] = _number(value)
                 col += len(part) + 1
             out.append(record)
@@ -104,13 +116,17 @@ class Solution:
 
 
 def _number(text: str) -> Union[int, float, str]:
+    """An iter= value: a number when it reads as a (finite, short) one, else the text."""
+    if len(text) > MAX_NUMBER_CHARS:
+        return text
     try:
         return int(text)
     except ValueError:
         try:
-            return float(text)
+            value = float(text)
         except ValueError:
             return text
+        return value if value - value == 0 else text  # not inf or nan
 
 
 def parse_solution(text: str, path: Optional[str] = None,
@@ -120,42 +136,59 @@ def parse_solution(text: str, path: Optional[str] = None,
     The map is looked for in the file's folder, then `map_dirs` (None:
     `default_map_dirs()`).
     """
-    lines, newline, final_newline = split_lines(text)
+    return _parse(text_lines(text, path, SolutionFormatError), path, map_dirs, grid)
+
+
+def read_solution(path: str, map_dirs: Optional[Sequence[Path]] = (),
+                  grid: Optional[Grid] = None) -> Solution:
+    with open_lines(str(path), SolutionFormatError) as lines:
+        return _parse(lines, str(path), map_dirs, grid)
+
+
+def _parse(lines: Lines, path: Optional[str], map_dirs: Optional[Sequence[Path]],
+           grid: Optional[Grid]) -> Solution:
+    numbered = iter(lines)
     header = Header(path=path)
-    no = 0
-    while no < len(lines) and not lines[no].startswith("starts="):
-        key, eq, value = lines[no].partition("=")
+    starts_no = 0
+    for starts_no, line in numbered:
+        if line.startswith("starts="):
+            starts_line = line
+            break
+        key, eq, value = line.partition("=")
         if not eq or not _KEY.fullmatch(key):
             raise SolutionFormatError(
-                "expected a 'key=value' header line (or 'starts='), got {!r}".format(lines[no]),
-                path, no + 1, 1)
-        header.append(key, value, no + 1)
-        no += 1
-    if no == len(lines):
-        raise SolutionFormatError("missing 'starts=' line after the header", path, max(no, 1))
-    for i, want in ((1, "goals="), (2, "solution=")):
-        if no + i >= len(lines) or not lines[no + i].startswith(want):
-            raise SolutionFormatError("expected a '{}' line after '{}'".format(
-                want, lines[no + i - 1].partition("=")[0] + "="), path, min(no + i + 1, len(lines)), 1)
-    if lines[no + 2] != "solution=":
+                "expected a 'key=value' header line (or 'starts='), got {}".format(excerpt(line)),
+                path, starts_no, 1)
+        header.append(key, value, starts_no)
+    else:
+        raise SolutionFormatError("missing 'starts=' line after the header", path,
+                                  max(starts_no, 1))
+    goals_no, goals_line = _expect(numbered, "goals=", "starts=", path, starts_no)
+    solution_no, solution_line = _expect(numbered, "solution=", "goals=", path, goals_no)
+    if solution_line != "solution=":
         raise SolutionFormatError("expected nothing after 'solution=' on its line",
-                                  path, no + 3, len("solution=") + 1)
+                                  path, solution_no, len("solution=") + 1)
     if "agents" not in header:
-        raise SolutionFormatError("missing 'agents=' line before 'starts='", path, no + 1)
+        raise SolutionFormatError("missing 'agents=' line before 'starts='", path, starts_no)
     n = header.get_int("agents", SolutionFormatError, minimum=0) or 0
+    if n > MAX_AGENTS:
+        raise SolutionFormatError("agents={:,}: more than the {:,} agents FleetControl "
+                                  "reads".format(n, MAX_AGENTS), path, header.line_of("agents"))
     orientation = file_orientation(header, SolutionFormatError)
-    starts = parse_cell_list(lines[no], "starts=", n, path, no + 1)
-    goals = parse_cell_list(lines[no + 1], "goals=", n, path, no + 2)
-    rows = lines[no + 3:]
+    starts = parse_cell_list(starts_line, "starts=", n, path, starts_no)
+    goals = parse_cell_list(goals_line, "goals=", n, path, goals_no)
     if grid is None:
         map_file = header.get_str("map_file")
         if not map_file:
             raise SolutionFormatError("missing 'map_file=' line before 'starts=' (needed to find "
-                                      "the map)", path, header.line_of("map_file") or no + 1)
+                                      "the map)", path, header.line_of("map_file") or starts_no)
         grid = load_map_grid(map_file, path, map_dirs, header.line_of("map_file"))
+    rows = RowReader(n, path)
+    for no, row in numbered:
+        rows.add(row, no)
     plan = None
-    if rows:
-        positions, codes = parse_rows(rows, n, path, no + 4)
+    if rows.bodies:
+        positions, codes = rows.arrays()
         if orientation == MAPF_IR:
             positions = flip_cells(positions, grid.height)
             codes = None if codes is None else FLIP_CODE[codes]
@@ -163,15 +196,24 @@ def parse_solution(text: str, path: Optional[str] = None,
     if orientation == MAPF_IR:
         starts, goals = flip_cells(starts, grid.height), flip_cells(goals, grid.height)
     sol = Solution(header, [tuple(c) for c in starts.tolist()], [tuple(c) for c in goals.tolist()],
-                   plan, grid, path, orientation, newline, final_newline)
+                   plan, grid, path, orientation, lines.newline, lines.final_newline)
     for name in ("solved", "soc", "lb_soc", "makespan", "lb_makespan", "comp_time", "iterations"):
         getattr(sol, name)  # a bad value fails now, naming its line, not later
+    sol.warnings = header.unknown_keys(KNOWN_KEYS, "a solution")
+    for warning in sol.warnings:
+        warnings.warn(warning, stacklevel=3)
     return sol
 
 
-def read_solution(path: str, map_dirs: Optional[Sequence[Path]] = (),
-                  grid: Optional[Grid] = None) -> Solution:
-    return parse_solution(read_text(str(path)), str(path), map_dirs, grid)
+def _expect(numbered: Iterator[Tuple[int, str]], want: str, after: str, path: Optional[str],
+            previous: int) -> Tuple[int, str]:
+    """The next line, which must start with `want` (it follows the line `after`)."""
+    what = "expected a '{}' line after '{}'".format(want, after)
+    for no, line in numbered:
+        if not line.startswith(want):
+            raise SolutionFormatError(what, path, no, 1)
+        return no, line
+    raise SolutionFormatError(what, path, previous, 1)
 
 
 def format_solution(sol: Solution, orientation: Optional[str] = None) -> str:

@@ -3,19 +3,25 @@
 `xml.etree` forgets where elements were; every FleetControl error names a
 line, so `parse_xml` records expat's line and column for each start tag, and
 `AttributeReader` turns attributes into numbers with errors that point there.
+Within the limits of `fleet_common.limits`: a file of at most MAX_XML_BYTES
+(its size is checked before it is read), elements nested at most
+MAX_XML_DEPTH deep (the tree is walked without recursion anyway), integers of
+at most MAX_INT_DIGITS digits, and values quoted as short excerpts. Entity
+expansion bombs are refused by expat itself (2.4 and later).
 """
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Type, Union
 from xml.parsers import expat
 
 from ..errors import FormatError
+from ..limits import (EXCERPT_CHARS, MAX_INT_DIGITS, MAX_XML_BYTES, MAX_XML_DEPTH, DecodeError,
+                      one_line, parse_int)
+from .lines import read_bytes
 
-_INT = re.compile(r"[+-]?[0-9]+\Z")
 
 
 @dataclass
@@ -30,9 +36,12 @@ class Element:
 
     def iter(self) -> "List[Element]":
         """This element and all below it, in document order."""
-        out = [self]
-        for child in self.children:
-            out.extend(child.iter())
+        out: List[Element] = []
+        todo = [self]
+        while todo:
+            element = todo.pop()
+            out.append(element)
+            todo.extend(reversed(element.children))
         return out
 
 
@@ -44,6 +53,9 @@ def parse_xml(data: Union[str, bytes], path: Optional[str] = None,
     roots: List[Element] = []
 
     def start(tag: str, attrs: Dict[str, str]) -> None:
+        if len(stack) >= MAX_XML_DEPTH:
+            raise error("elements nested deeper than {}".format(MAX_XML_DEPTH), path,
+                        parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
         element = Element(tag, attrs, parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
@@ -55,6 +67,8 @@ def parse_xml(data: Union[str, bytes], path: Optional[str] = None,
     except expat.ExpatError as err:
         raise error("not well-formed XML: {}".format(expat.ErrorString(err.code)),
                     path, err.lineno, err.offset + 1) from None
+    except UnicodeEncodeError:  # text given in code, with characters UTF-8 cannot hold
+        raise error("not UTF-8 text", path, 1) from None
     return roots[0]
 
 
@@ -70,7 +84,8 @@ class AttributeReader:
 
     def raw(self, el: Element, name: str) -> str:
         if name not in el.attrs:
-            raise self.error(el, "<{}> lacks the attribute {}=\"...\"".format(el.tag, name))
+            raise self.error(el, "<{}> lacks the attribute {}=\"...\"".format(
+                one_line(el.tag, EXCERPT_CHARS), name))
         return el.attrs[name].strip()
 
     def number(self, el: Element, name: str, check: Callable[[float], bool] = math.isfinite,
@@ -81,25 +96,30 @@ class AttributeReader:
         except ValueError:
             value = math.nan
         if not (math.isfinite(value) and check(value)):
-            raise self.error(el, "<{}> {}=\"{}\": expected {}".format(el.tag, name, text, expected))
+            raise self.error(el, "{}: expected {}".format(_shown(el, name, text), expected))
         return value
 
     def integer(self, el: Element, name: str) -> int:
         text = self.raw(el, name)
-        if not _INT.match(text):
-            raise self.error(el, "<{}> {}=\"{}\": expected an integer".format(el.tag, name, text))
-        return int(text)
+        try:
+            return parse_int(text, MAX_INT_DIGITS)
+        except DecodeError:
+            raise self.error(el, "{}: expected an integer of at most {} digits".format(
+                _shown(el, name, text), MAX_INT_DIGITS)) from None
 
     def flag(self, el: Element, name: str) -> bool:
         text = self.raw(el, name).lower()
         if text not in ("true", "false", "1", "0"):
-            raise self.error(el, "<{}> {}=\"{}\": expected true or false".format(
-                el.tag, name, text))
+            raise self.error(el, "{}: expected true or false".format(_shown(el, name, text)))
         return text in ("true", "1")
 
 
-def read_bytes(path: Union[str, Path], error: Type[FormatError] = FormatError) -> bytes:
-    try:
-        return Path(path).read_bytes()
-    except OSError as err:
-        raise error("cannot read: {}".format(err.strerror), str(path)) from err
+def _shown(el: Element, name: str, text: str) -> str:
+    """`<tag> name="value"` for a message, the value cut short and escaped."""
+    return "<{}> {}=\"{}\"".format(one_line(el.tag, EXCERPT_CHARS), name,
+                                   one_line(text, EXCERPT_CHARS))
+
+
+def read_xml_bytes(path: Union[str, Path], error: Type[FormatError] = FormatError) -> bytes:
+    """A file's bytes (expat reads the encoding its declaration names), at most MAX_XML_BYTES."""
+    return read_bytes(str(path), error, MAX_XML_BYTES)

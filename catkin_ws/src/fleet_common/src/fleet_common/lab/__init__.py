@@ -17,6 +17,7 @@ from typing import Dict
 
 from ..frames import load_transforms
 from ..transform2d import Transform2D
+from ..yaml_lines import read_yaml_text
 from .node_table import NodeTable, parse_node_table
 
 __all__ = [
@@ -57,4 +58,4 @@ def base_to_robot() -> Transform2D:
 def node_table() -> NodeTable:
     """The lab's nodes (read once; the table is not changed by its users)."""
     path = lab_nodes_path()
-    return parse_node_table(path.read_text(encoding="utf-8"), str(path), base_to_robot())
+    return parse_node_table(read_yaml_text(str(path)), str(path), base_to_robot())

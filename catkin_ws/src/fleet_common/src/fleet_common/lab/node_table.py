@@ -12,6 +12,7 @@ from typing import Any, Dict, Iterable, List, Optional, Tuple
 import numpy as np
 
 from ..errors import FormatError
+from ..limits import MAX_GRID_CELLS, excerpt
 from ..grid import Coord, Grid
 from ..transform2d import Transform2D
 from ..yaml_lines import load_marked, where
@@ -86,14 +87,14 @@ class NodeTable:
 
 def _int(value: Any, what: str, path: str, data: Any, key: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise FormatError("{} must be a non-negative integer, got {!r}".format(what, value),
+        raise FormatError("{} must be a non-negative integer, got {}".format(what, excerpt(value)),
                           path, *where(data, key))
     return value
 
 
 def _pair(value: Any, what: str, path: str, data: Any, key: Any) -> List[Any]:
     if not isinstance(value, list) or len(value) != 2:
-        raise FormatError("{} must be a pair [a, b], got {!r}".format(what, value),
+        raise FormatError("{} must be a pair [a, b], got {}".format(what, excerpt(value)),
                           path, *where(data, key))
     return value
 
@@ -105,6 +106,9 @@ def parse_node_table(text: str, path: str, to_metres: Transform2D) -> NodeTable:
         raise FormatError("expected a mapping with width, height and nodes", path, *where(data))
     width = _int(data["width"], "width", path, data, "width")
     height = _int(data["height"], "height", path, data, "height")
+    if width * height > MAX_GRID_CELLS:
+        raise FormatError("a {:,} x {:,} grid is larger than the {:,} cells FleetControl "
+                          "builds".format(width, height, MAX_GRID_CELLS), path, *where(data))
     nodes = data["nodes"]
     if not isinstance(nodes, list):
         raise FormatError("nodes must be a list", path, *where(data, "nodes"))
@@ -132,6 +136,7 @@ def parse_node_table(text: str, path: str, to_metres: Transform2D) -> NodeTable:
         if not numeric or np.hypot(position[0] - expected[0],
                                    position[1] - expected[1]) > POSITION_TOLERANCE:
             raise FormatError("position {} of node {} disagrees with {} ({:.3f}, {:.3f})".format(
-                position, node_id, to_metres.name(), *expected), path, *where(node, "position"))
+                excerpt(position), node_id, to_metres.name(), *expected), path,
+                *where(node, "position"))
         entries.append((node_id, cell))
     return NodeTable(width, height, entries, to_metres)

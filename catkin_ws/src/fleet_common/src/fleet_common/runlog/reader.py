@@ -7,11 +7,11 @@ not know are kept (readers of a newer log still see what they know).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Dict, Iterator, List, Optional, Union
 
 from ..errors import FleetError, FormatError
+from ..limits import MAX_FILE_BYTES, MAX_LINE_CHARS, DecodeError, loads_frame, one_line
 from .records import DEFINITIONS_FILE, EVENTS_FILE, FORMAT_VERSION
 
 __all__ = ["RunFolder", "RunLogError", "read_run"]
@@ -71,23 +71,28 @@ def read_run(folder: Union[str, Path]) -> RunFolder:
     if not path.is_file():
         raise RunLogError("not a run folder: no {} in it".format(EVENTS_FILE), str(folder))
     try:
-        lines = path.read_text(encoding="utf-8", errors="replace").split("\n")
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise RunLogError("{:,} bytes; at most {:,} are read".format(size, MAX_FILE_BYTES),
+                              str(path))
+        lines = path.read_bytes().split(b"\n")
     except OSError as err:
         raise FleetError("cannot read {}: {}".format(path, err.strerror)) from err
-    if lines and lines[-1] == "":
+    if lines and lines[-1] == b"":
         lines.pop()
     records: List[Record] = []
     torn = False
     for number, line in enumerate(lines, 1):
         try:
-            record = json.loads(line)
+            record = loads_frame(line, max_bytes=MAX_LINE_CHARS)
             if not isinstance(record, dict) or not isinstance(record.get("k"), str):
-                raise ValueError("not an object with a kind 'k'")
-        except (ValueError, RecursionError) as err:
+                raise DecodeError("not an object with a kind 'k'")
+        except DecodeError as err:
             if number == len(lines):
                 torn = True  # cut off by a crash: everything before it stands
                 break
-            raise RunLogError("damaged line: {}".format(str(err)[:80]), str(path), number) from None
+            raise RunLogError("damaged line: {}".format(one_line(str(err), 80)), str(path),
+                              number) from None
         records.append(record)
     if not records or records[0]["k"] != "run":
         raise RunLogError("the first line is not the run's 'run' record", str(path), 1)

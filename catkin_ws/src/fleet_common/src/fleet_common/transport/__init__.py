@@ -7,6 +7,7 @@ way of binding, connecting, securing (CurveZMQ) and polling.
 
     curve_keys       key files: who may drive the robots
     zap              the ZAP handler that admits only the manager key
+    peers            peer addresses for the logs; clients the CURVE handshake refused
     robot_endpoint   one robot's command (ROUTER) and feedback (PUB) sockets
     robot_loop       many robot endpoints served from one thread
     robot_link       the manager's connection to one robot (DEALER + SUB), reconnecting

@@ -26,8 +26,11 @@ Every module here is pure (stdlib only, Python 3.8): `messages`, `codec`,
 messages out; an illegal message raises `LocalProtocolError` or
 `RemoteProtocolError` and changes nothing), `executor` (`CommandExecutor`: a
 command id seen before is acknowledged again, never executed twice; one
-command at a time; stop preempts), `navigator` (the `Navigator` interface it
-drives), `liveness` (heartbeat timing), `ports`. The sockets, robot side and
+command at a time; stop preempts), `command_check` (what the robot's world
+forbids: off the map, into obstacles, more than a step, too long), `navigator`
+(the `Navigator` interface it drives), `liveness` (heartbeat timing), `ports`.
+Decoding is total (`fleet_common.limits`): any bytes are a message or a
+`MalformedFrameError`. The sockets, robot side and
 manager side, live in `fleet_common.transport`.
 """
 from __future__ import annotations

@@ -1,0 +1,65 @@
+"""Recording a live run as pictures: a frame every N plan steps, and at each change of the run.
+
+`FrameSchedule` decides (pure): a frame when the first state is shown, when
+the run's state changes (waiting, running, paused, done, ...), and each time
+the plan's clock passes another multiple of `every` steps. `Recorder` writes
+the frames as NNNN.png through the grab function it is given (the window's
+pixels, `console.ui.capture`), and one line per frame in `frames.txt`
+(file, run state, plan step, run clock), so a headless run leaves a picture
+story of itself.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Callable, List, Optional
+
+from fleet_common.control import RunInfo
+
+__all__ = ["FrameSchedule", "Recorder"]
+
+
+class FrameSchedule:
+    def __init__(self, every: float = 1.0) -> None:
+        if not every > 0:
+            raise ValueError("frames every {} steps: expected a positive number".format(every))
+        self.every = every
+        self._state: Optional[str] = None
+        self._slot = -1
+
+    def due(self, run: Optional[RunInfo]) -> bool:
+        """Whether the picture showing `run` should be saved."""
+        if run is None:
+            return False
+        slot = int(math.floor(run.plan_time / self.every + 1e-9)) if run.clock > 0 else -1
+        changed = run.state != self._state
+        moved = slot > self._slot
+        self._state, self._slot = run.state, max(slot, self._slot)
+        return changed or moved
+
+
+class Recorder:
+    def __init__(self, folder: Path, grab: Callable[[Path], None], every: float = 1.0) -> None:
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.grab = grab
+        self.schedule = FrameSchedule(every)
+        self.frames: List[Path] = []
+        self._index = self.folder / "frames.txt"
+        self._index.write_text("# file  run state  plan step  run clock (s)\n")
+
+    def offer(self, run: Optional[RunInfo]) -> Optional[Path]:
+        """Save a frame if one is due for `run`; the file written, if any."""
+        if not self.schedule.due(run):
+            return None
+        return self.save(run)
+
+    def save(self, run: Optional[RunInfo]) -> Path:
+        path = self.folder / "{:04d}.png".format(len(self.frames) + 1)
+        self.grab(path)
+        self.frames.append(path)
+        with self._index.open("a") as index:
+            index.write("{}  {}  {:.2f}  {:.2f}\n".format(
+                path.name, run.state if run else "-", run.plan_time if run else 0.0,
+                run.clock if run else 0.0))
+        return path

@@ -1,0 +1,215 @@
+"""AdminPanel: the operator's controls on the left of the live console (thesis fig. 5.5).
+
+Top to bottom: the connection to the manager (in red when it is lost), the
+run (state, clock, arrivals), the run buttons, the strategy and position
+source selectors, the manager's last answer, and the robot list: id in the
+robot's colour, link, pose source and age, an enabled box, the current
+action, whom it waits for. Greyed robots stay in the list, greyed, with why.
+
+Every control only asks (`on_action(action, args)`, which sends a request);
+what the panel shows comes from the manager's state, so a box ticked here
+shows the manager's view as soon as it answers, and a refused request
+changes nothing but the answer line.
+"""
+from __future__ import annotations
+
+import tkinter as tk
+from tkinter import ttk
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+from fleet_common.control import RunInfo
+
+from ..live.describe import RobotRow
+from ..live.feed import CONNECTED, LOST, Connection, Reply
+from ..live.model import reply_text
+from .table import scrolled_table
+
+Action = Callable[..., None]
+
+ENABLED, DISABLED = "\u2611", "\u2610"
+FONT = ("DejaVu Sans", -12)
+BOLD = ("DejaVu Sans", -13, "bold")
+COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 118),
+           ("waits", "waits for", 74))
+#: Buttons of the run, in rows: (label, action).
+RUN_BUTTONS = ((("Start", "start"), ("Pause", "pause"), ("Step", "step"), ("Stop", "stop")),
+               (("Halt", "halt"), ("Replan", "replan"), ("Accept", "accept"), ("Reject", "reject")))
+
+
+class AdminPanel(ttk.Frame):
+    def __init__(self, master: tk.Misc, on_action: Action, on_pick: Callable[[Optional[int]], None]) -> None:
+        super().__init__(master, padding=(6, 4))
+        self.on_action = on_action
+        self.on_pick = on_pick
+        self.connection = ttk.Label(self, font=BOLD, wraplength=330, justify=tk.LEFT)
+        self.connection.pack(anchor=tk.W, fill=tk.X)
+        self.run = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
+        self.run.pack(anchor=tk.W, fill=tk.X, pady=(2, 4))
+        self.buttons: Dict[str, ttk.Button] = {}
+        for line in RUN_BUTTONS:
+            bar = ttk.Frame(self)
+            bar.pack(fill=tk.X)
+            for label, action in line:
+                b = ttk.Button(bar, text=label, width=7, takefocus=0,
+                               command=lambda a=action: self._button(a))
+                b.pack(side=tk.LEFT, padx=1, pady=1)
+                self.buttons[action] = b
+        self._proposal: Optional[int] = None
+        for action in ("accept", "reject"):
+            self.buttons[action].state(["disabled"])  # until a proposal waits
+        self._build_selectors()
+        self.answer = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
+        self.answer.pack(anchor=tk.W, fill=tk.X, pady=(4, 4))
+        self._rows: Dict[int, RobotRow] = {}     # what each row shows
+        self._row_of: Optional[Callable[[int], RobotRow]] = None  # what a row should show
+        self._order: List[int] = []              # robot ids, top row first
+        self._writing = False
+        self._build_list()
+
+    # -- building ----------------------------------------------------------------------
+
+    def _build_selectors(self) -> None:
+        box = ttk.Frame(self)
+        box.pack(fill=tk.X, pady=(6, 0))
+        ttk.Label(box, text="strategy").grid(row=0, column=0, sticky=tk.W)
+        self.strategy = tk.StringVar(self)
+        self.strategy_box = ttk.Combobox(box, textvariable=self.strategy, state="readonly", width=8,
+                                         takefocus=0)
+        self.strategy_box.grid(row=0, column=1, sticky=tk.W, padx=4)
+        self.strategy_box.bind("<<ComboboxSelected>>", lambda e: self._strategy())
+        ttk.Label(box, text="lookahead").grid(row=0, column=2, sticky=tk.W)
+        self.lookahead = tk.StringVar(self, value="1")
+        spin = ttk.Spinbox(box, from_=1, to=20, width=3, textvariable=self.lookahead, takefocus=0,
+                           command=self._strategy)
+        spin.grid(row=0, column=3, sticky=tk.W, padx=4)
+        ttk.Label(box, text="positions").grid(row=1, column=0, sticky=tk.W, pady=(4, 0))
+        self.source = tk.StringVar(self, value="robot")
+        for k, (text, value) in enumerate((("Robot", "robot"), ("Vicon", "vicon"))):
+            ttk.Radiobutton(box, text=text, value=value, variable=self.source, takefocus=0,
+                            command=lambda: self.on_action("source", source=self.source.get())).grid(
+                row=1, column=1 + k, sticky=tk.W, pady=(4, 0))
+
+    def _build_list(self) -> None:
+        ttk.Label(self, text="Robots (click the box to enable / disable)", font=FONT).pack(anchor=tk.W)
+        self.tree = scrolled_table(self, COLUMNS, "Robots.Treeview", FONT, 20, 8, "action", tree_column="id",
+                                   on_scroll=self._write_visible)
+        self.tree.column("#0", width=50, stretch=False)
+        self.tree.column("on", anchor=tk.CENTER)
+        self.tree.tag_configure("grey", foreground="#8a8a86")
+        self.tree.tag_configure("late", background="#fff2b8")
+        self.tree.tag_configure("waiting", background="#ffe1e1")
+        self.tree.bind("<ButtonRelease-1>", self._clicked)
+        self._swatches: List[tk.PhotoImage] = []
+
+    def set_fleet(self, robot_ids: Sequence[int], colours: Sequence[str], strategies: Sequence[str]) -> None:
+        """A new scene: one row per robot, a swatch of its colour beside its id."""
+        self.tree.delete(*self.tree.get_children())
+        self._rows = {}
+        self._order = list(robot_ids)
+        self._row_of = None
+        self._swatches = []
+        for rid, colour in zip(robot_ids, colours):
+            swatch = tk.PhotoImage(master=self, width=12, height=12)
+            swatch.put(colour, to=(0, 0, 12, 12))
+            self._swatches.append(swatch)
+            self.tree.insert("", tk.END, iid=str(rid), text=" {}".format(rid), image=swatch)
+        self.strategy_box.configure(values=list(strategies))
+
+    # -- showing -----------------------------------------------------------------------
+
+    def show_connection(self, connection: Connection) -> None:
+        colour = {CONNECTED: "#1d6b22", LOST: "#c8101a"}.get(connection.status, "#8a5a00")
+        text = "MANAGER LOST: " + connection.text if connection.status == LOST else connection.text
+        self.connection.configure(text=text, foreground=colour)
+
+    def show_run(self, run: Optional[RunInfo]) -> None:
+        if run is None:
+            self.run.configure(text="no run yet")
+            return
+        parts = ["run {}{}".format(run.state, ": " + run.reason if run.reason else ""),
+                 "clock {:.1f} s, plan step {:.1f}".format(run.clock, run.plan_time),
+                 "arrived {} of {}, collisions {}, closest {}".format(
+                     run.arrived, run.robots, run.collisions,
+                     "-" if run.min_distance is None else "{:.2f} cells".format(run.min_distance))]
+        if run.replanning:
+            parts.append("replanning...")
+        self.run.configure(text="\n".join(parts))
+        self._proposal = run.proposal
+        for action in ("accept", "reject"):
+            self.buttons[action].state(["!disabled"] if run.proposal is not None else ["disabled"])
+        self._writing = True
+        try:
+            if self.strategy.get() != run.strategy:
+                self.strategy.set(run.strategy)
+            if self.focus_get() is None or not str(self.focus_get()).endswith("spinbox"):
+                self.lookahead.set(str(run.lookahead))
+        finally:
+            self._writing = False
+
+    def show_rows(self, row_of: Callable[[int], RobotRow]) -> None:
+        """Rows from `row_of(robot id)`: only those in view are made and written if they changed
+        (300 rows a refresh would cost more than the map); the others when they scroll in."""
+        self._row_of = row_of
+        self._write_visible()
+
+    def _write_visible(self) -> None:
+        ids = self._order
+        if not ids:
+            return
+        top, bottom = self.tree.yview()
+        first = max(0, int(top * len(ids)) - 2)
+        last = min(len(ids), int(bottom * len(ids) + 0.999) + 2)
+        for rid in ids[first:last]:
+            r = self._row_of(rid) if self._row_of is not None else None
+            if r is None or self._rows.get(rid) == r:
+                continue
+            self._rows[rid] = r
+            tags = ("grey",) if r.grey else ("waiting",) if r.blocked else ("late",) if r.behind else ()
+            self.tree.item(str(rid), tags=tags, values=(
+                r.link, r.grey if r.grey else r.pose, ENABLED if r.enabled else DISABLED, r.action, r.waiting))
+
+    def show_source(self, source: str) -> None:
+        if self.source.get() != source:
+            self.source.set(source)
+
+    def show_reply(self, reply: Reply) -> None:
+        self.answer.configure(text="manager: " + reply_text(reply) if reply.sent else reply_text(reply),
+                              foreground="#1d6b22" if reply.ok else "#c8101a")
+
+    def mark(self, robot_id: Optional[int]) -> None:
+        """Show `robot_id` as the selected row (no callback)."""
+        if robot_id is None or not self.tree.exists(str(robot_id)):
+            self.tree.selection_set(())
+            return
+        self.tree.selection_set((str(robot_id),))
+        self.tree.see(str(robot_id))
+
+    # -- asking ------------------------------------------------------------------------
+
+    def _button(self, action: str) -> None:
+        if action in ("accept", "reject"):
+            if self._proposal is not None:
+                self.on_action(action, proposal=self._proposal)
+            return
+        self.on_action(action)
+
+    def _strategy(self) -> None:
+        if self._writing or not self.strategy.get():
+            return
+        args: Dict[str, Any] = {"name": self.strategy.get()}
+        if self.strategy.get() == "adg":
+            try:
+                args["lookahead"] = max(1, int(self.lookahead.get()))
+            except ValueError:
+                pass
+        self.on_action("strategy", **args)
+
+    def _clicked(self, event: "tk.Event[ttk.Treeview]") -> None:
+        iid = self.tree.identify_row(event.y)
+        if not iid:
+            return
+        rid = int(iid)
+        if self.tree.identify_column(event.x) == "#3":  # the enabled box
+            row = self._rows.get(rid)
+            self.on_action("disable" if row is None or row.enabled else "enable", robot=rid)
+        self.on_pick(rid)

@@ -1,0 +1,109 @@
+"""One cell of a sweep: one simulated run, and the row of the results table it gives.
+
+Pure apart from the clock (`wall_s`): a cell is a plain `Cell` and a
+`LoadedPlan`, so it runs the same in this process, a local worker or a Dask
+worker. The delay draws depend on the plan, model and seed only, so the
+strategies of one seed meet the very same delays (paired comparison).
+
+With `disable`, the robot stops for good at that plan step; with `recover:
+replan`, once the run stalls (nothing moves and robots wait for the disabled
+one), the others are replanned from where they stand (`planning.replan`,
+the disabled robot an obstacle) and the new plan runs under the same
+strategy and delay model (seed + 1); times add up.
+"""
+from __future__ import annotations
+
+import json
+import time
+from typing import Any, Dict, List, Optional
+
+from fleet_common.delays import parse_delay_model
+from fleet_common.execution.simulate import SimResult, simulate
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
+from fleet_common.planning.replan import replan
+
+from .plans import LoadedPlan
+from .spec import Cell
+
+#: Columns of the results table, in order.
+COLUMNS = ("key", "plan", "solver", "agents", "strategy", "delay", "p", "seed", "disable", "recover",
+           "plan_makespan", "plan_soc", "makespan", "soc", "makespan_ratio", "soc_ratio",
+           "wait_total", "wait_mean", "wait_max", "waits", "held_time", "wait_by_robot", "blocked_by",
+           "collisions", "reached", "finished", "replanned", "moves", "wall_s")
+
+Row = Dict[str, Any]
+
+
+def strategy_label(cell: Cell) -> str:
+    return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings)
+
+
+def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
+    began = time.perf_counter()
+    model = parse_delay_model(cell.delay, default="none")
+    p = Plan(plan.positions)
+    settings = dict(cell.settings)
+    disable = {}
+    if cell.disable != "none":
+        robot, step = cell.disable.split("@")
+        disable[int(robot) % p.num_agents] = int(step)
+    first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, **settings)
+    second: Optional[SimResult] = None
+    if cell.recover == "replan" and first.unfinished():
+        current = first.trace.final_cells()
+        result = replan(Grid(plan.free), current, plan.goals, set(first.disabled_at), deadline=30.0,
+                        seed=cell.seed)
+        if result.plan is not None:
+            second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, **settings)
+    row = _row(cell, plan, p, first, second)
+    row["wall_s"] = round(time.perf_counter() - began, 4)
+    return row
+
+
+def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Optional[SimResult]) -> Row:
+    n = p.num_agents
+    m1 = first.metrics
+    waits = [r.wait_time for r in m1.robots]
+    held = sum(r.held_time for r in m1.robots)
+    blocked: Dict[int, float] = {}
+    for r in m1.robots:
+        for q, t in r.blocked_by.items():
+            blocked[q] = blocked.get(q, 0.0) + t
+    arrival: List[Optional[float]] = [r.arrival for r in m1.robots]
+    makespan, collisions, count = m1.makespan, len(first.collisions), m1.total_waits
+    moves = sum(r.moves for r in m1.robots)
+    if second is not None:
+        t0, m2 = first.end_time, second.metrics
+        for r, rm in enumerate(m2.robots):
+            waits[r] += rm.wait_time
+            held += rm.held_time
+            for q, t in rm.blocked_by.items():
+                blocked[q] = blocked.get(q, 0.0) + t
+        final = second.trace.final_cells()
+        for r, rm in enumerate(m2.robots):
+            if tuple(final[r]) != tuple(plan.goals[r]) or r in first.disabled_at or rm.arrival is None:
+                arrival[r] = None  # stranded, or the robot that is out
+            elif second.engine.table.count(r) or arrival[r] is None:
+                arrival[r] = t0 + rm.arrival
+        makespan = max(makespan, t0 + m2.makespan) if m2.last_completion is not None else makespan
+        collisions += len(second.collisions)
+        count += m2.total_waits
+        moves += sum(r.moves for r in m2.robots)
+    reached = [a for a in arrival if a is not None]
+    soc = float(sum(reached))
+    return {
+        "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
+        "strategy": strategy_label(cell), "delay": cell.delay, "p": cell.p, "seed": cell.seed,
+        "disable": cell.disable, "recover": cell.recover,
+        "plan_makespan": p.makespan, "plan_soc": p.soc,
+        "makespan": round(makespan, 6), "soc": round(soc, 6),
+        "makespan_ratio": round(makespan / p.makespan, 6) if p.makespan else 1.0,
+        "soc_ratio": round(soc / p.soc, 6) if p.soc else 1.0,
+        "wait_total": round(sum(waits), 6), "wait_mean": round(sum(waits) / n, 6) if n else 0.0,
+        "wait_max": round(max(waits), 6) if n else 0.0, "waits": count, "held_time": round(held, 6),
+        "wait_by_robot": json.dumps([round(w, 4) for w in waits]),
+        "blocked_by": json.dumps({str(q): round(t, 4) for q, t in sorted(blocked.items())}),
+        "collisions": collisions, "reached": len(reached), "finished": len(reached) == n,
+        "replanned": second is not None, "moves": moves,
+    }

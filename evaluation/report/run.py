@@ -1,0 +1,238 @@
+"""The report of one run folder, from its records alone (manager or `fleetctl simulate --log`).
+
+Charts (each keeps the numbers it plots in `Chart.data`):
+
+    gantt      per robot, over time: moving (action started -> completed), turning
+               (a turn command -> its completion), waiting and on whom (`waits`),
+               disabled, faults (`out` failed, `fault`)
+    progress   position along the plan over time: the plan step each robot has
+               reached, executed against planned (planned only when time is in steps)
+    deviation  distance of each reported pose (robot feedback, Vicon) from where the
+               robot should be: its cell at rest, the segment of its move while moving
+
+and the events list (everything but poses and waits, which the charts show).
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections import defaultdict
+from typing import Any, Dict, List, Optional, Tuple
+
+from fleet_common.runlog import RunFolder
+
+from .figures import Chart, new_figure, to_png
+from .html import Page, Table
+
+COLOURS = {"moving": "#3a9a3a", "turning": "#4a7fc1", "waiting": "#f0a020", "delayed": "#b58ad6",
+           "disabled": "#999999", "fault": "#d03030"}
+Span = Tuple[float, float]
+MAX_EVENTS = 2000
+
+
+def _end(run: RunFolder) -> float:
+    return max((float(r.get("t", 0.0)) for r in run.records), default=0.0)
+
+
+def timelines(run: RunFolder) -> Dict[int, Dict[str, List[Any]]]:
+    """Per robot id, its spans by state; waiting spans carry the robots waited for."""
+    end = _end(run)
+    lines: Dict[int, Dict[str, List[Any]]] = {r: defaultdict(list) for r in run.robots}
+    started: Dict[Tuple[int, int], float] = {}
+    dispatched: Dict[Tuple[int, int], float] = {}
+    free_at: Dict[int, float] = {}  # when each robot last completed a move
+    turns: Dict[Tuple[int, Any], float] = {}
+    out_since: Dict[int, Tuple[str, float]] = {}
+    fault_since: Dict[int, float] = {}
+    waiting: Dict[int, Tuple[float, Tuple[int, ...]]] = {}
+    for rec in run.records:
+        k, t = rec.get("k"), float(rec.get("t", 0.0))
+        robot = rec.get("robot")
+        if k == "dispatch":
+            dispatched[(robot, rec["index"])] = t
+        elif k == "action":
+            if rec.get("phase") == "started":
+                started[(robot, rec["index"])] = t
+                ready = max(dispatched.pop((robot, rec["index"]), t), free_at.get(robot, 0.0))
+                if t > ready + 1e-9:  # it had its move but did not start: a delay
+                    lines.setdefault(robot, defaultdict(list))["delayed"].append((ready, t))
+            elif (robot, rec["index"]) in started:
+                lines.setdefault(robot, defaultdict(list))["moving"].append((started.pop((robot, rec["index"])), t))
+                free_at[robot] = t
+        elif k == "command" and rec.get("type") == "turn":
+            turns[(robot, rec.get("id"))] = t
+        elif k == "reply" and rec.get("type") in ("completed", "failed") and (robot, rec.get("id")) in turns:
+            lines.setdefault(robot, defaultdict(list))["turning"].append((turns.pop((robot, rec.get("id"))), t))
+        elif k == "out":
+            if robot in out_since:
+                why, since = out_since.pop(robot)
+                lines.setdefault(robot, defaultdict(list))[why].append((since, t))
+            if rec.get("why") is not None:
+                out_since[robot] = ("fault" if rec["why"] == "failed" else "disabled", t)
+        elif k == "fault":
+            if rec.get("faults") and robot not in fault_since:
+                fault_since[robot] = t
+            elif not rec.get("faults") and robot in fault_since:
+                lines.setdefault(robot, defaultdict(list))["fault"].append((fault_since.pop(robot), t))
+        elif k == "waits":
+            now = {w[0]: tuple(w[1]) for w in rec.get("w", [])}
+            for r, (since, on) in list(waiting.items()):
+                if now.get(r) != on:
+                    lines.setdefault(r, defaultdict(list))["waiting"].append((since, t, list(on)))
+                    del waiting[r]
+            for r, on in now.items():
+                if r not in waiting:
+                    waiting[r] = (t, on)
+    for (robot, _), since in started.items():
+        lines[robot]["moving"].append((since, end))
+    for robot, (why, since) in out_since.items():
+        lines[robot][why].append((since, end))
+    for robot, since in fault_since.items():
+        lines[robot]["fault"].append((since, end))
+    for r, (since, on) in waiting.items():
+        lines[r]["waiting"].append((since, end, list(on)))
+    return {r: dict(v) for r, v in lines.items()}
+
+
+def gantt_chart(run: RunFolder) -> Chart:
+    spans = timelines(run)
+    robots = list(spans)
+    fig = new_figure((8.0, min(0.32 * len(robots) + 1.2, 24.0)))
+    ax = fig.add_subplot(1, 1, 1)
+    for y, robot in enumerate(robots):
+        for state, colour in COLOURS.items():
+            bars = [(s[0], s[1] - s[0]) for s in spans[robot].get(state, []) if s[1] > s[0]]
+            if bars:
+                height = 0.8 if state != "waiting" else 0.5
+                ax.broken_barh(bars, (y - height / 2, height), facecolors=colour)
+        if len(robots) <= 20:
+            for since, until, on in spans[robot].get("waiting", []):
+                if on and until - since > 0.8:
+                    ax.text((since + until) / 2, y, "on " + ",".join(map(str, on)), ha="center",
+                            va="center", fontsize=6)
+    ax.set_yticks(range(len(robots)), ["robot {}".format(r) for r in robots] if len(robots) <= 40 else
+                  [str(r) for r in robots], fontsize=7 if len(robots) <= 40 else 4)
+    ax.invert_yaxis()
+    ax.set_xlabel("time ({})".format("plan steps" if run.time_unit == "step" else "s"))
+    ax.legend(handles=[_patch(c, s) for s, c in COLOURS.items()], fontsize=7, ncol=6, loc="upper center",
+              bbox_to_anchor=(0.5, 1.08))
+    ax.grid(axis="x", alpha=0.3)
+    return Chart("gantt", "What each robot did", to_png(fig), spans,
+                 "Green: moving; blue: turning; orange: waiting for other robots (on whom); purple: delayed "
+                 "(free to move, not moving); grey: disabled; red: fault.")
+
+
+def _patch(colour: str, label: str) -> Any:
+    from matplotlib.patches import Patch
+    return Patch(facecolor=colour, label=label)
+
+
+def _action_steps(run: RunFolder) -> Dict[Tuple[int, int], int]:
+    return {(r["robot"], r["index"]): r["step"] for r in run.of("dispatch")}
+
+
+def progress_chart(run: RunFolder) -> Chart:
+    steps = _action_steps(run)
+    data: Dict[int, Dict[str, List[Tuple[float, float]]]] = {r: {"executed": [(0.0, 0.0)], "planned": []}
+                                                             for r in run.robots}
+    for rec in run.of("action"):
+        if rec.get("phase") == "completed" and (rec["robot"], rec["index"]) in steps:
+            step = steps[(rec["robot"], rec["index"])] + 1
+            data.setdefault(rec["robot"], {"executed": [(0.0, 0.0)], "planned": []})
+            data[rec["robot"]]["executed"].append((float(rec["t"]), float(step)))
+            data[rec["robot"]]["planned"].append((float(step), float(step)))
+    fig = new_figure((7.5, 4.2))
+    ax = fig.add_subplot(1, 1, 1)
+    for robot, series in data.items():
+        xs, ys = zip(*series["executed"])
+        ax.step(xs, ys, where="post", linewidth=1, label="robot {}".format(robot) if len(data) <= 10 else None)
+    if run.time_unit == "step":
+        top = max((p[0] for s in data.values() for p in s["planned"]), default=1.0)
+        ax.plot([0, top], [0, top], "k--", linewidth=1, label="as planned")
+    ax.set_xlabel("time ({})".format("plan steps" if run.time_unit == "step" else "s"))
+    ax.set_ylabel("plan step reached")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    return Chart("progress", "Position along the plan: executed against planned", to_png(fig), data,
+                 "Each robot's last completed move, as the plan step it ends; dashed: on schedule.")
+
+
+def _segment_distance(px: float, py: float, a: List[float], b: List[float], frac_free: bool) -> float:
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    dx, dy = bx - ax, by - ay
+    length2 = dx * dx + dy * dy
+    f = 0.0 if length2 == 0 or not frac_free else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / length2))
+    return math.hypot(px - (ax + f * dx), py - (ay + f * dy))
+
+
+def deviations(run: RunFolder) -> Dict[str, Dict[int, Dict[str, List[float]]]]:
+    """Per pose source, per robot: times and distances (cells) from where it should be."""
+    state: Dict[int, Tuple[List[float], List[float], bool]] = {}  # robot -> (a, b, moving)
+    out: Dict[str, Dict[int, Dict[str, List[float]]]] = {}
+    for rec in run.records:
+        k = rec.get("k")
+        if k in ("dispatch", "action") and rec["robot"] not in state:
+            state[rec["robot"]] = (rec["src"], rec["src"], False)
+        if k == "action":
+            moving = rec.get("phase") == "started"
+            state[rec["robot"]] = (rec["src"], rec["dst"], moving) if moving else (rec["dst"], rec["dst"], False)
+        elif k == "poses":
+            t = float(rec["t"])
+            for p in rec.get("p", []):
+                robot, x, y, source = p[0], p[1], p[2], p[4] if len(p) > 4 else "robot"
+                a, b, moving = state.get(robot, ([x, y], [x, y], False))
+                series = out.setdefault(str(source), {}).setdefault(robot, {"t": [], "dev": []})
+                series["t"].append(t)
+                series["dev"].append(_segment_distance(float(x), float(y), a, b, moving))
+    return out
+
+
+def deviation_chart(run: RunFolder) -> Chart:
+    data = deviations(run)
+    sources = sorted(data) or ["robot"]
+    fig = new_figure((7.5, 2.8 * len(sources)))
+    for i, source in enumerate(sources):
+        ax = fig.add_subplot(len(sources), 1, i + 1)
+        for robot, s in data.get(source, {}).items():
+            ax.plot(s["t"], s["dev"], linewidth=0.8, label="robot {}".format(robot) if len(data[source]) <= 10 else None)
+        ax.set_title("pose source: {}".format(source), fontsize=9)
+        ax.set_ylabel("distance from plan (cells)")
+        ax.grid(alpha=0.3)
+        if data.get(source) and len(data[source]) <= 10:
+            ax.legend(fontsize=7, ncol=2)
+    ax.set_xlabel("time ({})".format("plan steps" if run.time_unit == "step" else "s"))
+    return Chart("deviation", "Deviation of the reported pose from the plan", to_png(fig), data,
+                 "At rest: distance from the robot's cell; moving: from the segment of its move.")
+
+
+def event_table(run: RunFolder) -> Table:
+    rows = []
+    for rec in run.records:
+        if rec.get("k") in ("poses", "waits"):
+            continue
+        if len(rows) >= MAX_EVENTS:
+            break
+        rest = {k: v for k, v in rec.items() if k not in ("t", "k", "robot")}
+        rows.append([rec.get("k"), "{:.2f}".format(float(rec.get("t", 0.0))),
+                     "" if rec.get("robot") is None else rec["robot"], json.dumps(rest)[:160]])
+    return Table(["kind", "t", "robot", "details"], rows, left=4)
+
+
+def run_page(run: RunFolder) -> Page:
+    r = run.run
+    page = Page("Run report: {}".format(run.folder.name))
+    page.meta.append("source {}, started {}, strategy {}, {} robots, time in {}".format(
+        r.get("source"), r.get("started"), r.get("strategy_text") or r.get("strategy"), len(run.robots),
+        "plan steps" if run.time_unit == "step" else "seconds"))
+    end: Optional[dict] = run.last("end")
+    if end is not None:
+        for line in (end.get("summary") or {}).get("lines", []):
+            page.meta.append(line)
+    elif run.torn:
+        page.meta.append("the run did not end cleanly (its last line was cut off)")
+    page.add("Robots over time", gantt_chart(run))
+    page.add("Planned and executed", progress_chart(run), deviation_chart(run))
+    count = sum(1 for rec in run.records if rec.get("k") not in ("poses", "waits"))
+    page.add("Events", "{} events{}; poses and waits are in the charts above.".format(
+        count, " (the first {} listed)".format(MAX_EVENTS) if count > MAX_EVENTS else ""), event_table(run))
+    return page

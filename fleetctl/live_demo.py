@@ -1,0 +1,215 @@
+"""The live demo: the lab scenario on virtual robots, driven by the manager, seen in the console.
+
+Theory of operation. Three processes, each in its own process group
+(`fleetctl.children`), all on 127.0.0.1 with free ports (`local_fleet`), never
+the lab's addresses:
+
+1. `fleetctl virtual-fleet`: the five lab robots on a definitions copy, with
+   moderate random delays and one planned stall (`pick_stall`: the move of one
+   robot that another robot's next move depends on most closely, about a third
+   into the run), so a visitor sees one robot wait for another;
+2. `fleetctl manager` on the demo's plan, ADG, until the run is done, writing
+   its run folder;
+3. `fleetctl console`, the live console, which presses Start once every robot
+   is connected (`--start-when-ready`), closes a few seconds after the run is
+   done, and records frames into the run folder when it runs headless.
+
+The demo waits for the manager to finish, then for the console, then stops the
+fleet; Ctrl-C, a console closed early or a process that dies stop everything,
+in that order. At the end the run folder gets `summary.txt` (what the demo did
+and the manager's summary) and the fleet's and console's logs, and the demo
+prints where they are.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, List, Optional, Sequence
+
+from fleet_common.errors import FleetError
+from fleet_common.grid import Coord
+from fleet_common.plan import Plan
+from fleet_common.robots import RobotDefinition
+
+from virtual_fleet.stalls import parse_stall
+
+from .children import Child
+from .local_fleet import local_definitions
+
+__all__ = ["StallChoice", "pick_stall", "DemoSettings", "run_live_demo"]
+
+#: The virtual robots' driving speed (cells per fleet second): a nominal move of 2 s.
+SPEED = 0.5
+#: Moves start after up to this many nominal moves (the delay-model language's unit).
+DELAY = 0.2
+
+
+@dataclass(frozen=True)
+class StallChoice:
+    agent: int    # the plan agent that stalls
+    move: int     # during its move number `move` (from 1: the virtual fleet counts drives)
+    waiter: int   # the agent that then waits for it
+    cell: Coord   # the cell the waiter waits to enter (the one the staller is leaving)
+    step: int     # the plan step the move starts at
+
+
+def pick_stall(plan: Plan, at: float = 0.35) -> Optional[StallChoice]:
+    """The move whose delay another robot feels soonest: robot A leaving cell c at step t,
+    robot B entering c right after; among the closest such pairs, the one nearest `at` of
+    the way through the plan. None if no robot ever enters a cell another one left."""
+    pos = plan.positions
+    best = None
+    for a in range(plan.num_agents):
+        moves = [t for t in range(plan.makespan) if (pos[t + 1, a] != pos[t, a]).any()]
+        for k, t in enumerate(moves, 1):
+            cell = tuple(int(v) for v in pos[t, a])
+            for b in range(plan.num_agents):
+                if b == a:
+                    continue
+                enters = [u for u in range(t, plan.makespan)
+                          if tuple(pos[u + 1, b]) == cell and tuple(pos[u, b]) != cell]
+                if not enters:
+                    continue
+                key = (enters[0] - t, abs(t - at * plan.makespan), a, b)
+                if best is None or key < best[0]:
+                    best = (key, StallChoice(a, k, b, cell, t))  # type: ignore[arg-type]
+    return None if best is None else best[1]
+
+
+@dataclass
+class DemoSettings:
+    log_dir: Optional[Path] = None  # where run folders go (None: the manager's default)
+    time_scale: float = 1.5
+    delay_model: str = "delay={:g},slow=0.1:1.5".format(DELAY)
+    seed: int = 0
+    stall: str = "auto"          # auto, none, or R:K:S as `fleetctl virtual-fleet --stall`
+    stall_seconds: float = 8.0   # fleet seconds of the automatic stall
+    headless: bool = False
+    record: bool = False
+    linger: float = 3.0
+    time_limit: float = 110.0
+
+
+def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDefinition]) -> Optional[str]:
+    """The fleet's --stall value and a sentence for the visitor (None: no stall)."""
+    if settings.stall == "none":
+        return None
+    if settings.stall != "auto":
+        return settings.stall
+    choice = pick_stall(plan)
+    if choice is None:
+        return None
+    return "{}:{}:{:g}".format(robots[choice.agent].id, choice.move, settings.stall_seconds)
+
+
+def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition], settings: DemoSettings,
+                  say: Callable[[str], None] = print) -> int:
+    """Run it; the exit status (0: every robot arrived, no collision, the console saw it)."""
+    work = Path(tempfile.mkdtemp(prefix="fleetcontrol-demo-"))
+    children: List[Child] = []
+    try:
+        definitions, feedback, port = local_definitions(robots[:plan.num_agents], work / "robots.txt")
+        endpoint = "tcp://127.0.0.1:{}".format(port)
+        stall = stall_argument(settings, plan, robots)
+        fleet_args = ["virtual-fleet", "--definitions", str(definitions), "--no-curve",
+                      "--time-scale", "{:g}".format(settings.time_scale), "--feedback-base", str(feedback),
+                      "--delay-model", settings.delay_model, "--seed", str(settings.seed),
+                      "--speed", "{:g}".format(SPEED), "--log-level", "warning"]
+        if stall is not None:
+            fleet_args += ["--stall", stall]
+        say("live run: {} virtual robots on 127.0.0.1 (time x{:g}, delays {}{}), manager with ADG, "
+            "console on {}".format(plan.num_agents, settings.time_scale, settings.delay_model,
+                                   "; " + parse_stall(stall).describe() if stall else "", endpoint))
+        children.append(Child.start("fleet", fleet_args, log=work / "virtual-fleet.log"))
+        # a plan step as the virtual robots take it: the drive, the mean start delay, a slow move now
+        # and then, a turn at corners (the robots turn ahead while they wait, so less than a full one)
+        step_time = (1.0 / SPEED * (1.0 + DELAY / 2) + 0.2) / settings.time_scale
+        manager = Child.start("manager", [
+            "manager", str(solution), "--definitions", str(definitions), "--no-curve", "--host", "127.0.0.1",
+            "--bind", endpoint, "--strategy", "adg", "--until-done", "--time-limit", "{:g}".format(settings.time_limit),
+            "--connect-timeout", "30", "--step-time", "{:.3f}".format(step_time)]
+            + (["--log", str(settings.log_dir)] if settings.log_dir is not None else []),
+            on_line=lambda line: say("  manager: " + (line[9:] if line.startswith("manager: ") else line)))
+        children.append(manager)
+        banner = manager.wait_for_line(lambda line: "run folder" in line or "fleetctl manager" in line, 30.0)
+        if banner is None or "run folder" not in banner:
+            raise FleetError("the manager did not start: {}".format(" / ".join(manager.lines[-3:]) or "no output"))
+        folder = Path(banner.rsplit("run folder", 1)[1].strip())
+        console = _start_console(endpoint, folder, settings, work, say)
+        children.append(console)
+        say("processes: virtual fleet pid {}, manager pid {}, console pid {} (each in its own process "
+            "group; all stopped at the end, also on Ctrl-C)".format(children[0].pid, manager.pid, console.pid))
+        status = _supervise(manager, console, settings, say)
+        console_code = console.wait(settings.linger + 10.0)
+        if console_code is None:
+            console_code = console.stop()
+        children[0].stop()  # the fleet, last
+        _keep(work, folder, ("virtual-fleet.log", "console.log"))
+        return _report(folder, manager, console, status, console_code, say)
+    except KeyboardInterrupt:
+        say("interrupted: stopping the console, the manager and the fleet")
+        return 130
+    finally:
+        for child in reversed(children):
+            if child.running():
+                child.stop()
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def _start_console(endpoint: str, folder: Path, settings: DemoSettings, work: Path,
+                   say: Callable[[str], None]) -> Child:
+    env = dict(os.environ)
+    headless = settings.headless or not env.get("DISPLAY")
+    if headless:
+        env.pop("DISPLAY", None)  # the console starts its own Xvfb
+    args = ["console", "--manager", endpoint, "--no-curve", "--name", "demo console",
+            "--start-when-ready", "--close-when-done", "{:g}".format(settings.linger if not headless else 1.0)]
+    if headless or settings.record:
+        args += ["--record", str(folder / "frames")]
+    say("console: {}".format("headless on a private Xvfb, recording frames into {}".format(folder / "frames")
+                             if headless else "a window on {}".format(env.get("DISPLAY"))))
+    return Child.start("console", args, log=work / "console.log", env=env)
+
+
+def _supervise(manager: Child, console: Child, settings: DemoSettings, say: Callable[[str], None]) -> str:
+    """Wait for the run to end; why it ended."""
+    deadline = time.monotonic() + settings.time_limit + 30.0
+    while time.monotonic() < deadline:
+        if not manager.running():
+            return "manager finished"
+        if not console.running():
+            say("the console closed before the run was done: stopping the demo")
+            manager.stop()
+            return "console closed"
+        time.sleep(0.1)
+    manager.stop()
+    return "time limit"
+
+
+def _keep(work: Path, folder: Path, names: Sequence[str]) -> None:
+    for name in names:
+        if (work / name).is_file() and folder.is_dir():
+            shutil.copy(str(work / name), str(folder / name))
+
+
+def _report(folder: Path, manager: Child, console: Child, status: str, console_code: int,
+            say: Callable[[str], None]) -> int:
+    code = manager.wait(5.0)
+    frames = sorted((folder / "frames").glob("*.png")) if (folder / "frames").is_dir() else []
+    lines = ["FleetControl live demo: {}".format(status),
+             "manager exit status {}, console exit status {}".format(code, console_code), ""]
+    lines += manager.lines + [""]
+    log = folder / "console.log"
+    if log.is_file():
+        lines += ["console:"] + log.read_text().splitlines()
+    if frames:
+        lines.append("{} frames in {} (frames.txt says when each was taken)".format(len(frames), folder / "frames"))
+    (folder / "summary.txt").write_text("\n".join(lines) + "\n")
+    say("run folder: {}".format(folder))
+    say("  events.jsonl (the run log), summary.txt, virtual-fleet.log, console.log{}".format(
+        ", frames/ ({} frames, the last {})".format(len(frames), frames[-1].name) if frames else ""))
+    return 0 if code == 0 and console_code == 0 else 1

@@ -1,0 +1,379 @@
+"""The live console against a real manager and a real virtual fleet on 127.0.0.1, under Xvfb.
+
+Each test starts `fleetctl virtual-fleet` and `fleetctl manager` as processes
+(`live.Proc`: own process groups, free ports, stopped by group), opens the console window in
+this process with its real network thread, and pumps Tk like its main loop
+would. What is checked is what an operator sees: canvas items where the
+manager says the robots are, the robot list, the answer line, the event
+list, the banner, and pixels of a screenshot. Waits for the fleet are
+bounded loops; nothing is timed.
+"""
+from __future__ import annotations
+
+import gc
+import time
+import tkinter as tk
+from pathlib import Path
+from typing import Callable, Iterator, List, Optional, Tuple
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from console.live.feed import CONNECTED, LOST, LiveFeed
+from console.live.link import ManagerLink
+from console.live.model import LiveModel
+from console.ui import capture
+from console.ui.admin_panel import DISABLED, ENABLED
+from console.ui.live_app import LiveApp
+from console.ui.robot_layer import GREY
+from console.ui.wait_layer import WAIT
+from fleet_common.formats.instance import read_instance
+from fleet_common.lab import lab_instance_path, lab_map_path
+from fleet_common.planning import solve
+from fleetctl.live_demo import pick_stall
+from helpers import Forwarder
+from live import Proc, fleet_definitions, start_fleet, start_manager
+
+LAB = str(lab_instance_path())
+
+
+class Lab:
+    """Five robots on 127.0.0.1 as a virtual fleet (on the lab's starts) and managers for them."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.definitions, self.feedback, self.port = fleet_definitions(folder, 5)
+        self.endpoint = "tcp://127.0.0.1:{}".format(self.port)
+        self.procs: List[Proc] = []
+
+    def fleet(self, time_scale: float = 4.0, stall: Optional[str] = None, *extra: str) -> Proc:
+        proc = start_fleet(self.folder, self.definitions, self.feedback, "--time-scale", time_scale,
+                           *(["--stall", stall] if stall else []), *extra)
+        self.procs.append(proc)
+        return proc
+
+    def start_manager(self, *extra: str) -> Proc:
+        proc = start_manager(self.folder, LAB, self.definitions, self.port, "--log", self.folder / "runs",
+                             "--step-time", "0.6", *extra, name="manager-{}".format(len(self.procs)))
+        self.procs.append(proc)
+        return proc
+
+    def stop(self) -> None:
+        for proc in reversed(self.procs):
+            proc.stop()
+
+
+@pytest.fixture
+def lab(tmp_path: Path) -> Iterator[Lab]:
+    lab = Lab(tmp_path)
+    try:
+        yield lab
+    finally:
+        lab.stop()
+
+
+class Console:
+    """A live console window in this process: its link thread, feed, model and app."""
+
+    def __init__(self, master: tk.Misc, endpoint: str, name: str, timeout: float = 3.5) -> None:
+        self.feed = LiveFeed()
+        self.model = LiveModel(endpoint)
+        self.link = ManagerLink(endpoint, self.feed, name=name, timeout=timeout).start()
+        self.app = LiveApp(master, self.feed, self.model, self.link.request, canvas_size=(560, 600))
+
+    def close(self) -> None:
+        self.link.stop()
+
+
+@pytest.fixture
+def consoles(display: str) -> Iterator[Callable[..., Console]]:
+    root = tk.Tk()
+    root.geometry("+0+0")
+    opened: List[Console] = []
+
+    def open_console(endpoint: str, name: str = "test console", timeout: float = 3.5) -> Console:
+        master = root if not opened else tk.Toplevel(root)
+        console = Console(master, endpoint, name, timeout)
+        opened.append(console)
+        root.update()
+        return console
+
+    try:
+        yield open_console
+    finally:
+        for console in opened:
+            console.close()
+        if root.winfo_exists():
+            root.destroy()
+        gc.collect()  # Tk objects must die on this (Tk's) thread
+
+
+def pump(console: Console, until: Callable[[], bool], seconds: float = 30.0) -> bool:
+    """Run the window's loop until `until()` holds (True) or `seconds` pass (False)."""
+    deadline = time.monotonic() + seconds
+    root = console.app.root
+    while time.monotonic() < deadline:
+        root.update()
+        if until():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def canvas_xy(app: LiveApp, cells: np.ndarray) -> np.ndarray:
+    """Canvas centres of `cells` by the viewport's documented rule (rows from the top)."""
+    v, h = app.map.view, app.scene.grid.height
+    return np.column_stack([v.ox + (cells[:, 0] + 0.5) * v.cell, v.oy + (h - 1 - cells[:, 1] + 0.5) * v.cell])
+
+
+def running(console: Console) -> bool:
+    s = console.model.state
+    return s is not None and s.run.state == "running"
+
+
+def tree_row(console: Console, robot_id: int) -> Tuple[str, ...]:
+    return tuple(console.app.admin.tree.item(str(robot_id), "values"))
+
+
+# ---- the map follows the robots ---------------------------------------------------------
+
+def test_every_robot_is_drawn_where_the_newest_state_says(lab: Lab, consoles) -> None:
+    lab.fleet(time_scale=3.0)
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    assert pump(console, lambda: running(console) and model.scene is not None), model.connection.text
+    checked, seen = 0, []
+    deadline = time.monotonic() + 30
+    while checked < 25 and time.monotonic() < deadline:
+        app.root.update()
+        app.refresh()  # what one frame does: drain the feed, draw the newest state
+        assert len(console.feed) == 0 or console.feed.drain(0) == []
+        if app.state is None or (seen and app.state.version == seen[-1][0]):
+            time.sleep(0.01)
+            continue
+        state = model.state
+        assert app.state.version == state.seq  # the state drawn is the newest that arrived
+        poses = np.array([[r.x, r.y] for r in sorted(state.robots, key=lambda r: model.agent_of[r.id])])
+        np.testing.assert_allclose(app.agents.centres, canvas_xy(app, poses), atol=0.06)
+        seen.append((state.seq, poses))
+        checked += 1
+    assert checked == 25
+    assert not np.allclose(seen[0][1], seen[-1][1])  # they moved meanwhile
+
+
+# ---- the admin panel acts through the manager ----------------------------------------------
+
+def test_clicking_a_robots_enabled_box_disables_it_in_the_manager(lab: Lab, consoles) -> None:
+    lab.fleet()
+    lab.start_manager()
+    console = consoles(lab.endpoint)
+    tree = console.app.admin.tree
+    up = lambda: all(r.link == "up" for r in console.model.state.robots)  # noqa: E731
+    assert pump(console, lambda: tree.exists("3") and tree_row(console, 3)[2] == ENABLED and up())
+    x, y, w, h = tree.bbox("3", "#3")
+    tree.event_generate("<ButtonPress-1>", x=x + w // 2, y=y + h // 2)
+    tree.event_generate("<ButtonRelease-1>", x=x + w // 2, y=y + h // 2)
+    robot = console.model.robot
+    assert pump(console, lambda: robot(3).out == "disabled" and tree_row(console, 3)[2] == DISABLED)
+    assert "disabled" in tree_row(console, 3)[1]  # greyed, with the reason
+    assert robot(2).out is None
+    assert "disable robot=3: done" in console.app.admin.answer.cget("text")
+    assert any("disable robot=3: done" in line for line in console.app.events.rows())
+    assert console.app.selected_robot() == 3  # the click picked the robot too
+    assert "disabled" in console.app.robot_panel.content()
+    console.app.select(None)
+    events = console.app.events.tree
+    line = next(i for i in events.get_children() if "disable robot=3" in events.item(i, "values")[2])
+    x, y, w, h = events.bbox(line)
+    for _ in range(2):  # a double click, as the X server would send it
+        events.event_generate("<ButtonPress-1>", x=x + w // 2, y=y + h // 2)
+        events.event_generate("<ButtonRelease-1>", x=x + w // 2, y=y + h // 2)
+    assert console.app.selected_robot() == 3  # the event list jumps to the robot it is about
+
+
+# ---- a stalled robot and the robot that waits for it -----------------------------------------
+
+def test_a_stalled_robot_makes_its_dependent_show_the_red_frame_and_arrow(lab: Lab, consoles,
+                                                                          tmp_path: Path) -> None:
+    inst = read_instance(LAB, map_dirs=[lab_map_path().parent])
+    plan = solve("cbs", inst.grid, inst.starts, inst.goals, seed=0).plan  # what the manager plans
+    choice = pick_stall(plan)
+    staller, waiter = choice.agent + 1, choice.waiter + 1  # lab robots 1..5 are agents 0..4
+    lab.fleet(time_scale=4.0, stall="{}:{}:200".format(staller, choice.move))
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+
+    def shown() -> bool:
+        r = model.robot(waiter)
+        return (r is not None and r.waiting is not None and staller in r.waiting.on
+                and any(w.agent == choice.waiter for w in (app.agents.picture.waits if app.agents.picture else [])))
+
+    assert pump(console, shown, 60), [model.robot(waiter)]
+    pump(console, lambda: False, 0.3)  # a few more frames: everything drawn
+    png = tmp_path / "wait.png"
+    capture.grab(app.canvas, png)
+    with Image.open(png) as image:
+        rgb = np.asarray(image.convert("RGB")).astype(int)
+    red = np.array([int(WAIT[k:k + 2], 16) for k in (1, 3, 5)])
+
+    def is_red(x: float, y: float) -> bool:
+        near = rgb[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2].reshape(-1, 3)
+        return bool((np.abs(near - red).sum(axis=1) < 60).any())
+
+    v = app.map.view
+    cx, cy = canvas_xy(app, np.array([choice.cell], dtype=float))[0]
+    half = v.cell / 2 - max(2, round(v.cell * 0.08)) / 2
+    # the frame's edge away from both robots: the side the staller is not on
+    pw = model.robot(waiter)
+    ps = model.robot(staller)
+    side = -1.0 if ps.x > choice.cell[0] else 1.0
+    edge = [is_red(cx + side * half, cy + f * half) for f in (-0.6, -0.3, 0.3, 0.6)]
+    assert all(edge), edge
+    a, b = canvas_xy(app, np.array([[pw.x, pw.y], [ps.x, ps.y]]))
+    d = np.hypot(*(b - a))
+    u = (b - a) / d
+    r = app.agents.radius
+    # along the arrow, from inside the waiting robot's disc to the staller's rim
+    along = [is_red(*(a + u * (0.45 * r + f * (d - 1.45 * r)))) for f in (0.1, 0.5, 0.9)]
+    assert all(along), along
+    # and far from any frame or arrow, no red: a plain free cell
+    assert not is_red(*canvas_xy(app, np.array([[0.0, 2.0]]))[0])
+    chain = app.robot_panel
+    app.jump_to_robot(waiter)
+    app.update_panels()
+    assert "robot {} waits for robot {}".format(waiter, staller) in chain.content()
+
+
+# ---- two consoles, and an outdated request -------------------------------------------------
+
+def test_a_request_on_an_outdated_picture_is_refused_and_the_refusal_shown(lab: Lab, consoles) -> None:
+    lab.fleet()
+    lab.start_manager()
+    first = consoles(lab.endpoint, "first")
+    slow_net = Forwarder(lab.port)
+    try:
+        second = consoles("tcp://127.0.0.1:{}".format(slow_net.port), "second", timeout=60.0)
+        both = lambda: all(c.model.robot(4) is not None for c in (first, second))  # noqa: E731
+        assert pump(first, both)
+        slow_net.held.set()  # the second console's picture freezes here
+        first.app.ask("disable", robot=4)
+        assert pump(first, lambda: first.model.robot(4).out == "disabled")
+        assert second.model.robot(4).out is None  # it has not heard
+        second.app.ask("disable", robot=4)  # what it sees: robot 4 enabled
+        assert not pump(second, lambda: second.model.last_reply is not None, 0.5)  # the answer is held too
+        slow_net.held.clear()
+        assert pump(second, lambda: second.model.last_reply is not None)
+    finally:
+        slow_net.close()
+    reply = second.model.last_reply
+    assert not reply.ok and "state changed since you looked" in reply.reason and "robot 4 disabled" in reply.reason
+    shown = second.app.admin.answer
+    assert "REFUSED" in shown.cget("text") and str(shown.cget("foreground")) == "#c8101a"
+    assert any("disable robot=4: REFUSED" in line for line in second.app.events.rows())
+    assert pump(second, lambda: second.model.robot(4).out == "disabled")  # and then it sees why
+
+
+# ---- the manager goes away and comes back --------------------------------------------------
+
+def test_a_lost_manager_is_shown_and_the_console_reconnects(lab: Lab, consoles) -> None:
+    lab.fleet()
+    first = lab.start_manager()
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    assert pump(console, lambda: model.connected and model.state is not None)
+    first.stop()  # the manager process goes (SIGINT: it tells nobody, it just closes)
+    assert pump(console, lambda: model.connection.status == LOST, 20)
+    assert pump(console, lambda: "MANAGER LOST" in app.admin.connection.cget("text"), 2)
+    assert "manager lost" in app.banner.text
+    assert app.canvas.itemcget(app.banner.label, "state") == "normal"
+    assert all(label == "manager lost" for label in app.agents.picture.labels)
+    lab.start_manager()
+    assert pump(console, lambda: model.connection.status == CONNECTED and model.state is not None, 30)
+    assert pump(console, lambda: app.banner.text == "" and not app.agents.picture.grey.any(), 5)
+    assert any("reconnected to the manager" in line for line in app.events.rows())
+
+
+# ---- replanning: the proposal on the map, then accepted ------------------------------------
+
+def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new_plan(lab: Lab, consoles) -> None:
+    lab.fleet(time_scale=4.0)
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    assert pump(console, lambda: running(console) and model.state.run.plan_time > 2)
+    app.admin.buttons["replan"].invoke()
+    assert pump(console, lambda: model.proposal is not None, 60), [line.text for line in model.lines]
+    assert pump(console, lambda: bool(app.proposal.items), 2)
+    assert len(app.canvas.find_withtag("proposal")) == len(app.proposal.items) > 0
+    assert "REPLAN PROPOSAL {}".format(model.proposal.id) in app.header.text()
+    assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
+    old_plan = model.scene_message.plan.id
+    app.admin.buttons["accept"].invoke()
+    assert pump(console, lambda: model.scene_message.plan.id != old_plan and model.proposal is None, 30)
+    assert pump(console, lambda: not app.canvas.find_withtag("proposal") and app.state is not None, 5)
+    assert pump(console, lambda: "disabled" in app.admin.buttons["accept"].state(), 2)
+    assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())
+    # the new map's robots are where the manager says, drawn on a freshly built canvas
+    assert pump(console, lambda: app.agents.picture is not None and app.agents.picture.num_agents == 5, 5)
+
+
+# ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------
+
+def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(lab: Lab, consoles) -> None:
+    fleet = lab.fleet(4.0, None, "--bump", "3@2")  # robot 3's bumper is hit in its 2nd drive
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    agent = 2  # robot 3
+
+    def label(i: int) -> str:
+        item = app.agents.label_items.get(i)
+        return app.canvas.itemcget(item, "text") if item is not None else ""
+
+    assert pump(console, lambda: model.robot(3) is not None and "bumper" in model.robot(3).faults, 60)
+    assert pump(console, lambda: label(agent) == "fault: bumper", 2)
+    disc = app.agents.disc_items[agent]
+    assert app.canvas.itemcget(disc, "fill") == GREY and app.canvas.itemcget(disc, "state") != "hidden"
+    assert pump(console, lambda: tree_row(console, 3)[1] == "fault: bumper", 2)
+    assert "fault: bumper" in app.agents.picture.labels[agent]
+    fleet.kill()  # every robot gone at once, as at a power cut
+    gone = lambda: all(r.link != "up" for r in model.state.robots)  # noqa: E731
+    assert pump(console, gone, 30)
+    assert pump(console, lambda: all(label(i).startswith("link ") for i in range(5)), 3)
+    assert all(app.canvas.itemcget(d, "fill") == GREY for d in app.agents.disc_items)
+    assert len(app.admin.tree.get_children()) == 5  # all still listed, greyed
+    listed = lambda: all(tree_row(console, rid)[1].startswith("link ") for rid in range(1, 6))  # noqa: E731
+    assert pump(console, listed, 2), [tree_row(console, rid) for rid in range(1, 6)]
+
+
+def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll_in(display: str) -> None:
+    from console.live.describe import RobotRow
+    from console.ui.admin_panel import AdminPanel
+
+    root = tk.Tk()
+    try:
+        panel = AdminPanel(root, lambda *a, **k: None, lambda rid: None)
+        panel.pack(fill=tk.BOTH, expand=True)
+        ids = list(range(1, 301))
+        panel.set_fleet(ids, ["#ff0000"] * 300, ("adg",))
+        root.update()
+        made = []
+
+        def row_of(i: int) -> RobotRow:
+            made.append(i)
+            return RobotRow(i, "up", "robot 0.1 s", True, "drive #{}".format(i), "", None, False)
+
+        panel.show_rows(row_of)
+        assert 8 <= len(made) <= 20  # the rows in view (and a few beyond), not 300
+        values = lambda rid: panel.tree.item(str(rid), "values")  # noqa: E731
+        assert values(1)[3] == "drive #1" and values(290) == ""
+        panel.tree.yview_moveto(1.0)
+        root.update()
+        assert values(300)[3] == "drive #300" and values(295)[3] == "drive #295"
+        assert values(150) == ""  # never in view: never written
+    finally:
+        root.destroy()
+        gc.collect()

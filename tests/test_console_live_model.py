@@ -1,0 +1,273 @@
+"""The live console's pure parts: feed, model, picture, words, frame schedule; the demo's
+stall choice and the virtual fleet's planned stall. No display, no sockets."""
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+import pytest
+
+from console.live.describe import BEHIND_MARK, blocked_chain, greyed, row
+from console.live.feed import CONNECTED, LOST, Connection, LiveFeed, Reply
+from console.live.model import LiveModel, LiveSource
+from console.live.picture import WaitMark, WaitMarks, picture
+from console.live.recorder import FrameSchedule, Recorder
+from fleet_common.control import (Event, PlanData, Proposal, RobotInfo, RobotState, RunInfo, Scene,
+                                  State, Waiting)
+from fleet_common.errors import FleetError
+from fleet_common.plan import Plan
+from fleetctl.live_demo import pick_stall
+from virtual_fleet.kinematics import VirtualNavigator
+from virtual_fleet.stalls import parse_stall, stalls_by_robot
+from fleet_common.wire.messages import Pose
+
+ROWS = ("....", "..@.", "....")  # 4 x 3, top row first: cell (2, 1) blocked
+PLAN = Plan.from_paths([[(0, 0), (1, 0), (2, 0), (3, 0)], [(3, 2), (2, 2), (1, 2), (0, 2)]])
+
+
+def scene(plan: Plan = PLAN, robots: Tuple[int, ...] = (7, 9), plan_id: int = 1) -> Scene:
+    return Scene("tiny", ROWS, (RobotInfo(7, "red", "tb7"), RobotInfo(9, "#00ff00", "tb9")),
+                 PlanData(plan_id, robots, plan.positions, "/somewhere/tiny_plan.txt"), ("adg", "step"), 2.0)
+
+
+def robot(rid: int, x: Optional[float] = 0.0, y: Optional[float] = 0.0, **kw) -> RobotState:
+    fields = dict(id=rid, link="up", link_reason="", x=x, y=y, theta=0.0, source="robot", age=0.05,
+                  stale=False, faults=(), out=None, activity=None, done=0, total=3, step=0, waiting=None,
+                  behind=0.0)
+    fields.update(kw)
+    return RobotState(**fields)
+
+
+def run(state: str = "running", clock: float = 3.0, plan_time: float = 1.5, proposal=None) -> RunInfo:
+    return RunInfo(state, "", "adg", 1, clock, plan_time, 1, 0, 2, None, 0, proposal)
+
+
+def state(seq: int, robots: Sequence[RobotState], run_info: Optional[RunInfo] = None, version: int = 5) -> State:
+    return State(seq, version, run_info or run(), tuple(robots))
+
+
+def connected_model() -> LiveModel:
+    model = LiveModel("tcp://127.0.0.1:1")
+    model.apply(Connection(CONNECTED, "connected"), 0.0, 0.0)
+    model.apply(scene(), 0.0, 0.0)
+    return model
+
+
+# ---- feed -------------------------------------------------------------------------------
+
+def test_a_full_feed_drops_the_oldest_state_and_keeps_everything_else() -> None:
+    feed = LiveFeed(limit=4)
+    feed.offer(state(1, []), 0.0)
+    feed.offer(Event(1, 0.0, "fault", 7, "robot 7 reports bumper"), 0.1)
+    feed.offer(state(2, []), 0.2)
+    feed.offer(Reply("start", {}, False, "no"), 0.3)
+    feed.offer(state(3, []), 0.4)  # full: state 1 goes
+    feed.offer(state(4, []), 0.5)  # full: state 2 goes
+    items = [item for item, _ in feed.drain(limit=3)]
+    assert [type(i).__name__ for i in items] == ["Event", "Reply", "State"] and items[2].seq == 3
+    assert [item.seq for item, _ in feed.drain()] == [4]
+    assert feed.dropped == 2 and len(feed) == 0
+
+
+# ---- model ------------------------------------------------------------------------------
+
+def test_scene_becomes_the_map_the_plan_and_the_robots_colours() -> None:
+    model = connected_model()
+    s = model.scene
+    assert s.grid.width == 4 and s.grid.height == 3
+    assert not s.grid.is_free((2, 1)) and s.grid.is_free((2, 0))  # rows are top first
+    assert s.colours == ["#ff0000", "#00ff00"] and s.names == ["robot 7", "robot 9"]
+    assert s.starts == [(0, 0), (3, 2)] and s.goals == [(3, 0), (0, 2)]
+    assert "tiny_plan.txt" in s.info and "/somewhere" not in " ".join(s.info)
+    assert model.agent_of == {7: 0, 9: 1}
+
+
+def test_fleet_state_has_the_reported_poses_and_plan_starts_where_none_came() -> None:
+    model = connected_model()
+    model.apply(state(3, [robot(9, 2.5, 2.0, theta=np.pi / 2), robot(7, None, None, theta=None)]), 1.0, 1.0)
+    fs = model.fleet_state()
+    np.testing.assert_allclose(fs.positions, [[0.0, 0.0], [2.5, 2.0]])
+    assert np.isnan(fs.headings[0]) and fs.headings[1] == pytest.approx(90.0)
+    assert fs.time == 1.5 and fs.version == 3
+    model.apply(state(2, [robot(9, 0.0, 0.0)]), 1.1, 1.1)  # older: ignored
+    assert model.state.seq == 3
+    model.apply(Connection(CONNECTED, "reconnected"), 1.2, 1.2)  # a restarted manager counts from 1
+    model.apply(state(1, [robot(9, 1.0, 2.0)]), 1.3, 1.3)
+    assert model.state.seq == 1
+
+
+def test_answers_refusals_and_a_lost_manager_are_lines_of_the_event_list() -> None:
+    model = connected_model()
+    model.apply(Reply("disable", {"robot": 7}, True, ""), 0.0, 0.0)
+    model.apply(Reply("enable", {"robot": 7}, False, "refused: the state changed since you looked"), 0.0, 0.0)
+    model.apply(Connection(LOST, "manager lost: nothing heard for 3.5 s"), 0.0, 0.0)
+    texts = [(line.level, line.robot, line.text) for line in model.lines]
+    assert ("info", 7, "disable robot=7: done") in texts
+    assert ("error", 7, "enable robot=7: REFUSED: refused: the state changed since you looked") in texts
+    assert texts[-1][0] == "error" and "manager lost" in texts[-1][2]
+    assert model.take_changes() >= {"reply", "events", "connection"} and not model.connected
+
+
+def test_a_proposal_is_kept_until_the_state_says_nobody_waits_for_an_answer() -> None:
+    model = connected_model()
+    other = Plan.from_paths([[(0, 0), (0, 1)], [(3, 2), (3, 1)]])
+    model.apply(Proposal(4, PlanData(1004, (7, 9), other.positions), "pp", 2, 1), 0.0, 0.0)
+    model.apply(state(1, [robot(7), robot(9)], run(proposal=4)), 0.0, 0.0)
+    assert model.proposal.id == 4 and model.proposal_plan.makespan == 1
+    model.apply(state(2, [robot(7), robot(9)], run(proposal=None)), 0.0, 0.0)
+    assert model.proposal is None and model.proposal_plan is None
+
+
+def test_live_source_answers_a_fleet_state_only_when_a_state_came() -> None:
+    feed, model = LiveFeed(), LiveModel("e")
+    source = LiveSource(feed, model, wall=lambda: 0.0)
+    feed.offer(Connection(CONNECTED, "connected"), 0.0)
+    feed.offer(scene(), 0.0)
+    assert source.poll(0.0) is not None  # the scene: robots on their starts
+    assert source.take() >= {"scene", "connection"}
+    feed.offer(Event(1, 0.0, "run", None, "started"), 0.0)
+    assert source.poll(0.1) is None and source.take() == {"events"}
+    feed.offer(state(1, [robot(7, 1.0, 0.0), robot(9, 3.0, 2.0)]), 0.2)
+    feed.offer(state(2, [robot(7, 2.0, 0.0), robot(9, 3.0, 2.0)]), 0.3)
+    shown = source.poll(0.3)
+    assert shown.version == 2 and shown.positions[0, 0] == 2.0
+
+
+# ---- picture and words ------------------------------------------------------------------
+
+def test_greyed_says_why_in_order_of_what_matters_most() -> None:
+    assert greyed(robot(1, link="down", link_reason="timeout", faults=("bumper",))) == "link down: timeout"
+    assert greyed(robot(1, faults=("bumper",), out="failed")) == "fault: bumper"
+    assert greyed(robot(1, out="disabled")) == "disabled"
+    assert greyed(robot(1, x=None)) == "no pose yet"
+    assert greyed(robot(1, stale=True, age=3.24)) == "pose stale (3.2 s old)"
+    assert greyed(robot(1)) is None
+    assert greyed(robot(1), connected=False) == "manager lost"
+    assert row(1, robot(1, out="disabled")).enabled is False and row(1, robot(1)).enabled is True
+    assert row(1, robot(1, behind=BEHIND_MARK)).behind and not row(1, robot(1, behind=0.5)).behind
+
+
+def test_picture_ghosts_follow_the_plan_clock_and_waits_point_at_agents() -> None:
+    model = connected_model()
+    before = dataclasses.replace(run(), state="waiting", clock=0.0, plan_time=0.0)
+    model.apply(state(1, [robot(7), robot(9, 3.0, 2.0)], before), 0.0, 0.0)
+    assert picture(model).ghost is None  # no plan clock before Start
+    wait = Waiting((7,), (1, 0), "cell")
+    model.apply(state(2, [robot(7, 0.4, 0.0, behind=2.0), robot(9, 3.0, 2.0, waiting=wait, link="down")],
+                      run(plan_time=1.5)), 0.0, 0.0)
+    pic = picture(model)
+    np.testing.assert_allclose(pic.ghost, [[1.5, 0.0], [1.5, 2.0]])
+    assert pic.behind.tolist() == [True, False]  # a greyed robot is greyed, not late
+    assert pic.grey.tolist() == [False, True] and pic.labels[1] == "link down"
+    assert pic.waits == [WaitMark(1, (1, 0), (0,))]
+    model.apply(Connection(LOST, "lost"), 0.0, 0.0)
+    lost = picture(model)
+    assert lost.grey.all() and lost.waits == []
+
+
+def test_a_wait_is_shown_once_it_has_lasted() -> None:
+    marks = WaitMarks(after=0.3)
+    w = WaitMark(1, (1, 0), (0,))
+    assert marks.lasting([w], 10.0) == []
+    assert marks.lasting([w], 10.2) == []
+    assert marks.lasting([w], 10.31) == [w]
+    assert marks.lasting([], 10.4) == [] and marks.lasting([w], 10.5) == []  # it went away: from 0
+
+
+def test_blocked_by_chain_follows_the_waits_and_stops_at_a_cycle() -> None:
+    robots = {1: robot(1, waiting=Waiting((2,), (3, 4), "cell")),
+              2: robot(2, waiting=Waiting((3,), (5, 5), "cell")),
+              3: robot(3, link="down", link_reason="no heartbeat")}
+    assert blocked_chain(robots, 1) == ["robot 1 waits for robot 2 to enter (3, 4) (cell)",
+                                        "robot 2 waits for robot 3 to enter (5, 5) (cell)",
+                                        "robot 3 link down: no heartbeat"]
+    robots[3] = robot(3, waiting=Waiting((1,), None, "cell"))
+    assert blocked_chain(robots, 1)[-1] == "... robot 1 again: a cycle"
+    assert blocked_chain({1: robot(1)}, 1) == []
+
+
+# ---- recording --------------------------------------------------------------------------
+
+def test_frames_at_every_change_of_the_run_and_every_n_steps(tmp_path) -> None:
+    schedule = FrameSchedule(every=2.0)
+    plan_times = [("waiting", 0.0, 0.0), ("waiting", 0.0, 0.0), ("running", 0.1, 0.05), ("running", 1.0, 1.9),
+                  ("running", 1.5, 2.1), ("running", 2.0, 3.0), ("paused", 2.1, 3.1), ("running", 3.0, 4.0)]
+    due = [schedule.due(dataclasses.replace(run(), state=s, clock=c, plan_time=t)) for s, c, t in plan_times]
+    assert due == [True, False, True, False, True, False, True, True]
+    grabbed = []
+    recorder = Recorder(tmp_path / "frames", lambda p: (grabbed.append(p), p.write_bytes(b"png")), every=1.0)
+    for t in (0.0, 0.4, 1.2):
+        recorder.offer(dataclasses.replace(run(), clock=t + 0.1, plan_time=t))
+    assert [p.name for p in grabbed] == ["0001.png", "0002.png"]
+    assert (tmp_path / "frames" / "frames.txt").read_text().splitlines()[1:] == [
+        "0001.png  running  0.00  0.10", "0002.png  running  1.20  1.30"]
+
+
+# ---- the demo's stall -------------------------------------------------------------------
+
+def test_the_stall_is_the_move_another_robot_feels_at_once() -> None:
+    # agent 0 leaves (1, 0) at step 2; agent 1 enters it at step 2 (following): the closest pair
+    plan = Plan.from_paths([[(0, 0), (0, 0), (1, 0), (2, 0), (3, 0)],
+                            [(1, 2), (1, 1), (1, 1), (1, 0), (1, 0)]])
+    choice = pick_stall(plan)
+    assert (choice.agent, choice.move, choice.waiter, choice.cell) == (0, 2, 1, (1, 0))
+    assert pick_stall(Plan.from_paths([[(0, 0), (1, 0)], [(3, 3), (3, 2)]])) is None
+
+
+def test_lab_plan_stalls_green_where_blue_follows_it() -> None:
+    from fleet_common.formats.instance import read_instance
+    from fleet_common.lab import lab_instance_path, lab_map_path
+    from fleet_common.planning import solve
+
+    inst = read_instance(lab_instance_path(), map_dirs=[lab_map_path().parent])
+    plan = solve("cbs", inst.grid, inst.starts, inst.goals, seed=0).plan
+    choice = pick_stall(plan)
+    t = choice.step
+    assert tuple(plan.positions[t, choice.agent]) == choice.cell != tuple(plan.positions[t + 1, choice.agent])
+    entering = [u for u in range(t, plan.makespan) if tuple(plan.positions[u + 1, choice.waiter]) == choice.cell]
+    assert entering and entering[0] - t <= 1
+
+
+def test_planned_stall_halts_the_kth_drive_halfway() -> None:
+    now = [0.0]
+    nav = VirtualNavigator(Pose(0.0, 0.0, 0.0), speed=1.0, clock=lambda: now[0])
+    nav.stalls[2] = 5.0
+    nav.start_drive(1.0, 0.0, 0.0)  # drive 1: one second
+    now[0] = 1.0
+    assert nav.poll() is not None
+    nav.start_drive(2.0, 0.0, 0.0)  # drive 2: half, five seconds still, the other half
+    now[0] = 1.5
+    assert nav.pose().x == pytest.approx(1.5)
+    now[0] = 6.4
+    assert nav.pose().x == pytest.approx(1.5) and nav.poll() is None
+    now[0] = 7.0
+    assert nav.poll() is not None and nav.pose().x == pytest.approx(2.0)
+
+
+def test_stall_arguments_are_checked() -> None:
+    assert parse_stall("2:7:8").describe() == "robot 2 stalls 8 s in its drive 7"
+    for bad in ("2:7", "x:1:2", "2:0:3", "2:1:-1", "2:1:3:4"):
+        with pytest.raises(FleetError, match="ROBOT:MOVE:SECONDS"):
+            parse_stall(bad)
+    assert stalls_by_robot([parse_stall("5:1:1"), parse_stall("5:3:2"), parse_stall("1:1:4")]) == {
+        5: {1: 1.0, 3: 2.0}, 1: {1: 4.0}}
+
+
+def test_the_link_decodes_only_the_newest_of_the_states_waiting() -> None:
+    from console.live.link import newest_states
+    from fleet_common.control import encode
+
+    frames = [encode(state(1, [])), encode(Event(1, 0.0, "run", None, "x")), encode(state(2, [])),
+              encode(Event(2, 0.0, "run", None, "y")), encode(state(3, []))]
+    kept = newest_states(frames)
+    assert kept == [frames[1], frames[3], frames[4]]
+    assert newest_states(frames[:2]) == frames[:2] and newest_states([]) == []
+
+
+def test_a_proposal_after_an_older_state_in_the_same_batch_stays() -> None:
+    model = connected_model()
+    other = Plan.from_paths([[(0, 0), (0, 1)], [(3, 2), (3, 1)]])
+    model.apply(state(1, [robot(7), robot(9)], run(proposal=None)), 0.0, 0.0)  # sent before the proposal
+    model.apply(Proposal(4, PlanData(1004, (7, 9), other.positions), "pp", 2, 1), 0.0, 0.0)
+    assert model.proposal is not None and model.proposal.id == 4

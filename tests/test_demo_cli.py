@@ -1,0 +1,100 @@
+"""`fleetctl demo` and the live `fleetctl console` from the command line, as a visitor runs them:
+headless (no DISPLAY), real processes on free loopback ports, every one of them gone at the end."""
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Dict, List
+
+from PIL import Image
+
+from helpers import fleetctl, free_port_block
+
+
+def headless() -> Dict[str, str]:
+    return {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+
+
+def pids(output: str) -> List[int]:
+    line = re.search(r"^processes: virtual fleet pid (\d+), manager pid (\d+), console pid (\d+)", output, re.M)
+    assert line, output
+    return [int(p) for p in line.groups()]
+
+
+def gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: Path) -> None:
+    proc = fleetctl("demo", "--time-scale", "6", "--log", tmp_path, env=headless(), timeout=150)
+    out = proc.stdout
+    assert proc.returncode == 0, out + proc.stderr
+    assert re.search(r"^  robot 2 \(green\)", out, re.M)  # the plan summary is still there
+    assert "stalls 8 s in its drive" in out and "demo console: start" in out
+    assert "console: headless on a private Xvfb" in out
+    folder = Path(re.search(r"^run folder: (.+)$", out, re.M).group(1))
+    assert folder.parent == tmp_path
+    summary = (folder / "summary.txt").read_text()
+    assert "arrived: 5/5" in summary and "collisions: 0" in summary
+    assert (folder / "events.jsonl").stat().st_size > 0
+    frames = sorted((folder / "frames").glob("*.png"))
+    index = (folder / "frames" / "frames.txt").read_text().splitlines()
+    assert len(frames) >= 10 and len(index) == len(frames) + 1
+    assert index[1].split()[1] == "waiting" and index[-1].split()[1] == "done"
+    with Image.open(frames[-1]) as last:
+        assert last.width > 1000 and last.height > 500  # the whole window, panels and all
+    assert all(gone(pid) for pid in pids(out))
+
+
+def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
+    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(tmp_path)], env=headless(),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    lines: List[str] = []
+    try:
+        assert demo.stdout is not None
+        for line in demo.stdout:
+            lines.append(line)
+            if "demo console: start" in line:  # the run is under way
+                break
+        children = pids("".join(lines))
+        os.kill(demo.pid, signal.SIGINT)
+        rest, _ = demo.communicate(timeout=60)
+    finally:
+        if demo.poll() is None:
+            demo.kill()
+            demo.wait()
+    assert demo.returncode == 130, "".join(lines) + rest
+    assert "interrupted: stopping the console, the manager and the fleet" in rest
+    deadline = time.monotonic() + 5
+    while not all(gone(pid) for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert [pid for pid in children if not gone(pid)] == []
+
+
+def test_console_without_a_manager_says_so_in_its_screenshot(tmp_path: Path) -> None:
+    port = free_port_block(1)
+    png = tmp_path / "alone.png"
+    proc = fleetctl("console", "--manager", "tcp://127.0.0.1:{}".format(port), "--no-curve",
+                    "--screenshot", png, "--after", "1.5", env=headless())
+    assert proc.returncode == 0, proc.stderr
+    assert "{}: the console on tcp://127.0.0.1:{}".format(png, port) in proc.stdout
+    with Image.open(png) as image:
+        assert image.width > 1000
+
+
+def test_console_errors_are_one_line(tmp_path: Path) -> None:
+    window = fleetctl("console", "--no-curve", env=headless())
+    assert window.returncode == 2 and window.stderr.count("\n") == 1
+    assert "no display" in window.stderr and "--screenshot" in window.stderr
+    keys = fleetctl("console", "--keys", tmp_path / "nokeys", "--screenshot", tmp_path / "x.png", env=headless())
+    assert keys.returncode == 2 and keys.stderr.count("\n") == 1
+    assert "console.key_secret" in keys.stderr and "--no-curve" in keys.stderr

@@ -1,0 +1,124 @@
+"""`fleetctl experiment`: sweeps that repeat, resume, and give the same table on a Dask cluster.
+
+Tiny sweeps (the lab plan solved by CBS, a 2-agent mapf-IR plan; both
+strategies; two delay probabilities; a disabled robot with and without
+replanning), run as a user runs them, in real processes.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from evaluation.spec import read_experiment
+from evaluation.sweep import run_sweep
+from evaluation.table import read_table
+from helpers import fleetctl
+
+SPEC = """\
+name: tiny
+plans:
+  - instance: lab
+    solver: cbs
+  - solution: {shared}/solutions/cbs_makespan-soc-pareto.txt
+strategies: [adg, step]
+delays: ["events=bernoulli:{{p}}:1-3", btpg]
+p: [0, 0.3]
+seeds: 2
+disable: [none, "1@3"]
+recover: [none, replan]
+"""
+
+
+@pytest.fixture
+def spec(tmp_path, shared_data) -> Path:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(SPEC.format(shared=shared_data))
+    return path
+
+
+def without_wall_time(rows):
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+
+
+def test_the_spec_expands_to_every_combination(spec):
+    exp = read_experiment(spec)
+    # 2 plans x 2 strategies x (2 p + btpg) x 2 seeds x (none + 1@3 x {none, replan})
+    assert len(exp.cells) == 2 * 2 * 3 * 2 * 3
+    assert len({c.key for c in exp.cells}) == len(exp.cells)
+    assert {c.delay for c in exp.cells} == {"events=bernoulli:0:1-3", "events=bernoulli:0.3:1-3", "btpg"}
+
+
+def test_a_seeded_sweep_gives_the_same_table_twice_in_csv_and_parquet(spec, tmp_path):
+    one = fleetctl("experiment", spec, "-o", tmp_path / "one")
+    two = fleetctl("experiment", spec, "-o", tmp_path / "two", "--jobs", "1")
+    assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    assert "tiny: 72 cells (72 run now, 0 already done)" in one.stdout and "collisions: 0 in 72 runs" in one.stdout
+    assert "tiny [##############################] 72/72 cells" in one.stderr  # the progress bar
+    rows = read_table(tmp_path / "one" / "results.csv")
+    assert without_wall_time(rows) == without_wall_time(read_table(tmp_path / "two" / "results.csv"))
+    assert without_wall_time(rows) == without_wall_time(read_table(tmp_path / "one" / "results.parquet"))
+    by = {(r["plan"], r["strategy"], r["delay"], r["seed"], r["disable"], r["recover"]): r for r in rows}
+    # the strategies of one seed meet the same delays: the ADG is never slower than the time step
+    for (plan, strategy, delay, seed, disable, recover), r in by.items():
+        if strategy == "adg" and disable == "none":
+            assert r["makespan"] <= by[(plan, "step", delay, seed, disable, recover)]["makespan"] + 1e-9
+    clean = by[("lab-cbs", "adg", "events=bernoulli:0:1-3", 0, "none", "none")]
+    assert clean["collisions"] == 0 and clean["finished"] and clean["makespan"] == clean["plan_makespan"] == 19
+    assert len(json.loads(clean["wait_by_robot"])) == 5 == clean["agents"]
+    # robot 1 of the lab out at step 3: someone is stuck behind it; replanning brings the others home
+    stuck = by[("lab-cbs", "adg", "events=bernoulli:0:1-3", 0, "1@3", "none")]
+    saved = by[("lab-cbs", "adg", "events=bernoulli:0:1-3", 0, "1@3", "replan")]
+    assert not stuck["finished"] and stuck["reached"] < 4
+    assert saved["replanned"] and saved["reached"] == 4 and saved["collisions"] == 0
+
+
+def test_a_resumed_sweep_runs_only_what_is_missing(spec, tmp_path):
+    out = tmp_path / "out"
+    exp = read_experiment(spec)
+    full = run_sweep(exp, out, jobs=1, progress=None)
+    lines = (out / "results.csv").read_text().splitlines(keepends=True)
+    (out / "results.csv").write_text("".join(lines[:31]) + lines[31][:40])  # 30 rows and a torn one
+    again = run_sweep(exp, out, jobs=2, progress=None)
+    assert (again.ran, again.resumed) == (42, 30)
+    assert without_wall_time(again.rows) == without_wall_time(full.rows)
+    assert [r["wall_s"] for r in again.rows[:30]] == [r["wall_s"] for r in full.rows[:30]]  # not run again
+    done = fleetctl("experiment", spec, "-o", out)
+    assert "72 cells (0 run now, 72 already done)" in done.stdout
+
+
+def test_the_dask_path_gives_the_same_table_as_the_local_one(spec, tmp_path):
+    from dask.distributed import LocalCluster
+
+    local = run_sweep(read_experiment(spec), tmp_path / "local", jobs=1, progress=None)
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp://", host="127.0.0.1",
+                           scheduler_port=0, dashboard_address=None)
+    try:
+        proc = fleetctl("experiment", spec, "-o", tmp_path / "dask", "--scheduler", cluster.scheduler_address)
+    finally:
+        cluster.close()
+    assert proc.returncode == 0, proc.stderr
+    assert "on 2 worker(s)" in proc.stdout
+    assert without_wall_time(read_table(tmp_path / "dask")) == without_wall_time(local.rows)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("plans: []\nstrategies: [adg]\nseeds: 1\n", ":1:8: plans: expected a non-empty list"),
+    ("plans: [{instance: lab, solver: fastest}]\nstrategies: [adg]\nseeds: 1\n",
+     ":1:9: plans[0]: solver: expected one of pibt, lacam, cbs, pp, got 'fastest'"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg, warp]\nseeds: 1\n",
+     ":2:13: strategies: expected strategies from "),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ndelays: [\"stall=2:1\"]\n",
+     ":4:9: delays: delay model 'stall=2:1': stall=2:1: expected stall=P:S with P a probability 0..1"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: -1\n", ":3:8: seeds: expected a count"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ndisable: [\"1-3\"]\n",
+     ":4:10: disable: expected none or ROBOT@STEP"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseed: 1\n", ":3:7: seed: unknown key 'seed'"),
+])
+def test_a_bad_experiment_file_is_a_one_line_error_naming_line_and_key(tmp_path, text, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    proc = fleetctl("experiment", path, "-o", tmp_path / "out")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert proc.stderr.startswith(str(path) + message), proc.stderr
