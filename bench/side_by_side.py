@@ -59,7 +59,8 @@ def build_mapf_ir(src: Path) -> Path:
     app = build / "app"
     if app.is_file():
         return app
-    if not (src / "mapf" / "CMakeLists.txt").is_file() or not any((src / "third_party" / "grid-pathfinding").iterdir()):
+    submodule = src / "third_party" / "grid-pathfinding" / "graph" / "CMakeLists.txt"
+    if not (src / "mapf" / "CMakeLists.txt").is_file() or not submodule.is_file():
         raise SystemExit("{} is not a mapf-IR checkout with its grid-pathfinding submodule".format(src))
     wrapper = build / "wrapper"
     wrapper.mkdir(parents=True, exist_ok=True)
