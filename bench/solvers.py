@@ -1,6 +1,10 @@
-"""Benchmark: the built-in solvers (and mapf-IR, when available) on shipped mapf-IR instances.
+"""Benchmark: the built-in solvers against mapf-IR's, then on their own, on shipped mapf-IR instances.
 
-Prints one table row per solver and instance: status, best wall time of the
+First (with mapf-IR found by $MAPF_IR_APP or built by --mapf-ir-src CHECKOUT):
+whole processes against whole processes, `fleetctl solve` beside mapf-IR's
+`app` on PIBT, CBS and a dense instance, with the ratios and the in-process
+figure beside (`side_by_side`). Then, in this process, one table row per
+solver and instance: status, best wall time of the
 repeats, soc, makespan and the plan's rotations (3 or more agents each
 entering the cell the next one leaves: robots cannot execute them; the
 built-in solvers plan without them, mapf-IR's allow them). pibt, lacam and pp run on every instance, cbs
@@ -10,7 +14,7 @@ and the last column is our time over mapf-IR PIBT's wall time (its process,
 from start to exit, best of the repeats). Last, replanning: 300 agents on
 arena, 3 of them disabled halfway through a PIBT plan.
 
-    .venv/bin/python bench/solvers.py [--repeats 3] [--baseline ECBS ...]
+    .venv/bin/python bench/solvers.py [--repeats 3] [--baseline ECBS ...] [--mapf-ir-src DIR]
 """
 from __future__ import annotations
 
@@ -28,6 +32,8 @@ from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.mapf_ir import APP_ENV, MapfIrSolver
 from fleet_common.planning.result import SolveResult
 from fleet_common.validate import ROTATION, validate_plan
+
+import side_by_side
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
 ARENA = "arena_300agents_1"
@@ -156,7 +162,25 @@ def main(argv: Optional[List[str]] = None) -> int:
                     help="also run mapf-IR's solver NAME (repeatable; needs ${})".format(APP_ENV))
     ap.add_argument("--mapf-ir-map-dir", type=Path, help="mapf-IR's compiled-in map folder")
     ap.add_argument("--only", action="append", default=[], metavar="INSTANCE", help="run only these instances")
+    ap.add_argument("--mapf-ir-src", type=Path, metavar="DIR",
+                    help="a Kei18/mapf-IR checkout (with grid-pathfinding) to build `app` from when ${} is unset".format(
+                        APP_ENV))
+    ap.add_argument("--skip", action="append", default=[], choices=("side-by-side", "in-process", "replanning"),
+                    help="leave out a part")
     args = ap.parse_args(argv)
+    app = side_by_side.find_app(args.mapf_ir_src)
+    if "side-by-side" not in args.skip:
+        if app is None:
+            print("side by side: not run (set {} or give --mapf-ir-src)".format(APP_ENV))
+        else:
+            side_by_side.run(app, DATA, args.repeats)
+        print()
+    if "in-process" in args.skip:
+        if "replanning" not in args.skip:
+            print(replanning(args.seed, args.repeats))
+        return 0
+    if app is not None:
+        os.environ[APP_ENV] = str(app)
 
     print(machine())
     adapter = None
@@ -183,8 +207,9 @@ def main(argv: Optional[List[str]] = None) -> int:
             rows.append(row(name, agents, solver, result, ms, ratio))
         sys.stdout.flush()
     print_table(rows)
-    print()
-    print(replanning(args.seed, args.repeats))
+    if "replanning" not in args.skip:
+        print()
+        print(replanning(args.seed, args.repeats))
     return 0
 
 

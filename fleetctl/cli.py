@@ -7,6 +7,9 @@ wrong; 3 no plan found within the limit (`solve`); 70 a bug of ours (one line
 too); 130 interrupted. Users never see a traceback; set FLEETCTL_DEBUG=1 to get
 one. What a reader doubts (`FormatWarning`: an unknown header key) is printed
 as `FILE:LINE: warning: ...` on stderr and leaves the exit status alone.
+
+Only the chosen command's module is imported (see `commands`), after the
+command line names it: `fleetctl --help` imports none.
 """
 from __future__ import annotations
 
@@ -15,41 +18,59 @@ import importlib
 import os
 import sys
 import warnings
-from typing import Any, List, Optional
-
-from fleet_common.errors import FleetError, FormatError, FormatWarning
-from fleet_common.limits import one_line
+from types import ModuleType
+from typing import Any
 
 from .commands import COMMANDS
 
+# no fleet_common here: `fleetctl --help` imports only what it prints (it is imported in main)
 
-def build_parser() -> argparse.ArgumentParser:
+
+def command_module(name: str) -> ModuleType | None:
+    """The module of command `name` (as typed on the command line), imported now; None if unknown."""
+    for command, module, _ in COMMANDS:
+        if command == name:
+            return importlib.import_module("fleetctl.commands." + module)
+    return None
+
+
+def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
+    """The parser of command `chosen` alone, or (None) of all commands with just their help lines."""
     parser = argparse.ArgumentParser(
         prog="fleetctl",
         description="FleetControl: check, convert, solve and run MAPF plans on the lab's robots.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMANDS:
-        module = importlib.import_module("fleetctl.commands." + name)
-        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
-        module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+    for name, _, help_line in COMMANDS:
+        if chosen is not None and name != chosen:
+            continue  # argparse makes a parser per command; the others cost start-up for nothing
+        p = sub.add_parser(name, help=help_line, description=help_line)
+        if name == chosen:
+            module = command_module(name)
+            p.description = getattr(module, "DESCRIPTION", help_line)
+            module.add_arguments(p)  # type: ignore[union-attr]
+            p.set_defaults(_run=module.run)  # type: ignore[union-attr]
     return parser
 
 
-def main(argv: Optional[List[str]] = None) -> int:
-    parser = build_parser()
+def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    # the top level has no options but -h, so the first other word names the command
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    if chosen is not None and argv.index(chosen) > 0:
+        chosen = None  # `fleetctl -h solve`: the top level's help, with every command
+    module = command_module(chosen) if chosen is not None else None
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
-    passthrough: List[str] = []
-    if argv and argv[0] in COMMANDS and "--" in argv and getattr(
-            importlib.import_module("fleetctl.commands." + argv[0]), "PASSTHROUGH", False):
+    passthrough: list[str] = []
+    if module is not None and "--" in argv and getattr(module, "PASSTHROUGH", False):
         cut = argv.index("--")
         argv, passthrough = argv[:cut], argv[cut + 1:]
-    args = parser.parse_args(argv)
+    args = build_parser(chosen if module is not None else None).parse_args(argv)
     args.passthrough = passthrough
+    from fleet_common.errors import FormatWarning
+
     with warnings.catch_warnings():
         warnings.simplefilter("always", FormatWarning)
         warnings.showwarning = _show_warning
@@ -57,6 +78,8 @@ def main(argv: Optional[List[str]] = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from fleet_common.errors import FleetError, FormatError
+
     try:
         return int(args._run(args))
     except FormatError as err:
@@ -80,13 +103,18 @@ def _run(args: argparse.Namespace) -> int:
 def _fail(line: str, status: int = 2) -> int:
     if os.environ.get("FLEETCTL_DEBUG"):
         raise
+    from fleet_common.limits import one_line
+
     print(one_line(line), file=sys.stderr)
     return status
 
 
 def _show_warning(message: Any, category: Any, filename: str, lineno: int, file: Any = None,
-                  line: Optional[str] = None) -> None:
+                  line: str | None = None) -> None:
     """FormatWarnings as `FILE:LINE: warning: ...`; others as Python prints them."""
+    from fleet_common.errors import FormatWarning
+    from fleet_common.limits import one_line
+
     if isinstance(message, FormatWarning):
         print(one_line(str(message)), file=sys.stderr)
     else:

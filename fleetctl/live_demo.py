@@ -116,6 +116,7 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
         endpoint = "tcp://127.0.0.1:{}".format(port)
         stall = stall_argument(settings, plan, robots)
         fleet_args = ["virtual-fleet", "--definitions", str(definitions), "--no-curve",
+                      "--instance", str(solution),  # the robots stand on the plan's starts
                       "--time-scale", "{:g}".format(settings.time_scale), "--feedback-base", str(feedback),
                       "--delay-model", settings.delay_model, "--seed", str(settings.seed),
                       "--speed", "{:g}".format(SPEED), "--log-level", "warning"]

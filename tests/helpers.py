@@ -4,12 +4,14 @@ bench/hostile_files.py's).
 """
 from __future__ import annotations
 
+from collections import deque
 import socket
 import subprocess
 import sys
 from pathlib import Path
 from typing import Dict, List, Optional, Set, Tuple
 
+from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleetctl.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
 
@@ -130,3 +132,21 @@ def big_broken_instance(path: Path, size: int = 50_000_000) -> Path:
         while f.tell() < size:
             f.write(block)
     return path
+
+
+def python_bfs(grid: Grid, goal: Coord) -> List[int]:
+    """Moves from every cell to `goal` (cell id = y * width + x), -1 where it cannot be reached."""
+    adj = grid.adjacency()
+    d = [-1] * grid.num_cells
+    if not grid.is_free(goal):
+        return d
+    s = grid.index(goal)
+    d[s] = 0
+    q = deque([s])
+    while q:
+        u = q.popleft()
+        for v in adj[u]:
+            if d[v] < 0:
+                d[v] = d[u] + 1
+                q.append(v)
+    return d

@@ -4,6 +4,7 @@ from __future__ import annotations
 import importlib
 import re
 import subprocess
+import sys
 from pathlib import Path
 from typing import List
 
@@ -36,10 +37,47 @@ def solved_solutions(shared_data: Path) -> List[Path]:
 def test_help_for_every_subcommand():
     from fleetctl.commands import COMMANDS
 
-    for module in COMMANDS:  # module names; the command's own name is its NAME
-        name = importlib.import_module("fleetctl.commands." + module).NAME
+    for name, module_name, help_line in COMMANDS:
+        module = importlib.import_module("fleetctl.commands." + module_name)
+        assert callable(module.add_arguments) and callable(module.run)
+        # a module that still names itself or its help must agree with the registry's line
+        assert getattr(module, "NAME", name) == name and getattr(module, "HELP", help_line) == help_line
         proc = fleetctl(name, "--help")
         assert proc.returncode == 0 and "usage: fleetctl " + name in proc.stdout
+
+
+IMPORTED = (
+    "import sys\n"
+    "from fleetctl.cli import main\n"
+    "try:\n"
+    "    main(sys.argv[1:])\n"
+    "except SystemExit:\n"
+    "    pass\n"
+    "print(' '.join(sorted(m for m in sys.modules if m.startswith(('fleetctl.commands.', 'numpy', 'zmq', "
+    "'tkinter', 'fleet_common.execution', 'fleet_common.planning.')))), file=sys.stderr)\n"
+)
+
+
+def modules_imported(*argv: str, cwd: Path = Path(".")) -> List[str]:
+    proc = subprocess.run([sys.executable, "-c", IMPORTED, *map(str, argv)], capture_output=True, text=True,
+                          cwd=str(cwd))
+    return proc.stderr.strip().splitlines()[-1].split() if proc.stderr.strip() else []
+
+
+def test_top_level_help_imports_no_command_and_a_command_only_its_own():
+    assert modules_imported("--help") == []
+    assert [m for m in modules_imported("solve", "--help") if m.startswith("fleetctl.commands.")] == [
+        "fleetctl.commands.solve"]
+
+
+def test_solving_a_small_instance_imports_only_the_solver_it_runs(shared_data, tmp_path):
+    mods = modules_imported("solve", shared_data / "instances" / "makespan-soc-pareto.txt", "-s", "pibt",
+                            "-o", tmp_path / "out.txt")
+    assert (tmp_path / "out.txt").is_file()
+    assert "fleet_common.planning.pibt" in mods and "numpy" in mods
+    for unused in ("fleet_common.planning.cbs", "fleet_common.planning.lacam", "fleet_common.planning.mapf_ir",
+                   "fleet_common.planning.prioritized", "fleet_common.execution", "zmq", "tkinter"):
+        assert unused not in mods, unused
 
 
 def test_validate_every_shipped_solution_reports_the_headers_figures(shared_data):

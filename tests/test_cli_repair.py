@@ -127,13 +127,13 @@ def test_simulate_takes_the_fleet_from_definitions(tmp_path: Path, shared_data: 
 
 def test_demo_runs_a_given_plan_repairing_its_rotation(tmp_path: Path) -> None:
     plan = turning(lab_grid(), "lab.map", tmp_path / "lab_plan.txt")
-    proc = fleetctl("demo", "--plan", plan)
+    proc = fleetctl("demo", "--plan", plan, "--plan-only")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "robot 1 (red): node 436 (2, 2) -> node 451 (3, 2), 1 steps" in proc.stdout
     assert re.search(r"^plan: 1 rotation repaired: robots [1-4](, [1-4])*; soc \+\d+, makespan \+\d+$",
                      proc.stdout, re.M)
     assert proc.stdout.count("collisions: 0, robots at goal: 4 of 4") == 2
-    refused = fleetctl("demo", "--plan", plan, "--no-repair")
+    refused = fleetctl("demo", "--plan", plan, "--no-repair", "--plan-only")
     assert refused.returncode == 1 and "plan: cannot be executed by robots: rotation at t=0->1" in refused.stdout
 
 

@@ -200,3 +200,65 @@ def test_command_line_mistakes_exit_2(shared_data):
     assert rotations.returncode == 2
     assert one_line(rotations.stderr) == ("fleetctl solve: --allow-rotations is for the built-in solvers; "
                                           "mapf-IR's solvers always allow rotations")
+
+
+def write_long_corridor(tmp_path: Path, max_timestep: int) -> Path:
+    """One agent from one end of a 12-cell corridor to the other: 11 steps."""
+    (tmp_path / "long.map").write_text("type octile\nheight 1\nwidth 12\nmap\n" + "." * 12 + "\n")
+    instance = tmp_path / "long.txt"
+    instance.write_text("map_file=long.map\nagents=1\nseed=0\nrandom_problem=0\nmax_timestep={}\n"
+                        "0,0,11,0\n".format(max_timestep))
+    return instance
+
+
+@pytest.mark.parametrize("solver", ["pibt", "cbs"])
+def test_the_instances_max_timestep_is_honoured_unless_the_command_line_overrides_it(solver, tmp_path):
+    instance = write_long_corridor(tmp_path, 10)
+    out = tmp_path / "out.txt"
+    short = fleetctl(instance, "-s", solver, "-o", out)
+    assert short.returncode == 3, short.stdout + short.stderr
+    assert "max_timestep=10" in one_line(short.stderr) and "solved=0\n" in out.read_text()
+    longer = fleetctl(instance, "-s", solver, "-o", out, "--max-timestep", "11")
+    assert longer.returncode == 0, longer.stderr
+    assert read_solution(out).makespan == 11
+
+
+def test_comp_time_counts_the_distance_tables_built_for_the_instance(shared_data, tmp_path, monkeypatch):
+    # a stub clock that the distance search moves on by 5 s: comp_time must include those 5 s,
+    # so the command may not build the tables (e.g. for the lower bounds) before the solve starts
+    from fleet_common.planning import goal_distances
+    from fleet_common.planning.deadline import Deadline
+    from fleetctl.cli import main
+    from fleetctl.commands import solve as solve_command
+
+    now = [1000.0]
+    search = goal_distances.grow
+
+    def slow_search(*args, **kwargs):
+        now[0] += 5.0
+        return search(*args, **kwargs)
+
+    monkeypatch.setattr(goal_distances, "grow", slow_search)
+    monkeypatch.setattr(solve_command, "Deadline", lambda seconds: Deadline(seconds, clock=lambda: now[0]))
+    out = tmp_path / "out.txt"
+    assert main(["solve", str(shared_data / "instances" / "makespan-soc-pareto.txt"), "-s", "pibt",
+                 "-o", str(out)]) == 0
+    sol = read_solution(out, [shared_data / "maps"])
+    assert sol.solved and sol.comp_time >= 5000
+
+
+def test_ecbs_and_anytime_lacam_from_the_command_line(shared_data, tmp_path):
+    instance = shared_data / "instances" / "random-32-32-20_30agents_1.txt"
+    out = tmp_path / "out.txt"
+    ecbs = fleetctl(instance, "-s", "ecbs", "--w", "1.1", "-o", out)
+    assert ecbs.returncode == 0, ecbs.stderr
+    assert read_solution(out, [shared_data / "maps"]).soc <= 1.1 * 678  # 678: the optimum (mapf-IR's CBS)
+    anytime = fleetctl(instance, "-s", "lacam", "--anytime", "--time-limit", "1", "-o", out)
+    assert anytime.returncode == 0, anytime.stderr
+    lines = anytime.stdout.rstrip().splitlines()
+    socs = [int(line.split()[1]) for line in lines[:-1]]
+    assert socs and all(line.startswith("  soc ") for line in lines[:-1])
+    assert socs == sorted(socs, reverse=True) and len(set(socs)) == len(socs)  # each line an improvement
+    assert "soc={} ".format(socs[-1]) in lines[-1]
+    wrong = fleetctl(instance, "-s", "pibt", "--w", "1.2")
+    assert wrong.returncode == 2 and one_line(wrong.stderr) == "fleetctl solve: --w is for ecbs, not pibt"

@@ -158,19 +158,24 @@ CROWDED = settings(max_examples=40, derandomize=True,
                    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 
 
+@pytest.mark.parametrize("solver, rotations, w", [("cbs", False, 1.0), ("ecbs", False, 1.5), ("ecbs", True, 1.5)])
 @CROWDED
 @given(problem=st.one_of(square_instances(), tiny_instances(max_agents=4, max_side=3)))
-def test_rotation_free_cbs_equals_the_rotation_free_exhaustive_optimum(problem) -> None:
+def test_cbs_and_ecbs_against_the_exhaustive_optimum_with_four_agents(solver: str, rotations: bool, w: float,
+                                                                       problem) -> None:
+    """cbs (every improvement on) gives the optimum; ecbs stays within w times it."""
     grid, starts, goals = problem
-    best = optimal_soc(grid, starts, goals, rotations=False)
-    result = solve("cbs", grid, starts, goals, deadline=0.2 if best is None else 3.0)
+    best = optimal_soc(grid, starts, goals, rotations=rotations)
+    options = {"w": w} if solver == "ecbs" else {}
+    result = solve(solver, grid, starts, goals, deadline=0.2 if best is None else 3.0, rotations=rotations,
+                   **options)
     if best is None:
         assert not result.solved
         return
     assert result.solved or result.status == "timeout", result.summary()
     if result.solved:
-        assert result.plan.soc == best
-        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=True).ok
+        assert best <= result.plan.soc <= w * best
+        assert validate_plan(result.plan, grid, starts, goals, strict_rotations=not rotations).ok
 
 
 @pytest.mark.parametrize("rotations", [True, False])
@@ -233,3 +238,27 @@ def test_cbs_stops_at_the_deadline_with_timeout(shared_data: Path) -> None:
     assert result.status == "timeout" and result.plan is None
     assert result.comp_time_ms < 3000
     assert "time limit" in result.message
+
+
+def test_cbs_solves_the_30_agent_benchmark_instance_optimally(shared_data: Path) -> None:
+    # mapf-IR's CBS gives soc 678 here (in 13-15 s); the plain CBS of before gave up after 60 s
+    inst = read_instance(str(shared_data / "instances" / "random-32-32-20_30agents_1.txt"),
+                         map_dirs=[shared_data / "maps"])
+    result = solve("cbs", inst.grid, inst.starts, inst.goals, deadline=60.0)
+    assert result.solved and result.plan.soc == 678 == result.stats["lower_bound"]
+
+
+@settings(max_examples=200, derandomize=True)
+@given(edges=st.sets(st.tuples(st.integers(0, 20), st.integers(0, 20)).filter(lambda e: e[0] < e[1]), max_size=30))
+def test_the_cg_bound_is_a_minimum_vertex_cover_or_less(edges) -> None:
+    # CBS adds it to a node's cost: it must never exceed the true minimum (admissible), and it is
+    # exact for the small conflict graphs nodes have
+    from fleet_common.planning.cbs_conflicts import EXACT_COVER_AGENTS, vertex_cover_size
+
+    vertices = sorted({v for e in edges for v in e})
+    best = next(k for k in range(len(vertices) + 1) for cover in itertools.combinations(vertices, k)
+                if all(a in cover or b in cover for a, b in edges))
+    got = vertex_cover_size(set(edges))
+    assert got <= best
+    if len(vertices) <= EXACT_COVER_AGENTS:
+        assert got == best

@@ -1,13 +1,13 @@
 """The solver interface: deadlines, problem checks, distance tables, results, `solve`."""
 from __future__ import annotations
 
-from collections import deque
-from typing import List
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+from helpers import python_bfs
 
 from fleet_common.errors import FleetError
 from fleet_common.formats.instance import read_instance
@@ -88,11 +88,11 @@ def test_unknown_solver_names_the_built_in_ones() -> None:
     with pytest.raises(UnknownSolverError) as err:
         solve("astar", ROOMS, [], [])
     assert "unknown solver 'astar'" in str(err.value)
-    assert "pibt, lacam, cbs, pp" in str(err.value)
+    assert "pibt, lacam, cbs, ecbs, pp" in str(err.value)
 
 
 def test_a_solver_bug_surfaces_as_an_error_not_as_a_bad_plan(monkeypatch) -> None:
-    def teleporting(grid, starts, goals, deadline, seed, rotations=False):
+    def teleporting(grid, starts, goals, deadline, seed, rotations=False, **options):
         return SolveResult(Plan.from_paths([[starts[0], goals[0]]]), "teleport", "solved")
 
     monkeypatch.setitem(SOLVERS, "pibt", teleporting)
@@ -104,7 +104,7 @@ def test_a_plan_with_a_rotation_is_a_solver_bug_unless_rotations_are_allowed(mon
     square = [(0, 0), (1, 0), (1, 1), (0, 1)]
     turned = square[1:] + square[:1]
 
-    def turning(grid, starts, goals, deadline, seed, rotations=False):
+    def turning(grid, starts, goals, deadline, seed, rotations=False, **options):
         return SolveResult(Plan.from_paths([[a, b] for a, b in zip(starts, goals)]), "turn", "solved")
 
     monkeypatch.setitem(SOLVERS, "pibt", turning)
@@ -123,23 +123,6 @@ def test_result_has_a_plan_exactly_when_solved() -> None:
         SolveResult(None, "x", "gave-up")
     r = SolveResult(None, "x", "no-solution", 1.0, "exhausted")
     assert not r.solved and "exhausted" in r.summary()
-
-
-def python_bfs(grid: Grid, goal) -> List[int]:
-    adj = grid.adjacency()
-    d = [-1] * grid.num_cells
-    if not grid.is_free(goal):
-        return d
-    s = grid.index(goal)
-    d[s] = 0
-    q = deque([s])
-    while q:
-        u = q.popleft()
-        for v in adj[u]:
-            if d[v] < 0:
-                d[v] = d[u] + 1
-                q.append(v)
-    return d
 
 
 grids = st.integers(1, 9).flatmap(lambda w: st.integers(1, 9).flatmap(
@@ -196,14 +179,13 @@ def test_problems_too_large_for_distance_tables_are_refused_before_any_search(mo
 @settings(max_examples=60)
 @given(rows=grids, data=st.data())
 def test_large_map_search_and_compact_tables_equal_a_plain_bfs(rows, data) -> None:
-    # the frontier search and memoryview tables are what maps of 65535+ cells get; force them here
+    # memoryview tables are what problems of more than LIST_ENTRIES entries get; force them here
     from fleet_common.planning import dist_table
 
     grid = Grid(np.array(rows, dtype=bool))
     cells = [(x, y) for y in range(grid.height) for x in range(grid.width)]
     goals = data.draw(st.lists(st.sampled_from(cells), min_size=1, max_size=70))
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(dist_table, "BITS_MAX_CELLS", 0)
         mp.setattr(dist_table, "LIST_ENTRIES", 0)
         views = dist_table.dist_lists(grid, goals, unreachable=grid.num_cells + 1)
     for goal, view in zip(goals, views):

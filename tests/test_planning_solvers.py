@@ -18,7 +18,7 @@ from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Coord, Grid
 from fleet_common.lab import lab_instance_path, lab_map_path
 from fleet_common.planning import SOLVER_NAMES, InvalidProblemError, solve
-from fleet_common.planning.cells import NIL, to_ids
+from fleet_common.planning.cells import NIL
 from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.planning.result import SolveResult
 from fleet_common.rotations import step_cycles
@@ -239,7 +239,7 @@ def test_a_pibt_step_never_closes_a_rotation_where_mapf_ir_semantics_would() -> 
         goals = [cells[i] for i in rng.permutation(len(cells))[:n]]
         for rotations in (True, False):
             stepper = PIBTStep(grid, goals, rotations=rotations)
-            q = to_ids(grid, starts)
+            q = stepper.to_ids(starts)
             for _ in range(20):
                 nxt = [NIL] * n
                 assert stepper.step(q, nxt, [int(i) for i in rng.permutation(n)], int(rng.integers(1 << 20)))
@@ -252,12 +252,12 @@ def test_a_pibt_step_never_closes_a_rotation_where_mapf_ir_semantics_would() -> 
 def test_pibt_undoes_a_rotation_closed_by_cells_fixed_in_advance() -> None:
     grid = Grid.from_rows(["...", "..."])
     stepper = PIBTStep(grid, TURNED)
-    q = to_ids(grid, SQUARE)
-    nxt = to_ids(grid, TURNED)
+    q = stepper.to_ids(SQUARE)
+    nxt = stepper.to_ids(TURNED)
     nxt[3] = NIL  # three agents fixed to the next corner; PIBT plans the fourth, whose goal is agent 0's cell
     assert stepper.step(q, nxt, [3, 0, 1, 2], 0)
     assert nxt == q and stepper.reverted == 1  # the whole cycle stays: no vertex conflict either
     free = PIBTStep(grid, TURNED, rotations=True)
-    nxt = to_ids(grid, TURNED)
+    nxt = free.to_ids(TURNED)
     nxt[3] = NIL
-    assert free.step(q, nxt, [3, 0, 1, 2], 0) and nxt == to_ids(grid, TURNED) and free.reverted == 0
+    assert free.step(q, nxt, [3, 0, 1, 2], 0) and nxt == free.to_ids(TURNED) and free.reverted == 0

@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 
 NAME = "keys"
-HELP = "make the CurveZMQ key pairs of the manager and the robots"
+HELP = "make the CurveZMQ key pairs of the manager, the robots and the consoles"
 DESCRIPTION = (HELP + ". Robots then obey only the manager holding manager.key_secret. "
                "Copy robot.key_secret and manager.key to each robot's key folder.")
 

@@ -7,17 +7,14 @@ from pathlib import Path
 from typing import List, Tuple
 
 from fleet_common.errors import FleetError
-from fleet_common.formats.instance import Instance, read_instance
+from fleet_common.formats.instance import DEFAULT_MAX_TIMESTEP, Instance, read_instance
 from fleet_common.formats.solution import format_solution, make_solution, write_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import SOLVER_NAMES, solve
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.dist_table import lower_bounds
-from fleet_common.planning.mapf_ir import APP_ENV, MapfIrFailed, MapfIrSolver
-from fleet_common.planning.problem import check_problem
 from fleet_common.planning.result import SolveResult
-from fleet_common.validate import ROTATION, validate_plan
 
 from .. import filekinds
 from ..options import add_map_dir, map_dirs
@@ -25,7 +22,10 @@ from ..options import add_map_dir, map_dirs
 NAME = "solve"
 #: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)
 PASSTHROUGH = True
-HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, pp or mapf-IR; write a solution"
+HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp or mapf-IR; write a solution"
+#: mapf-IR's variable naming its binary (fleet_common.planning.mapf_ir.APP_ENV; that module is
+#: imported only when a mapf-IR solver runs)
+APP_ENV = "MAPF_IR_APP"
 MAPF_IR_PREFIX = "mapf-ir:"
 DEFAULT_SOLVER = "lacam"
 #: Time limit when neither --time-limit nor the instance's max_comp_time gives one.
@@ -36,18 +36,21 @@ DESCRIPTION = (
     "comp_time in ms) that mapf-IR's visualizer and `fleetctl validate` read. Default output: "
     "<instance stem>.<solver>.txt in the current folder, e.g. arena_300agents_1.lacam.txt "
     "(`-o -` writes to stdout). Prints one summary line. Solvers: pibt (fast, may get stuck), "
-    "lacam (default; complete, PIBT-guided), cbs (optimal sum of costs, small instances), pp "
-    "(prioritized planning), or mapf-ir:NAME to run mapf-IR's solver NAME (PIBT, CBS, ECBS, "
+    "lacam (default; complete, PIBT-guided; --anytime keeps improving it until the time limit), "
+    "cbs (optimal sum of costs, dozens of agents), ecbs (sum of costs within --w times the optimum), "
+    "pp (prioritized planning), or mapf-ir:NAME to run mapf-IR's solver NAME (PIBT, CBS, ECBS, "
     "IR_HYBRID, ...) with the binary from --mapf-ir or ${}; options after `--` go to it "
     "unchanged, e.g. `-s mapf-ir:ECBS -- -w 1.2`. The time limit defaults to the instance's "
-    "max_comp_time, else {:.0f} s; the seed to the instance's seed, else 0. The built-in solvers "
+    "max_comp_time, else {:.0f} s; the step limit (a longer plan is no solution) to its "
+    "max_timestep, else {}; the seed to the instance's seed, else 0. comp_time counts all the "
+    "solver did for the instance, distance tables included, as mapf-IR's does. The built-in solvers "
     "plan for robots: no rotations (3 or more agents each entering the cell the next one leaves, "
     "which robots cannot execute) unless --allow-rotations asks for mapf-IR's semantics; a plan "
     "with rotations (from mapf-IR) says how many in the summary. Exit 0 with a plan; "
     "3 when no plan was found within the limit (a failed output, solved=0 and makespan=-1, is "
     "still written); 1 when mapf-IR failed; 2 for unreadable input (FILE:LINE: message), an "
     "invalid problem (the agent named) or a wrong command line."
-).format(APP_ENV, DEFAULT_TIME_LIMIT_S)
+).format(APP_ENV, DEFAULT_TIME_LIMIT_S, DEFAULT_MAX_TIMESTEP)
 
 
 def solver_name(text: str) -> str:
@@ -68,7 +71,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--time-limit", type=float, metavar="S",
                         help="seconds (default: the instance's max_comp_time, else {:.0f})".format(
                             DEFAULT_TIME_LIMIT_S))
+    parser.add_argument("--max-timestep", type=int, metavar="T",
+                        help="longest plan accepted, in steps (default: the instance's max_timestep, else {})".format(
+                            DEFAULT_MAX_TIMESTEP))
     parser.add_argument("--seed", type=int, metavar="N", help="random seed (default: the instance's seed, else 0)")
+    parser.add_argument("--anytime", action="store_true",
+                        help="lacam: keep improving the plan until the time limit (LaCAM*); prints the sum of "
+                             "costs at each improvement")
+    parser.add_argument("--w", type=float, metavar="W",
+                        help="ecbs: suboptimality bound, the plan's sum of costs is at most W x the optimum "
+                             "(default: 1.1)")
     parser.add_argument("--allow-rotations", action="store_true",
                         help="built-in solvers: allow rotations, as mapf-IR does (robots cannot execute "
                              "them; default: rotation-free plans)")
@@ -91,14 +103,17 @@ def run(args: argparse.Namespace) -> int:
     if limit is None:
         limit = inst.max_comp_time / 1000.0 if inst.max_comp_time else DEFAULT_TIME_LIMIT_S
     seed = args.seed if args.seed is not None else (inst.seed or 0)
+    steps = args.max_timestep if args.max_timestep is not None else (inst.max_timestep or DEFAULT_MAX_TIMESTEP)
     grid, starts, goals = inst.grid, inst.starts, inst.goals
-    check_problem(grid, starts, goals)  # names the agent; lower bounds need reachable goals
-    lb_soc, lb_makespan = lower_bounds(grid, starts, goals)
     try:
-        result = _solve(args, inst, limit, seed)
-    except MapfIrFailed as err:
+        result = _solve(args, inst, limit, seed, steps)
+    except FleetError as err:
+        if not _mapf_ir_failed(err):
+            raise
         print("fleetctl solve: {}".format(err), file=sys.stderr)
         return 1
+    # after the solve: its distance tables (which comp_time counted) give the bounds
+    lb_soc, lb_makespan = lower_bounds(grid, starts, goals)
     # mapf-IR's IR solvers log their refinement as iter= lines; keep them
     extra: List[Tuple[str, object]] = [("iter", v) for v in result.stats.get("iter_lines", [])]
     sol = make_solution(grid, map_file, result.plan, starts, goals, solver=result.solver,
@@ -118,9 +133,17 @@ def run(args: argparse.Namespace) -> int:
             result.comp_time_ms, " ({})".format(result.message) if result.message else "", where),
             file=sys.stderr)
         return 3
-    print(_summary(result, result.plan, grid, lb_soc, lb_makespan, where),
-          file=sys.stderr if to_stdout else sys.stdout)
+    report = sys.stderr if to_stdout else sys.stdout
+    for ms, soc in result.stats.get("anytime", []):
+        print("  soc {} at {:.0f} ms".format(soc, ms), file=report)
+    print(_summary(result, result.plan, grid, lb_soc, lb_makespan, where), file=report)
     return 0
+
+
+def _mapf_ir_failed(err: FleetError) -> bool:
+    """Did mapf-IR run and fail? (Its module is imported only when a mapf-IR solver ran.)"""
+    mapf_ir = sys.modules.get("fleet_common.planning.mapf_ir")
+    return mapf_ir is not None and isinstance(err, mapf_ir.MapfIrFailed)
 
 
 def _load(args: argparse.Namespace) -> Tuple[Instance, str]:
@@ -148,24 +171,41 @@ def _load(args: argparse.Namespace) -> Tuple[Instance, str]:
     raise FleetError("{} is a {} file; solve takes a mapf-IR instance or a .scen".format(args.instance, kind))
 
 
-def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int) -> SolveResult:
+def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int, steps: int) -> SolveResult:
     if args.solver.startswith(MAPF_IR_PREFIX):
+        from fleet_common.planning.mapf_ir import MapfIrSolver
+
         if args.allow_rotations:
             raise FleetError("--allow-rotations is for the built-in solvers; mapf-IR's solvers always "
                              "allow rotations")
         adapter = MapfIrSolver(args.mapf_ir, map_dir=args.mapf_ir_map_dir, timeout_s=limit)
         return adapter.solve(inst.grid, inst.starts, inst.goals, args.solver[len(MAPF_IR_PREFIX):],
                              options=args.passthrough, deadline=Deadline(limit), seed=seed,
-                             max_timestep=inst.max_timestep)
+                             max_timestep=steps)
     if args.passthrough:
         raise FleetError("options after `--` ({}) are for mapf-IR solvers; {} takes none".format(
             " ".join(args.passthrough), args.solver))
+    options = {}
+    if args.anytime:
+        if args.solver != "lacam":
+            raise FleetError("--anytime is for lacam, not {}".format(args.solver))
+        options["anytime"] = True
+    if args.w is not None:
+        if args.solver != "ecbs":
+            raise FleetError("--w is for ecbs, not {}".format(args.solver))
+        if args.w < 1:
+            raise FleetError("--w must be at least 1 (a factor on the optimal sum of costs), got {:g}".format(args.w))
+        options["w"] = args.w
     return solve(args.solver, inst.grid, inst.starts, inst.goals, deadline=Deadline(limit), seed=seed,
-                 rotations=args.allow_rotations)
+                 rotations=args.allow_rotations, max_timestep=steps, **options)
 
 
 def _summary(result: SolveResult, plan: Plan, grid: Grid, lb_soc: int, lb_makespan: int, where: str) -> str:
-    rotations = validate_plan(plan, grid).count(ROTATION)
+    rotations = result.stats.get("rotations")
+    if rotations is None:  # mapf-IR's plans: count them (built-in solvers' are counted by solve)
+        from fleet_common.validate import ROTATION, validate_plan
+
+        rotations = validate_plan(plan, grid).count(ROTATION)
     note = ", {} rotations (robots cannot execute these)".format(rotations) if rotations else ""
     return "solved=1, solver={}, comp_time(ms)={:.0f}, soc={} (LB={}), makespan={} (LB={}){} -> {}".format(
         result.solver, result.comp_time_ms, plan.soc, lb_soc, plan.makespan, lb_makespan, note, where)

@@ -107,7 +107,8 @@ def _from_instance(inst: Instance, path: str, solver: Optional[str], time_limit:
     names = [solver] if solver else (["cbs", "lacam"] if inst.num_agents <= 12 else ["lacam"])
     result = None
     for each in names:
-        result = solve(each, inst.grid, inst.starts, inst.goals, deadline=Deadline(time_limit), seed=seed)
+        result = solve(each, inst.grid, inst.starts, inst.goals, deadline=Deadline(time_limit),
+                       seed=seed, max_timestep=inst.max_timestep)
         if result.solved:
             break
     if result is None or result.plan is None:

@@ -16,29 +16,54 @@ semantics, where rotations are legal.
     pibt   PIBT: fast, hundreds of agents; incomplete
     lacam  LaCAM with PIBT as configuration generator: complete, not optimal
     cbs    Conflict-Based Search: optimal sum of costs, small instances
+    ecbs   Enhanced CBS (focal search): sum of costs within a factor `w` of the optimum
     pp     prioritized planning with space-time A*: also the replanning engine
 """
 from __future__ import annotations
 
-import time
+import importlib
 from typing import Any, Callable, Dict, Optional, Sequence, Union
 
 from ..errors import FleetError
+from ..formats.instance import DEFAULT_MAX_TIMESTEP
 from ..grid import Coord, Grid
-from ..validate import validate_plan
-from .cbs import cbs
+from ..validate import ROTATION, validate_plan
 from .deadline import Deadline, as_deadline
-from .lacam import lacam
-from .pibt import pibt
-from .prioritized import plan_with_reservations, pp
 from .problem import InvalidProblemError, ProblemTooLargeError, check_problem, check_size
 from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult, SolverError
 
 Solver = Callable[..., SolveResult]
 
+#: Solvers that stop by themselves at `max_timestep`; for the others `solve` checks the plan.
+_STEP_LIMITED = ("pibt",)
+
+
+def _lazy(module: str, function: str) -> Solver:
+    """A solver imported when first called, so that a caller pays only for the solver it runs."""
+    def run(*args: Any, **kwargs: Any) -> SolveResult:
+        return getattr(importlib.import_module("." + module, __name__), function)(*args, **kwargs)
+    run.__name__ = function
+    return run
+
+
 #: The built-in solvers by the name `solve` and `fleetctl solve -s` accept.
-SOLVERS: Dict[str, Solver] = {"pibt": pibt, "lacam": lacam, "cbs": cbs, "pp": pp}
+SOLVERS: Dict[str, Solver] = {
+    "pibt": _lazy("pibt", "pibt"),
+    "lacam": _lazy("lacam", "lacam"),
+    "cbs": _lazy("cbs", "cbs"),
+    "ecbs": _lazy("cbs", "ecbs"),
+    "pp": _lazy("prioritized", "pp"),
+}
 SOLVER_NAMES = tuple(SOLVERS)
+_EXPORTED = {"pibt": "pibt", "lacam": "lacam", "cbs": "cbs", "ecbs": "cbs", "pp": "prioritized",
+             "plan_with_reservations": "prioritized"}
+
+
+def __getattr__(name: str) -> Any:
+    # `from fleet_common.planning import lacam` still works, importing that solver only then
+    if name in _EXPORTED:
+        return getattr(importlib.import_module("." + _EXPORTED[name], __name__), name)
+    raise AttributeError("module {!r} has no attribute {!r}".format(__name__, name))
 
 
 class UnknownSolverError(FleetError, ValueError):
@@ -47,23 +72,34 @@ class UnknownSolverError(FleetError, ValueError):
 
 def solve(name: str, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord],
           deadline: Union[None, float, Deadline] = None, seed: int = 0, rotations: bool = False,
-          **options: Any) -> SolveResult:
+          max_timestep: Optional[int] = None, **options: Any) -> SolveResult:
     """Run built-in solver `name`; see the module docstring for what is guaranteed.
 
     `rotations` (default False: plans robots can execute) and `options` go to the solver.
+    A plan longer than `max_timestep` steps (default: mapf-IR's 5000) is not
+    a solution: the result is then "timeout", as in mapf-IR. `comp_time_ms`
+    is read on the deadline's clock and covers all the solver did, its
+    distance tables included (unless the grid already had them cached).
     """
     solver = SOLVERS.get(name)
     if solver is None:
         raise UnknownSolverError("unknown solver '{}'; built-in solvers are: {}".format(
             name, ", ".join(SOLVER_NAMES)))
+    budget = as_deadline(deadline)
+    began = budget.elapsed()
     starts = [(int(c[0]), int(c[1])) for c in starts]
     goals = [(int(c[0]), int(c[1])) for c in goals]
     check_problem(grid, starts, goals)
     check_size(grid, len(set(goals)))
-    budget = as_deadline(deadline)
-    began = time.perf_counter()
+    limit = DEFAULT_MAX_TIMESTEP if max_timestep is None else int(max_timestep)
+    if name in _STEP_LIMITED:
+        options["max_timestep"] = limit
     result = solver(grid, starts, goals, budget, seed, rotations=rotations, **options)
-    result.comp_time_ms = (time.perf_counter() - began) * 1000.0
+    result.comp_time_ms = (budget.elapsed() - began) * 1000.0
+    if result.plan is not None and result.plan.makespan > limit:
+        result = SolveResult(None, result.solver, TIMEOUT, result.comp_time_ms,
+                             "its plan takes {} steps, more than max_timestep={}".format(
+                                 result.plan.makespan, limit), result.stats)
     if result.plan is not None:
         check_plan(result, grid, starts, goals, rotations=rotations)
     return result
@@ -73,10 +109,12 @@ def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: 
                label: Optional[str] = None, rotations: bool = False) -> None:
     """Raise `SolverError` unless `result.plan` is valid and goes from `starts` to `goals`.
 
-    With `rotations` False, a rotation in the plan is an error too.
+    With `rotations` False, a rotation in the plan is an error too; with it
+    True, `result.stats["rotations"]` says how many the plan has.
     """
     report = validate_plan(result.plan, grid, starts=starts, goals=goals,  # type: ignore[arg-type]
                            strict_rotations=not rotations)
+    result.stats["rotations"] = report.count(ROTATION)
     if not report.ok:
         errors = report.errors
         raise SolverError("solver '{}' returned an invalid plan ({} problems), first: {}".format(
@@ -86,5 +124,5 @@ def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: 
 __all__ = [
     "SOLVERS", "SOLVER_NAMES", "solve", "check_plan", "Deadline", "SolveResult", "SolverError",
     "InvalidProblemError", "ProblemTooLargeError", "UnknownSolverError", "check_problem", "plan_with_reservations",
-    "pibt", "lacam", "cbs", "pp", "SOLVED", "TIMEOUT", "NO_SOLUTION",
+    "pibt", "lacam", "cbs", "ecbs", "pp", "SOLVED", "TIMEOUT", "NO_SOLUTION",
 ]

@@ -3,9 +3,9 @@
 Two cells are in one component when a robot can drive from one to the other;
 a goal in another component than its start can never be reached, whatever the
 other agents do. Labels come from numpy min-label propagation with pointer
-jumping (each round every cell takes the smallest label among itself and its
-neighbours, then follows its label's label), which needs a few dozen vector
-rounds even on large maps instead of a Python loop over every cell.
+jumping over the free cells (`free_cells`; each round every cell takes the
+smallest label among itself and its neighbours, then follows its label's
+label), vector rounds instead of a Python loop over every cell.
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from typing import Optional
 import numpy as np
 
 from ..grid import Grid
+from .free_cells import FreeCells
 
 _KEY = "components"
 
@@ -28,41 +29,33 @@ def component_labels(grid: Grid, blocked: Optional[np.ndarray] = None) -> np.nda
         cached = grid.derived.get(_KEY)
         if cached is not None:
             return cached  # type: ignore[return-value]
-        free = grid.free
+        cells = FreeCells.of(grid)
     else:
-        free = grid.free & ~blocked
-    labels = _label(free)
+        cells = FreeCells(grid, grid.free & ~blocked)
+    labels = np.full(grid.num_cells, -1, dtype=np.int64)
+    labels[cells.ids] = cells.ids[_label(cells.neighbours)]
     labels.setflags(write=False)
     if blocked is None:
         grid.derived[_KEY] = labels
     return labels
 
 
-def _label(free: np.ndarray) -> np.ndarray:
-    h, w = free.shape
-    big = np.int64(h * w)
-    lab = np.where(free, np.arange(h * w, dtype=np.int64).reshape(h, w), big)
+def _label(neighbours: np.ndarray) -> np.ndarray:
+    """Per free cell the smallest free-cell index of its component (the sentinel row is last)."""
+    f = neighbours.shape[0] - 1
+    lab = np.arange(f + 1, dtype=np.int64)  # the sentinel's label, f, is larger than any other
+    body = neighbours[:f]
     while True:
         new = lab.copy()
-        # hook: take the smallest label of a free neighbour (blocked cells hold `big`)
-        np.minimum(new[:, 1:], lab[:, :-1], out=new[:, 1:])
-        np.minimum(new[:, :-1], lab[:, 1:], out=new[:, :-1])
-        np.minimum(new[1:, :], lab[:-1, :], out=new[1:, :])
-        np.minimum(new[:-1, :], lab[1:, :], out=new[:-1, :])
-        new[~free] = big
-        flat = new.ravel()
-        inside = flat < big
+        # hook: take the smallest label of a neighbour
+        for d in range(body.shape[1]):
+            np.minimum(new[:f], lab[body[:, d]], out=new[:f])
         # jump: a label is a cell of the same component, so its label is one too
         while True:
-            jumped = flat.copy()
-            jumped[inside] = flat[flat[inside]]
-            if np.array_equal(jumped, flat):
+            jumped = new[new]
+            if np.array_equal(jumped, new):
                 break
-            flat = jumped
-        new = flat.reshape(h, w)
+            new = jumped
         if np.array_equal(new, lab):
-            break
+            return lab[:f]
         lab = new
-    out = lab.ravel().astype(np.int64)
-    out[out == big] = -1
-    return out

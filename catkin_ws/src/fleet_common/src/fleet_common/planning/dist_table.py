@@ -9,15 +9,13 @@ instead of int32's 4 and far less than a Python list's, which is what lets
 1,500 agents on a 530x481 map fit in under a GB. A shortest path of 65535
 moves or more is refused (`dist_codes` raises), never wrapped around.
 
-Two searches fill them, whichever is cheaper for the map:
-- small maps (fewer than 65535 cells, e.g. the lab's and the benchmark's): all
-  goals at once, bit-parallel. Goals are bits of uint64 words (64 goals a
-  word); each wavefront step grows every goal's reached set with four shifted
-  ORs, and distances are counted in bit-sliced binary counters (one uint64
-  plane per bit of the count). Its cost grows with cells x diameter, cheap here.
-- large maps: 64 goals at a time over the free cells only, one frontier of
-  (goal, cell) pairs per step, so the work is goals x free cells whatever the
-  diameter and the temporary arrays stay a few tens of MB.
+The search (`bfs`, through `goal_distances`) runs many goals at once, one
+frontier of (goal, cell) pairs per level, so the work is goals x free cells
+whatever the diameter and the temporary arrays stay a few tens of MB.
+
+These are complete tables over all grid cells, for solvers that look
+anywhere (space-time A*). PIBT and LaCAM use `goal_distances` directly:
+free cells only, searched as far as agents need.
 
 `dist_lists` hands solvers' inner loops plain Python lists while all tables
 together stay under `LIST_ENTRIES` entries (fastest to index); above that,
@@ -30,17 +28,12 @@ from typing import Dict, List, Sequence, Tuple, Union
 import numpy as np
 
 from ..grid import Coord, Grid
+from .bfs import UNREACHED
+from .free_cells import FreeCells
+from .goal_distances import GoalDistances
 
-#: Marks "unreachable" in the uint16 tables; larger than any distance they hold.
-UNREACHED = 65535
-#: Maps with fewer cells use the bit-parallel search (all distances then fit below UNREACHED).
-BITS_MAX_CELLS = 65535
 #: Goals x cells up to which `dist_lists` returns Python lists (about 0.1-0.3 GB at this size).
 LIST_ENTRIES = 10_000_000
-#: Goals searched together by the bit-parallel search; bounds its temporaries to tens of MB.
-_CELLS_PER_BATCH = 64_000_000
-#: Goals searched together by the frontier search.
-_FRONTIER_BATCH = 64
 
 DistList = Union[List[int], memoryview]
 
@@ -71,13 +64,8 @@ def dist_arrays(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
 def dist_codes(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
     """Distances to each goal as uint16 per cell, `UNREACHED` where unreachable (cached, read-only)."""
     missing = sorted({_key(g)[1] for g in goals if _key(g, "dist16") not in grid.derived})
-    if grid.num_cells < BITS_MAX_CELLS:
-        search, batch = _bfs, max(1, _CELLS_PER_BATCH // max(grid.num_cells, 1))
-    else:
-        search, batch = _frontier_bfs, _FRONTIER_BATCH
-    for k in range(0, len(missing), batch):
-        chunk = missing[k:k + batch]
-        for goal, table in zip(chunk, search(grid, chunk)):
+    if missing:
+        for goal, table in zip(missing, _complete_tables(grid, missing)):
             table.setflags(write=False)
             grid.derived[_key(goal, "dist16")] = table
     return [grid.derived[_key(g, "dist16")] for g in goals]  # type: ignore[misc]
@@ -107,113 +95,30 @@ def dist_lists(grid: Grid, goals: Sequence[Coord], unreachable: int) -> List[Dis
 
 
 def lower_bounds(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]) -> Tuple[int, int]:
-    """(sum, max) of start-to-goal distances: mapf-IR's lb_soc and lb_makespan."""
+    """(sum, max) of start-to-goal distances: mapf-IR's lb_soc and lb_makespan.
+
+    Read from the tables a solver left on the grid when it has them (complete
+    ones, or the lazy `goal_distances`, searched only as far as the starts).
+    """
     if not starts:
         return 0, 0
-    d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_codes(grid, goals))]
+    if all(_key(g, "dist16") in grid.derived for g in goals):
+        d = [int(t[grid.index(s)]) for s, t in zip(starts, dist_codes(grid, goals))]
+    else:
+        free = FreeCells.of(grid)
+        d = GoalDistances.of(grid, free.to_free(goals)).distances(range(len(starts)), free.to_free(starts))
     if max(d) == UNREACHED:
         raise ValueError("a goal is unreachable from its start; check the problem first")
     return sum(d), max(d)
 
 
-def _bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
-    h, w = grid.height, grid.width
-    n = len(goals)
-    words = (n + 63) // 64
-    # bit k % 64 of word k // 64 at a cell: goal k's search has reached that cell
-    reached = np.zeros((h, w, words), dtype="<u8")
-    for k, (x, y) in enumerate(goals):
-        if grid.is_free((x, y)):
-            reached[y, x, k // 64] |= np.uint64(1) << np.uint64(k % 64)
-    free_mask = np.where(grid.free, ~np.uint64(0), np.uint64(0)).astype("<u8")[:, :, None]
-    planes: List[np.ndarray] = []  # bit-sliced counters: steps each bit was still unreached
-    grown = np.empty_like(reached)
-    while True:
-        np.copyto(grown, reached)
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown[1:, :] |= reached[:-1, :]
-        grown[:-1, :] |= reached[1:, :]
-        grown &= free_mask
-        if np.array_equal(grown, reached):
-            break
-        _increment(planes, ~reached)
-        reached, grown = grown, reached
-    dist = np.zeros((h * w, words * 64), dtype=np.int32)
-    for k, plane in enumerate(planes):
-        dist += _unpack(plane, h * w).astype(np.int32) << k
-    dist[_unpack(reached, h * w) == 0] = UNREACHED
-    return list(np.ascontiguousarray(dist[:, :n].T.astype(np.uint16)))
-
-
-def _free_neighbours(grid: Grid) -> Tuple[np.ndarray, List[np.ndarray]]:
-    """Cell ids of the free cells, and per direction each free cell's neighbour (free index, -1 none)."""
-    ids = np.flatnonzero(grid.free.ravel())
-    index = np.full(grid.num_cells, -1, dtype=np.int64)
-    index[ids] = np.arange(ids.size)
-    w, h = grid.width, grid.height
-    x, y = ids % w, ids // w
-    out = []
-    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-        nx, ny = x + dx, y + dy
-        inside = (nx >= 0) & (nx < w) & (ny >= 0) & (ny < h)
-        nb = np.full(ids.size, -1, dtype=np.int64)
-        nb[inside] = index[(ny * w + nx)[inside]]
-        out.append(nb)
-    return ids, out
-
-
-def _frontier_bfs(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
-    ids, neighbours = _free_neighbours(grid)
-    f = ids.size
-    # one row of free-cell distances per goal, flattened: entry g * f + c
-    dist = np.full(len(goals) * f, UNREACHED, dtype=np.uint16)
-    slot = np.zeros(len(goals) * f, dtype=np.int64)  # scratch for dropping duplicate pairs
-    goal_ids = np.array([y * grid.width + x for x, y in goals], dtype=np.int64)
-    start = np.minimum(np.searchsorted(ids, goal_ids), max(f - 1, 0))
-    on_free = ids[start] == goal_ids if f else np.zeros(len(goals), dtype=bool)
-    frontier = (np.arange(len(goals), dtype=np.int64) * f + start)[on_free]  # a blocked goal reaches nothing
-    dist[frontier] = 0
-    level = 0
-    while frontier.size:
-        level += 1
-        if level >= UNREACHED:
-            raise ValueError("a shortest path on this map is {} moves or longer; distance tables "
-                             "hold at most {}".format(UNREACHED, UNREACHED - 1))
-        row = frontier // f * f
-        cell = frontier % f
-        parts = []
-        for nb in neighbours:
-            n = nb[cell]
-            ok = n >= 0
-            parts.append(row[ok] + n[ok])
-        cand = np.concatenate(parts)
-        cand = cand[dist[cand] == UNREACHED]
-        order = np.arange(cand.size)
-        slot[cand] = order
-        frontier = cand[slot[cand] == order]
-        dist[frontier] = level
+def _complete_tables(grid: Grid, goals: Sequence[Coord]) -> List[np.ndarray]:
+    free = FreeCells.of(grid)
+    rows = GoalDistances(free, free.to_free(goals))
+    rows.complete()
     out = []
     for k in range(len(goals)):
         table = np.full(grid.num_cells, UNREACHED, dtype=np.uint16)
-        table[ids] = dist[k * f:(k + 1) * f]
+        table[free.ids] = rows.table[rows.row_of[k], :free.count]
         out.append(table)
     return out
-
-
-def _increment(planes: List[np.ndarray], mask: np.ndarray) -> None:
-    """Add one to every counter whose bit is set in `mask` (ripple carry over the planes)."""
-    carry = mask
-    for plane in planes:
-        nxt = plane & carry
-        plane ^= carry
-        carry = nxt
-        if not carry.any():
-            return
-    planes.append(carry)
-
-
-def _unpack(words: np.ndarray, cells: int) -> np.ndarray:
-    """(cells, goals) 0/1 array from a (..., goals/64) uint64 bit array."""
-    as_bytes = np.ascontiguousarray(words).reshape(cells, -1).view(np.uint8)
-    return np.unpackbits(as_bytes, axis=1, bitorder="little")

@@ -19,21 +19,38 @@ constraint set that fixes every agent to a rotation-free successor leaves
 PIBT nothing to plan and nothing to undo, so that successor is generated, and
 the fully grown constraint tree holds one such set per successor; an undone
 cycle only yields another valid successor, explored like any other.
+
+Anytime (LaCAM*, Okumura IJCAI 2023), with `anytime=True`: the search goes on
+after the first plan until the deadline. Every configuration remembers the
+configurations it has led to and its cost from the start (the sum of loss:
+per step, the agents that are not resting on their goals); when a known
+configuration is reached again more cheaply, the cheaper parents spread
+through those links (a Dijkstra relaxation), a node whose cost plus its
+sum of distances cannot beat the best plan is not expanded, and now and then
+the search dives again from the start. The best plan
+only improves; when nothing is left to expand it is optimal for the sum of
+loss. `stats["anytime"]` lists (milliseconds, soc) at each improvement.
 """
 from __future__ import annotations
 
+import heapq
 import random
+import time
 from collections import deque
 from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
+import numpy as np
+
 from ..grid import Coord, Grid
-from .cells import NIL, plan_from_configs, to_ids
+from .cells import NIL
 from .deadline import Deadline
 from .pibt import initial_ties
 from .pibt_step import PIBTStep
 from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
 
 NAME = "lacam"
+#: After the first plan, the chance per iteration of diving again from the start (as LaCAM*'s code).
+RESTART_RATE = 0.001
 Config = Tuple[int, ...]
 
 
@@ -48,41 +65,71 @@ class _Constraint:
 
 
 class _Node:
-    """High-level node: a configuration, how the search reached it, and its constraint tree."""
+    """High-level node: a configuration, its cheapest known parent and cost, its constraint tree."""
 
-    __slots__ = ("config", "parent", "prio", "order", "tree")
+    __slots__ = ("config", "parent", "prio", "order", "tree", "g", "h", "links")
 
-    def __init__(self, config: Config, parent: "Optional[_Node]", prio: List[float]) -> None:
+    def __init__(self, config: Config, parent: "Optional[_Node]", prio: List[float], g: int, h: int) -> None:
         self.config = config
         self.parent = parent
         self.prio = prio
         self.order = sorted(range(len(config)), key=prio.__getitem__, reverse=True)
         self.tree: Deque[_Constraint] = deque([_Constraint()])
+        self.g = g
+        self.h = h
+        #: configurations reached from this one, with the cost of that step (anytime only)
+        self.links: Dict["_Node", int] = {}
 
 
 def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-          seed: int = 0, rotations: bool = False) -> SolveResult:
-    """Search until a plan is found, every configuration is exhausted, or the deadline."""
+          seed: int = 0, rotations: bool = False, anytime: bool = False) -> SolveResult:
+    """Search until a plan is found (or, `anytime`, the deadline), every configuration is exhausted."""
+    began = time.perf_counter()
     rng = random.Random(seed)
     n = len(starts)
-    goal_cfg: Config = tuple(to_ids(grid, goals))
-    start_cfg: Config = tuple(to_ids(grid, starts))
     stepper = PIBTStep(grid, goals, rotations=rotations)
+    goal_cfg: Config = tuple(stepper.goals)
+    start_cfg: Config = tuple(stepper.to_ids(starts))
     tie = initial_ties(stepper, start_cfg, rng)
-    root = _Node(start_cfg, None, list(tie))
+    dist = stepper.dist
+
+    def h_of(cfg: Config) -> int:  # sum of distances: no plan from cfg has a smaller loss
+        return sum(dist[i][v] for i, v in enumerate(cfg)) if anytime else 0
+
+    def loss(a: Config, b: Config) -> int:  # agents not resting on their goals during the step
+        return sum(1 for x, y, g in zip(a, b, goal_cfg) if x != g or y != g) if anytime else 0
+
+    root = _Node(start_cfg, None, list(tie), 0, h_of(start_cfg))
     open_: List[_Node] = [root]
     explored: Dict[Config, _Node] = {start_cfg: root}
     moves = stepper.moves
     loops = 0
+    best: Optional[_Node] = None
+    best_g = 0
+    history: List[Tuple[float, int]] = []
+
+    def improved() -> None:
+        nonlocal best_g
+        best_g = best.g  # type: ignore[union-attr]
+        history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(_backtrack(best), goal_cfg)))
+
     while open_:
         loops += 1
         if loops & 63 == 0 and deadline.expired():
-            return failed(NAME, TIMEOUT, "time limit reached after {} configurations".format(
-                len(explored)), explored=len(explored), loops=loops)
+            break
         node = open_[-1]
-        if node.config == goal_cfg:
-            return solved(plan_from_configs(grid, _backtrack(node), n), NAME,
-                          explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
+        if best is None and node.config == goal_cfg:
+            best = node
+            improved()
+            if not anytime:
+                break
+        if best is not None and best.g < best_g:
+            improved()
+        if best is not None and rng.random() < RESTART_RATE:
+            open_.append(root)  # LaCAM*'s random restart: dive again from the start
+        if best is not None and node.g + node.h >= best.g:
+            open_.pop()  # cannot lead to a cheaper plan
+            continue
         if not node.tree:
             open_.pop()
             continue
@@ -102,13 +149,48 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         cfg = tuple(nxt)
         known = explored.get(cfg)
         if known is not None:
+            if anytime and known not in node.links:
+                node.links[known] = loss(node.config, cfg)
+                _relax(node)
             open_.append(known)  # go back to it: its next constraint may lead elsewhere
             continue
-        child = _Node(cfg, node, _next_priorities(node.prio, cfg, goal_cfg, tie))
+        child = _Node(cfg, node, _next_priorities(node.prio, cfg, goal_cfg, tie), node.g + loss(node.config, cfg),
+                      h_of(cfg))
+        if anytime:
+            node.links[child] = child.g - node.g
         explored[cfg] = child
         open_.append(child)
-    return failed(NAME, NO_SOLUTION, "every reachable configuration was explored: no plan exists",
-                  explored=len(explored), loops=loops)
+    stats = dict(explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
+    if best is not None:
+        if best.g < best_g:
+            improved()
+        if anytime:
+            stats["anytime"] = history
+            stats["optimal_loss"] = not open_
+        return solved(stepper.plan(_backtrack(best)), NAME, **stats)
+    if open_:
+        return failed(NAME, TIMEOUT, "time limit reached after {} configurations".format(len(explored)), **stats)
+    return failed(NAME, NO_SOLUTION, "every reachable configuration was explored: no plan exists", **stats)
+
+
+def _relax(start: _Node) -> None:
+    """Spread a cheaper cost from `start` through the links (Dijkstra)."""
+    heap: List[Tuple[int, int, _Node]] = []
+    count = 0
+    for b, cost in start.links.items():
+        if start.g + cost < b.g:
+            b.g, b.parent = start.g + cost, start
+            count += 1
+            heapq.heappush(heap, (b.g, count, b))
+    while heap:
+        g, _, a = heapq.heappop(heap)
+        if g > a.g:
+            continue  # improved again since it was queued
+        for b, cost in a.links.items():
+            if g + cost < b.g:
+                b.g, b.parent = g + cost, a
+                count += 1
+                heapq.heappush(heap, (b.g, count, b))
 
 
 def _next_priorities(prio: List[float], cfg: Config, goal: Config, tie: List[float]) -> List[float]:
@@ -123,3 +205,11 @@ def _backtrack(node: _Node) -> List[Config]:
         cur = cur.parent
     configs.reverse()
     return configs
+
+
+def _soc(configs: List[Config], goal: Config) -> int:
+    """mapf-IR's sum of costs: per agent, the step from which it stays at its goal."""
+    away = np.asarray(configs, dtype=np.int64) != np.asarray(goal, dtype=np.int64)
+    steps = away.shape[0]
+    last = steps - np.argmax(away[::-1], axis=0)  # one past the last step away from the goal
+    return int(np.where(away.any(axis=0), last, 0).sum())

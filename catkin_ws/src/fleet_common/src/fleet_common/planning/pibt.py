@@ -3,8 +3,8 @@
 Priorities follow mapf-IR: an agent's priority is the number of steps since it
 was last at its goal, ties broken by a larger start-to-goal distance, then at
 random (from the seed). An agent stuck behind others soon outranks them. PIBT
-is incomplete: it stops at `max_timestep` or at the deadline ("timeout"); use
-LaCAM where it cycles. Plans have no rotations unless `rotations` is set
+is incomplete: it stops at `max_timestep` (the instance's, as mapf-IR does) or
+at the deadline ("timeout"); use LaCAM where it cycles. Plans have no rotations unless `rotations` is set
 (see `pibt_step`).
 """
 from __future__ import annotations
@@ -12,20 +12,21 @@ from __future__ import annotations
 import random
 from typing import List, Sequence
 
+from ..formats.instance import DEFAULT_MAX_TIMESTEP
 from ..grid import Coord, Grid
-from .cells import NIL, plan_from_configs, to_ids
+from ..plan import Plan
+from .cells import NIL
 from .deadline import Deadline
 from .pibt_step import PIBTStep
 from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
 
 NAME = "pibt"
-#: mapf-IR's default step limit for a plan.
-MAX_TIMESTEP = 5000
 
 
 def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[float]:
     """Per agent a fraction in [0, 1): higher for a longer start-to-goal distance, else random."""
     n = len(q)
+    stepper.cover(q)
     keys = [(stepper.dist[i][q[i]], rng.random()) for i in range(n)]
     ranked = sorted(range(n), key=keys.__getitem__)
     tie = [0.0] * n
@@ -35,34 +36,33 @@ def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> Lis
 
 
 def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-         seed: int = 0, max_timestep: int = MAX_TIMESTEP, rotations: bool = False) -> SolveResult:
+         seed: int = 0, max_timestep: int = DEFAULT_MAX_TIMESTEP, rotations: bool = False) -> SolveResult:
     """Run PIBT until every agent is at its goal, `max_timestep` steps, or the deadline."""
     rng = random.Random(seed)
     n = len(starts)
-    goal_ids = to_ids(grid, goals)
-    q = to_ids(grid, starts)
-    configs = [q]
-    if q == goal_ids:
-        return solved(plan_from_configs(grid, configs, n), NAME, timesteps=0)
+    if [tuple(c) for c in starts] == [tuple(c) for c in goals]:
+        return solved(Plan.from_paths([[c] for c in starts]), NAME, timesteps=0)
     stepper = PIBTStep(grid, goals, rotations=rotations)
+    goal_ids = stepper.goals
+    q = stepper.to_ids(starts)
+    configs = [q]
     tie = initial_ties(stepper, q, rng)
     prio = list(tie)
     for t in range(1, max_timestep + 1):
         if deadline.expired():
             return failed(NAME, TIMEOUT, "time limit reached at step {}".format(t - 1), timesteps=t - 1)
-        for i in range(n):
-            if q[i] != goal_ids[i]:
-                prio[i] += 1.0
-            else:
-                prio[i] = tie[i]
-        order = sorted(range(n), key=prio.__getitem__, reverse=True)
+        prio = [p + 1.0 if v != g else tv for p, v, g, tv in zip(prio, q, goal_ids, tie)]
+        moving = [i for i in range(n) if q[i] != goal_ids[i]]
+        # agents resting on their goals come last whatever their order: left out, step() lets them
+        # stay unless another agent needs their cell
+        order = sorted(moving, key=prio.__getitem__, reverse=True)
         nxt = [NIL] * n
-        if not stepper.step(q, nxt, order, rng.randrange(1 << 20)):
+        if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving):
             return failed(NAME, NO_SOLUTION, "PIBT found no next configuration at step {}".format(t))
         q = nxt
         configs.append(q)
         if q == goal_ids:
-            return solved(plan_from_configs(grid, configs, n), NAME, timesteps=t)
+            return solved(stepper.plan(configs), NAME, timesteps=t)
     at_goal = sum(1 for a, b in zip(q, goal_ids) if a == b)
     return failed(NAME, TIMEOUT, "{} of {} agents not at their goals after max_timestep={} steps".format(
         n - at_goal, n, max_timestep), timesteps=max_timestep)

@@ -32,48 +32,77 @@ reverting the whole cycle is vertex-safe, and it leaves no new cycle.
 Inheritance is an explicit stack, not recursion, so chains of thousands of
 agents do not reach Python's recursion limit. `step` also accepts next cells
 fixed in advance: LaCAM uses it as its configuration generator.
+
+Cells are free-cell ids (`free_cells`); distances come from
+`agent_distances` (complete lists, or rows searched lazily that each step
+first makes exact around every agent's cell). An agent resting on its goal whose cell nobody claimed stays without a search
+(staying is its unique best move), which is most agents late in a plan.
 """
 from __future__ import annotations
 
-from typing import List, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..grid import Coord, Grid
+from ..plan import Plan
 from ..rotations import step_cycles
-from .cells import NIL, moves, to_ids
-from .dist_table import dist_lists
+from .agent_distances import AgentDistances
+from .cells import NIL
+from .free_cells import FreeCells
 
 
 class PIBTStep:
     """Next configurations by PIBT, for one grid and one set of goals."""
 
     def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False) -> None:
-        self.moves = moves(grid)
-        self.adj = grid.adjacency()
-        self.dist = dist_lists(grid, goals, unreachable=grid.num_cells + 1)
-        self.goals = to_ids(grid, goals)
+        self.free = FreeCells.of(grid)
+        self.moves = self.free.moves()
+        #: per cell, its moves in each rotation (the tie orders of `_open`)
+        self.turns = [[m[r:] + m[:r] for r in range(len(m))] for m in self.moves]
+        self.adj = self.free.adjacency()
+        self.goals = self.free.to_free(goals)
         self.swap = swap
         self.rotations = rotations
+        self.distances = AgentDistances(grid, self.goals)
+        self.dist = self.distances.dist
+        self.limit = self.distances.limit
         #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
-        self.occ_now = [NIL] * grid.num_cells
-        self.occ_nxt = [NIL] * grid.num_cells
+        self.occ_now = [NIL] * self.free.count
+        self.occ_nxt = [NIL] * self.free.count
 
-    def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int) -> bool:
+    def to_ids(self, cells: Sequence[Coord]) -> List[int]:
+        """Free-cell ids of coordinates: the cells `step` works on."""
+        return self.free.to_free(cells)
+
+    def plan(self, configs: Sequence[Sequence[int]]) -> Plan:
+        """The plan of a list of configurations (free-cell ids per agent)."""
+        return self.free.plan(configs, len(self.goals))
+
+    def cover(self, q: Sequence[int], agents: Optional[Sequence[int]] = None) -> None:
+        """Make the agents' distances (default: all) exact around their cells in `q`."""
+        self.distances.cover(q, agents)
+
+    def step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int,
+             moving: Optional[Sequence[int]] = None) -> bool:
         """Fill the NIL entries of `q_to` (next cells); the others are fixed in advance.
 
-        Returns False when the fixed entries conflict (two in one cell, or a
+        `moving`, if given, lists every agent not resting on its goal (the
+        others' distance rows need no check). Agents missing from `order`
+        must rest on their goals: they stay unless another agent needs their
+        cell. Returns False when the fixed entries conflict (two in one cell, or a
         swap) or leave some agent nowhere to go; `q_to` is then meaningless.
         Unless `rotations` is set, the step has no rotation: one closed through
         fixed entries is undone by making its agents stay (fixed or not).
         """
+        self.distances.cover(q_from, moving)
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
         for i, v in enumerate(q_from):
             occ_now[v] = i
         ok = True
-        for i, v in enumerate(q_to):
+        for i, v in enumerate(q_to if q_to.count(NIL) < len(q_to) else ()):
             if v == NIL:
                 continue
             j = occ_now[v]
@@ -84,10 +113,22 @@ class PIBTStep:
             claimed.append(v)
         fixed = len(claimed)
         if ok:
+            goals = self.goals
             for i in order:
-                if q_to[i] == NIL and not self._plan_agent(i, q_from, q_to, salt, claimed):
+                if q_to[i] != NIL:
+                    continue
+                v = q_from[i]
+                if v == goals[i] and occ_nxt[v] == NIL:
+                    q_to[i] = v  # resting on its goal, unclaimed: staying is its best move
+                    occ_nxt[v] = i
+                    claimed.append(v)
+                elif not self._plan_agent(i, q_from, q_to, salt, claimed):
                     ok = False
                     break
+            if ok and NIL in q_to:
+                # agents left out of `order` rest on their goals and nobody asked for their cell
+                # (asking makes an agent plan at once): they stay
+                q_to[:] = [f if v == NIL else v for v, f in zip(q_to, q_from)]
         for v in q_from:
             occ_now[v] = NIL
         for v in claimed:
@@ -101,13 +142,6 @@ class PIBTStep:
             self.reverted += 1
             for i in agents:
                 q_to[i] = q_from[i]
-
-    def _candidates(self, i: int, v: int, salt: int) -> List[int]:
-        m = self.moves[v]
-        r = (salt + i) % len(m)  # rotating the tie order stands in for a shuffle, cheaply
-        c = m[r:] + m[:r]
-        c.sort(key=self.dist[i].__getitem__)
-        return c
 
     def _plan_agent(self, agent: int, q_from: Sequence[int], q_to: List[int], salt: int,
                     claimed: List[int]) -> bool:
@@ -158,7 +192,9 @@ class PIBTStep:
 
     def _open(self, i: int, q_from: Sequence[int], q_to: List[int], salt: int) -> Tuple[List[int], int]:
         """Candidates of agent i, best first (reversed when it must lead a swap), and its partner."""
-        cands = self._candidates(i, q_from[i], salt)
+        turns = self.turns[q_from[i]]
+        # rotating the tie order stands in for a shuffle, cheaply
+        cands = sorted(turns[(salt + i) % len(turns)], key=self.dist[i].__getitem__)
         partner = self._swap_partner(i, cands[0], q_from, q_to) if self.swap else NIL
         if partner != NIL:
             cands.reverse()
@@ -184,12 +220,15 @@ class PIBTStep:
         if (j != NIL and q_to[j] == NIL and self._swap_required(i, j, here, best)
                 and self._swap_possible(best, here)):
             return j  # i wants j's cell and j wants through i: i leads, pulling j
+        dist = self.dist
         for u in self.adj[here]:
             k = occ_now[u]
             if k == NIL or u == best or q_to[k] != NIL:
                 continue
             # k, were it where i is, would have to pass i: i backs off and pulls k along
-            if self._swap_required(k, i, here, best) and self._swap_possible(best, here):
+            # (never unless `best` brings k nearer its goal: then _swap_required is False at once)
+            dk = dist[k]
+            if dk[best] < dk[here] and self._swap_required(k, i, here, best) and self._swap_possible(best, here):
                 return k
         return NIL
 
@@ -216,6 +255,10 @@ class PIBTStep:
             if not exits:
                 break
             at_pusher, at_puller = at_puller, exits[0]
+        if d_pull[at_puller] > self.limit[puller]:  # the corridor may lead past the known part
+            far = self.distances.far
+            return far(puller, at_pusher) < far(puller, at_puller) and (
+                d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
         return d_pull[at_pusher] < d_pull[at_puller] and (
             d_push[at_pusher] == 0 or d_push[at_puller] < d_push[at_pusher])
 

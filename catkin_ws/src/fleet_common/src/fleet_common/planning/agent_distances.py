@@ -1,0 +1,81 @@
+"""Each agent's distance to its goal, as PIBT's inner loop reads it: complete lists or lazy rows.
+
+Rows are indexed by free cell (`free_cells`). While goals x free cells stays
+under `LIST_ENTRIES` they are complete Python lists (fastest to index),
+unreachable cells reading F+1. Above that they are memoryviews of the lazy
+rows of `goal_distances`: `cover` keeps each agent's row exact `MARGIN`
+levels past its cell (a step reads distances only there: the agent's moves,
+and a move further for the swap rule), growing it by `GROW_AT_LEAST` levels
+at a time; reads further along a corridor go through `far`, which grows a
+row on demand. Cells not searched yet read 65535, like unreachable ones.
+"""
+from __future__ import annotations
+
+from typing import Any, List, Optional, Sequence
+
+import numpy as np
+
+from ..grid import Grid
+from .bfs import UNREACHED
+from .free_cells import FreeCells
+from .goal_distances import COMPLETE, GoalDistances
+
+#: Goals x free cells up to which distances are complete Python lists (about 0.1-0.3 GB).
+LIST_ENTRIES = 10_000_000
+#: Lazy rows are kept exact this many levels past every agent's distance.
+MARGIN = 4
+#: A lazy row that must grow grows by at least this many levels, so it grows rarely.
+GROW_AT_LEAST = 16
+
+
+class AgentDistances:
+    """`dist[i][cell]`: agent i's distance from free cell `cell` to its goal (exact where `cover` says)."""
+
+    def __init__(self, grid: Grid, goals: Sequence[int]) -> None:
+        free = FreeCells.of(grid)
+        rows = GoalDistances.of(grid, goals)
+        n = len(goals)
+        self.lazy: Optional[GoalDistances] = None
+        if len(rows.searches) * free.count <= LIST_ENTRIES:
+            rows.complete()
+            f = free.count
+            body = rows.table[:, :f].astype(np.int64)
+            lists = np.where(body == UNREACHED, f + 1, body).tolist()
+            self.dist: List[Any] = [lists[r] for r in rows.row_of]
+            #: per agent, the largest distance at its cell for which every read of a step is exact
+            self.limit = [COMPLETE] * n
+        else:
+            self.lazy = rows
+            self.dist = rows.views()
+            self.limit = [rows.radius(i) - MARGIN for i in range(n)]
+
+    def cover(self, q: Sequence[int], agents: Optional[Sequence[int]] = None) -> None:
+        """Make the agents' rows (default: all) exact around their cells in `q`.
+
+        A no-op for complete tables. Agents resting on their goals need no
+        check: everything within MARGIN of the goal is known from the start.
+        """
+        if self.lazy is None:
+            return
+        dist, limit = self.dist, self.limit
+        if agents is None:
+            short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
+        else:
+            short = [i for i in agents if dist[i][q[i]] > limit[i]]
+        if short:
+            lazy = self.lazy
+            lazy.cover(short, [q[i] for i in short], MARGIN)
+            grow = [i for i in short if lazy.radius(i) - MARGIN < dist[i][q[i]] + GROW_AT_LEAST]
+            if grow:  # a little further than needed now: the agent is heading out
+                lazy.cover(grow, [q[i] for i in grow], MARGIN + GROW_AT_LEAST)
+            for i in short:
+                limit[i] = lazy.radius(i) - MARGIN
+
+    def far(self, i: int, cell: int) -> int:
+        """Agent i's distance at `cell`, growing its lazy row if it does not reach that far yet."""
+        d = self.dist[i][cell]
+        if d > self.limit[i] + MARGIN and self.lazy is not None and self.lazy.radius(i) < COMPLETE:
+            self.lazy.cover([i], [cell], 0)
+            self.limit[i] = self.lazy.radius(i) - MARGIN
+            d = self.dist[i][cell]
+        return d
