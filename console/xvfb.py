@@ -14,6 +14,7 @@ import subprocess
 from typing import Optional
 
 from fleet_common.errors import FleetError
+from fleet_common.lifetime import die_with_parent
 
 START_TIMEOUT = 10.0
 
@@ -41,7 +42,7 @@ class Xvfb:
                 [exe, "-displayfd", str(write_fd), "-screen", "0", "{}x{}x24".format(width, height),
                  "-nolisten", "tcp"],
                 pass_fds=(write_fd,), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL)
+                stderr=subprocess.DEVNULL, preexec_fn=die_with_parent)
         finally:
             os.close(write_fd)
         try:

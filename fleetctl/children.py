@@ -7,6 +7,9 @@ process group (the commands close cleanly on it), then SIGTERM, then SIGKILL,
 each after a grace period, and waits for it. Never by name: other sessions on
 the machine run the same programs.
 
+A child also gets SIGTERM when the parent dies without stopping it (killed
+outright: `fleet_common.lifetime`), so no helper outlives a killed demo.
+
 Output goes to a log file, or is read line by line in a thread (`lines`),
 with `on_line` called for each, so a chatty child never blocks on a full pipe.
 """
@@ -20,6 +23,8 @@ import threading
 import time
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence
+
+from fleet_common.lifetime import die_with_parent
 
 __all__ = ["Child"]
 
@@ -53,7 +58,8 @@ class Child:
         try:
             process = subprocess.Popen(
                 list(argv), stdin=subprocess.DEVNULL, stdout=out,
-                stderr=subprocess.STDOUT, text=True, start_new_session=True, env=env)
+                stderr=subprocess.STDOUT, text=True, start_new_session=True, env=env,
+                preexec_fn=die_with_parent)  # a parent killed outright takes its children along
         finally:
             if log is not None:
                 out.close()  # type: ignore[union-attr]

@@ -27,11 +27,12 @@ def pids(output: str) -> List[int]:
 
 
 def gone(pid: int) -> bool:
+    """The process has ended (a zombie nobody reaped counts: it runs nothing)."""
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        stat = Path("/proc/{}/stat".format(pid)).read_text()
+    except OSError:
         return True
-    return False
+    return stat.rsplit(")", 1)[1].split()[0] == "Z"
 
 
 def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: Path) -> None:
@@ -78,6 +79,34 @@ def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
     while not all(gone(pid) for pid in children) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert [pid for pid in children if not gone(pid)] == []
+
+
+def test_a_demo_killed_outright_takes_its_processes_along(tmp_path: Path) -> None:
+    """SIGKILL (a test's timeout, the OOM killer) leaves the demo no chance to stop its children:
+    the kernel tells them (and the console's Xvfb) that their parent died."""
+    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(tmp_path)], env=headless(),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    lines: List[str] = []
+    try:
+        assert demo.stdout is not None
+        for line in demo.stdout:
+            lines.append(line)
+            if "demo console: start" in line:
+                break
+        children = pids("".join(lines))
+        xvfb = [int(p) for c in children for p in Path("/proc/{}/task/{}/children".format(c, c))
+                .read_text().split()] if children else []
+        demo.kill()
+        demo.wait(10)
+    finally:
+        if demo.poll() is None:
+            demo.kill()
+            demo.wait()
+    assert len(children) == 3 and xvfb, "".join(lines)
+    deadline = time.monotonic() + 15
+    while not all(gone(pid) for pid in children + xvfb) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert [pid for pid in children + xvfb if not gone(pid)] == []
 
 
 def test_console_without_a_manager_says_so_in_its_screenshot(tmp_path: Path) -> None:
