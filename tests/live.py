@@ -23,6 +23,7 @@ from typing import Any, Callable, List, Optional, Sequence, Tuple
 import zmq
 
 from fleet_common.control import Answer
+from fleet_common.lifetime import die_with_parent
 from fleet_common.control.session import ConsoleSession
 from fleet_common.transport.console_channel import ConsoleClient
 from fleet_common.transport.curve_keys import load_console_keys
@@ -49,7 +50,8 @@ class Proc:
         self.log = log
         self._out = open(log, "ab")
         self.popen = subprocess.Popen(self.args, stdout=self._out, stderr=subprocess.STDOUT,
-                                      stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+                                      stdin=subprocess.DEVNULL, start_new_session=True, env=env,
+                                      preexec_fn=die_with_parent)
 
     def text(self) -> str:
         return self.log.read_text(encoding="utf-8", errors="replace")

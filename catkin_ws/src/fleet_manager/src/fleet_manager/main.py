@@ -67,7 +67,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds a plan step is expected to take: the consoles' planned "
                              "position and 'behind plan' (default 2.5)")
     parser.add_argument("--state-rate", type=float, default=20.0, metavar="HZ",
-                        help="state messages to consoles per second (default 20)")
+                        help="state messages to consoles per second when nothing happens "
+                             "(default 20)")
+    parser.add_argument("--state-max-rate", type=float, default=50.0, metavar="HZ",
+                        help="news (a pose, a reply) goes to consoles at once, but at most this "
+                             "many times a second (default 50)")
     parser.add_argument("--no-preturn", action="store_true",
                         help="robots do not turn towards their next cell while they wait")
     parser.add_argument("-s", "--solver", default=None,
@@ -135,7 +139,8 @@ def run(args: argparse.Namespace) -> int:
     settings = ManagerSettings(
         strategy=args.strategy, lookahead=args.lookahead, bind=args.bind,
         log_dir=None if args.no_log else (args.log or default_runs_dir()),
-        step_time=args.step_time, state_rate=args.state_rate, preturn=not args.no_preturn,
+        step_time=args.step_time, state_rate=args.state_rate,
+        state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
         vicon_bind=args.vicon_bind, frames=args.frames)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host)

@@ -2,8 +2,9 @@
 
 One thread, one poller (`LinkSet`): the robots' links, the console channel,
 the ZAP handler and the Vicon socket are all read as they become readable,
-and between them the loop does what is due: publish the state (20 Hz by
-default), log poses (10 Hz), move a replan on, notice the end of the run.
+and between them the loop does what is due: publish the state (soon after
+news, at most 50 times a second, and 20 times a second without), log poses
+(10 Hz), move a replan on, notice the end of the run.
 What happens when:
 
 - a robot's reply or pose arrives: the driver turns it into engine events and
@@ -80,7 +81,8 @@ class ManagerSettings:
     bind: str = DEFAULT_ENDPOINT
     log_dir: Optional[Path] = None
     step_time: float = 2.5       # s a plan step is expected to take (the planned-position ghost)
-    state_rate: float = 20.0     # state messages per second
+    state_rate: float = 20.0     # state messages per second, at least
+    state_max_rate: float = 50.0  # and at most, when news (poses, replies) comes faster
     stale_after: float = 1.0     # s without a pose before a robot's position is stale
     replan_limit: float = 5.0    # s a replan may take
     preturn: bool = True         # robots turn towards their next cell while they wait
@@ -145,12 +147,14 @@ class Manager:
         if self.zap is not None:
             self.links.watch(self.zap.socket, self.zap.handle)
         if self.vicon is not None:
-            self.links.watch(self.vicon.provider.fileno(), self.vicon.readable)
+            self.links.watch(self.vicon.provider.fileno(), self._vicon_readable)
         self.desk = ControlDesk(secrets.token_hex(8), self.now())
         self.engine = self._new_engine(self.plan)
         self.driver = self._new_driver(self.engine, None)
         self.steering = Steering(self)
         self._next_state = self._next_poses = self._next_collisions = self.now()
+        self._last_state = self.now()
+        self._fresh = False  # something arrived that the consoles have not been sent yet
 
     # ---- time -------------------------------------------------------------------------------
 
@@ -237,7 +241,7 @@ class Manager:
         deadline = None if time_limit is None else self.now() + time_limit
         while not should_stop():
             now = self.now()
-            due = min(self._next_state, self._next_poses)
+            due = min(self._next_state, self._next_poses, self._state_due())
             for event in self.links.poll(max(0.0, min(0.05, due - now))):
                 self._link_event(event)
             now = self.now()
@@ -265,7 +269,7 @@ class Manager:
             self._log_poses(now)
             if self.vicon is not None:
                 self.vicon.check(now)
-        if now >= self._next_state:
+        if now >= self._next_state or now >= self._state_due():
             self._next_state = now + 1.0 / self.settings.state_rate
             self._publish(now)
         if now >= self._next_collisions:
@@ -273,7 +277,17 @@ class Manager:
             self.collisions = self.summary_builder.summary().collisions
         self._send(self.desk.tick(self.clock()))
 
+    def _state_due(self) -> float:
+        """When news (a pose, a reply) goes out: at once, but at most `state_max_rate` times a
+        second; without news the state still goes out `state_rate` times a second."""
+        return self._last_state + 1.0 / self.settings.state_max_rate if self._fresh else float("inf")
+
+    def _vicon_readable(self) -> None:
+        self.vicon.readable()  # type: ignore[union-attr]
+        self._fresh = True
+
     def _link_event(self, event: LinkEvent) -> None:
+        self._fresh = True
         now = self.now()
         if isinstance(event, PoseFeedback):
             self.positions.from_robot(event.robot_id, event.pose, now)
@@ -284,6 +298,7 @@ class Manager:
         self.driver.on_link_event(event, now)
 
     def _publish(self, now: float) -> None:
+        self._last_state, self._fresh = now, False
         waits = robot_waits(self)
         if waits != self._last_waits:
             self._last_waits = waits
