@@ -123,14 +123,14 @@ class Driver:
     def handle(self, event: object, now: float) -> None:
         """Give the engine `event` (a control or progress event) and act on what it decides."""
         run = self.engine.run
-        before = [m.wait_time for m in self.engine.metrics.robots]
+        waits = self.engine.metrics.last_wait
+        waits.clear()
         dispatches = self.engine.handle(event)
         released = getattr(event, "robot", None) if isinstance(event, (ActionCompleted, Enabled)) else None
         for d in dispatches:
             slot = self.slots[d.robot]
             slot.queue.append(d)
-            waited = self.engine.metrics.robots[d.robot].wait_time - before[d.robot]
-            before[d.robot] += waited
+            waited = waits.pop(d.robot, 0.0)  # a robot sent two actions at once waited once
             self.note("dispatch", robot=slot.robot_id, index=d.index, step=d.step, src=d.src,
                       dst=d.dst, waited=round(waited, 3),
                       released_by=None if released is None else self.slots[released].robot_id)

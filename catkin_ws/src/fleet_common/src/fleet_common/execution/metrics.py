@@ -40,6 +40,9 @@ class Metrics:
         self.last_completion: Optional[float] = None
         self._ready: List[Optional[float]] = [None] * len(self.counts)
         self._done = [0] * len(self.counts)
+        #: per robot, the wait its latest waiting dispatch ended (a caller logging each dispatch
+        #: clears it before an event and takes what the event's dispatches left)
+        self.last_wait: Dict[int, float] = {}
 
     def record(self, event: object) -> None:
         if isinstance(event, ActionCompleted):
@@ -60,6 +63,7 @@ class Metrics:
         waited = time - ready
         if waited <= 0:
             return
+        self.last_wait[robot] = waited
         m = self.robots[robot]
         m.waits += 1
         m.wait_time += waited

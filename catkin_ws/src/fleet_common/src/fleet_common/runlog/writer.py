@@ -56,6 +56,9 @@ def _clean(value: Any) -> Any:
     return value
 
 
+_ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False)
+
+
 class RunLog:
     """The open events.jsonl of one run folder."""
 
@@ -85,8 +88,12 @@ class RunLog:
         if self._file is None:
             return
         line = {"t": round(self.now() if t is None else float(t), 4), "k": kind}
-        line.update(_clean(fields))
-        self._file.write(json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n")
+        line.update(fields)
+        try:  # the common case in one C call: plain Python values (tuples become lists)
+            text = _ENCODER.encode(line)
+        except (ValueError, TypeError):  # a NaN or infinity, a numpy number: cleaned first
+            text = _ENCODER.encode(_clean(line))
+        self._file.write(text + "\n")
         self.lines += 1
         now = self.clock()
         if now - self._last_flush >= FLUSH_EVERY:

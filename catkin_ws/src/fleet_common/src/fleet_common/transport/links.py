@@ -3,7 +3,10 @@
 The manager talks to the whole fleet from one loop (300 virtual robots are 600
 sockets, not 300 threads). A link replaces its sockets when it reconnects, so
 after each call into a link the poller's registrations are brought in line
-with `link.sockets()`.
+with its sockets. Only the command sockets are polled: the pose streams (10
+frames a second from every robot, so some socket is always readable) are
+read every `FEEDBACK_PERIOD` instead, the newest pose of each robot, which
+halves what each poll must look at (its cost grows with the sockets).
 
 The set is a boundary: a link that raises (a bug, whatever a robot sent) is
 logged (once a minute per robot, then a count) and served again at its next
@@ -26,6 +29,8 @@ from .robot_link import LinkEvent, RobotLink
 __all__ = ["LinkSet"]
 
 _RETRY = 1.0  # seconds before a link whose tick failed is ticked again
+#: Seconds between reads of the robots' pose streams (a pose waits at most this long).
+FEEDBACK_PERIOD = 0.02
 
 
 class LinkSet:
@@ -43,7 +48,9 @@ class LinkSet:
         self._due: Dict[int, float] = {}
         self._heap: List[Tuple[float, int]] = []
         self._watched: Dict[Any, Callable[[], None]] = {}
+        self._generation: Dict[int, int] = {}  # robot id -> its link's sockets as registered
         now = clock()
+        self._next_drain = now
         for robot_id, link in self.links.items():
             self._sync(link)
             self._schedule(robot_id, now)
@@ -63,6 +70,7 @@ class LinkSet:
         events: List[LinkEvent] = []
         now = self.clock()
         wait = max_wait if not self._heap else min(max_wait, max(0.0, self._heap[0][0] - now))
+        wait = min(wait, max(0.0, self._next_drain - now))
         for sock, _ in self.poller.poll(wait * 1000.0):
             watcher = self._watched.get(sock)
             if watcher is not None:
@@ -74,9 +82,11 @@ class LinkSet:
                 continue
             link = self._owner.get(sock)
             if link is not None:
+                command = sock is link.command
                 events += self._guard(link, "handling a frame", lambda: link.handle(sock)) or []
                 self._sync(link)
-                self._schedule(link.robot_id, self.clock())
+                if command:  # a welcome or a bye changes what is due; a pose never does
+                    self._schedule(link.robot_id, self.clock())
         now = self.clock()
         while self._heap and self._heap[0][0] <= now:
             when, robot_id = heapq.heappop(self._heap)
@@ -89,7 +99,24 @@ class LinkSet:
             events += more
             self._sync(link)
             self._schedule(robot_id, max(due, now + 0.001))  # never spin on one link
+        if now >= self._next_drain:
+            self._next_drain = now + FEEDBACK_PERIOD
+            events += self._drain()
         self.failures.flush(now)
+        return events
+
+    def _drain(self) -> List[LinkEvent]:
+        """The newest pose of each robot whose stream has one waiting."""
+        events: List[LinkEvent] = []
+        for link in self.links.values():
+            sock = link.feedback
+            if sock is None:
+                continue
+            ready = self._guard(link, "reading poses",
+                                lambda: sock.get(zmq.EVENTS) & zmq.POLLIN)
+            if ready:
+                events += self._guard(link, "reading poses", lambda: link.handle(sock)) or []
+                self._sync(link)
         return events
 
     def close(self) -> None:
@@ -108,7 +135,10 @@ class LinkSet:
             return None
 
     def _sync(self, link: RobotLink) -> None:
-        now_socks = link.sockets()
+        if self._generation.get(link.robot_id) == link.generation:
+            return  # the same sockets as registered
+        self._generation[link.robot_id] = link.generation
+        now_socks = [link.command] if link.command is not None else []  # see the docstring
         old = self._registered.get(link.robot_id, [])
         for sock in old:
             if not any(sock is s for s in now_socks):

@@ -76,9 +76,10 @@ class RobotLink:
         self.state = "connecting"  # connecting | up | down | failed
         self.session: Optional[str] = None
         self.feedback_port: Optional[int] = None
-        self.feedback: Optional[zmq.Socket] = None
+        self.generation = 0  # counts changes of the sockets, for the loop's poller
+        self._feedback: Optional[zmq.Socket] = None
+        self._command: Optional[zmq.Socket] = None
         self._feedback_heard = 0.0  # when the pose stream last sent anything
-        self.command: Optional[zmq.Socket] = None
         self.conn = Connection(Role.MANAGER, self.robot_id)
         self.live = Liveness(clock())
         self.retry_at = 0.0
@@ -118,6 +119,24 @@ class RobotLink:
         return list(self._unsettled)
 
     # ---- the loop's side -----------------------------------------------------------
+
+    @property
+    def command(self) -> Optional[zmq.Socket]:
+        return self._command
+
+    @command.setter
+    def command(self, sock: Optional[zmq.Socket]) -> None:
+        self._command = sock
+        self.generation += 1
+
+    @property
+    def feedback(self) -> Optional[zmq.Socket]:
+        return self._feedback
+
+    @feedback.setter
+    def feedback(self, sock: Optional[zmq.Socket]) -> None:
+        self._feedback = sock
+        self.generation += 1
 
     def sockets(self) -> List[zmq.Socket]:
         return [s for s in (self.command, self.feedback) if s is not None]
