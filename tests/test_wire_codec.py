@@ -12,6 +12,7 @@ from fleet_common.wire import (PROTOCOL_VERSION, Accepted, Bye, Completed, Drive
                                RemoteProtocolError, Status, Stop, Turn, VersionMismatchError,
                                Welcome)
 from fleet_common.wire.codec import decode, encode
+from fleet_common.wire.errors import MalformedFrameError
 from fleet_common.wire.messages import MESSAGE_TYPES
 
 ids = st.integers(0, 2 ** 63 - 1)
@@ -157,3 +158,33 @@ def test_our_own_long_texts_are_cut_to_what_the_peer_accepts() -> None:
     assert decode(frame) == Failed(3, "r" * 1000)
     status = Status(1, Pose(0, 0, 0), None, tuple("f{}".format(i) for i in range(50)))
     assert len(decode(encode(status)).faults) == 32
+
+
+_any_json = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+                         lambda inner: st.lists(inner, max_size=4), max_leaves=8)
+
+
+@given(st.fixed_dictionaries({
+    "robot_id": st.integers(-5, 2 ** 64) | _any_json, "seq": st.integers(-5, 2 ** 64) | _any_json,
+    "pose": st.lists(st.floats() | st.integers(-10 ** 30, 10 ** 30), min_size=2, max_size=4) | _any_json,
+    "current": st.none() | st.integers(-5, 2 ** 64) | _any_json,
+    "faults": st.lists(st.text(max_size=5), max_size=3) | _any_json}))
+def test_the_fast_path_for_poses_agrees_with_the_general_one(fields) -> None:
+    """Pose frames take a quicker road (3,000 a second for 300 robots); it must lead to the same
+    message, or to the same refusal, as the general decoder, whatever the fields hold."""
+    frame = json.dumps(dict({"t": "pose", "v": 1}, **fields), separators=(",", ":")).encode()
+    general = b"{ " + frame[1:]  # a space after the brace: not the fast path's shape
+
+    def outcome(data: bytes):
+        try:
+            return decode(data)
+        except MalformedFrameError as err:
+            return type(err)
+
+    assert outcome(frame) == outcome(general)
+
+
+def test_a_pose_frame_with_a_key_twice_is_refused_on_the_fast_path_too() -> None:
+    frame = b'{"t":"pose","v":1,"robot_id":1,"robot_id":2,"seq":1,"pose":[1,1,1],"current":null,"faults":[]}'
+    with pytest.raises(MalformedFrameError, match="twice"):
+        decode(frame)

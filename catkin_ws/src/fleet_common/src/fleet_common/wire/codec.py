@@ -25,11 +25,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 from ..limits import MAX_WIRE_LIST, MAX_WIRE_TEXT, DecodeError, excerpt, loads_frame
 from .errors import MalformedFrameError, VersionMismatchError
-from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose
+from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose, PoseFeedback
 
 __all__ = ["encode", "decode"]
 
@@ -66,6 +66,10 @@ def encode(message: Message, version: int = PROTOCOL_VERSION) -> bytes:
 
 def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
     """The message in frame `data`; MalformedFrameError if it is not a valid one."""
+    if len(data) <= _FAST_BYTES and data[:10] == b'{"t":"pose':
+        pose = _fast_pose(data, version)
+        if pose is not None:
+            return pose
     try:
         frame = loads_frame(data)
     except DecodeError as err:
@@ -97,6 +101,45 @@ def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
     if kind in ("hello", "welcome"):
         values["version"] = their
     return MESSAGE_TYPES[kind](**values)
+
+
+#: A pose feedback frame this small is read by the fast path below: every robot sends ten a
+#: second, so a manager of 300 robots reads 3,000 a second, and the general path costs 5x.
+_FAST_BYTES = 512
+_POSE_KEYS = frozenset(("t", "v", "robot_id", "seq", "pose", "current", "faults"))
+
+
+def _fast_pose(data: bytes, version: int) -> Optional[PoseFeedback]:
+    """The pose in a small, well-formed pose frame; None for anything else (the general path
+    then says what is wrong). Safe with the plain JSON parser: in 512 bytes a number has at most
+    some 500 digits and the nesting is far from Python's recursion limit, and every value is
+    checked here as the general path would (finite numbers, integers in range, no extra keys)."""
+    try:
+        pairs = json.loads(data, object_pairs_hook=list)  # a key twice is refused, as in general
+    except (ValueError, RecursionError):
+        return None
+    if type(pairs) is not list or len(pairs) != len(_POSE_KEYS):
+        return None
+    f = dict(pairs) if all(type(p) is tuple for p in pairs) else {}
+    if f.keys() != _POSE_KEYS or f["v"] != version:
+        return None
+    rid, seq, pose, current, faults = f["robot_id"], f["seq"], f["pose"], f["current"], f["faults"]
+    try:
+        return _checked_pose(rid, seq, pose, current, faults)
+    except OverflowError:  # an integer too large for a float: the general path refuses it
+        return None
+
+
+def _checked_pose(rid: Any, seq: Any, pose: Any, current: Any, faults: Any) -> Optional[PoseFeedback]:
+    if not (type(rid) is int and 0 <= rid <= _MAX_ID and type(seq) is int and 0 <= seq <= _MAX_ID
+            and (current is None or (type(current) is int and 0 <= current <= _MAX_ID))
+            and type(pose) is list and len(pose) == 3
+            and all(type(v) in (int, float) and math.isfinite(v) for v in pose)
+            and type(faults) is list and len(faults) <= MAX_WIRE_LIST
+            and all(type(x) is str and len(x) <= MAX_WIRE_TEXT for x in faults)):
+        return None
+    return PoseFeedback(rid, seq, Pose(float(pose[0]), float(pose[1]), float(pose[2])), current,
+                        tuple(faults))
 
 
 def _is_int(value: Any) -> bool:
