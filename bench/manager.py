@@ -64,6 +64,33 @@ def round_trips(records: List[dict]) -> List[float]:
     return out
 
 
+def split_round_trips(records: List[dict], started: str, at: float,
+                      truth: Path) -> Tuple[List[float], List[float]]:
+    """Each round trip cut where the virtual robot started the command (its truth file, wall
+    clock), the run log's times put on the wall clock by the run's start: the manager's side
+    and the robot's side of the latency (to about a millisecond)."""
+    import json
+    from datetime import datetime
+
+    t0 = datetime.fromisoformat(started).timestamp() - at  # the wall clock at the log's t = 0
+    executed: Dict[Tuple[int, int], float] = {}
+    for line in truth.read_text().splitlines():
+        r = json.loads(line)
+        if r.get("k") == "exec":
+            executed.setdefault((r["robot"], r["id"]), r["t"])
+    sent: Dict[Tuple[int, int], float] = {}
+    outbound, back = [], []
+    for r in records:
+        if r["k"] == "command" and r.get("type") in ("drive", "turn"):
+            sent[(r["robot"], r["id"])] = t0 + r["t"]
+        elif r["k"] == "reply" and r.get("type") == "accepted":
+            key = (r["robot"], r["id"])
+            if key in sent and key in executed:
+                outbound.append(max(0.0, executed[key] - sent[key]))
+                back.append(max(0.0, t0 + r["t"] - executed[key]))
+    return outbound, back
+
+
 def move_durations(records: List[dict], robots: List[int], first: np.ndarray) -> np.ndarray:
     """Per flat action: completion minus the first Accepted command for it after its dispatch."""
     agent = {rid: i for i, rid in enumerate(robots)}
@@ -114,7 +141,8 @@ def main() -> int:
     console_port, feedback = base + 2 * args.robots, base + args.robots
     fleet = Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
                                work / "keys", "--time-scale", args.time_scale, "--feedback-base",
-                               feedback, "--instance", args.instance, "--log-level", "warning"),
+                               feedback, "--instance", args.instance, "--log-level", "warning",
+                               "--truth", work / "truth.jsonl"),
                  work / "fleet.log")
     manager = None
     try:
@@ -160,6 +188,7 @@ def main() -> int:
     run = read_run(folder)
     records = run.records
     rtt = round_trips(records)
+    outbound, back = split_round_trips(records, run.run["started"], run.run["t"], work / "truth.jsonl")
     plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps"]).plan
     engine = Engine(plan, args.strategy)
     durations = move_durations(records, run.robots, engine.table.first)
@@ -177,6 +206,10 @@ def main() -> int:
         min(windows), len(running) / max(1e-9, running[-1] - running[0]) if len(running) > 1 else 0))
     print("command sent -> Accepted: p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms over {}".format(
         percentile(rtt, 0.5) * ms, percentile(rtt, 0.99) * ms, max(rtt) * ms, len(rtt)))
+    print("  of which manager sent -> robot started it: p50 {:.1f} ms, p99 {:.1f} ms; robot started -> "
+          "manager read the Accepted: p50 {:.1f} ms, p99 {:.1f} ms".format(
+              percentile(outbound, 0.5) * ms, percentile(outbound, 0.99) * ms,
+              percentile(back, 0.5) * ms, percentile(back, 0.99) * ms))
     print("CPU while running (share of one core): manager {:.0f}%, virtual fleet {:.0f}%".format(
         100 * (cpu1[2] - cpu0[2]) / span, 100 * (cpu1[1] - cpu0[1]) / span))
     print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "

@@ -155,6 +155,7 @@ class Manager:
         self._next_state = self._next_poses = self._next_collisions = self.now()
         self._last_state = self.now()
         self._fresh = False  # something arrived that the consoles have not been sent yet
+        self._state_cost = 0.0  # seconds a state takes to build and send (smoothed)
 
     # ---- time -------------------------------------------------------------------------------
 
@@ -279,8 +280,11 @@ class Manager:
 
     def _state_due(self) -> float:
         """When news (a pose, a reply) goes out: at once, but at most `state_max_rate` times a
-        second; without news the state still goes out `state_rate` times a second."""
-        return self._last_state + 1.0 / self.settings.state_max_rate if self._fresh else float("inf")
+        second, and at most a tenth of the loop's time (a state of 300 robots costs a few ms
+        to build and send); without news the state still goes out `state_rate` times a second."""
+        if not self._fresh:
+            return float("inf")
+        return self._last_state + max(1.0 / self.settings.state_max_rate, 10.0 * self._state_cost)
 
     def _vicon_readable(self) -> None:
         self.vicon.readable()  # type: ignore[union-attr]
@@ -298,6 +302,7 @@ class Manager:
         self.driver.on_link_event(event, now)
 
     def _publish(self, now: float) -> None:
+        began = time.perf_counter()
         self._last_state, self._fresh = now, False
         waits = robot_waits(self)
         if waits != self._last_waits:
@@ -307,6 +312,7 @@ class Manager:
         if self.desk.consoles:
             self._seq += 1
             self._send(self.desk.broadcast(build_state(self, now, self._seq, waits), self.clock()))
+        self._state_cost = 0.8 * self._state_cost + 0.2 * (time.perf_counter() - began)
 
     def _log_poses(self, now: float) -> None:
         rows, points = [], {}

@@ -23,14 +23,17 @@ from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
 import zmq
 
 from ..ratelimit import RateLimitedLog
-from .robot_loop import QUANTUM
 from .robot_link import LinkEvent, RobotLink
 
 __all__ = ["LinkSet"]
 
 _RETRY = 1.0  # seconds before a link whose tick failed is ticked again
 #: Seconds between reads of the robots' pose streams (a pose waits at most this long).
-FEEDBACK_PERIOD = 0.02
+FEEDBACK_PERIOD = 0.05
+#: Due times of links on this grid (s): what is due is heartbeats and timeouts, seconds apart,
+#: and 300 links' due times spread over a second would otherwise wake the loop hundreds of
+#: times a second, each wake-up polling every command socket.
+TICK_GRID = 0.05
 _POLLIN = int(zmq.POLLIN)
 
 
@@ -157,7 +160,7 @@ class LinkSet:
         self._registered[link.robot_id] = list(now_socks)
 
     def _schedule(self, robot_id: int, when: float) -> None:
-        when = math.ceil(when / QUANTUM) * QUANTUM  # links due together wake the loop once
+        when = math.ceil(when / TICK_GRID) * TICK_GRID  # links due together wake the loop once
         if robot_id in self._due and self._due[robot_id] <= when:
             return
         self._due[robot_id] = when

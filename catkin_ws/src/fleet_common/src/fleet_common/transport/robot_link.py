@@ -52,6 +52,7 @@ __all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOM
 OUTCOME_UNKNOWN = "its outcome is unknown"
 
 
+_POLLIN = int(zmq.POLLIN)
 _SUPERSEDED_RETRY = 5.0  # another manager took the robot: do not fight over it every second
 _BUDGET = 100            # frames read per call, so one chatty robot cannot starve the rest
 
@@ -149,7 +150,9 @@ class RobotLink:
         now = self.clock()
         if sock is self.feedback:
             frames = []
-            for _ in range(_BUDGET):
+            for _ in range(_BUDGET):  # while a frame waits (asking is cheaper than an exception)
+                if not sock.getsockopt(zmq.EVENTS) & _POLLIN:
+                    break
                 try:
                     frames.append(sock.recv(zmq.NOBLOCK))
                 except zmq.Again:
