@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from fleet_common.execution.trace import SWAP, VERTEX, Trace, find_collisions
+from fleet_common.execution.trace import SWAP, VERTEX, CollisionCount, Trace, find_collisions
 
 
 def kinds(trace: Trace):
@@ -60,3 +62,42 @@ def test_a_trace_refuses_a_move_from_where_the_robot_is_not():
     trace = Trace([(0, 0)])
     with pytest.raises(ValueError, match=r"robot 0 cannot move \(3, 3\)->\(3, 4\)"):
         trace.add(0, 0.0, 1.0, (3, 3), (3, 4))
+
+
+@st.composite
+def _random_traces(draw):
+    """Robots wandering a 3x3 grid with moves of random (often equal) times, one after another."""
+    n = draw(st.integers(1, 4))
+    cells = [(x, y) for x in range(3) for y in range(3)]
+    starts = [draw(st.sampled_from(cells)) for _ in range(n)]
+    moves = []
+    for robot, here in enumerate(starts):
+        t = 0
+        for _ in range(draw(st.integers(0, 5))):
+            t += draw(st.integers(0, 2))
+            dx, dy = draw(st.sampled_from([(1, 0), (-1, 0), (0, 1), (0, -1)]))
+            there = (min(2, max(0, here[0] + dx)), min(2, max(0, here[1] + dy)))
+            end = t + draw(st.integers(0, 3))
+            moves.append((end, robot, len(moves), t, here, there))
+            here, t = there, end
+    return starts, moves
+
+
+@settings(max_examples=400, deadline=None)
+@given(_random_traces())
+def test_the_running_count_agrees_with_judging_the_whole_trace(example):
+    starts, moves = example
+    trace, count = Trace(starts), CollisionCount(starts)
+    for end, robot, _, start, src, dst in sorted(moves):  # in the order the moves completed
+        trace.add(robot, start, end, src, dst)
+        count.add(robot, start, end, src, dst)
+    found = find_collisions(trace)
+    assert count.collisions == len(found)
+    assert count.swaps == sum(1 for c in found if c.kind == SWAP)
+
+
+def test_the_running_count_refuses_a_move_from_where_the_robot_is_not():
+    count = CollisionCount([(0, 0)])
+    with pytest.raises(ValueError, match=r"robot 0 cannot move"):
+        count.add(0, 0.0, 1.0, (3, 3), (3, 4))
+    assert count.collisions == 0

@@ -26,7 +26,7 @@ import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 
 from fleet_common.control import Bye, Event, PlanData, Proposal, RobotInfo, Scene, Waiting
@@ -39,7 +39,6 @@ from fleet_common.runlog import RunLog, new_run_folder
 from fleet_common.runlog.records import FORMAT_VERSION, plan_file
 from fleet_common.runlog.summary import RunSummary, SummaryBuilder
 from fleet_common.control.desk import ControlDesk
-from fleet_common.spacing import closest_pair
 from fleet_common.transport.context import fleet_context
 from fleet_common.transport.console_channel import DEFAULT_ENDPOINT, ConsoleServer
 from fleet_common.transport.curve_keys import ManagerKeys
@@ -70,7 +69,6 @@ def _utc_now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 _POSE_LOG_PERIOD = 0.1     # s between `poses` records (10 Hz)
-_COLLISION_PERIOD = 2.0    # s between collision checks of the executed moves
 _STALL_GRACE = 3.0         # s a run must stay stalled before --until-done gives up
 
 
@@ -114,8 +112,6 @@ class Manager:
         self.run_reason = "waiting for Start"
         self.started_at: Optional[float] = None
         self.link_reasons: Dict[int, str] = {}
-        self.min_distance: Optional[float] = None
-        self.collisions = 0
         self.summary_builder = SummaryBuilder()
         self.replanner = Replanner(settings.replan_limit)
         self.positions = Positions([r.id for r in self.robots], stale_after=settings.stale_after)
@@ -152,7 +148,7 @@ class Manager:
         self.engine = self._new_engine(self.plan)
         self.driver = self._new_driver(self.engine, None)
         self.steering = Steering(self)
-        self._next_state = self._next_poses = self._next_collisions = self.now()
+        self._next_state = self._next_poses = self.now()
         self._last_state = self.now()
         self._fresh = False  # something arrived that the consoles have not been sent yet
         self._state_cost = 0.0  # seconds a state takes to build and send (smoothed)
@@ -242,10 +238,11 @@ class Manager:
         deadline = None if time_limit is None else self.now() + time_limit
         while not should_stop():
             now = self.now()
-            due = min(self._next_state, self._next_poses, self._state_due())
-            for event in self.links.poll(max(0.0, min(0.05, due - now))):
+            due = min(chore for chore, _ in self._chores())
+            for event in self.links.poll(max(0.0, min(0.05, due - now)), drain=False):
                 self._link_event(event)
             now = self.now()
+            self._chore(now)
             self._timers(now)
             if until_done:
                 if self.run_state == "done":
@@ -257,6 +254,24 @@ class Manager:
                     return "not done after the time limit of {:g} s".format(time_limit)
         return None
 
+    def _chores(self) -> List[Tuple[float, Callable[[float], None]]]:
+        """The loop's periodic work, each with when it is due."""
+        return [(self.links.next_drain - self.t0, self._read_poses),  # the links' clock
+                (min(self._next_state, self._state_due()), self._publish),
+                (self._next_poses, self._log_poses)]
+
+    def _chore(self, now: float) -> None:
+        """The most overdue chore, one per turn: each costs milliseconds with 300 robots, and
+        between two of them the loop reads the robots' replies (a reply waiting behind all
+        three would wait three times as long)."""
+        due, chore = min(self._chores(), key=lambda c: c[0])
+        if due <= now:
+            chore(now)
+
+    def _read_poses(self, now: float) -> None:
+        for event in self.links.drain_poses():
+            self._link_event(event)
+
     def _timers(self, now: float) -> None:
         message = self.replanner.poll(self)
         if message is not None:
@@ -265,17 +280,6 @@ class Manager:
             self.set_state("done", "every robot taking part is at its goal")
             self.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
             self._publish(now)
-        if now >= self._next_poses:
-            self._next_poses = now + _POSE_LOG_PERIOD
-            self._log_poses(now)
-            if self.vicon is not None:
-                self.vicon.check(now)
-        if now >= self._next_state or now >= self._state_due():
-            self._next_state = now + 1.0 / self.settings.state_rate
-            self._publish(now)
-        if now >= self._next_collisions:
-            self._next_collisions = now + _COLLISION_PERIOD
-            self.collisions = self.summary_builder.summary().collisions
         self._send(self.desk.tick(self.clock()))
 
     def _state_due(self) -> float:
@@ -303,6 +307,7 @@ class Manager:
 
     def _publish(self, now: float) -> None:
         began = time.perf_counter()
+        self._next_state = now + 1.0 / self.settings.state_rate
         self._last_state, self._fresh = now, False
         waits = robot_waits(self)
         if waits != self._last_waits:
@@ -315,7 +320,10 @@ class Manager:
         self._state_cost = 0.8 * self._state_cost + 0.2 * (time.perf_counter() - began)
 
     def _log_poses(self, now: float) -> None:
-        rows, points = [], {}
+        self._next_poses = now + _POSE_LOG_PERIOD
+        if self.vicon is not None:
+            self.vicon.check(now)
+        rows = []
         for r in self.robots:
             seen = self.positions.seen(r.id)
             if seen is None:
@@ -323,12 +331,19 @@ class Manager:
             p = seen.pose
             rows.append([r.id, round(p.x, 3), round(p.y, 3), round(p.theta, 3),
                          self.positions.source[r.id], round(now - seen.at, 3)])
-            points[r.id] = (p.x, p.y)
         if rows:
-            self.note("poses", p=rows)
-        found = closest_pair(points)
-        if found is not None and (self.min_distance is None or found[0] < self.min_distance):
-            self.min_distance = round(found[0], 3)
+            self.note("poses", p=rows)  # the summary builder finds the closest pair in it
+
+    @property
+    def min_distance(self) -> Optional[float]:
+        """The smallest distance between two robots in the run so far (cells)."""
+        found = self.summary_builder.min_distance
+        return None if found is None else round(found, 3)
+
+    @property
+    def collisions(self) -> int:
+        trace = self.summary_builder.trace
+        return 0 if trace is None else trace.collisions
 
     def all_arrived(self) -> bool:
         """Every robot not disabled by an operator is at its goal (a robot held by a fault
@@ -471,8 +486,6 @@ class Manager:
         self.loaded, self.grid, self.goals, self.plan = loaded, loaded.grid, list(loaded.goals), loaded.plan
         self.summary_builder = SummaryBuilder()
         self.started_at = None
-        self.min_distance = None
-        self.collisions = 0
         self._open_log(loaded)
         self.plan_id += 1
         old_out = self.engine.run.out

@@ -15,7 +15,8 @@ later are the same numbers.
   to move but not allowed to;
 - collisions are judged from the executed moves (drive sent until completed:
   a robot holds both cells meanwhile) by `fleet_common.execution.trace`, the
-  checker `fleetctl simulate` uses;
+  checker `fleetctl simulate` uses, counted move by move so that reading the
+  summary mid-run costs nothing;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon).
 """
@@ -24,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
-from ..execution.trace import SWAP, Trace, find_collisions
+from ..execution.trace import CollisionCount
 from ..spacing import closest_pair
 
 __all__ = ["RunSummary", "SummaryBuilder"]
@@ -90,7 +91,7 @@ class SummaryBuilder:
         self.last_completion: Dict[int, float] = {}
         self.out: Dict[int, str] = {}         # robot id -> "disabled" | "failed"
         self.wait = 0.0
-        self.trace: Optional[Trace] = None
+        self.trace: Optional[CollisionCount] = None
         self.sent: Dict[Tuple[int, int], float] = {}  # (robot, action) -> drive sent
         self.started: Dict[int, Tuple[float, Tuple[int, int], Tuple[int, int]]] = {}
         self.min_distance: Optional[float] = None
@@ -130,7 +131,7 @@ class SummaryBuilder:
         self.sent.clear()
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
-            self.trace = Trace(starts)
+            self.trace = CollisionCount(starts)
         for i, n in enumerate(self.actions):
             if n == 0:
                 self.arrival.setdefault(i, self.last_completion.get(i, t if not first else t))
@@ -174,11 +175,11 @@ class SummaryBuilder:
         enabled = [i for i, r in enumerate(self.robots) if self.out.get(r) != "disabled"]
         arrived = sorted(self.robots[i] for i in enabled if i in self.arrival)
         times = [max(0.0, self.arrival[i] - begin) for i in enabled if i in self.arrival]
-        collisions = find_collisions(self.trace) if self.trace is not None else []
         return RunSummary(
             unit=self.unit, robots=len(self.robots), arrived=arrived, enabled=len(enabled),
             makespan=max(times, default=0.0), soc=sum(times), wait=self.wait,
-            collisions=len(collisions), swaps=sum(1 for c in collisions if c.kind == SWAP),
+            collisions=self.trace.collisions if self.trace is not None else 0,
+            swaps=self.trace.swaps if self.trace is not None else 0,
             min_distance=self.min_distance,
             closest=None if self.closest is None else (
                 self.closest[0], self.closest[1], max(0.0, self.closest[2] - begin)),

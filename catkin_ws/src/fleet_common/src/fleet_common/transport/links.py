@@ -69,12 +69,15 @@ class LinkSet:
         self._watched[sock] = on_readable
         self.poller.register(sock, zmq.POLLIN)
 
-    def poll(self, max_wait: float = 0.1) -> List[LinkEvent]:
-        """Wait at most `max_wait` s for traffic or a due link; the events that came of it."""
+    def poll(self, max_wait: float = 0.1, drain: bool = True) -> List[LinkEvent]:
+        """Wait at most `max_wait` s for traffic or a due link; the events that came of it.
+        With `drain`, the pose streams are read too when they are due; without, the caller
+        reads them (`drain_poses`) when it has nothing more urgent to do."""
         events: List[LinkEvent] = []
         now = self.clock()
         wait = max_wait if not self._heap else min(max_wait, max(0.0, self._heap[0][0] - now))
-        wait = min(wait, max(0.0, self._next_drain - now))
+        if drain:
+            wait = min(wait, max(0.0, self._next_drain - now))
         for sock, _ in self.poller.poll(wait * 1000.0):
             watcher = self._watched.get(sock)
             if watcher is not None:
@@ -103,14 +106,19 @@ class LinkSet:
             events += more
             self._sync(link)
             self._schedule(robot_id, max(due, now + 0.001))  # never spin on one link
-        if now >= self._next_drain:
-            self._next_drain = now + FEEDBACK_PERIOD
-            events += self._drain()
+        if drain and now >= self._next_drain:
+            events += self.drain_poses()
         self.failures.flush(now)
         return events
 
-    def _drain(self) -> List[LinkEvent]:
+    @property
+    def next_drain(self) -> float:
+        """When the pose streams are next due to be read."""
+        return self._next_drain
+
+    def drain_poses(self) -> List[LinkEvent]:
         """The newest pose of each robot whose stream has one waiting."""
+        self._next_drain = self.clock() + FEEDBACK_PERIOD
         events: List[LinkEvent] = []
         for link in self.links.values():
             sock = link.feedback
