@@ -377,3 +377,31 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
     finally:
         root.destroy()
         gc.collect()
+
+
+def test_a_replaced_map_frees_its_picture_on_tks_thread(display: str, capfd) -> None:
+    """A new scene replaces the map; its picture must not be left for the cycle collector,
+    which the network thread runs as often as the Tk thread (Tk refuses, and says so on
+    the operator's terminal)."""
+    import threading
+
+    from console.ui.map_view import MapView
+
+    root = tk.Tk()
+    try:
+        view = MapView(root, np.ones((6, 8), dtype=bool), 200, 150)
+        view.pack()
+        root.update()
+        view.redraw_map()
+        pictures = {name for name in root.image_names() if name.startswith("pyimage")}
+        assert pictures
+        view.destroy()
+        del view
+        collector = threading.Thread(target=gc.collect)
+        collector.start()
+        collector.join()
+        assert "main thread is not in main loop" not in capfd.readouterr().err
+        assert not pictures & set(root.image_names())  # the picture left Tk too
+    finally:
+        root.destroy()
+        gc.collect()

@@ -58,6 +58,12 @@ class MapView(tk.Frame):
             ZOOM_STEP if e.delta > 0 else 1 / ZOOM_STEP, e.x, e.y))
         self.redraw_map()
 
+    def destroy(self) -> None:
+        # The map picture goes now, on Tk's thread: left to the cycle collector, it would be
+        # freed by whichever thread collects next (the network thread), which Tk refuses.
+        self._photo = None
+        super().destroy()
+
     def on_view_change(self, listener: Listener) -> None:
         self._listeners.append(listener)
 
