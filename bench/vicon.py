@@ -36,7 +36,7 @@ from typing import Dict, List, Tuple
 
 import zmq
 
-# bench/virtual_fleet.py would shadow the virtual_fleet package: drop this script's folder
+# a script here named like a package (bench/console.py) would shadow it: drop this folder
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 from fleet_common.control import messages as m  # noqa: E402 (after the sys.path fix)

@@ -19,7 +19,8 @@ import os
 import sys
 import threading
 import time
-from typing import Callable, Iterator, List, Optional, Tuple
+from collections import deque
+from typing import Callable, Deque, Iterator, List, Optional, Tuple
 
 import numpy as np
 import pytest
@@ -29,10 +30,11 @@ from agv_package.geometry import Pose2D, interpolate, wrap_angle
 from agv_package.grid_frame import GridFrame
 from agv_package.tag_map import load_tag_map
 from fleet_common.robots import RobotDefinition, format_robot_definitions
-from fleet_common.wire import (Connection, DriveToPosition, GetStatus, Heartbeat, Hello, Role,
-                               Stop, Turn)
-from fleet_common.wire.codec import decode
+from fleet_common.wire import PoseFeedback
 from fleet_common.transport.curve_keys import ManagerKeys, load_manager_keys, make_keys
+from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
+from fleet_common.transport.links import LinkSet
+from fleet_common.transport.robot_link import RobotLink
 from helpers import free_port
 from live import Proc
 from ros_procs import master_up, netns_marker, ros_environment, run_inside_netns, wait_for
@@ -47,54 +49,54 @@ def test_ros_in_own_network_namespace() -> None:
 
 
 class Manager:
-    """The manager's end of one robot connection, over real ZeroMQ sockets with CURVE."""
+    """The manager's end of the robot: the manager's own `RobotLink` in a `LinkSet` (CURVE,
+    handshake, heartbeats, reconnects as in `fleetctl manager`), seen one command at a
+    time: replies and poses are kept as the link reports them."""
 
-    def __init__(self, robot_id: int, command_port: int, feedback_port: int,
-                 keys: ManagerKeys) -> None:
+    def __init__(self, robot: RobotDefinition, keys: ManagerKeys) -> None:
         self.context = zmq.Context()
-        self.command = self._socket(zmq.DEALER, keys)
-        self.command.connect("tcp://127.0.0.1:{}".format(command_port))
-        self.feedback = self._socket(zmq.SUB, keys)
-        self.feedback.setsockopt(zmq.SUBSCRIBE, b"")
-        self.feedback.connect("tcp://127.0.0.1:{}".format(feedback_port))
-        self.conn = Connection(Role.MANAGER, robot_id)
-        self.next_id = 1
+        self.link = RobotLink(self.context, robot, "test-epoch", keys=keys, host="127.0.0.1")
+        self.links = LinkSet([self.link])
+        self.replies: Deque[object] = deque()
+        self.poses: List[Tuple[float, PoseFeedback]] = []
+        self.up: Optional[LinkUp] = None
 
-    def _socket(self, kind: int, keys: ManagerKeys) -> zmq.Socket:
-        sock = self.context.socket(kind)
-        sock.linger = 0
-        sock.curve_serverkey = keys.robot_public
-        sock.curve_publickey = keys.public
-        sock.curve_secretkey = keys.secret
-        return sock
+    def _serve(self, seconds: float) -> None:
+        for event in self.links.poll(seconds):
+            if isinstance(event, RobotReply):
+                self.replies.append(event.reply)
+            elif isinstance(event, PoseFeedback):
+                self.poses.append((time.monotonic(), event))
+            elif isinstance(event, LinkUp):
+                self.up = event
+            elif isinstance(event, LinkDown):
+                raise AssertionError("the link went down: {}".format(event.reason))
 
-    def hello(self, epoch: str = "test-epoch") -> object:
-        self.command.send(self.conn.send(Hello(self.conn.robot_id, epoch)))
-        return self.receive(10.0)
+    def wait_up(self, timeout: float) -> LinkUp:
+        deadline = time.monotonic() + timeout
+        while self.up is None:
+            if time.monotonic() > deadline:
+                raise AssertionError("no Welcome from the robot within {:.0f} s".format(timeout))
+            self._serve(0.05)
+        return self.up
 
     def receive(self, timeout: float) -> object:
-        """The next message that is not a heartbeat (answering heartbeats on the way)."""
+        """The robot's next reply to a command (heartbeats are the link's business)."""
         deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0 or not self.command.poll(left * 1000.0):
+        while not self.replies:
+            if time.monotonic() > deadline:
                 raise AssertionError("no reply from the robot within {:.0f} s".format(timeout))
-            message = self.conn.receive(self.command.recv())
-            if isinstance(message, Heartbeat):
-                self.command.send(self.conn.send(Heartbeat()))
-                continue
-            return message
+            self._serve(0.05)
+        return self.replies.popleft()
 
-    def send(self, make: Callable[[int], object]) -> int:
-        command_id = self.next_id
-        self.next_id += 1
-        self.command.send(self.conn.send(make(command_id)))
-        return command_id
+    def send(self, issue: Callable[[RobotLink], int]) -> int:
+        """Issue a command through the link (e.g. `lambda link: link.stop()`); its id."""
+        return issue(self.link)
 
-    def run(self, make: Callable[[int], object], timeout: float = 60.0) -> Tuple[List[object], float]:
+    def run(self, issue: Callable[[RobotLink], int], timeout: float = 60.0) -> Tuple[List[object], float]:
         """Send a command; its replies up to the final one, and the seconds it took."""
         started = time.monotonic()
-        command_id = self.send(make)
+        command_id = self.send(issue)
         replies: List[object] = []
         while True:
             reply = self.receive(timeout)
@@ -103,18 +105,17 @@ class Manager:
             if reply.TYPE in ("completed", "failed", "status"):
                 return replies, time.monotonic() - started
 
-    def feedback_since(self, seconds: float) -> List[Tuple[float, object]]:
-        """Pose feedback received over the next `seconds` (after dropping any backlog)."""
-        while self.feedback.poll(0):
-            self.feedback.recv()
-        out: List[Tuple[float, object]] = []
+    def feedback_since(self, seconds: float) -> List[Tuple[float, PoseFeedback]]:
+        """Pose feedback received over the next `seconds` (the newest at each read)."""
+        self._serve(0.0)
+        self.poses = []
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
-            if self.feedback.poll(50):
-                out.append((time.monotonic(), decode(self.feedback.recv())))
-        return out
+            self._serve(0.05)
+        return list(self.poses)
 
     def close(self) -> None:
+        self.links.close()
         self.context.destroy(linger=0)
 
 
@@ -239,8 +240,8 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
     keys_dir = home / "keys"
     make_keys(keys_dir)
     definitions = home / "robot_definitions.txt"
-    definitions.write_text(format_robot_definitions([RobotDefinition(
-        ROBOT_ID, "127.0.0.1", command_port, "turtlebot", "turtlebot3", "blue")]))
+    robot = RobotDefinition(ROBOT_ID, "127.0.0.1", command_port, "turtlebot", "turtlebot3", "blue")
+    definitions.write_text(format_robot_definitions([robot]))
     started: List[Proc] = []
     saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME",
                                              "ROS_LOG_DIR", "ROS_HOSTNAME")}
@@ -269,9 +270,9 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
         observer = Observer()
         wait_for(lambda: observer.fused is not None, 60.0,
                  "the runner's first AprilTag-corrected pose", launch)
-        manager = Manager(ROBOT_ID, command_port, feedback_port, load_manager_keys(keys_dir))
-        welcome = manager.hello()
-        assert welcome.TYPE == "welcome" and welcome.feedback_port == feedback_port, welcome
+        manager = Manager(robot, load_manager_keys(keys_dir))
+        manager.wait_up(10.0)
+        assert manager.link.feedback_port == feedback_port
         yield SimRobot(manager, observer, GridFrame(), launch)
     finally:
         if manager is not None:
@@ -305,18 +306,18 @@ def test_manager_drives_the_robot_across_six_cells_with_turns(sim_robot: SimRobo
 
     # Pose feedback: 10 Hz or more, in base cells, at the start node.
     feedback = manager.feedback_since(2.0)
-    rate = (len(feedback) - 1) / (feedback[-1][0] - feedback[0][0])
-    assert rate >= 10.0, "pose feedback at {:.1f} Hz".format(rate)
     seqs = [message.seq for _, message in feedback]
     assert seqs == sorted(seqs)
+    rate = (seqs[-1] - seqs[0]) / (feedback[-1][0] - feedback[0][0])  # poses the robot sent
+    assert rate >= 10.0, "pose feedback at {:.1f} Hz".format(rate)
     start = feedback[-1][1].pose
     assert math.hypot(start.x - START[0], start.y - START[1]) < 0.03, start
 
     route = [
-        ("2 cells east, as fast as allowed", lambda i: DriveToPosition(i, 2.0, 2.0, 0.0)),
-        ("left turn, 2 cells north in 8 s", lambda i: DriveToPosition(i, 2.0, 4.0, 8.0)),
-        ("right turn, 2 cells east", lambda i: DriveToPosition(i, 4.0, 4.0, 0.0)),
-        ("turn to face north", lambda i: Turn(i, math.pi / 2)),
+        ("2 cells east, as fast as allowed", lambda link: link.drive_to_position(2.0, 2.0, 0.0)),
+        ("left turn, 2 cells north in 8 s", lambda link: link.drive_to_position(2.0, 4.0, 8.0)),
+        ("right turn, 2 cells east", lambda link: link.drive_to_position(4.0, 4.0, 0.0)),
+        ("turn to face north", lambda link: link.turn(math.pi / 2)),
     ]
     corrected_errors = []
     for what, make in route:
@@ -351,7 +352,7 @@ def test_manager_drives_the_robot_across_six_cells_with_turns(sim_robot: SimRobo
         hits, len(judged))
 
     # The status over the wire says the same, in base cells.
-    replies, _ = manager.run(lambda i: GetStatus(i))
+    replies, _ = manager.run(lambda link: link.get_status())
     status = replies[-1]
     assert status.current is None and status.faults == ()
     assert math.hypot(status.pose.x - 4.0, status.pose.y - 4.0) < 0.05, status.pose
@@ -373,7 +374,7 @@ def test_bumper_press_stops_the_robot_and_reports_a_fault(sim_robot: SimRobot) -
     here = sim_robot.frame.pose_to_base(observer.fused)
     cell = (round(here.x), round(here.y))
     goal = (cell[0], cell[1] + 2)  # two cells north: (4, 6) after the route test
-    drive_id = manager.send(lambda i: DriveToPosition(i, goal[0], goal[1], 0.0))
+    drive_id = manager.send(lambda link: link.drive_to_position(goal[0], goal[1], 0.0))
     assert manager.receive(10.0).TYPE == "accepted"
     time.sleep(1.5)  # under way
     observer.press_bumper(2)  # centre part
@@ -388,13 +389,13 @@ def test_bumper_press_stops_the_robot_and_reports_a_fault(sim_robot: SimRobot) -
     assert faults and all("bumper" in f for f in faults), faults
 
     # While the fault stands nothing moves; a stop acknowledges it once the bumper is free.
-    replies, _ = manager.run(lambda i: DriveToPosition(i, goal[0], goal[1], 0.0))
+    replies, _ = manager.run(lambda link: link.drive_to_position(goal[0], goal[1], 0.0))
     assert [r.TYPE for r in replies] == ["failed"] and "bumper" in replies[0].reason
     observer.press_bumper(0)
     time.sleep(0.3)
-    replies, _ = manager.run(lambda i: Stop(i))
+    replies, _ = manager.run(lambda link: link.stop())
     assert_completed(replies, "stop")
-    replies, _ = manager.run(lambda i: GetStatus(i))
+    replies, _ = manager.run(lambda link: link.get_status())
     assert replies[-1].faults == ()
-    replies, _ = manager.run(lambda i: DriveToPosition(i, goal[0], goal[1], 0.0))
+    replies, _ = manager.run(lambda link: link.drive_to_position(goal[0], goal[1], 0.0))
     assert_completed(replies, "the drive after the fault was cleared")
