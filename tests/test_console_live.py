@@ -379,29 +379,70 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
         gc.collect()
 
 
-def test_a_replaced_map_frees_its_picture_on_tks_thread(display: str, capfd) -> None:
-    """A new scene replaces the map; its picture must not be left for the cycle collector,
-    which the network thread runs as often as the Tk thread (Tk refuses, and says so on
-    the operator's terminal)."""
-    import threading
+def _pictures(root: tk.Tk) -> set:
+    return {name for name in root.image_names() if name.startswith("pyimage")}
 
+
+def test_a_replaced_map_gives_its_picture_back_to_tk_at_once(display: str) -> None:
+    """A new scene replaces the map; its picture goes with it, not when a collector finds it."""
     from console.ui.map_view import MapView
+    from console.ui.tk_gc import TkThreadCollector
 
     root = tk.Tk()
     try:
+        TkThreadCollector(root)  # no collection but the window's own
         view = MapView(root, np.ones((6, 8), dtype=bool), 200, 150)
         view.pack()
         root.update()
         view.redraw_map()
-        pictures = {name for name in root.image_names() if name.startswith("pyimage")}
+        pictures = _pictures(root)
         assert pictures
         view.destroy()
         del view
-        collector = threading.Thread(target=gc.collect)
-        collector.start()
-        collector.join()
-        assert "main thread is not in main loop" not in capfd.readouterr().err
-        assert not pictures & set(root.image_names())  # the picture left Tk too
+        assert not pictures & _pictures(root)
     finally:
         root.destroy()
-        gc.collect()
+
+
+def test_tk_garbage_is_freed_on_tks_thread_whichever_thread_allocates(display: str) -> None:
+    """The network thread and job threads allocate all the time; Python's collector would free
+    Tk garbage on them, which Tk refuses (and the picture would stay in Tcl for good)."""
+    import sys
+    import threading
+
+    from console.ui.tk_gc import TkThreadCollector
+
+    refused: List[object] = []
+    saved_hook = sys.unraisablehook
+    sys.unraisablehook = refused.append
+    root = tk.Tk()
+    try:
+        TkThreadCollector(root)
+        for _ in range(5):  # widgets holding a picture and a variable, in a cycle, destroyed
+            holder = tk.Frame(root)
+            holder.picture = tk.PhotoImage(master=root, width=4, height=4)  # type: ignore[attr-defined]
+            holder.variable = tk.StringVar(master=root)  # type: ignore[attr-defined]
+            holder.itself = holder  # type: ignore[attr-defined]
+            holder.destroy()
+        del holder
+        pictures = _pictures(root)
+        assert len(pictures) == 5
+
+        def allocate() -> None:  # far past the collector's thresholds, in cycles
+            for _ in range(50000):
+                cycle: List[object] = []
+                cycle.append(cycle)
+
+        worker = threading.Thread(target=allocate)
+        worker.start()
+        worker.join()
+        assert refused == []
+        deadline = time.monotonic() + 5.0
+        while pictures & _pictures(root) and time.monotonic() < deadline:
+            root.update()
+            time.sleep(0.02)
+        assert not pictures & _pictures(root)  # freed, on Tk's thread
+        assert refused == []
+    finally:
+        sys.unraisablehook = saved_hook
+        root.destroy()

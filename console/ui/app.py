@@ -28,6 +28,7 @@ from ..jobs import Jobs
 from ..keys import FILE, GROUPS, KEYS
 from ..scene import Scene
 from ..sources import DEFAULT_SPEED, PlanClock, QueueSource
+from .tk_gc import TkThreadCollector
 from ..view_options import ViewOptions
 from .actions import PlayerActions
 from .agent_layer import AgentLayer
@@ -56,6 +57,7 @@ class PlayerApp(PlayerActions, FileActions):
         self.root = root
         self.options = options or ViewOptions()
         self.jobs = Jobs()
+        self.collector = TkThreadCollector(root)  # Tk objects are freed on this thread only
         self.speed = speed
         self._after: Optional[str] = None
         root.report_callback_exception = self._report  # type: ignore[assignment]
