@@ -17,8 +17,9 @@ the lab's addresses:
 The demo waits for the manager to finish, then for the console, then stops the
 fleet; Ctrl-C, a console closed early or a process that dies stop everything,
 in that order. At the end the run folder gets `summary.txt` (what the demo did
-and the manager's summary) and the fleet's and console's logs, and the demo
-prints where they are.
+and the manager's summary), `report.html` (the run read as `fleetctl report`
+reads it: what each robot did over time, planned against executed, the events)
+and the fleet's and console's logs, and the demo prints where they are.
 """
 from __future__ import annotations
 
@@ -197,6 +198,21 @@ def _keep(work: Path, folder: Path, names: Sequence[str]) -> None:
             shutil.copy(str(work / name), str(folder / name))
 
 
+def _run_report(folder: Path, say: Callable[[str], None]) -> bool:
+    """`report.html` in the run folder; a report that cannot be written is said, and the run's
+    own evidence (log, summary, frames) stands without it."""
+    from evaluation.report import write_report
+    from evaluation.report.run import run_page
+    from fleet_common.runlog import read_run
+
+    try:
+        write_report(run_page(read_run(folder)), folder / "report.html")
+    except (FleetError, OSError, ValueError) as error:
+        say("report: not written ({})".format(error))
+        return False
+    return True
+
+
 def _report(folder: Path, manager: Child, console: Child, status: str, console_code: int,
             say: Callable[[str], None]) -> int:
     code = manager.wait(5.0)
@@ -210,7 +226,9 @@ def _report(folder: Path, manager: Child, console: Child, status: str, console_c
     if frames:
         lines.append("{} frames in {} (frames.txt says when each was taken)".format(len(frames), folder / "frames"))
     (folder / "summary.txt").write_text("\n".join(lines) + "\n")
+    report = _run_report(folder, say)
     say("run folder: {}".format(folder))
-    say("  events.jsonl (the run log), summary.txt, virtual-fleet.log, console.log{}".format(
+    say("  events.jsonl (the run log), summary.txt, {}virtual-fleet.log, console.log{}".format(
+        "report.html (open it in a browser), " if report else "",
         ", frames/ ({} frames, the last {})".format(len(frames), frames[-1].name) if frames else ""))
     return 0 if code == 0 and console_code == 0 else 1

@@ -47,6 +47,9 @@ def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: P
     summary = (folder / "summary.txt").read_text()
     assert "arrived: 5/5" in summary and "collisions: 0" in summary
     assert (folder / "events.jsonl").stat().st_size > 0
+    report = (folder / "report.html").read_text()  # the run read back as `fleetctl report` reads it
+    assert "Robots over time" in report and "arrived: 5/5" in report and "report.html" in out
+    assert (folder / "report-gantt.png").stat().st_size > 0
     frames = sorted((folder / "frames").glob("*.png"))
     index = (folder / "frames" / "frames.txt").read_text().splitlines()
     assert len(frames) >= 10 and len(index) == len(frames) + 1

@@ -167,3 +167,30 @@ def test_fleetctl_report_of_a_run_folder_and_its_errors(run_folder, tmp_path):
     bad = fleetctl("report", empty, "-o", tmp_path / "x.html")
     assert bad.returncode == 2 and bad.stderr.strip() == (
         "fleetctl report: {}: neither a run folder (events.jsonl) nor a sweep's folder (results.csv)".format(empty))
+
+
+def test_robots_waiting_for_start_are_not_drawn_as_waiting_for_each_other(tmp_path):
+    """A manager's run waits for an operator's Start; the chart's waits are waits on robots."""
+    from fleet_common.runlog.writer import RunLog
+
+    now = [100.0]
+    log = RunLog(tmp_path, clock=lambda: now[0])
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[1, 2],
+                    strategy="adg", actions=[1, 1], starts=[[0, 0], [1, 1]])
+
+    def at(t: float, kind: str, **fields) -> None:
+        now[0] = 100.0 + t
+        log.record(kind, **fields)
+
+    at(0.0, "state", run="waiting")
+    at(0.1, "waits", w=[[1, [], None, "waiting for Start"], [2, [], None, "waiting for Start"]])
+    at(5.0, "state", run="running")
+    at(5.0, "waits", w=[[2, [1], [0, 1], "its next cell"]])
+    at(5.1, "action", robot=1, index=0, phase="started", src=[0, 0], dst=[0, 1])
+    at(7.0, "action", robot=1, index=0, phase="completed", src=[0, 0], dst=[0, 1])
+    at(7.0, "waits", w=[])
+    at(9.0, "state", run="done")
+    log.close()
+    gantt = charts_of(run_page(read_run(tmp_path)))["gantt"].data
+    assert gantt[2]["waiting"] == [(5.0, 7.0, [1])]
+    assert "waiting" not in gantt[1]

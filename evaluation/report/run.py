@@ -45,9 +45,12 @@ def timelines(run: RunFolder) -> Dict[int, Dict[str, List[Any]]]:
     out_since: Dict[int, Tuple[str, float]] = {}
     fault_since: Dict[int, float] = {}
     waiting: Dict[int, Tuple[float, Tuple[int, ...]]] = {}
+    running = False  # before the first Start, robots wait for the operator, not for each other
     for rec in run.records:
         k, t = rec.get("k"), float(rec.get("t", 0.0))
         robot = rec.get("robot")
+        if k == "state" and rec.get("run") == "running":
+            running = True
         if k == "dispatch":
             dispatched[(robot, rec["index"])] = t
         elif k == "action":
@@ -74,7 +77,7 @@ def timelines(run: RunFolder) -> Dict[int, Dict[str, List[Any]]]:
                 fault_since[robot] = t
             elif not rec.get("faults") and robot in fault_since:
                 lines.setdefault(robot, defaultdict(list))["fault"].append((fault_since.pop(robot), t))
-        elif k == "waits":
+        elif k == "waits" and running:
             now = {w[0]: tuple(w[1]) for w in rec.get("w", [])}
             for r, (since, on) in list(waiting.items()):
                 if now.get(r) != on:

@@ -74,7 +74,7 @@ class RunSummary:
                 "makespan": round(self.makespan, 3), "soc": round(self.soc, 3),
                 "wait": round(self.wait, 3), "collisions": self.collisions,
                 "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
-                "unit": self.unit}
+                "unit": self.unit, "lines": self.lines()}  # as printed, for reports
 
 
 class SummaryBuilder:
