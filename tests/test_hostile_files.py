@@ -194,6 +194,10 @@ def test_misspelled_header_keys_are_warnings_naming_line_and_nearest_key(files: 
     assert status == 0 and "instance: 2 agents" in out
     assert err == ("{}:4: warning: unknown key 'max_titep' (did you mean 'max_timestep'?) in an "
                    "instance; mapf-IR ignores it, and so does FleetControl\n".format(instance))
+    complete = files / "c.txt"  # a key real mapf-IR solvers write (PIBT_COMPLETE) is no typo
+    complete.write_text(SOLUTION.replace("makespan=12\n", "makespan=12\ncomp_time_complement=0\n"))
+    status, out, err = run("validate", complete)
+    assert status == 0 and err == ""
     bad = files / "b.txt"  # a warning does not hide the error that follows it
     bad.write_text(INSTANCE.replace("max_timestep=100", "max_titep=100").replace("1,3,5,1", "1,3"))
     status, _, err = run("info", bad)

@@ -48,7 +48,9 @@ from .mapsearch import load_map_grid
 _KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 #: Keys mapf-IR's solvers write (and our `orientation=`); others get a warning.
 KNOWN_KEYS = ("instance", "agents", "map_file", "solver", "solved", "soc", "lb_soc", "makespan",
-              "lb_makespan", "comp_time", "preprocessing_comp_time", "iter", ORIENTATION_KEY)
+              "lb_makespan", "comp_time", "preprocessing_comp_time", "iter",
+              "comp_time_complement",  # PIBT_COMPLETE's time in its complement search
+              ORIENTATION_KEY)
 
 
 class Solution:
