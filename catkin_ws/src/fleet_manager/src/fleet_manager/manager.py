@@ -1,10 +1,12 @@
 """The manager process: one loop that drives the fleet through a plan and serves the consoles.
 
-One thread, one poller (`LinkSet`): the robots' links, the console channel,
-the ZAP handler and the Vicon socket are all read as they become readable,
-and between them the loop does what is due: publish the state (soon after
+One thread, one poller (`LinkSet`): the robots' command sockets, the console
+channel, the ZAP handler and the Vicon socket are all read as they become
+readable, and between them the loop does what is due, one chore a turn so that
+replies never wait behind all of them (each costs milliseconds at 300 robots):
+read the robots' pose streams (every 50 ms), publish the state (soon after
 news, at most 50 times a second, and 20 times a second without), log poses
-(10 Hz), move a replan on, notice the end of the run.
+(10 Hz); and at every turn move a replan on and notice the end of the run.
 What happens when:
 
 - a robot's reply or pose arrives: the driver turns it into engine events and
