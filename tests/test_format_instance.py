@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fleet_common.errors import InstanceFormatError, MapNotFoundError
+from fleet_common.errors import FormatWarning, InstanceFormatError, MapNotFoundError
 from fleet_common.formats.instance import (format_instance, make_instance, parse_instance,
                                            read_instance, write_instance)
 from fleet_common.grid import Grid
@@ -57,7 +57,8 @@ def test_map_is_found_beside_the_instance_and_unknown_keys_and_comments_are_kept
     (tmp_path / "p.map").write_text(PARETO_MAP)
     text = "# made by hand\nmap_file=p.map\nagents=1\nnote=kept\n\n3,1,4,1\n"
     (tmp_path / "i.txt").write_text(text)
-    inst = read_instance(tmp_path / "i.txt")
+    with pytest.warns(FormatWarning, match=r"i.txt:4: warning: unknown key 'note'"):
+        inst = read_instance(tmp_path / "i.txt")
     assert inst.header.get("note") == "kept" and inst.header.line_of("note") == 4
     assert format_instance(inst) == text
 

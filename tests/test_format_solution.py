@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fleet_common.errors import MapNotFoundError, NotConvertibleError, SolutionFormatError
+from fleet_common.errors import FormatWarning, MapNotFoundError, NotConvertibleError, SolutionFormatError
 from fleet_common.formats.instance import read_instance
 from fleet_common.formats.solution import (format_solution, make_solution, parse_solution,
                                            read_solution, write_solution)
@@ -222,7 +222,8 @@ def test_write_read_write_is_the_identity(sol, orientation):
 def test_header_keeps_order_repeats_and_raw_values():
     text = ("instance= a.txt\nagents=1\nmap_file=m.map\niter=0,soc=1\niter=1,soc=1\nzz=?\n"
             "starts=(0,0),\ngoals=(0,0),\nsolution=\n")
-    sol = parse_solution(text, grid=Grid(np.ones((1, 1), dtype=bool)))
+    with pytest.warns(FormatWarning, match=r"<text>:6: warning: unknown key 'zz'"):
+        sol = parse_solution(text, grid=Grid(np.ones((1, 1), dtype=bool)))
     h = sol.header
     assert list(h)[:2] == [("instance", " a.txt"), ("agents", "1")]
     assert h.get_all("iter") == ["0,soc=1", "1,soc=1"] and h.keys()[-2:] == ["iter", "zz"]
