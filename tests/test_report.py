@@ -194,3 +194,37 @@ def test_robots_waiting_for_start_are_not_drawn_as_waiting_for_each_other(tmp_pa
     gantt = charts_of(run_page(read_run(tmp_path)))["gantt"].data
     assert gantt[2]["waiting"] == [(5.0, 7.0, [1])]
     assert "waiting" not in gantt[1]
+
+
+def test_a_robot_stuck_in_its_move_is_drawn_stalled_and_a_turning_one_is_not(tmp_path):
+    """The demo's stalled robot: its move goes on, its pose does not (others wait on it)."""
+    from fleet_common.runlog.writer import RunLog
+
+    now = [100.0]
+    log = RunLog(tmp_path, clock=lambda: now[0])
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[1, 2],
+                    strategy="adg", actions=[1, 1], starts=[[0, 0], [3, 3]])
+
+    def at(t: float, kind: str, **fields) -> None:
+        now[0] = 100.0 + t
+        log.record(kind, **fields)
+
+    at(0.0, "state", run="running")
+    at(0.0, "action", robot=1, index=0, phase="started", src=[0, 0], dst=[1, 0])
+    at(0.0, "action", robot=2, index=0, phase="started", src=[3, 3], dst=[3, 4])
+    for i in range(61):  # 6 s of poses at 10 Hz
+        t = i / 10
+        x = min(t, 1.0) * 0.5 if t < 4.0 else 0.5 + (t - 4.0) / 4  # robot 1: still from 1 s to 4 s
+        heading = min(t, 3.0) * 0.5  # robot 2 turns on the spot for 3 s, then drives
+        y = 3.0 if t < 3.0 else 3.0 + (t - 3.0) / 3
+        at(t, "poses", p=[[1, round(x, 3), 0.0, 0.0, "robot", 0.0],
+                          [2, 3.0, round(y, 3), round(heading, 3), "robot", 0.0]])
+    at(6.0, "action", robot=1, index=0, phase="completed", src=[0, 0], dst=[1, 0])
+    at(6.0, "action", robot=2, index=0, phase="completed", src=[3, 3], dst=[3, 4])
+    at(6.0, "state", run="done")
+    log.close()
+    gantt = charts_of(run_page(read_run(tmp_path)))["gantt"].data
+    [(since, until)] = gantt[1]["stalled"]
+    assert since == pytest.approx(1.0) and until == pytest.approx(4.0)
+    assert gantt[1]["moving"] == [(0.0, 6.0)]  # the move is still one move
+    assert "stalled" not in gantt[2]

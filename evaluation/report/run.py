@@ -2,7 +2,9 @@
 
 Charts (each keeps the numbers it plots in `Chart.data`):
 
-    gantt      per robot, over time: moving (action started -> completed), turning
+    gantt      per robot, over time: moving (action started -> completed), and within
+               a move the stretches where its reported pose stood still for a second
+               or more (stalled: a slow or stuck robot others may wait on), turning
                (a turn command -> its completion), waiting and on whom (`waits`),
                disabled, faults (`out` failed, `fault`)
     progress   position along the plan over time: the plan step each robot has
@@ -24,8 +26,13 @@ from fleet_common.runlog import RunFolder
 from .figures import Chart, new_figure, to_png
 from .html import Page, Table
 
-COLOURS = {"moving": "#3a9a3a", "turning": "#4a7fc1", "waiting": "#f0a020", "delayed": "#b58ad6",
-           "disabled": "#999999", "fault": "#d03030"}
+COLOURS = {"moving": "#3a9a3a", "stalled": "#1f4d1f", "turning": "#4a7fc1", "waiting": "#f0a020",
+           "delayed": "#b58ad6", "disabled": "#999999", "fault": "#d03030"}
+#: A moving robot whose pose stays within this many cells and radians (a turn is progress
+#: too) for STALL_S seconds is stalled.
+STALL_CELLS = 0.02
+STALL_RAD = 0.05
+STALL_S = 1.0
 Span = Tuple[float, float]
 MAX_EVENTS = 2000
 
@@ -94,7 +101,46 @@ def timelines(run: RunFolder) -> Dict[int, Dict[str, List[Any]]]:
         lines[robot]["fault"].append((since, end))
     for r, (since, on) in waiting.items():
         lines[r]["waiting"].append((since, end, list(on)))
+    tracks = _tracks(run)
+    for robot, states in lines.items():
+        stalls = [s for since, until in states.get("moving", [])
+                  for s in _still(tracks.get(robot, []), since, until)]
+        if stalls:
+            states["stalled"] = stalls
     return {r: dict(v) for r, v in lines.items()}
+
+
+Pose = Tuple[float, float, float, float]  # t, x, y, heading
+
+
+def _tracks(run: RunFolder) -> Dict[int, List[Pose]]:
+    """Per robot, its reported poses over time."""
+    tracks: Dict[int, List[Pose]] = defaultdict(list)
+    for rec in run.of("poses"):
+        t = float(rec.get("t", 0.0))
+        for entry in rec.get("p") or []:
+            if isinstance(entry, list) and len(entry) >= 4 and None not in entry[1:4]:
+                tracks[entry[0]].append((t, float(entry[1]), float(entry[2]), float(entry[3])))
+    return tracks
+
+
+def _still(track: List[Pose], since: float, until: float) -> List[Span]:
+    """Within [since, until], the stretches of at least STALL_S where the pose did not change."""
+    spans: List[Span] = []
+    anchor: Optional[Pose] = None
+    last = since
+    for t, x, y, heading in track:
+        if t < since or t > until:
+            continue
+        if anchor is None or math.hypot(x - anchor[1], y - anchor[2]) > STALL_CELLS or \
+                abs(math.remainder(heading - anchor[3], math.tau)) > STALL_RAD:
+            if anchor is not None and last - anchor[0] >= STALL_S:
+                spans.append((anchor[0], last))
+            anchor = (t, x, y, heading)
+        last = t
+    if anchor is not None and last - anchor[0] >= STALL_S:
+        spans.append((anchor[0], last))
+    return spans
 
 
 def gantt_chart(run: RunFolder) -> Chart:
@@ -103,7 +149,7 @@ def gantt_chart(run: RunFolder) -> Chart:
     fig = new_figure((8.0, min(0.32 * len(robots) + 1.2, 24.0)))
     ax = fig.add_subplot(1, 1, 1)
     for y, robot in enumerate(robots):
-        for state, colour in COLOURS.items():
+        for state, colour in COLOURS.items():  # in this order: a stall is drawn over its move
             bars = [(s[0], s[1] - s[0]) for s in spans[robot].get(state, []) if s[1] > s[0]]
             if bars:
                 height = 0.8 if state != "waiting" else 0.5
@@ -117,11 +163,11 @@ def gantt_chart(run: RunFolder) -> Chart:
                   [str(r) for r in robots], fontsize=7 if len(robots) <= 40 else 4)
     ax.invert_yaxis()
     ax.set_xlabel("time ({})".format("plan steps" if run.time_unit == "step" else "s"))
-    ax.legend(handles=[_patch(c, s) for s, c in COLOURS.items()], fontsize=7, ncol=6, loc="upper center",
+    ax.legend(handles=[_patch(c, s) for s, c in COLOURS.items()], fontsize=7, ncol=7, loc="upper center",
               bbox_to_anchor=(0.5, 1.08))
     ax.grid(axis="x", alpha=0.3)
     return Chart("gantt", "What each robot did", to_png(fig), spans,
-                 "Green: moving; blue: turning; orange: waiting for other robots (on whom); purple: delayed "
+                 "Green: moving (dark: stalled, its pose still for a second or more); blue: turning; orange: waiting for other robots (on whom); purple: delayed "
                  "(free to move, not moving); grey: disabled; red: fault.")
 
 
