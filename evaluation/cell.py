@@ -36,10 +36,16 @@ Row = Dict[str, Any]
 
 
 def strategy_label(cell: Cell) -> str:
-    return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings)
+    """The strategy column: its name and settings, and " (wire)" for a run through the manager,
+    so reports show the two kinds of run side by side."""
+    return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings) + (
+        " (wire)" if cell.chain == "wire" else "")
 
 
 def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
+    if cell.chain == "wire":
+        from .wire_cell import run_wire_cell
+        return run_wire_cell(cell, plan, cell.time_scale)
     began = time.perf_counter()
     model = parse_delay_model(cell.delay, default="none")
     p = Plan(plan.positions)

@@ -13,6 +13,9 @@
     seeds: 30                           # 0..29, or a list
     disable: [none, "0@10"]             # optional: robot ROBOT out for good at plan step STEP
     recover: [none, replan]             # optional: replan the others when the run stalls
+    chain: [engine, wire]               # optional: engine alone (default), or also virtual
+                                        # robots and the manager over loopback (wire_cell.py)
+    time_scale: 10                      # wire cells: the virtual fleet's time scale
 
 Paths are relative to the experiment file. Every combination is one cell; a
 cell's `key` names it, so a results table tells which cells are done.
@@ -31,8 +34,10 @@ from fleet_common.execution import STRATEGIES
 from fleet_common.planning import SOLVER_NAMES
 from fleet_common.yaml_lines import load_marked, where
 
-KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover")
+KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
+        "time_scale")
 RECOVER = ("none", "replan")
+CHAINS = ("engine", "wire")
 
 
 class ExperimentSpecError(FormatError):
@@ -61,12 +66,17 @@ class Cell:
     seed: int
     disable: str
     recover: str
+    chain: str = "engine"     # or "wire": virtual robots and the manager (wire_cell.py)
+    time_scale: float = 10.0  # wire cells: the virtual fleet's
 
     @property
     def key(self) -> str:
-        return "|".join([self.plan, self.strategy + "".join(":{}={}".format(k, v) for k, v in self.settings),
-                         self.delay, "" if self.p is None else repr(self.p), str(self.seed), self.disable,
-                         self.recover])
+        parts = [self.plan, self.strategy + "".join(":{}={}".format(k, v) for k, v in self.settings),
+                 self.delay, "" if self.p is None else repr(self.p), str(self.seed), self.disable,
+                 self.recover]
+        if self.chain != "engine":  # engine keys stay as they were: older tables resume
+            parts.append("{}:x{:g}".format(self.chain, self.time_scale))
+        return "|".join(parts)
 
 
 @dataclass
@@ -104,9 +114,19 @@ def read_experiment(path: Path) -> Experiment:
     recover = [str(r) for r in _list(path, data, "recover", ["none"])]
     if any(r not in RECOVER for r in recover):
         raise _error(path, data, "recover", "expected none or replan, got {!r}".format(recover))
-    cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec)
-             for plan, (s, settings), (d, p), seed, dis, rec in itertools.product(
-                 plans, strategies, delays, seeds, disable, recover)
+    chains = [str(c) for c in _list(path, data, "chain", ["engine"])]
+    if any(c not in CHAINS for c in chains):
+        raise _error(path, data, "chain", "expected engine or wire, got {!r}".format(chains))
+    if "wire" in chains and (disable != ["none"] or recover != ["none"]):
+        raise _error(path, data, "chain", "wire cells cannot disable robots or replan (an "
+                     "operator's acts in the manager); sweep those on the engine alone")
+    scale = data.get("time_scale", 10.0)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale <= 100:
+        raise _error(path, data, "time_scale", "expected a number over 0 and at most 100, got {!r}".format(scale))
+    cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec,
+                  chain, float(scale))
+             for plan, (s, settings), (d, p), seed, dis, rec, chain in itertools.product(
+                 plans, strategies, delays, seeds, disable, recover, chains)
              if not (dis == "none" and rec != "none")]
     return Experiment(str(data.get("name") or path.stem), path, plans, cells)
 

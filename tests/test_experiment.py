@@ -115,6 +115,12 @@ def test_the_dask_path_gives_the_same_table_as_the_local_one(spec, tmp_path):
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ndisable: [\"1-3\"]\n",
      ":4:10: disable: expected none or ROBOT@STEP"),
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseed: 1\n", ":3:7: seed: unknown key 'seed'"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nchain: [engine, radio]\n",
+     ":4:8: chain: expected engine or wire"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ndisable: [\"1@3\"]\nchain: [wire]\n",
+     ":5:8: chain: wire cells cannot disable robots or replan"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nchain: [wire]\ntime_scale: 0\n",
+     ":5:13: time_scale: expected a number over 0 and at most 100"),
 ])
 def test_a_bad_experiment_file_is_a_one_line_error_naming_line_and_key(tmp_path, text, message):
     path = tmp_path / "bad.yaml"
@@ -122,3 +128,22 @@ def test_a_bad_experiment_file_is_a_one_line_error_naming_line_and_key(tmp_path,
     proc = fleetctl("experiment", path, "-o", tmp_path / "out")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert proc.stderr.startswith(str(path) + message), proc.stderr
+
+
+def test_a_wire_cell_runs_the_plan_on_virtual_robots_through_the_manager(tmp_path):
+    """The real chain beside the engine: same plan, strategy, delays and seed; times in plan steps."""
+    path = tmp_path / "wire.yaml"
+    path.write_text("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\n"
+                    "delays: [\"events=bernoulli:0.2:1-3\"]\nseeds: [3]\nchain: [engine, wire]\n"
+                    "time_scale: 10\n")
+    proc = fleetctl("experiment", path, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    engine, wire = read_table(tmp_path / "out")
+    assert (engine["strategy"], wire["strategy"]) == ("adg", "adg (wire)")
+    assert wire["key"] == engine["key"] + "|wire:x10"
+    assert wire["finished"] and wire["reached"] == 5 and wire["collisions"] == 0
+    assert wire["moves"] == engine["moves"]  # every planned move ran once, over the wire too
+    # the robots turn and the commands cross sockets: slower than the engine, not wildly so
+    assert engine["makespan_ratio"] <= wire["makespan_ratio"] < 3 * engine["makespan_ratio"]
+    again = fleetctl("experiment", path, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
+    assert "0 run now, 2 already done" in again.stdout  # wire cells resume like the others

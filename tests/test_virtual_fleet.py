@@ -93,6 +93,19 @@ def test_slow_and_stalled_moves_take_longer_and_the_seed_repeats_them() -> None:
     assert duration(seconds("events=bernoulli:1:3-3"), 1) == pytest.approx(4.0 + 6.0)
 
 
+def test_delays_come_with_moves_not_with_turns_on_the_spot() -> None:
+    """The model is per move, as the engine draws it; the manager's turn before a drive must
+    not draw a second delay for the same move (that doubled the delays through the manager)."""
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, model=seconds("events=bernoulli:1:3-3"),
+                           rng=random.Random(1), turn_speed=1.0)
+    nav.start_turn(math.pi / 2)
+    assert nav.seconds_to_change() == pytest.approx(math.pi / 2)  # the turn alone, no delay
+    clock.t += 2.0
+    nav.start_drive(0.0, 1.0, 0.0)
+    assert nav.seconds_to_change() == pytest.approx(6.0 + 2.0)  # 3 moves' delay, then 1 cell
+
+
 def test_a_stall_holds_the_robot_still_partway() -> None:
     clock = FakeClock()
     model = seconds("stall=1:1.5")

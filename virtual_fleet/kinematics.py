@@ -95,7 +95,9 @@ class VirtualNavigator:
     def start_turn(self, angle: float) -> None:
         start = self.true_pose()
         turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
-        self._lay_out(start, wrap_angle(angle), turn, None, 0.0)
+        # the delay model is per move (a plan step, as the engine draws it); a turn on its own
+        # is the manager readying the robot for its next move, which draws the fate
+        self._lay_out(start, wrap_angle(angle), turn, None, 0.0, fate=MoveFate())
 
     def halt(self) -> None:
         self._rest = self.true_pose()
@@ -171,8 +173,9 @@ class VirtualNavigator:
     # ---- internals -------------------------------------------------------------------
 
     def _lay_out(self, start: Pose, heading: float, turn: float, goal: Optional[Pose],
-                 drive: float, planned_stall: float = 0.0) -> None:
-        fate: MoveFate = self.model.draw(self.rng)
+                 drive: float, planned_stall: float = 0.0, fate: Optional[MoveFate] = None) -> None:
+        if fate is None:
+            fate = self.model.draw(self.rng)
         if planned_stall > 0:  # halfway, whatever the model drew (the draw still happens)
             fate = dataclasses.replace(fate, stall=fate.stall + planned_stall, stall_at=0.5)
         t = self.now()
