@@ -68,7 +68,6 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
 
 
 def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Optional[SimResult]) -> Row:
-    n = p.num_agents
     m1 = first.metrics
     waits = [r.wait_time for r in m1.robots]
     held = sum(r.held_time for r in m1.robots)
@@ -97,7 +96,17 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
         count += m2.total_waits
         moves += sum(r.moves for r in m2.robots)
     reached = [a for a in arrival if a is not None]
-    soc = float(sum(reached))
+    return make_row(cell, plan, p, makespan=makespan, soc=float(sum(reached)), waits=waits,
+                    count=count, held=held, blocked=blocked, collisions=collisions,
+                    reached=len(reached), replanned=second is not None, moves=moves)
+
+
+def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: float,
+             waits: List[float], count: int, held: float, blocked: Dict[int, float],
+             collisions: int, reached: int, replanned: bool, moves: int) -> Row:
+    """A results row (all but `wall_s`) from a run's figures, times in plan steps; `waits` per
+    agent. Engine and wire cells both make their rows here."""
+    n = p.num_agents
     return {
         "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
         "strategy": strategy_label(cell), "delay": cell.delay, "p": cell.p, "seed": cell.seed,
@@ -110,6 +119,6 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
         "wait_max": round(max(waits), 6) if n else 0.0, "waits": count, "held_time": round(held, 6),
         "wait_by_robot": json.dumps([round(w, 4) for w in waits]),
         "blocked_by": json.dumps({str(q): round(t, 4) for q, t in sorted(blocked.items())}),
-        "collisions": collisions, "reached": len(reached), "finished": len(reached) == n,
-        "replanned": second is not None, "moves": moves,
+        "collisions": collisions, "reached": reached, "finished": reached == n,
+        "replanned": replanned, "moves": moves,
     }

@@ -20,7 +20,6 @@ cannot be disabled in it (that is an operator's act in the manager), so
 """
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -35,7 +34,7 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import read_run
 from fleet_common.runlog.summary import SummaryBuilder
 
-from .cell import strategy_label
+from .cell import make_row
 from .plans import LoadedPlan
 from .spec import Cell
 
@@ -118,21 +117,7 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, run, time_scale: float) -> Dict[
             waits[rec["robot"]] = waits.get(rec["robot"], 0.0) + waited * steps
             count += 1
     moves = sum(1 for rec in run.of("action") if rec.get("phase") == "completed")
-    n = p.num_agents
-    makespan, soc = s.makespan * steps, s.soc * steps
-    total = sum(waits.values())
-    return {
-        "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
-        "strategy": strategy_label(cell), "delay": cell.delay, "p": cell.p, "seed": cell.seed,
-        "disable": cell.disable, "recover": cell.recover,
-        "plan_makespan": p.makespan, "plan_soc": p.soc,
-        "makespan": round(makespan, 6), "soc": round(soc, 6),
-        "makespan_ratio": round(makespan / p.makespan, 6) if p.makespan else 1.0,
-        "soc_ratio": round(soc / p.soc, 6) if p.soc else 1.0,
-        "wait_total": round(total, 6), "wait_mean": round(total / n, 6) if n else 0.0,
-        "wait_max": round(max(waits.values(), default=0.0), 6), "waits": count, "held_time": 0.0,
-        "wait_by_robot": json.dumps([round(waits.get(r, 0.0), 4) for r in robots]),
-        "blocked_by": json.dumps({}),  # the engine's blocked-by figures: engine cells only
-        "collisions": s.collisions, "reached": len(s.arrived), "finished": len(s.arrived) == n,
-        "replanned": False, "moves": moves,
-    }
+    return make_row(cell, plan, p, makespan=s.makespan * steps, soc=s.soc * steps,
+                    waits=[waits.get(r, 0.0) for r in robots], count=count,
+                    held=0.0, blocked={},  # the engine's held and blocked-by figures: engine cells only
+                    collisions=s.collisions, reached=len(s.arrived), replanned=False, moves=moves)

@@ -9,7 +9,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Dict, List
+from typing import Dict, List, Tuple
 
 from PIL import Image
 
@@ -59,16 +59,27 @@ def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: P
     assert all(gone(pid) for pid in pids(out))
 
 
-def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
-    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(tmp_path)], env=headless(),
+def start_demo(folder: Path) -> Tuple["subprocess.Popen[str]", List[str]]:
+    """The demo in its own session, and what it printed until its run was under way."""
+    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(folder)], env=headless(),
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
     lines: List[str] = []
     try:
         assert demo.stdout is not None
         for line in demo.stdout:
             lines.append(line)
-            if "demo console: start" in line:  # the run is under way
+            if "demo console: start" in line:
                 break
+    except BaseException:
+        demo.kill()
+        demo.wait()
+        raise
+    return demo, lines
+
+
+def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
+    demo, lines = start_demo(tmp_path)
+    try:
         children = pids("".join(lines))
         os.kill(demo.pid, signal.SIGINT)
         rest, _ = demo.communicate(timeout=60)
@@ -87,15 +98,8 @@ def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
 def test_a_demo_killed_outright_takes_its_processes_along(tmp_path: Path) -> None:
     """SIGKILL (a test's timeout, the OOM killer) leaves the demo no chance to stop its children:
     the kernel tells them (and the console's Xvfb) that their parent died."""
-    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(tmp_path)], env=headless(),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
-    lines: List[str] = []
+    demo, lines = start_demo(tmp_path)
     try:
-        assert demo.stdout is not None
-        for line in demo.stdout:
-            lines.append(line)
-            if "demo console: start" in line:
-                break
         children = pids("".join(lines))
         xvfb = [int(p) for c in children for p in Path("/proc/{}/task/{}/children".format(c, c))
                 .read_text().split()] if children else []

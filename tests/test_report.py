@@ -169,19 +169,24 @@ def test_fleetctl_report_of_a_run_folder_and_its_errors(run_folder, tmp_path):
         "fleetctl report: {}: neither a run folder (events.jsonl) nor a sweep's folder (results.csv)".format(empty))
 
 
-def test_robots_waiting_for_start_are_not_drawn_as_waiting_for_each_other(tmp_path):
-    """A manager's run waits for an operator's Start; the chart's waits are waits on robots."""
+def manager_log(folder, robots, starts):
+    """A manager's run log written by hand: the log, and `at(t, kind, **fields)` to add to it."""
     from fleet_common.runlog.writer import RunLog
 
     now = [100.0]
-    log = RunLog(tmp_path, clock=lambda: now[0])
-    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[1, 2],
-                    strategy="adg", actions=[1, 1], starts=[[0, 0], [1, 1]])
+    log = RunLog(folder, clock=lambda: now[0])
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=robots,
+                    strategy="adg", actions=[1] * len(robots), starts=starts)
 
     def at(t: float, kind: str, **fields) -> None:
         now[0] = 100.0 + t
         log.record(kind, **fields)
+    return log, at
 
+
+def test_robots_waiting_for_start_are_not_drawn_as_waiting_for_each_other(tmp_path):
+    """A manager's run waits for an operator's Start; the chart's waits are waits on robots."""
+    log, at = manager_log(tmp_path, [1, 2], [[0, 0], [1, 1]])
     at(0.0, "state", run="waiting")
     at(0.1, "waits", w=[[1, [], None, "waiting for Start"], [2, [], None, "waiting for Start"]])
     at(5.0, "state", run="running")
@@ -198,16 +203,7 @@ def test_robots_waiting_for_start_are_not_drawn_as_waiting_for_each_other(tmp_pa
 
 def test_a_robot_stuck_in_its_move_is_drawn_stalled_and_a_turning_one_is_not(tmp_path):
     """The demo's stalled robot: its move goes on, its pose does not (others wait on it)."""
-    from fleet_common.runlog.writer import RunLog
-
-    now = [100.0]
-    log = RunLog(tmp_path, clock=lambda: now[0])
-    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[1, 2],
-                    strategy="adg", actions=[1, 1], starts=[[0, 0], [3, 3]])
-
-    def at(t: float, kind: str, **fields) -> None:
-        now[0] = 100.0 + t
-        log.record(kind, **fields)
+    log, at = manager_log(tmp_path, [1, 2], [[0, 0], [3, 3]])
 
     at(0.0, "state", run="running")
     at(0.0, "action", robot=1, index=0, phase="started", src=[0, 0], dst=[1, 0])
