@@ -344,8 +344,7 @@ class Manager:
 
     @property
     def collisions(self) -> int:
-        trace = self.summary_builder.trace
-        return 0 if trace is None else trace.collisions
+        return self.summary_builder.collisions
 
     def all_arrived(self) -> bool:
         """Every robot not disabled by an operator is at its goal (a robot held by a fault

@@ -91,7 +91,7 @@ class SummaryBuilder:
         self.last_completion: Dict[int, float] = {}
         self.out: Dict[int, str] = {}         # robot id -> "disabled" | "failed"
         self.wait = 0.0
-        self.trace: Optional[CollisionCount] = None
+        self.counted: Optional[CollisionCount] = None  # the executed moves' collisions
         self.sent: Dict[Tuple[int, int], float] = {}  # (robot, action) -> drive sent
         self.started: Dict[int, Tuple[float, Tuple[int, int], Tuple[int, int]]] = {}
         self.min_distance: Optional[float] = None
@@ -131,7 +131,7 @@ class SummaryBuilder:
         self.sent.clear()
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
-            self.trace = CollisionCount(starts)
+            self.counted = CollisionCount(starts)
         for i, n in enumerate(self.actions):
             if n == 0:
                 self.arrival.setdefault(i, self.last_completion.get(i, t if not first else t))
@@ -148,12 +148,12 @@ class SummaryBuilder:
             self.started[i] = (since, tuple(src), tuple(dst))  # type: ignore[assignment]
         elif record.get("phase") == "completed":
             began = self.started.pop(i, None)
-            if self.trace is not None and src is not None and dst is not None:
+            if self.counted is not None and src is not None and dst is not None:
                 start = began[0] if began is not None else t
                 try:
-                    self.trace.add(i, start, t, tuple(src), tuple(dst))  # type: ignore[arg-type]
+                    self.counted.add(i, start, t, tuple(src), tuple(dst))  # type: ignore[arg-type]
                 except ValueError:
-                    pass  # a hole in the log (a crash): the trace skips the move, not the run
+                    pass  # a hole in the log (a crash): the count skips the move, not the run
             self.done[i] = min(self.done[i] + 1, self.actions[i] if i < len(self.actions) else 0)
             self.last_completion[i] = t
             if i < len(self.actions) and self.done[i] >= self.actions[i]:
@@ -169,6 +169,11 @@ class SummaryBuilder:
             self.min_distance = found[0]
             self.closest = (found[1], found[2], t)
 
+    @property
+    def collisions(self) -> int:
+        """Collisions among the moves fed so far (cheap: counted as they come)."""
+        return self.counted.collisions if self.counted is not None else 0
+
     def summary(self) -> RunSummary:
         begin = self.begin if self.begin is not None else 0.0
         # a robot held by a fault still takes part (it has not arrived); disabled ones do not
@@ -178,8 +183,7 @@ class SummaryBuilder:
         return RunSummary(
             unit=self.unit, robots=len(self.robots), arrived=arrived, enabled=len(enabled),
             makespan=max(times, default=0.0), soc=sum(times), wait=self.wait,
-            collisions=self.trace.collisions if self.trace is not None else 0,
-            swaps=self.trace.swaps if self.trace is not None else 0,
+            collisions=self.collisions, swaps=self.counted.swaps if self.counted is not None else 0,
             min_distance=self.min_distance,
             closest=None if self.closest is None else (
                 self.closest[0], self.closest[1], max(0.0, self.closest[2] - begin)),
