@@ -26,7 +26,14 @@ def _tmux(config: DeployConfig) -> str:
 T() {{ tmux -L {socket} "$@"; }}
 state() {{
   T has-session -t "=$1" 2>/dev/null || {{ echo stopped; return; }}
-  T display-message -p -t "=$1:" '#{{?pane_dead,exited #{{pane_dead_status}}#{{?pane_dead_signal,signal #{{pane_dead_signal}},}},running}}'
+  # tmux marks a pane dead when its terminal closes, which can come before it has reaped the
+  # process: "exited " without a status or signal then, for a moment; ask again.
+  for _ in 1 2 3 4 5 6 7 8 9 10; do
+    st=$(T display-message -p -t "=$1:" '#{{?pane_dead,exited #{{pane_dead_status}}#{{?pane_dead_signal,signal #{{pane_dead_signal}},}},running}}')
+    [ "$st" = "exited " ] || break
+    sleep 0.1
+  done
+  echo "$st"
 }}
 sessions() {{ T list-sessions -F '#{{session_name}}' 2>/dev/null || true; }}
 last_output() {{

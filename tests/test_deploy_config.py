@@ -2,6 +2,8 @@
 --dry-run, and ciirc-exec.sh's list of subcommands (no connection is made here)."""
 from __future__ import annotations
 
+import dataclasses
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +17,7 @@ from deploy.config import parse_config, read_config
 from deploy.errors import DeployConfigError, DeployError
 from deploy.hostkeys import PinnedHostKeys
 from deploy.remote import steps
+from deploy.sessions import status_script
 from deploy.targets import robot_targets, select_robots, server_target
 from fleet_common.robots import parse_robot_definitions
 
@@ -169,3 +172,34 @@ def test_a_job_that_breaks_is_a_failed_row_with_its_log_and_the_others_finish(tm
         tmp_path / "logs")
     log = (tmp_path / "logs" / "10.0.0.2-robot2.log").read_text()
     assert "robots:update on robot 2 (tb@10.0.0.2:22)" in log and "KeyError: 'bug'" in log
+
+
+# tmux reports a pane dead as soon as its terminal closes; its exit status only once it has
+# reaped the process. This stand-in answers the first two questions in that gap, as the real
+# one did on a CI run ("runner exited  right after starting").
+RACING_TMUX = """#!/bin/sh
+for arg; do last=$arg; done
+case " $* " in
+  *" has-session "*) exit 0 ;;
+  *" list-sessions "*) exit 0 ;;
+  *" display-message "*)
+    n=$(cat asked 2>/dev/null || echo 0); echo $((n + 1)) > asked
+    if [ "$n" -lt 2 ]; then echo "exited "; else echo "exited 3"; fi ;;
+esac
+"""
+
+
+def test_status_waits_for_tmux_to_know_how_a_process_that_just_died_exited(tmp_path: Path) -> None:
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "tmux").write_text(RACING_TMUX)
+    (fake / "tmux").chmod(0o755)
+    (tmp_path / "logs").mkdir()
+    (tmp_path / "logs" / "runner.log").write_text("roslaunch: package agv_package not found\r\n")
+    config = parse_config(MINIMAL, "deploy.yaml")
+    robot = robot_targets(config, parse_robot_definitions("1 127.0.0.1 9001 tb r1 red\n"))[0]
+    robot = dataclasses.replace(robot, path=str(tmp_path))
+    out = subprocess.run(["sh", "-c", status_script(robot, config)], capture_output=True,
+                         text=True, timeout=30, cwd=tmp_path,
+                         env={**os.environ, "PATH": "{}:{}".format(fake, os.environ["PATH"])})
+    assert out.stdout.splitlines()[0] == "runner: exited 3: roslaunch: package agv_package not found"
