@@ -16,6 +16,7 @@ from typing import Dict, List, Optional, Tuple
 
 from fleet_common.errors import FleetError, FormatError
 from fleet_common.robots import default_definitions_path, read_robot_definitions
+from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports
 
 from .config import DeployConfig, default_config_path, read_config
 from .errors import DeployError
@@ -90,6 +91,14 @@ def build_parser() -> argparse.ArgumentParser:
                            help="talk to robots without CurveZMQ (robots run with --no-curve)")
             p.add_argument("--wire-timeout", type=float, default=3.0, metavar="S",
                            help="seconds to wait for every robot's status (default 3)")
+            p.add_argument("--feedback-base", type=int, default=FEEDBACK_PORT, metavar="PORT",
+                           help="pose feedback port of a robot alone on its host; robots sharing "
+                                "a host use PORT+1, ... (default {}, as the robots)".format(
+                                    FEEDBACK_PORT))
+            p.add_argument("--hello", action="store_true",
+                           help="say Hello and ask GetStatus instead of listening to pose feedback: "
+                                "checks the protocol version too, but takes each robot over from "
+                                "a running manager for a few seconds")
         _common(p)
     return parser
 
@@ -152,15 +161,22 @@ def _net_check(args: argparse.Namespace) -> int:
 
     from .netcheck import check_robots, format_checks
 
+    if not 0 < args.feedback_base < 65536:
+        raise DeployError("--feedback-base must be a port (1-65535), got {}".format(args.feedback_base))
     config = _load(args)
     targets = _targets(args, config, "robots", "net")
     path = args.definitions or default_definitions_path()
     wanted = {t.robot_id for t in targets}
-    robots = [r for r in read_robot_definitions(path) if r.id in wanted]
+    defined = read_robot_definitions(path)
+    robots = [r for r in defined if r.id in wanted]
+    # the port rule counts every robot on a host, chosen or not
+    feedback = None if args.hello else feedback_ports(defined, args.feedback_base, str(path))
     if args.dry_run:
         for r, t in zip(robots, targets):
-            print("robot {}: TCP {}:{} and SSH login {}, TCP {}:{} and Hello + GetStatus".format(
-                r.id, r.host, t.port, t.address, r.host, r.command_port))
+            wire = "Hello + GetStatus" if feedback is None else \
+                "pose feedback on {}:{}".format(r.host, feedback[r.id])
+            print("robot {}: TCP {}:{} and SSH login {}, TCP {}:{} and {}".format(
+                r.id, r.host, t.port, t.address, r.host, r.command_port, wire))
         return 0
     keys: Optional[ManagerKeys] = None
     problem = ""
@@ -171,7 +187,7 @@ def _net_check(args: argparse.Namespace) -> int:
             problem = "{} (or --no-curve)".format(err)
     if not args.wire_timeout > 0:
         raise DeployError("--wire-timeout must be positive")
-    checks = check_robots(robots, targets, config, keys, args.wire_timeout, problem)
+    checks = check_robots(robots, targets, config, keys, args.wire_timeout, problem, feedback)
     print(format_checks(checks))
     return 0 if all(c.ok for c in checks) else 1
 

@@ -1,12 +1,15 @@
 """net:check: is each robot reachable, is SSH up (and do we get in), is its command port open,
-and does it answer the wire protocol's status? One table row per robot.
+and is its robot process alive? One table row per robot.
 
 Reachable means the host answered on TCP at all (a connection accepted or
 refused), which needs no root, unlike ping. The SSH column logs in the way
-deployment does (pinned host keys, keys only). The wire column says Hello and
-GetStatus through the manager's own robot links, for every robot at once;
-a robot obeys one manager at a time, so this takes a robot over from a running
-manager for a few seconds: run it before a demonstration, not during one.
+deployment does (pinned host keys, keys only). The wire column listens to the
+robot's pose feedback stream (read-only, so it is safe during a run: a robot
+obeys one manager at a time, and saying Hello would take it over from a running
+manager); the stream uses the same CurveZMQ keys as commands, so "ok" also
+means the keys fit. `hello=True` says Hello and GetStatus through the manager's
+own robot links instead, which also checks the protocol version end to end,
+and takes each robot over for a few seconds: before a demonstration, not during one.
 """
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ import time
 import uuid
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import zmq
 
@@ -23,15 +26,17 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.transport.curve_keys import ManagerKeys
 from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
 from fleet_common.transport.links import LinkSet
+from fleet_common.transport.pose_feedback import subscribe_feedback
 from fleet_common.transport.robot_link import RobotLink
-from fleet_common.wire import Status
+from fleet_common.wire import PoseFeedback, RemoteProtocolError, Status
+from fleet_common.wire.codec import decode
 
 from .config import DeployConfig
 from .errors import DeployError, HostKeyRefused
 from .ssh import connect
 from .targets import Target
 
-__all__ = ["Check", "check_robots", "format_checks", "tcp_probe", "wire_status"]
+__all__ = ["Check", "check_robots", "format_checks", "tcp_probe", "feedback_status", "wire_status"]
 
 
 @dataclass(frozen=True)
@@ -80,11 +85,63 @@ def _reachable(*probes: str) -> str:
     return "yes" if any(p in ("open", "refused") for p in probes) else "no"
 
 
-def _status_text(status: Status) -> str:
+def _status_text(status: Union[Status, PoseFeedback]) -> str:
     pose, current, faults = status.pose, status.current, status.faults
     where = "at ({:.1f}, {:.1f})".format(pose.x, pose.y)
     doing = "idle" if current is None else "running command {}".format(current)
     return "ok: {} {}{}".format(doing, where, "; faults: " + ", ".join(faults) if faults else "")
+
+
+def _keys_hint(keys: Optional[ManagerKeys]) -> str:
+    return " (CurveZMQ keys, or the robot's --no-curve?)" if keys is not None else \
+        " (does the robot want CurveZMQ keys?)"
+
+
+def feedback_status(robots: Sequence[RobotDefinition], ports: Dict[int, int],
+                    keys: Optional[ManagerKeys], timeout: float) -> Dict[int, str]:
+    """robot id -> "ok: ..." from the first pose on its feedback port (`ports`), or why not.
+
+    Only listens: nothing reaches the robot's command port, so a manager
+    driving it goes on undisturbed.
+    """
+    out: Dict[int, str] = {}
+    problems: Dict[int, str] = {}
+    context = zmq.Context()
+    poller = zmq.Poller()
+    of_socket: Dict[zmq.Socket, RobotDefinition] = {}
+    try:
+        for r in robots:
+            sock = subscribe_feedback(context, r.host, ports[r.id], keys)
+            of_socket[sock] = r
+            poller.register(sock, zmq.POLLIN)
+        give_up = time.monotonic() + timeout
+        while len(out) < len(robots):
+            left = give_up - time.monotonic()
+            if left <= 0:
+                break
+            for sock, _ in poller.poll(min(left, 0.1) * 1000):
+                robot = of_socket[sock]
+                data = sock.recv(zmq.NOBLOCK)
+                if robot.id in out:
+                    continue
+                try:
+                    message = decode(data)
+                except RemoteProtocolError as err:
+                    problems[robot.id] = "bad pose feedback on port {}: {}".format(ports[robot.id], err)
+                    continue
+                if isinstance(message, PoseFeedback) and message.robot_id == robot.id:
+                    out[robot.id] = _status_text(message)
+                elif isinstance(message, PoseFeedback):
+                    problems[robot.id] = "port {} carries robot {}'s poses (another --feedback-base?)".format(
+                        ports[robot.id], message.robot_id)
+    finally:
+        for sock in of_socket:
+            sock.close(0)
+        context.term()
+    for r in robots:
+        out.setdefault(r.id, problems.get(r.id) or "no pose feedback on port {} within {:g} s{}".format(
+            ports[r.id], timeout, _keys_hint(keys)))
+    return out
 
 
 def wire_status(robots: Sequence[RobotDefinition], keys: Optional[ManagerKeys],
@@ -109,17 +166,16 @@ def wire_status(robots: Sequence[RobotDefinition], keys: Optional[ManagerKeys],
     finally:
         links.close()
         context.term()
-    hint = " (CurveZMQ keys, or the robot's --no-curve?)" if keys is not None else \
-        " (does the robot want CurveZMQ keys?)"
     for r in robots:
-        out.setdefault(r.id, "no answer within {:g} s{}".format(timeout, hint))
+        out.setdefault(r.id, "no answer within {:g} s{}".format(timeout, _keys_hint(keys)))
     return out
 
 
 def check_robots(robots: Sequence[RobotDefinition], targets: Sequence[Target],
                  config: DeployConfig, keys: Optional[ManagerKeys], wire_timeout: float,
-                 keys_problem: str = "") -> List[Check]:
-    """Every probe for every robot; TCP and SSH in threads, the wire for all at once."""
+                 keys_problem: str = "", feedback: Optional[Dict[int, int]] = None) -> List[Check]:
+    """Every probe for every robot; TCP and SSH in threads, the wire for all at once: the
+    pose feedback on the ports `feedback` gives (robot id -> port), or without it Hello."""
     seconds = config.timeouts.connect
 
     def probes(pair: Tuple[RobotDefinition, Target]) -> Tuple[str, str, Tuple[str, str]]:
@@ -131,7 +187,12 @@ def check_robots(robots: Sequence[RobotDefinition], targets: Sequence[Target],
     with ThreadPoolExecutor(max_workers=max(1, len(robots))) as pool:
         found = list(pool.map(probes, zip(robots, targets)))
     listening = [r for r, (_, command, _) in zip(robots, found) if command == "open"]
-    wire = ({} if keys_problem else wire_status(listening, keys, wire_timeout))
+    if keys_problem:
+        wire: Dict[int, str] = {}
+    elif feedback is not None:
+        wire = feedback_status(listening, feedback, keys, wire_timeout)
+    else:
+        wire = wire_status(listening, keys, wire_timeout)
     checks = []
     for robot, (ssh_port, command, (ssh_cell, note)) in zip(robots, found):
         if command != "open":

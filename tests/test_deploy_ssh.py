@@ -335,8 +335,8 @@ def test_net_check_reports_each_robots_state(tmp_path: Path) -> None:
             result = subprocess.run(
                 [sys.executable, "-m", "deploy", "net:check", "--config",
                  str(tmp_path / "deploy.yaml"), "--definitions", str(tmp_path / "defs.txt"),
-                 "--keys", str(tmp_path / "keys"), "--wire-timeout", "10"],
-                capture_output=True, text=True, timeout=120)
+                 "--keys", str(tmp_path / "keys"), "--wire-timeout", "10", "--feedback-base",
+                 str(feedback)], capture_output=True, text=True, timeout=120)
     finally:
         ssh.close()
     assert result.returncode == 1, result.stderr
@@ -349,6 +349,71 @@ def test_net_check_reports_each_robots_state(tmp_path: Path) -> None:
     assert table[2] == ["robot 3", "127.0.0.3", "yes", "down (refused)",
                         "{} refused".format(cmd3), "not tried (port refused)"]
     assert result.stdout.splitlines()[-1] == "1 of 3 robots fully reachable"
+
+
+def net_check(tmp_path: Path, *args: str) -> str:
+    """net:check's wire column for robot 1 of tmp_path/defs.txt (no sshd: SSH is down on purpose)."""
+    (tmp_path / "deploy.yaml").write_text("repository: /nowhere.git\nknown_hosts: {}\nrobots:\n"
+                                          "  port: {}\n  build: 'true'\n".format(
+                                              tmp_path / "known_hosts", free_ports(1)[0]))
+    result = subprocess.run([sys.executable, "-m", "deploy", "net:check", "1", "--config",
+                             str(tmp_path / "deploy.yaml"), "--definitions", str(tmp_path / "defs.txt"),
+                             *args], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1, result.stderr
+    return re.split(r"\s{2,}", result.stdout.splitlines()[1].strip())[-1]
+
+
+def test_net_check_listens_without_disturbing_a_manager_and_hello_takes_the_robot_over(
+        tmp_path: Path) -> None:
+    import zmq
+
+    from fleet_common.robots import parse_robot_definitions
+    from fleet_common.transport.curve_keys import (load_manager_keys, load_robot_keys,
+                                                   make_keys)
+    from fleet_common.transport.link_events import LinkDown, LinkUp
+    from fleet_common.transport.links import LinkSet
+    from fleet_common.transport.robot_link import RobotLink
+    from virtual_fleet.fleet import FleetThread, VirtualFleet
+
+    command, feedback = free_ports(2)
+    text = "1 127.0.0.1 {} tb tb1 red\n".format(command)
+    (tmp_path / "defs.txt").write_text(text)
+    make_keys(tmp_path / "keys")
+    make_keys(tmp_path / "other")
+    robots = parse_robot_definitions(text)
+    fleet = VirtualFleet(robots, keys=load_robot_keys(tmp_path / "keys"), feedback_base=feedback)
+    context = zmq.Context()
+    links = LinkSet([RobotLink(context, robots[0], "manager-epoch",
+                               keys=load_manager_keys(tmp_path / "keys"))])
+    downs: List[LinkDown] = []
+
+    def watch(seconds: float) -> None:  # the manager's side: is its link still up?
+        for _ in range(int(seconds / 0.05)):
+            downs.extend(e for e in links.poll(0.05) if isinstance(e, LinkDown))
+
+    base = ("--keys", str(tmp_path / "keys"), "--wire-timeout", "5", "--feedback-base", str(feedback))
+    try:
+        with FleetThread(fleet):
+            for _ in range(100):
+                if any(isinstance(e, LinkUp) for e in links.poll(0.05)):
+                    break
+            else:
+                pytest.fail("the manager's link never came up")
+            wire = net_check(tmp_path, *base)
+            assert wire == "ok: idle at (0.0, 0.0)"
+            watch(1.5)
+            assert downs == []  # listening left the manager in charge
+            wire = net_check(tmp_path, "--keys", str(tmp_path / "other"), "--wire-timeout", "1",
+                                "--feedback-base", str(feedback))
+            assert wire == "no pose feedback on port {} within 1 s (CurveZMQ keys, or the robot's " \
+                "--no-curve?)".format(feedback)
+            wire = net_check(tmp_path, *base, "--hello")
+            assert wire == "ok: idle at (0.0, 0.0)"
+            watch(1.5)
+            assert downs and "took over robot 1" in downs[0].reason  # as its --help warns
+    finally:
+        links.close()
+        context.term()
 
 
 def test_a_machine_that_accepts_but_never_speaks_ssh_fails_within_the_connect_timeout(
