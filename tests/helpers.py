@@ -1,15 +1,16 @@
-"""What several test modules need: `fleetctl` run as a user runs it, free loopback ports,
-a naive rotation checker (the oracle for the vectorised one), a huge broken instance (also
+"""What several test modules need: `fleetctl` run as a user runs it, a virtual fleet process,
+free loopback ports, a naive rotation checker (the oracle for the vectorised one), a huge broken instance (also
 bench/hostile_files.py's).
 """
 from __future__ import annotations
 
 from collections import deque
+from contextlib import contextmanager
 import socket
 import subprocess
 import sys
 from pathlib import Path
-from typing import Dict, List, Optional, Set, Tuple
+from typing import Dict, Iterator, List, Optional, Set, Tuple
 
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -21,6 +22,24 @@ def fleetctl(*args: object, cwd: Optional[Path] = None, env: Optional[Dict[str, 
     """`fleetctl ARGS...` in a fresh process of the test's Python; output captured as text."""
     return subprocess.run([sys.executable, "-m", "fleetctl", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout, cwd=cwd, env=env)
+
+
+@contextmanager
+def virtual_fleet_process(definitions: Path, keys: Path, feedback: int,
+                          log_level: str) -> Iterator[subprocess.Popen]:
+    """`fleetctl virtual-fleet` at 10x, output piped as text; killed and reaped on the way out."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions", str(definitions),
+         "--keys", str(keys), "--time-scale", "10", "--feedback-base", str(feedback),
+         "--log-level", log_level], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=10)
+        proc.stdout.close()  # type: ignore[union-attr]
+        proc.stderr.close()  # type: ignore[union-attr]
 
 
 def free_ports(n: int) -> List[int]:

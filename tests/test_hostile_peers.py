@@ -13,7 +13,6 @@ import logging
 import secrets
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Callable, Dict, Iterator, List, Optional
@@ -30,7 +29,7 @@ from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosi
                                Welcome)
 from fleet_common.wire.codec import encode
 from virtual_fleet.fleet import FleetThread, VirtualFleet
-from helpers import fleetctl, free_port_block, free_ports
+from helpers import fleetctl, free_port_block, free_ports, virtual_fleet_process
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -72,20 +71,9 @@ def fleet_process(tmp_path: Path) -> Iterator[tuple]:
     robot = RobotDefinition(1, "127.0.0.1", command, "u", "v1", "red")
     (tmp_path / "robots.txt").write_text("1 127.0.0.1 {} u v1 red\n".format(command))
     make_keys(tmp_path / "keys")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions",
-         str(tmp_path / "robots.txt"), "--keys", str(tmp_path / "keys"), "--time-scale", "10",
-         "--feedback-base", str(feedback), "--log-level", "info"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with virtual_fleet_process(tmp_path / "robots.txt", tmp_path / "keys", feedback, "info") as proc:
         assert proc.stdout.readline().startswith("virtual fleet: 1 robots")
         yield proc, robot, tmp_path / "keys"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait(timeout=10)
-        proc.stdout.close()
-        proc.stderr.close()
 
 
 def stop(proc: subprocess.Popen) -> str:

@@ -5,7 +5,6 @@ import os
 import signal
 import stat
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Iterator, List
@@ -18,7 +17,7 @@ from fleet_common.wire import Completed
 from fleet_common.transport.curve_keys import load_manager_keys
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import RobotLink, RobotReply
-from helpers import fleetctl, free_port_block, free_ports
+from helpers import fleetctl, free_port_block, free_ports, virtual_fleet_process
 
 
 
@@ -74,19 +73,9 @@ def fleet_files(tmp_path: Path) -> Path:
 @pytest.fixture
 def running_fleet(fleet_files: Path) -> Iterator[subprocess.Popen]:
     feedback = free_port_block(3)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions",
-         str(fleet_files / "robots.txt"), "--keys", str(fleet_files / "keys"),
-         "--time-scale", "10", "--feedback-base", str(feedback), "--log-level", "warning"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with virtual_fleet_process(fleet_files / "robots.txt", fleet_files / "keys", feedback,
+                               "warning") as proc:
         yield proc
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait(timeout=10)
-        proc.stdout.close()
-        proc.stderr.close()
 
 
 def test_virtual_fleet_serves_every_robot_and_stops_on_ctrl_c(fleet_files: Path,
