@@ -1,4 +1,5 @@
-"""What the ROS integration tests share: a loopback ROS environment, waiting, and a netns of their own.
+"""What the ROS integration tests share: a loopback ROS environment (and joining it from the test's
+own process), waiting, and a netns of their own.
 
 roscore's rosout (a C++ node) listens on every interface whatever ROS_IP says, and our rule
 is that a test's servers listen on loopback only or inside a network namespace the test
@@ -19,7 +20,7 @@ import sys
 import time
 import xmlrpc.client
 from pathlib import Path
-from typing import Callable, Dict, Optional
+from typing import Callable, Dict, Mapping, Optional
 
 import pytest
 
@@ -67,6 +68,23 @@ def ros_environment(master_port: int, home: Path) -> Dict[str, str]:
     env.pop("ROS_HOSTNAME", None)
     env.pop("PYTHONPATH", None)
     return env
+
+
+#: What a rospy node reads to find its master and where to log.
+ROS_VARIABLES = ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR", "ROS_HOSTNAME")
+
+
+def set_ros_variables(values: Mapping[str, Optional[str]]) -> Dict[str, Optional[str]]:
+    """Give this process `values`' ROS_VARIABLES (missing or None: unset), so that a rospy
+    node of the test joins that master; returns the old values, to set back the same way."""
+    old = {k: os.environ.get(k) for k in ROS_VARIABLES}
+    for key in ROS_VARIABLES:
+        value = values.get(key)
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
+    return old
 
 
 def wait_for(condition: Callable[[], bool], timeout: float, what: str,

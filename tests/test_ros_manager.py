@@ -10,12 +10,11 @@ network namespace (tests/ros_procs.py).
 from __future__ import annotations
 
 import math
-import os
 import re
 import sys
 import threading
 from pathlib import Path
-from typing import Dict, List, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import pytest
 
@@ -25,7 +24,8 @@ from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.transport.curve_keys import make_keys
 from helpers import free_port_block
 from live import Proc, fleetctl_args
-from ros_procs import master_up, netns_marker, ros_environment, run_inside_netns, wait_for
+from ros_procs import (master_up, netns_marker, ros_environment, run_inside_netns,
+                       set_ros_variables, wait_for)
 
 pytestmark = pytest.mark.slow
 inside_netns = netns_marker(__file__)
@@ -103,8 +103,7 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
     instance.write_text("map_file=lab.map\nagents=2\norientation=base\n" + "".join(
         "{},{},{},{}\n".format(s[0], s[1], g[0], g[1]) for s, g in ROBOTS.values()))
     started: List[Proc] = []
-    saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR",
-                                             "ROS_HOSTNAME")}
+    saved: Optional[Dict[str, Optional[str]]] = None
     try:
         roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
         started.append(roscore)
@@ -113,11 +112,7 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
                       home / "roslaunch.log", env)
         started.append(launch)
         wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)
-        for key in saved:
-            if key in env:
-                os.environ[key] = env[key]
-            else:
-                os.environ.pop(key, None)
+        saved = set_ros_variables(env)
         import rospy
 
         rospy.init_node("fleet_test_truth", anonymous=True, disable_signals=True)
@@ -146,8 +141,5 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
             sys.modules["rospy"].signal_shutdown("integration test done")
         for process in reversed(started):
             process.stop()
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
+        if saved is not None:
+            set_ros_variables(saved)

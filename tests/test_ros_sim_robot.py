@@ -15,12 +15,11 @@ About a minute: roscore and roslaunch take ~5 s to start, the drives ~40 s.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import threading
 import time
 from collections import deque
-from typing import Callable, Deque, Iterator, List, Optional, Tuple
+from typing import Callable, Deque, Dict, Iterator, List, Optional, Tuple
 
 import numpy as np
 import pytest
@@ -37,7 +36,8 @@ from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import RobotLink
 from helpers import free_port
 from live import Proc
-from ros_procs import master_up, netns_marker, ros_environment, run_inside_netns, wait_for
+from ros_procs import (master_up, netns_marker, ros_environment, run_inside_netns,
+                       set_ros_variables, wait_for)
 
 pytestmark = pytest.mark.slow
 
@@ -243,8 +243,7 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
     robot = RobotDefinition(ROBOT_ID, "127.0.0.1", command_port, "turtlebot", "turtlebot3", "blue")
     definitions.write_text(format_robot_definitions([robot]))
     started: List[Proc] = []
-    saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME",
-                                             "ROS_LOG_DIR", "ROS_HOSTNAME")}
+    saved: Optional[Dict[str, Optional[str]]] = None
     manager: Optional[Manager] = None
     try:
         roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
@@ -259,11 +258,7 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
             home / "roslaunch.log", env)
         started.append(launch)
         # The test's own node joins the same master (loopback only).
-        for key in saved:
-            if key in env:
-                os.environ[key] = env[key]
-            else:
-                os.environ.pop(key, None)
+        saved = set_ros_variables(env)
         import rospy
 
         rospy.init_node("fleet_test_observer", anonymous=True, disable_signals=True)
@@ -281,11 +276,8 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
             sys.modules["rospy"].signal_shutdown("integration test done")
         for process in reversed(started):
             process.stop()
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
+        if saved is not None:
+            set_ros_variables(saved)
 
 
 # ---- the tests -----------------------------------------------------------------------
