@@ -18,7 +18,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import Any, Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import zmq
 
@@ -87,8 +87,11 @@ class Proc:
 
     def stop(self, grace: float = 10.0) -> None:
         """SIGINT to the group, then SIGKILL; returns once every process of the group is gone
-        (roslaunch's nodes outlive their leader for a moment)."""
+        (roslaunch's nodes outlive their leader for a moment), and every process started under
+        it: roslaunch puts each node in a session of its own, out of the group's reach, and a
+        node that hangs in its shutdown would outlive the test once roslaunch is killed."""
         group = self.popen.pid  # start_new_session: the group id is the leader's pid
+        below = _descendants(group)
         for sig, wait in ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)):
             if not _group_alive(group):
                 break
@@ -98,6 +101,12 @@ class Proc:
                 time.sleep(0.05)
         if self.popen.poll() is None:
             self.popen.wait(5)
+        for pid, started in below:
+            if _started(pid) == started:  # still that process, not a new one with its pid
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
         self._out.close()
 
     def _signal(self, sig: int) -> None:
@@ -105,6 +114,36 @@ class Proc:
             os.killpg(self.popen.pid, sig)
         except ProcessLookupError:
             pass
+
+
+def _started(pid: int) -> Optional[str]:
+    """The start time of process `pid` (None if it is gone): with the pid, names one process."""
+    try:
+        stat = Path("/proc/{}/stat".format(pid)).read_text()
+    except OSError:
+        return None
+    return stat.rsplit(")", 1)[1].split()[19]
+
+
+def _descendants(pid: int) -> List[Tuple[int, str]]:
+    """(pid, start time) of every process below `pid`, children first."""
+    parents: Dict[int, List[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            parents.setdefault(int(fields[1]), []).append(int(entry.name))
+    found: List[Tuple[int, str]] = []
+    todo = list(parents.get(pid, []))
+    while todo:
+        child = todo.pop(0)
+        started = _started(child)
+        if started is not None:
+            found.append((child, started))
+        todo.extend(parents.get(child, []))
+    return found
 
 
 def _group_alive(group: int) -> bool:
