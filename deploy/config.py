@@ -9,6 +9,7 @@ error naming its line, so nothing in the file is silently ignored.
 """
 from __future__ import annotations
 
+import errno
 import os
 import re
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from typing import Any, Optional, Tuple, Union
 
 from fleet_common.robots import ENV_VAR as ROBOTS_ENV_VAR
 from fleet_common.robots import default_definitions_path
-from fleet_common.yaml_lines import load_marked, where
+from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 from .errors import DeployConfigError
 
@@ -182,11 +183,9 @@ def parse_config(text: str, path: str) -> DeployConfig:
 def read_config(path: Union[str, Path, None] = None) -> DeployConfig:
     """Read and check deploy.yaml (default: `default_config_path()`)."""
     path = Path(path) if path is not None else default_config_path()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        hint = "" if path.exists() else " (deploy.yaml sits beside robot_definitions.txt; " \
-            "--config FILE, ${} or ${} choose another)".format(ENV_VAR, ROBOTS_ENV_VAR)
-        raise DeployConfigError("cannot read: {}{}".format(err.strerror, hint), str(path)) from err
-    return parse_config(text, str(path))
+    if not path.exists():
+        raise DeployConfigError("cannot read: {} (deploy.yaml sits beside robot_definitions.txt; "
+                                "--config FILE, ${} or ${} choose another)".format(
+                                    os.strerror(errno.ENOENT), ENV_VAR, ROBOTS_ENV_VAR), str(path))
+    return parse_config(read_yaml_text(str(path), DeployConfigError), str(path))
 

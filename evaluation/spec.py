@@ -32,7 +32,7 @@ from fleet_common.delays import DelayModelError, parse_delay_model
 from fleet_common.errors import FormatError
 from fleet_common.execution import STRATEGIES
 from fleet_common.planning import SOLVER_NAMES
-from fleet_common.yaml_lines import load_marked, where
+from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
         "time_scale")
@@ -88,8 +88,7 @@ class Experiment:
 
 
 def read_experiment(path: Path) -> Experiment:
-    text = path.read_text(encoding="utf-8")
-    data = load_marked(text, str(path), ExperimentSpecError)
+    data = load_marked(read_yaml_text(str(path), ExperimentSpecError), str(path), ExperimentSpecError)
     if not isinstance(data, dict):
         raise ExperimentSpecError("expected a mapping with plans, strategies, delays, seeds", str(path), 1)
     unknown = [k for k in data if k not in KEYS]

@@ -19,6 +19,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from fleet_common.errors import FormatError
+from fleet_common.formats.lines import read_text
 
 from .cell import COLUMNS, Row
 
@@ -52,8 +53,7 @@ def _parse(column: str, text: str) -> object:
 
 def read_csv(path: Path) -> List[Row]:
     """Rows of a results CSV (a torn last line is dropped)."""
-    text = path.read_text(encoding="utf-8")
-    lines = text.splitlines(keepends=True)
+    lines = read_text(str(path), ResultsTableError, strict=True).splitlines(keepends=True)
     if lines and not lines[-1].endswith("\n"):
         lines.pop()  # cut off mid-write
     reader = csv.reader(io.StringIO("".join(lines)))

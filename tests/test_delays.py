@@ -129,7 +129,7 @@ def test_bad_files_name_the_file_line_and_key(tmp_path, text, where, message):
 
 
 def test_a_missing_file_is_named():
-    with pytest.raises(DelayModelError, match="nowhere.yaml: cannot read delay model file"):
+    with pytest.raises(DelayModelError, match="nowhere.yaml: cannot read: No such file or directory"):
         parse_delay_model("nowhere.yaml")
 
 

@@ -176,6 +176,39 @@ def test_each_bad_file_is_one_line_naming_file_and_line(files: Path, name: str, 
     assert_one_line(status, stderr, path, line, fragment)
 
 
+# every file a command takes that is not a plan file: bytes that are not text, a folder
+BINARY = b"plans:\n  - \xff\xfe\n"
+NOT_PLAN_FILES = [
+    ("experiment", lambda f: ("experiment", f)),
+    ("results table", lambda f: ("report", f)),
+    ("delay model", lambda f: ("simulate", SHARED / "solutions" / "cbs_makespan-soc-pareto.txt",
+                               "--map-dir", SHARED / "maps", "--delay-model", f)),
+]
+
+
+@pytest.mark.parametrize("kind, args", NOT_PLAN_FILES, ids=[k for k, _ in NOT_PLAN_FILES])
+def test_a_spec_table_or_model_file_that_is_not_text_is_one_line_naming_file_and_byte(
+        tmp_path: Path, kind: str, args: Callable[[Path], tuple]) -> None:
+    path = tmp_path / ("f.csv" if kind == "results table" else "f.yaml")
+    path.write_bytes(BINARY)
+    status, _, stderr = run(*args(path))
+    assert_one_line(status, stderr, path, 2, "byte 0xff is not UTF-8 text")
+    folder = tmp_path / "folder.yaml"
+    folder.mkdir()
+    status, _, stderr = run(*args(folder))
+    assert status == 2 and stderr.count("\n") == 1 and "Traceback" not in stderr, stderr
+    assert str(folder) in stderr, stderr
+
+
+def test_a_deploy_config_that_is_not_text_is_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "deploy.yaml"
+    path.write_bytes(b"repository: /srv/f\xffleet.git\n")
+    result = subprocess.run([sys.executable, "-m", "deploy", "robots:status", "--config", str(path)],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr == "{}:1:19: byte 0xff is not UTF-8 text\n".format(path)
+
+
 def test_misspelled_header_keys_are_warnings_naming_line_and_nearest_key(files: Path) -> None:
     solution = files / "s.txt"
     solution.write_text(SOLUTION.replace("lb_soc=9", "LB_SOC=9").replace(

@@ -169,10 +169,7 @@ def write_transform(path: Union[str, Path], name: str, transform: Transform2D,
                     note: str = "") -> None:
     """Replace or add entry `name` in transforms file `path` (see set_transform), atomically."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8") if path.exists() else ""
-    except OSError as err:
-        raise TransformError("cannot read: {}".format(err.strerror), str(path)) from err
+    text = read_yaml_text(str(path), TransformError) if path.exists() else ""
     new = set_transform(text, name, transform, note, str(path))
     temporary = path.with_name(path.name + ".tmp")
     try:

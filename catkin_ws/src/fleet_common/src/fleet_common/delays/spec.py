@@ -23,7 +23,7 @@ import re
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 
-from ..yaml_lines import load_marked, where
+from ..yaml_lines import load_marked, read_yaml_text, where
 from .model import DURATION_MODELS, EVENT_MODELS, DelayModel, DelayModelError, EventDelays, ProneDelays
 
 FORMS = ("factor=LOW-HIGH, delay=D, slow=P:F, stall=P:S, dropout=P:S, robot=R:F, "
@@ -217,11 +217,7 @@ def _merge(model: DelayModel, fields: Fields) -> None:
 def read_delay_file(path: Union[str, Path]) -> DelayModel:
     """The model in a YAML or JSON file; errors name the file, line and key."""
     path = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as err:
-        raise DelayModelError("cannot read delay model file: {}".format(err.strerror), path) from None
-    data = load_marked(text, path, DelayModelError)
+    data = load_marked(read_yaml_text(path, DelayModelError), path, DelayModelError)
     return delay_model_from_mapping(data, path)
 
 
