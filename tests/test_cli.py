@@ -263,3 +263,34 @@ def test_scen_naming_a_blocked_cell_is_one_line_with_its_line(shared_data, tmp_p
                     "0\tmakespan-soc-pareto.map\t6\t4\t0\t0\t5\t1\t8\n")  # (0,0) is 'T'
     proc = fleetctl("convert", scen, tmp_path / "out.txt", "--map-dir", shared_data / "maps")
     assert_one_line_error(proc, scen, 3, "blocked")
+
+
+# option -> a value a user could type by mistake; each is refused by the parser itself
+BAD_OPTIONS = [
+    (["solve", "i.txt", "--time-limit"], "-1"), (["solve", "i.txt", "--time-limit"], "nan"),
+    (["solve", "i.txt", "-s", "ecbs", "--w"], "nan"), (["solve", "i.txt", "--w"], "0.5"),
+    (["solve", "i.txt", "--seed"], "-1"), (["solve", "i.txt", "--max-timestep"], "0"),
+    (["solve", "x.scen", "--agents"], "-3"), (["simulate", "s.txt", "--seed"], "-1"),
+    (["simulate", "s.txt", "--lookahead"], "0"), (["demo", "--time-scale"], "inf"),
+    (["demo", "--time-limit"], "-1"), (["demo", "--seed"], "-1"), (["demo", "--linger"], "nan"),
+    (["repair", "s.txt", "--time-limit"], "0"), (["trace", "run", "--dt"], "nan"),
+    (["console", "--replay", "s.txt", "--speed"], "nan"), (["console", "--manager", "x", "--every"], "0"),
+    (["experiment", "e.yaml", "--jobs"], "9" * 30), (["vicon", "listen", "--port"], "70000"),
+    (["vicon", "simulate", "--seed"], "-2"), (["virtual-fleet", "--feedback-base"], "-1"),
+    (["virtual-fleet", "--max-step"], "inf"), (["convert", "x.scen", "-o", "o.txt", "--agents"], "0"),
+]
+
+
+@pytest.mark.parametrize("args, value", BAD_OPTIONS, ids=[" ".join(a[:1] + a[-1:]) + " " + v[:6]
+                                                          for a, v in BAD_OPTIONS])
+def test_a_nonsense_option_value_is_the_parsers_one_line_error(args: List[str], value: str,
+                                                               capsys: pytest.CaptureFixture) -> None:
+    from fleetctl.cli import main
+
+    with pytest.raises(SystemExit) as ended:
+        main(args + [value])
+    assert ended.value.code == 2
+    error = capsys.readouterr().err.splitlines()[-1]
+    assert error.startswith("fleetctl " + args[0]) and ": error: argument " in error, error
+    assert args[-1] in error.split(": error: argument ")[1].split(":")[0], error  # the option
+    assert "expected" in error and repr(value) in error, error

@@ -9,7 +9,7 @@ from typing import Optional, Tuple
 from fleet_common.errors import FleetError
 
 from .. import filekinds
-from ..options import add_map_dir, map_dirs
+from ..options import add_map_dir, map_dirs, non_negative, positive
 
 NAME = "console"
 HELP = "watch and steer a running fleet (--manager), or play a mapf-IR solution (--replay)"
@@ -40,14 +40,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="no CurveZMQ (the manager runs with --no-curve too)")
     live.add_argument("--name", default=None, help="this console's name in the manager's log and "
                                                     "event list (default console@HOST)")
-    live.add_argument("--after", type=float, default=5.0, metavar="S",
+    live.add_argument("--after", type=non_negative, default=5.0, metavar="S",
                       help="with --screenshot: seconds to watch before saving (default 5)")
     live.add_argument("--record", type=Path, default=None, metavar="DIR",
                       help="save the window as DIR/NNNN.png every --every plan steps and at every "
                            "change of the run (listed in DIR/frames.txt)")
-    live.add_argument("--every", type=float, default=1.0, metavar="N",
+    live.add_argument("--every", type=positive, default=1.0, metavar="N",
                       help="with --record: plan steps between frames (default 1)")
-    live.add_argument("--close-when-done", type=float, default=None, metavar="S",
+    live.add_argument("--close-when-done", type=non_negative, default=None, metavar="S",
                       help="close the window S seconds after the run is done")
     live.add_argument("--start-when-ready", action="store_true",
                       help="press Start once every robot is connected (the demo's console)")
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--screenshot", type=Path, metavar="PNG",
                         help="write a PNG and exit: the player's view at time step --at, or the live "
                              "console's window after --after seconds")
-    parser.add_argument("--at", type=float, default=0.0, metavar="T",
+    parser.add_argument("--at", type=non_negative, default=0.0, metavar="T",
                         help="time step for --screenshot (fractions move agents between cells)")
     parser.add_argument("--orientation", choices=("lab", "mapf-ir"), default="lab",
                         help="lab: origin bottom-left, y up (default); mapf-ir: as mapf-IR's "
@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ids", action="store_true", help="show agent and cell ids")
     parser.add_argument("--node-ids", action="store_true",
                         help="lab map: show the floor-marker node ids (427 ...) the robots and the demo use")
-    parser.add_argument("--speed", type=float, default=4.0, metavar="S",
+    parser.add_argument("--speed", type=positive, default=4.0, metavar="S",
                         help="time steps per second when playing (0.25..64, default 4)")
     parser.add_argument("--paused", action="store_true", help="open paused at time step 0")
     parser.add_argument("--size", type=_size, metavar="WxH", help="canvas size in pixels")
@@ -96,8 +96,6 @@ def _live(args: argparse.Namespace) -> int:
     from console.view_options import ViewOptions
     from fleet_common.transport.curve_keys import default_keys_dir, load_console_keys
 
-    if args.every <= 0 or args.after < 0:
-        raise FleetError("--every must be positive and --after not negative")
     try:
         keys = None if args.no_curve else load_console_keys(args.keys or default_keys_dir())
     except FleetError as err:

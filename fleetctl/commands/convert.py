@@ -8,7 +8,7 @@ from typing import Optional
 from fleet_common.errors import FleetError, NotConvertibleError
 
 from .. import filekinds
-from ..options import add_legacy_units, add_map_dir, legacy_units, map_dirs
+from ..options import add_legacy_units, add_map_dir, count, legacy_units, map_dirs
 
 NAME = "convert"
 HELP = "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"
@@ -30,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="orientation of OUT (default: mapf-ir)")
     add_map_dir(parser)
     parser.add_argument("--map", type=Path, help="map for a .scen or a legacy plan")
-    parser.add_argument("--agents", type=int, help="scen: number of agents (default: all entries)")
+    parser.add_argument("--agents", type=count, help="scen: number of agents (default: all entries)")
     add_legacy_units(parser)
 
 

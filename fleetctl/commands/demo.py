@@ -19,6 +19,7 @@ from typing import List
 
 from fleet_common.errors import FleetError
 
+from ..options import non_negative, positive, seed
 from ..robot_plans import Names, add_repair_options, for_robots
 
 NAME = "demo"
@@ -40,8 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-s", "--solver", default=None,
                         help="built-in solver (default: cbs, the optimal plan, falling back to "
                              "lacam if cbs runs out of time)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--time-limit", type=float, default=10.0, metavar="S")
+    parser.add_argument("--seed", type=seed, default=0)
+    parser.add_argument("--time-limit", type=positive, default=10.0, metavar="S")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="delays for the predicted execution, as `fleetctl simulate` takes "
                              "them (default: moderate random delays)")
@@ -55,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-only", action="store_true",
                         help="check, plan and predict; no live run")
     live = parser.add_argument_group("the live run")
-    live.add_argument("--time-scale", type=float, default=1.5, metavar="K",
+    live.add_argument("--time-scale", type=positive, default=1.5, metavar="K",
                       help="the virtual robots run K times faster than real ones (default 1.5)")
     live.add_argument("--fleet-delays", default=None, metavar="SPEC",
                       help="the virtual fleet's --delay-model (default: moderate start delays "
@@ -67,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="no window even with a display: a private Xvfb, frames recorded")
     live.add_argument("--record", action="store_true",
                       help="record frames with a window too (the window must stay uncovered)")
-    live.add_argument("--linger", type=float, default=3.0, metavar="S",
+    live.add_argument("--linger", type=non_negative, default=3.0, metavar="S",
                       help="seconds the window stays open after the run is done (default 3)")
 
 

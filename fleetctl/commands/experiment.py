@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..options import integer
+
 NAME = "experiment"
 HELP = "run a sweep (plans x strategies x delay models x seeds) on simulated robots: a results table"
 DESCRIPTION = (
@@ -16,11 +18,19 @@ DESCRIPTION = (
     "in OUT/results.csv are not run again. Exit 0 when every run was free of collisions, 1 otherwise.")
 
 
+#: More local workers than this is a typo, not a machine.
+MAX_JOBS = 256
+
+
+def _jobs(text: str) -> int:
+    return integer(text, 1, MAX_JOBS, "a number of workers 1-{}".format(MAX_JOBS))
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", type=Path, help="experiment file (YAML)")
     parser.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
                         help="results folder (default: SPEC's name with -results, here)")
-    parser.add_argument("-j", "--jobs", type=int, default=None, metavar="N",
+    parser.add_argument("-j", "--jobs", type=_jobs, default=None, metavar="N",
                         help="local worker processes (default: every core; 1: in this process)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run on the Dask distributed scheduler at ADDRESS (tcp://HOST:PORT)")

@@ -7,7 +7,7 @@ from pathlib import Path
 from fleet_common.formats.solution import write_solution
 from fleet_common.planning.repair import DEFAULT_TIME_LIMIT, RepairError, repair_rotations
 
-from ..options import add_map_dir
+from ..options import add_map_dir, positive
 from ..robot_plans import valid_solution
 
 NAME = "repair"
@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT",
                         help="where to write the repaired solution (may be SOLUTION itself)")
     add_map_dir(parser)
-    parser.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT, metavar="S",
+    parser.add_argument("--time-limit", type=positive, default=DEFAULT_TIME_LIMIT, metavar="S",
                         help="give up after S seconds (default {:g})".format(DEFAULT_TIME_LIMIT))
 
 

@@ -13,7 +13,7 @@ from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.planning.repair import RepairError
 
-from ..options import add_map_dir
+from ..options import add_map_dir, count, seed
 from ..robot_plans import Names, add_repair_options, for_robots, valid_solution
 
 NAME = "simulate"
@@ -52,12 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="synchronization strategy: " + "; ".join(
                             "{}: {}".format(name, cls.summary) for name, cls in STRATEGIES.items())
                         + " (default adg)")
-    parser.add_argument("--lookahead", type=int, default=None, metavar="K",
+    parser.add_argument("--lookahead", type=count, default=None, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
                         help="how long moves take, the same language as virtual-fleet's (repeatable, "
                              "they combine): " + FORMS + "; default moderate (factor=0.8-1.5,stall=0.02:3)")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=seed, default=None,
                         help="random seed of the delays (default: the model's seed=, else 0)")
     parser.add_argument("--disable", action="append", default=[], type=_disable, metavar="ROBOT@STEP",
                         help="robot ROBOT (its id on the lab fleet, else the 0-based agent index) stops "

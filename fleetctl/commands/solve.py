@@ -17,7 +17,7 @@ from fleet_common.planning.dist_table import lower_bounds
 from fleet_common.planning.result import SolveResult
 
 from .. import filekinds
-from ..options import add_map_dir, map_dirs
+from ..options import add_map_dir, at_least_one, count, map_dirs, positive, seed
 
 NAME = "solve"
 #: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)
@@ -68,17 +68,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="{} or mapf-ir:NAME (default: {})".format("|".join(SOLVER_NAMES), DEFAULT_SOLVER))
     parser.add_argument("-o", "--output", metavar="OUT",
                         help="solution file to write; '-' for stdout (default: <instance stem>.<solver>.txt)")
-    parser.add_argument("--time-limit", type=float, metavar="S",
+    parser.add_argument("--time-limit", type=positive, metavar="S",
                         help="seconds (default: the instance's max_comp_time, else {:.0f})".format(
                             DEFAULT_TIME_LIMIT_S))
-    parser.add_argument("--max-timestep", type=int, metavar="T",
+    parser.add_argument("--max-timestep", type=count, metavar="T",
                         help="longest plan accepted, in steps (default: the instance's max_timestep, else {})".format(
                             DEFAULT_MAX_TIMESTEP))
-    parser.add_argument("--seed", type=int, metavar="N", help="random seed (default: the instance's seed, else 0)")
+    parser.add_argument("--seed", type=seed, metavar="N", help="random seed (default: the instance's seed, else 0)")
     parser.add_argument("--anytime", action="store_true",
                         help="lacam: keep improving the plan until the time limit (LaCAM*); prints the sum of "
                              "costs at each improvement")
-    parser.add_argument("--w", type=float, metavar="W",
+    parser.add_argument("--w", type=at_least_one, metavar="W",
                         help="ecbs: suboptimality bound, the plan's sum of costs is at most W x the optimum "
                              "(default: 1.1)")
     parser.add_argument("--allow-rotations", action="store_true",
@@ -86,7 +86,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "them; default: rotation-free plans)")
     add_map_dir(parser)
     parser.add_argument("--map", type=Path, metavar="MAP", help=".scen input: the map (default: the scen's map name, searched)")
-    parser.add_argument("--agents", type=int, metavar="N", help=".scen input: use the first N entries (default: all)")
+    parser.add_argument("--agents", type=count, metavar="N", help=".scen input: use the first N entries (default: all)")
     parser.add_argument("--mapf-ir", type=Path, metavar="PATH", dest="mapf_ir",
                         help="mapf-IR's `app` binary (default: ${})".format(APP_ENV))
     parser.add_argument("--mapf-ir-map-dir", type=Path, metavar="D",
@@ -193,8 +193,6 @@ def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int, st
     if args.w is not None:
         if args.solver != "ecbs":
             raise FleetError("--w is for ecbs, not {}".format(args.solver))
-        if args.w < 1:
-            raise FleetError("--w must be at least 1 (a factor on the optimal sum of costs), got {:g}".format(args.w))
         options["w"] = args.w
     return solve(args.solver, inst.grid, inst.starts, inst.goals, deadline=Deadline(limit), seed=seed,
                  rotations=args.allow_rotations, max_timestep=steps, **options)

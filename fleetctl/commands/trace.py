@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..options import positive
+
 NAME = "trace"
 HELP = "a run folder as a mapf-IR solution (where robots really were) and its summary"
 
@@ -20,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run", type=Path, metavar="RUNDIR", help="a run folder (manager or simulate --log)")
     parser.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
                         help="solution file to write (default RUNDIR/executed.txt)")
-    parser.add_argument("--dt", type=float, default=None, metavar="S",
+    parser.add_argument("--dt", type=positive, default=None, metavar="S",
                         help="run time per row (default: the quickest move of the run, so that "
                              "no robot moves more than one cell from row to row)")
 

@@ -5,11 +5,10 @@ The argument parsing is here; the work is in `fleetctl.vicon` (one module each).
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Optional
 
-from ..options import positive
+from ..options import non_negative, number, port, positive, seed
 
 NAME = "vicon"
 HELP = "the Vicon motion-capture stream: listen to it, calibrate it, or simulate Tracker"
@@ -30,7 +29,7 @@ def _common(p: argparse.ArgumentParser, frames_help: str) -> None:
 
 
 def _listener(p: argparse.ArgumentParser, seconds: Optional[float], for_help: str) -> None:
-    p.add_argument("--port", type=int, default=DEFAULT_PORT,
+    p.add_argument("--port", type=port, default=DEFAULT_PORT,
                    help="UDP port Tracker streams to (default {})".format(DEFAULT_PORT))
     p.add_argument("--bind", default="0.0.0.0", metavar="ADDRESS",
                    help="local address to listen on (default 0.0.0.0, every interface)")
@@ -51,22 +50,8 @@ def _occlusion(text: str) -> tuple:
     return robot, start, end
 
 
-def _number(text: str, ok: Callable[[float], bool], expected: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and ok(value)):
-        raise argparse.ArgumentTypeError("expected {}, got {!r}".format(expected, text))
-    return value
-
-
 def _probability(text: str) -> float:
-    return _number(text, lambda v: 0.0 <= v < 1.0, "a probability 0 <= P < 1")
-
-
-def _non_negative(text: str) -> float:
-    return _number(text, lambda v: v >= 0.0, "a number >= 0")
+    return number(text, lambda v: 0.0 <= v < 1.0, "a probability 0 <= P < 1")
 
 
 def _rate(text: str) -> float:
@@ -125,7 +110,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                    "packets, in Vicon millimetres through the inverse of the "
                                    "frames file's vicon_to_base.")
     truth = p.add_mutually_exclusive_group(required=True)
-    truth.add_argument("--truth-port", type=int, metavar="PORT",
+    truth.add_argument("--truth-port", type=port, metavar="PORT",
                        help="the virtual fleet's ground-truth port (fleetctl virtual-fleet "
                             "--truth-port PORT)")
     truth.add_argument("--demo", choices=["circle", "still"],
@@ -133,15 +118,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             "instance's starts")
     p.add_argument("--to", default="127.0.0.1", metavar="HOST",
                    help="where the stream goes (default 127.0.0.1)")
-    p.add_argument("--port", type=int, default=DEFAULT_PORT,
+    p.add_argument("--port", type=port, default=DEFAULT_PORT,
                    help="UDP port (default {})".format(DEFAULT_PORT))
     p.add_argument("--rate", type=_rate, default=100.0, metavar="HZ",
                    help="frames per second, at most 100 (default 100)")
     p.add_argument("--block-size", type=int, choices=[256, 512, 1024], default=1024,
                    help="packet size in bytes (default 1024)")
-    p.add_argument("--noise", type=_non_negative, default=1.0, metavar="MM",
+    p.add_argument("--noise", type=non_negative, default=1.0, metavar="MM",
                    help="standard deviation of each coordinate (default 1 mm)")
-    p.add_argument("--heading-noise", type=_non_negative, default=0.5, metavar="DEG",
+    p.add_argument("--heading-noise", type=non_negative, default=0.5, metavar="DEG",
                    help="standard deviation of the heading (default 0.5 degrees)")
     p.add_argument("--loss", type=_probability, default=0.0, metavar="P",
                    help="probability that a packet is lost, 0 <= P < 1 (default 0)")
@@ -153,7 +138,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="send an occluded robot as all zeros instead of leaving it out")
     p.add_argument("--for", dest="seconds", type=positive, default=None, metavar="SECONDS",
                    help="stop after SECONDS (default: run until Ctrl-C)")
-    p.add_argument("--seed", type=int, default=0, help="seed of noise and loss (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of noise and loss (default 0)")
     p.add_argument("--instance", type=Path, default=None, metavar="FILE",
                    help="--demo still: robots stand on this instance's starts")
     _common(p, frames)

@@ -18,7 +18,7 @@ from typing import Any, Dict, Optional, Tuple
 
 from fleet_common.delays import FORMS
 
-from ..options import positive
+from ..options import non_negative, port, positive, seed
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
@@ -35,9 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what goes wrong, the same language as `fleetctl simulate --delay-model` "
                              "(repeatable, they combine): " + FORMS + "; a nominal move is one cell at "
                              "--speed (2 s by default); default none")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=seed, default=None,
                         help="seed of the delay model (default: the model's seed=, else 0)")
-    parser.add_argument("--feedback-base", type=int, default=9980, metavar="PORT",
+    parser.add_argument("--feedback-base", type=port, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
     parser.add_argument("--speed", type=positive, default=0.5, metavar="CELLS_PER_S",
@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--truth", type=Path, default=None, metavar="FILE",
                         help="write the ground truth (true poses at 20 Hz, every command "
                              "started) to FILE as JSON lines")
-    parser.add_argument("--truth-port", type=int, default=None, metavar="PORT",
+    parser.add_argument("--truth-port", type=port, default=None, metavar="PORT",
                         help="publish the true poses on tcp://127.0.0.1:PORT (for `fleetctl "
                              "vicon simulate`)")
     parser.add_argument("--drift", action="append", default=[], type=_drift, metavar="ID:RATE",
@@ -72,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the robots' map: they refuse drives off it or into its obstacles "
                              "(default: the map of --instance, else the lab's when the robots "
                              "start at the lab instance, else none)")
-    parser.add_argument("--max-step", type=_non_negative, default=1.5, metavar="CELLS",
+    parser.add_argument("--max-step", type=non_negative, default=1.5, metavar="CELLS",
                         help="longest drive a robot accepts, from where it stands (default 1.5: "
                              "one cell and some slack; 0: any distance)")
     parser.add_argument("--max-time", type=positive, default=120.0, metavar="S",
@@ -113,16 +113,6 @@ def _stall(text: str) -> object:
         return parse_stall(text)
     except FleetError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value >= 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError("expected a number >= 0, got {!r}".format(text))
-    return value
 
 
 def run(args: argparse.Namespace) -> int:
