@@ -2,9 +2,8 @@
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 
 def add_map_dir(parser: argparse.ArgumentParser) -> None:
@@ -45,61 +44,6 @@ def legacy_units(args: argparse.Namespace) -> Tuple[float, Tuple[float, float]]:
     if args.legacy_origin is not None:
         origin = (args.legacy_origin[0], args.legacy_origin[1])
     return scale, origin
-
-
-# argparse types: a bad value is argparse's one-line error naming the option, never a
-# traceback from deep inside (NaN and infinity are not numbers a user means)
-
-def number(text: str, ok: Callable[[float], bool], expected: str) -> float:
-    """argparse type helper: a finite number for which `ok` holds."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and ok(value)):
-        raise argparse.ArgumentTypeError("expected {}, got {!r}".format(expected, text))
-    return value
-
-
-def positive(text: str) -> float:
-    """argparse type: a number > 0."""
-    return number(text, lambda v: v > 0, "a positive number")
-
-
-def non_negative(text: str) -> float:
-    """argparse type: a number >= 0."""
-    return number(text, lambda v: v >= 0, "a number >= 0")
-
-
-def at_least_one(text: str) -> float:
-    """argparse type: a number >= 1 (a suboptimality bound)."""
-    return number(text, lambda v: v >= 1, "a number >= 1")
-
-
-def integer(text: str, low: int, high: Optional[int], expected: str) -> int:
-    """argparse type helper: an integer in low..high (high None: no upper bound)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = low - 1
-    if value < low or (high is not None and value > high):
-        raise argparse.ArgumentTypeError("expected {}, got {!r}".format(expected, text))
-    return value
-
-
-def seed(text: str) -> int:
-    """argparse type: a random seed, an integer >= 0."""
-    return integer(text, 0, None, "a seed, an integer >= 0")
-
-
-def count(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    return integer(text, 1, None, "an integer >= 1")
-
-
-def port(text: str) -> int:
-    """argparse type: a TCP or UDP port."""
-    return integer(text, 1, 65535, "a port 1-65535")
 
 
 def start_poses(instance: Optional[Path], robots: Sequence) -> Optional[Dict]:

@@ -278,6 +278,8 @@ BAD_OPTIONS = [
     (["experiment", "e.yaml", "--jobs"], "9" * 30), (["vicon", "listen", "--port"], "70000"),
     (["vicon", "simulate", "--seed"], "-2"), (["virtual-fleet", "--feedback-base"], "-1"),
     (["virtual-fleet", "--max-step"], "inf"), (["convert", "x.scen", "-o", "o.txt", "--agents"], "0"),
+    (["manager", "s.txt", "--vicon"], "70000"), (["manager", "s.txt", "--time-limit"], "nan"),
+    (["manager", "s.txt", "--seed"], "-1"), (["manager", "s.txt", "--state-rate"], "0"),
 ]
 
 

@@ -6,10 +6,11 @@ import re
 from pathlib import Path
 from typing import Optional, Tuple
 
+from fleet_common.arg_types import non_negative, positive
 from fleet_common.errors import FleetError
 
 from .. import filekinds
-from ..options import add_map_dir, map_dirs, non_negative, positive
+from ..options import add_map_dir, map_dirs
 
 NAME = "console"
 HELP = "watch and steer a running fleet (--manager), or play a mapf-IR solution (--replay)"

@@ -5,10 +5,11 @@ import argparse
 from pathlib import Path
 from typing import Optional
 
+from fleet_common.arg_types import count
 from fleet_common.errors import FleetError, NotConvertibleError
 
 from .. import filekinds
-from ..options import add_legacy_units, add_map_dir, count, legacy_units, map_dirs
+from ..options import add_legacy_units, add_map_dir, legacy_units, map_dirs
 
 NAME = "convert"
 HELP = "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"

@@ -17,9 +17,9 @@ import argparse
 from pathlib import Path
 from typing import List
 
+from fleet_common.arg_types import non_negative, positive, seed
 from fleet_common.errors import FleetError
 
-from ..options import non_negative, positive, seed
 from ..robot_plans import Names, add_repair_options, for_robots
 
 NAME = "demo"

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..options import integer
+from fleet_common.arg_types import integer
 
 NAME = "experiment"
 HELP = "run a sweep (plans x strategies x delay models x seeds) on simulated robots: a results table"

@@ -4,10 +4,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from fleet_common.arg_types import positive
 from fleet_common.formats.solution import write_solution
 from fleet_common.planning.repair import DEFAULT_TIME_LIMIT, RepairError, repair_rotations
 
-from ..options import add_map_dir, positive
+from ..options import add_map_dir
 from ..robot_plans import valid_solution
 
 NAME = "repair"

@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 from typing import Dict, List
 
+from fleet_common.arg_types import count, seed
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
@@ -13,7 +14,7 @@ from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.planning.repair import RepairError
 
-from ..options import add_map_dir, count, seed
+from ..options import add_map_dir
 from ..robot_plans import Names, add_repair_options, for_robots, valid_solution
 
 NAME = "simulate"

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 from typing import List, Tuple
 
+from fleet_common.arg_types import at_least_one, count, positive, seed
 from fleet_common.errors import FleetError
 from fleet_common.formats.instance import DEFAULT_MAX_TIMESTEP, Instance, read_instance
 from fleet_common.formats.solution import format_solution, make_solution, write_solution
@@ -17,7 +18,8 @@ from fleet_common.planning.dist_table import lower_bounds
 from fleet_common.planning.result import SolveResult
 
 from .. import filekinds
-from ..options import add_map_dir, at_least_one, count, map_dirs, positive, seed
+
+from ..options import add_map_dir, map_dirs
 
 NAME = "solve"
 #: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)

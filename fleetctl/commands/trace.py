@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..options import positive
+from fleet_common.arg_types import positive
 
 NAME = "trace"
 HELP = "a run folder as a mapf-IR solution (where robots really were) and its summary"

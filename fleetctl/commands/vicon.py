@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 from typing import Optional
 
-from ..options import non_negative, number, port, positive, seed
+from fleet_common.arg_types import non_negative, number, port, positive, seed
 
 NAME = "vicon"
 HELP = "the Vicon motion-capture stream: listen to it, calibrate it, or simulate Tracker"

@@ -16,9 +16,8 @@ import signal
 from pathlib import Path
 from typing import Any, Dict, Optional, Tuple
 
+from fleet_common.arg_types import non_negative, port, positive, seed
 from fleet_common.delays import FORMS
-
-from ..options import non_negative, port, positive, seed
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"

@@ -17,6 +17,8 @@ import signal
 from pathlib import Path
 from typing import List, Optional
 
+from fleet_common.arg_types import count, port, positive, seed
+
 DESCRIPTION = (
     "Execute PLAN (a mapf-IR solution, or an instance planned first with a built-in solver) on "
     "the fleet: plan agent i runs on the i-th robot of the definitions (or of --robots). Without "
@@ -42,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(127.0.0.1 for `fleetctl virtual-fleet`)")
     parser.add_argument("--strategy", choices=list(STRATEGIES), default="adg",
                         help="synchronization strategy (default adg; switchable from a console)")
-    parser.add_argument("--lookahead", type=int, default=1, metavar="K",
+    parser.add_argument("--lookahead", type=count, default=1, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
                         help="where consoles connect (default {})".format(DEFAULT_ENDPOINT))
@@ -54,22 +56,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="start as soon as every robot is connected and on its start cell")
     parser.add_argument("--until-done", action="store_true",
                         help="exit when the run is over, printing its summary")
-    parser.add_argument("--time-limit", type=float, default=None, metavar="S",
+    parser.add_argument("--time-limit", type=positive, default=None, metavar="S",
                         help="with --until-done: give up (exit 1) after S seconds")
-    parser.add_argument("--connect-timeout", type=float, default=60.0, metavar="S",
+    parser.add_argument("--connect-timeout", type=positive, default=60.0, metavar="S",
                         help="with --start: how long to wait for every robot (default 60 s)")
     parser.add_argument("--keys", type=Path, default=None, metavar="DIR",
                         help="CurveZMQ key folder (default: $FLEETCONTROL_KEYS, else "
                              "~/.config/fleetcontrol/keys)")
     parser.add_argument("--no-curve", action="store_true",
                         help="no CurveZMQ to robots or consoles; for local experiments")
-    parser.add_argument("--step-time", type=float, default=2.5, metavar="S",
+    parser.add_argument("--step-time", type=positive, default=2.5, metavar="S",
                         help="seconds a plan step is expected to take: the consoles' planned "
                              "position and 'behind plan' (default 2.5)")
-    parser.add_argument("--state-rate", type=float, default=20.0, metavar="HZ",
+    parser.add_argument("--state-rate", type=positive, default=20.0, metavar="HZ",
                         help="state messages to consoles per second when nothing happens "
                              "(default 20)")
-    parser.add_argument("--state-max-rate", type=float, default=50.0, metavar="HZ",
+    parser.add_argument("--state-max-rate", type=positive, default=50.0, metavar="HZ",
                         help="news (a pose, a reply) goes to consoles at once, but at most this "
                              "many times a second (default 50)")
     parser.add_argument("--no-preturn", action="store_true",
@@ -77,12 +79,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-s", "--solver", default=None,
                         help="built-in solver for an instance (default cbs for up to 12 agents, "
                              "falling back to lacam; lacam above)")
-    parser.add_argument("--plan-time-limit", type=float, default=10.0, metavar="S",
+    parser.add_argument("--plan-time-limit", type=positive, default=10.0, metavar="S",
                         help="how long planning an instance may take (default 10 s)")
     parser.add_argument("--no-repair", action="store_true",
                         help="do not repair the plan's rotations (robots cannot perform them): refuse it")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--vicon", type=int, default=None, metavar="PORT",
+    parser.add_argument("--seed", type=seed, default=0)
+    parser.add_argument("--vicon", type=port, default=None, metavar="PORT",
                         help="read Vicon Tracker's UDP stream on PORT (51001 in the lab): a "
                              "second position source, compared with the robots' own")
     parser.add_argument("--vicon-bind", default="0.0.0.0", metavar="ADDRESS",
