@@ -14,6 +14,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
+from fleet_common.arg_types import port, positive
 from fleet_common.errors import FleetError, FormatError
 from fleet_common.robots import default_definitions_path, read_robot_definitions
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports
@@ -89,9 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
             p.add_argument("--no-curve", action="store_true",
                            help="talk to robots without CurveZMQ (robots run with --no-curve)")
-            p.add_argument("--wire-timeout", type=float, default=3.0, metavar="S",
+            p.add_argument("--wire-timeout", type=positive, default=3.0, metavar="S",
                            help="seconds to wait for every robot's status (default 3)")
-            p.add_argument("--feedback-base", type=int, default=FEEDBACK_PORT, metavar="PORT",
+            p.add_argument("--feedback-base", type=port, default=FEEDBACK_PORT, metavar="PORT",
                            help="pose feedback port of a robot alone on its host; robots sharing "
                                 "a host use PORT+1, ... (default {}, as the robots)".format(
                                     FEEDBACK_PORT))
@@ -161,8 +162,6 @@ def _net_check(args: argparse.Namespace) -> int:
 
     from .netcheck import check_robots, format_checks
 
-    if not 0 < args.feedback_base < 65536:
-        raise DeployError("--feedback-base must be a port (1-65535), got {}".format(args.feedback_base))
     config = _load(args)
     targets = _targets(args, config, "robots", "net")
     path = args.definitions or default_definitions_path()
@@ -185,8 +184,6 @@ def _net_check(args: argparse.Namespace) -> int:
             keys = load_manager_keys(args.keys or default_keys_dir())
         except FleetError as err:
             problem = "{} (or --no-curve)".format(err)
-    if not args.wire_timeout > 0:
-        raise DeployError("--wire-timeout must be positive")
     checks = check_robots(robots, targets, config, keys, args.wire_timeout, problem, feedback)
     print(format_checks(checks))
     return 0 if all(c.ok for c in checks) else 1
