@@ -14,7 +14,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
-from fleet_common.arg_types import port, positive
+from fleet_common.arg_types import integer, port, positive
 from fleet_common.errors import FleetError, FormatError
 from fleet_common.robots import default_definitions_path, read_robot_definitions
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports
@@ -64,13 +64,17 @@ def _common(parser: argparse.ArgumentParser) -> None:
                              "repository's robot_definitions.txt)")
     parser.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
                         help="per-machine logs (default: log_dir in deploy.yaml, logs/deploy)")
-    parser.add_argument("--jobs", type=int, default=0, metavar="N",
+    parser.add_argument("--jobs", type=_jobs, default=0, metavar="N",
                         help="machines at a time (default 0: all at once; 1: one by one)")
     parser.add_argument("--dry-run", action="store_true",
                         help="print what would run where, and connect to nothing")
     parser.add_argument("--accept-new-host-keys", action="store_true",
                         help="trust the host key of a machine met for the first time (adds it to "
                              "known_hosts); a changed key is refused all the same")
+
+
+def _jobs(text: str) -> int:
+    return integer(text, 0, None, "a number of machines at a time (0: all)")
 
 
 def build_parser() -> argparse.ArgumentParser:
