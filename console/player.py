@@ -96,9 +96,13 @@ def screenshot(scene: Scene, out: Path, at: float, options: ViewOptions,
             app = PlayerApp(root, scene, options, canvas_size=size, playing=False)
             root.update()
             canvas = app.canvas
-            if (canvas.winfo_width(), canvas.winfo_height()) != size:
+            shown = (canvas.winfo_width(), canvas.winfo_height())
+            if shown[0] < size[0] or shown[1] < size[1]:
                 raise FleetError("the {}x{} screen is too small for a {}x{} canvas; give a smaller "
                                  "--size".format(root.winfo_screenwidth(), root.winfo_screenheight(), *size))
+            # a small map's canvas grows to the height of the panel beside it: the map is drawn
+            # to fit the canvas it got, and that is what the picture shows
+            size = shown
             if app.clock is not None:
                 app.clock.seek(at)
             app.refresh()

@@ -64,6 +64,21 @@ def test_screenshot_without_a_display_renders_on_a_private_xvfb(tmp_path: Path) 
     assert got == [(255, 0, 0), (0, 128, 0), (0, 0, 255), (255, 165, 0), (255, 0, 255)]
 
 
+def test_a_map_smaller_than_the_side_panel_is_pictured_in_the_canvas_it_got(
+        shared_data: Path, tmp_path: Path) -> None:
+    # a 6x4 map asks for a canvas lower than the panel beside it: the window makes the canvas
+    # taller, and the picture is that canvas (it used to fail, "the screen is too small")
+    solution = shared_data / "solutions" / "cbs_makespan-soc-pareto.txt"
+    png = tmp_path / "small.png"
+    result = fleetctl(["--replay", str(solution), "--screenshot", str(png), "--at", "3"], None)
+    assert result.returncode == 0, result.stderr
+    scene = scene_from_solution(solution)
+    with Image.open(png) as image:
+        assert result.stdout.strip() == "{}: time step 3 of 12, {}x{} pixels".format(png, *image.size)
+    got = pixels_at_cells(png, scene.grid.width, scene.grid.height, scene.plan.positions[3])
+    assert got == [colour_to_rgb(c) for c in scene.colours]
+
+
 def test_unreadable_solution_names_file_and_line(tmp_path: Path, shared_data: Path) -> None:
     bad = tmp_path / "bad.txt"
     lines = (shared_data / ECBS).read_text().splitlines()
