@@ -67,7 +67,11 @@ class GoalDistances:
         """Grow each agent's row until it is exact `margin` levels past its distance at `cells[k]`."""
         wanted: Dict[int, int] = {}
         for a, c in zip(agents, cells):
-            wanted.setdefault(self.row_of[a], c)
+            r = self.row_of[a]
+            if r not in wanted and not self._covers(r, c, margin):
+                wanted[r] = c
+        if not wanted:  # every row already reaches that far (e.g. the lower bounds after a solve)
+            return
         # searches of one batch advance together: put those that will stop at similar levels
         # side by side (by their Manhattan distance, a lower bound of where they stop)
         w = self.free.grid.width
@@ -76,11 +80,17 @@ class GoalDistances:
                       + abs(ids[wanted[r]] // w - ids[goal[r]] // w))
         grow(self.table, self.free, [self.searches[r] for r in rows], rows,
              [COMPLETE] * len(rows), targets=[wanted[r] for r in rows], margin=margin)
-        rest = [(a, c) for a, c in zip(agents, cells) if self.table[self.row_of[a], c] == UNREACHED
-                and not self.searches[self.row_of[a]].done
-                or self.radius(a) < int(self.table[self.row_of[a], c]) + margin]
+        rest = [(a, c) for a, c in zip(agents, cells) if not self._covers(self.row_of[a], c, margin)]
         if rest:  # agents sharing a goal asked for more than the first of them
             self.cover([a for a, _ in rest], [c for _, c in rest], margin)
+
+    def _covers(self, row: int, cell: int, margin: int) -> bool:
+        """Is `row` exact `margin` levels past its distance at `cell` (or searched to the end)?"""
+        search = self.searches[row]
+        if search.done:
+            return True
+        d = int(self.table[row, cell])
+        return d != UNREACHED and search.level >= d + margin
 
     def complete(self) -> None:
         """Search every row to the end."""
