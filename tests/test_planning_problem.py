@@ -156,6 +156,7 @@ def test_components_join_exactly_the_mutually_reachable_cells(rows) -> None:
                 assert not grid.is_free((x, y))
                 continue
             assert [labels[c] == me for c in range(grid.num_cells)] == [v >= 0 for v in d]
+            assert me == min(c for c, v in enumerate(d) if v >= 0)  # named by its smallest cell id
 
 
 def test_lower_bounds_match_mapf_irs_header(shared_data) -> None:
