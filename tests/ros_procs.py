@@ -70,6 +70,9 @@ def ros_environment(master_port: int, home: Path) -> Dict[str, str]:
     return env
 
 
+#: roslaunch's own escalation after Ctrl-C, as deploy.yaml starts the robots' runner.
+ROSLAUNCH = ["roslaunch", "--sigint-timeout", "4", "--sigterm-timeout", "2"]
+
 #: What a rospy node reads to find its master and where to log.
 ROS_VARIABLES = ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR", "ROS_HOSTNAME")
 

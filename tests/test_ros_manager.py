@@ -24,7 +24,7 @@ from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.transport.curve_keys import make_keys
 from helpers import free_port_block
 from live import Proc, fleetctl_args
-from ros_procs import (master_up, netns_marker, ros_environment, run_inside_netns,
+from ros_procs import (ROSLAUNCH, master_up, netns_marker, ros_environment, run_inside_netns,
                        set_ros_variables, wait_for)
 
 pytestmark = pytest.mark.slow
@@ -108,7 +108,7 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
         roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
         started.append(roscore)
         wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
-        launch = Proc(["roslaunch", str(launch_file(home, definitions, keys, feedback))],
+        launch = Proc(ROSLAUNCH + [str(launch_file(home, definitions, keys, feedback))],
                       home / "roslaunch.log", env)
         started.append(launch)
         wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)

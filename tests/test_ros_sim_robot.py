@@ -36,7 +36,7 @@ from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import RobotLink
 from helpers import free_port
 from live import Proc
-from ros_procs import (master_up, netns_marker, ros_environment, run_inside_netns,
+from ros_procs import (ROSLAUNCH, master_up, netns_marker, ros_environment, run_inside_netns,
                        set_ros_variables, wait_for)
 
 pytestmark = pytest.mark.slow
@@ -250,7 +250,7 @@ def sim_robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimRobot]:
         started.append(roscore)
         wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
         launch = Proc(
-            ["roslaunch", "agv_package", "sim_robot.launch",
+            ROSLAUNCH + ["agv_package", "sim_robot.launch",
              "robot_id:={}".format(ROBOT_ID), "definitions:={}".format(definitions),
              "keys_dir:={}".format(keys_dir), "feedback_port:={}".format(feedback_port),
              "start_x:={}".format(START[0]), "start_y:={}".format(START[1]), "seed:=7",
