@@ -1,6 +1,6 @@
 """argparse types for numbers: a bad value is argparse's own one-line error naming the option,
 never a traceback from deep inside, nor a run with a value nobody meant (NaN and infinity are
-not numbers a user types on purpose). Shared by fleetctl and the manager's own command line.
+not numbers a user types on purpose). Shared by fleetctl, the manager's own command line and deployment's.
 """
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import math
 from typing import Callable, Optional
 
 __all__ = ["number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port"]
-
 
 
 def number(text: str, ok: Callable[[float], bool], expected: str) -> float:
