@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from fleet_common.errors import FleetError
 from fleet_common.runlog import RunLog, new_run_folder, read_run
 from fleet_common.runlog.reader import RunLogError
 
@@ -181,3 +182,10 @@ def test_the_executed_plan_holds_each_cell_until_the_move_out_completes(tmp_path
                     [(2, 0), (1, 1)], [(2, 0), (1, 1)], [(2, 0), (1, 0)]]
     with pytest.raises(ValueError):
         executed_plan(read_run(tmp_path), 0.0, [(0, 0), (1, 1)])
+
+
+def test_a_runs_folder_that_is_a_file_is_named_as_such(tmp_path: Path) -> None:
+    taken = tmp_path / "runs"
+    taken.write_text("not a folder")
+    with pytest.raises(FleetError, match=r"runs: it is a file, not a folder"):
+        new_run_folder(taken)

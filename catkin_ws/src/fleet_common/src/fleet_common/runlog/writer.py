@@ -29,6 +29,8 @@ def new_run_folder(parent: Union[str, Path], now: Optional[datetime] = None) -> 
     """A new, empty `parent/<UTC timestamp>/` (suffixed -2, -3 ... if taken)."""
     stamp = (now or datetime.now(timezone.utc)).strftime("%Y%m%d-%H%M%S")
     parent = Path(parent)
+    if parent.exists() and not parent.is_dir():
+        raise FleetError("cannot make a run folder in {}: it is a file, not a folder".format(parent))
     try:
         parent.mkdir(parents=True, exist_ok=True)
         for n in range(1, 1000):
