@@ -10,6 +10,8 @@ import os
 import re
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 from typing import Dict, Iterator, List, Tuple
 
@@ -385,33 +387,46 @@ def test_net_check_listens_without_disturbing_a_manager_and_hello_takes_the_robo
     context = zmq.Context()
     links = LinkSet([RobotLink(context, robots[0], "manager-epoch",
                                keys=load_manager_keys(tmp_path / "keys"))])
-    downs: List[LinkDown] = []
+    # the manager's side, served all along as a manager serves it (heartbeats included), in a
+    # thread of its own while net:check runs
+    events: List[object] = []
+    done = threading.Event()
 
-    def watch(seconds: float) -> None:  # the manager's side: is its link still up?
-        for _ in range(int(seconds / 0.05)):
-            downs.extend(e for e in links.poll(0.05) if isinstance(e, LinkDown))
+    def serve() -> None:
+        while not done.is_set():
+            events.extend(links.poll(0.05))
+
+    def downs() -> List[LinkDown]:
+        return [e for e in list(events) if isinstance(e, LinkDown)]
 
     base = ("--keys", str(tmp_path / "keys"), "--wire-timeout", "5", "--feedback-base", str(feedback))
+    server = threading.Thread(target=serve)
     try:
         with FleetThread(fleet):
+            server.start()
             for _ in range(100):
-                if any(isinstance(e, LinkUp) for e in links.poll(0.05)):
+                if any(isinstance(e, LinkUp) for e in list(events)):
                     break
+                time.sleep(0.05)
             else:
                 pytest.fail("the manager's link never came up")
             wire = net_check(tmp_path, *base)
             assert wire == "ok: idle at (0.0, 0.0)"
-            watch(1.5)
-            assert downs == []  # listening left the manager in charge
+            time.sleep(1.5)
+            assert downs() == []  # listening left the manager in charge
             wire = net_check(tmp_path, "--keys", str(tmp_path / "other"), "--wire-timeout", "1",
-                                "--feedback-base", str(feedback))
+                             "--feedback-base", str(feedback))
             assert wire == "no pose feedback on port {} within 1 s (CurveZMQ keys, or the robot's " \
                 "--no-curve?)".format(feedback)
+            assert downs() == []
             wire = net_check(tmp_path, *base, "--hello")
             assert wire == "ok: idle at (0.0, 0.0)"
-            watch(1.5)
-            assert downs and "took over robot 1" in downs[0].reason  # as its --help warns
+            time.sleep(1.5)
+            assert downs() and "took over robot 1" in downs()[0].reason  # as its --help warns
     finally:
+        done.set()
+        if server.is_alive():
+            server.join(10)
         links.close()
         context.term()
 
