@@ -39,6 +39,11 @@ def test_the_shipped_config_reads_and_names_a_server_and_the_robots_processes(re
     config = read_config(repo_root / "deploy.yaml")
     assert config.server is not None and config.server.processes
     assert [name for name, _ in config.robots.processes] == ["runner"]
+    # the robots' roslaunch gives up on a node well inside the stop timeout, with the options
+    # the ROS tests run roslaunch with (so those options are known to work)
+    from ros_procs import ROSLAUNCH
+    assert " ".join(ROSLAUNCH) + " agv_package robot.launch" in dict(config.robots.processes)["runner"]
+    assert float(ROSLAUNCH[2]) + float(ROSLAUNCH[4]) < config.timeouts.stop
     assert config.known_hosts.is_absolute() and config.log_dir == repo_root / "logs" / "deploy"
 
 

@@ -18,7 +18,6 @@ from fleet_common.planning.dist_table import lower_bounds
 from fleet_common.planning.result import SolveResult
 
 from .. import filekinds
-
 from ..options import add_map_dir, map_dirs
 
 NAME = "solve"
