@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 from typing import Dict, List
 
-from setuptools import find_packages, setup
+from setuptools import Extension, find_packages, setup
 
 HERE = Path(__file__).resolve().parent
 
@@ -41,6 +41,15 @@ def _packages() -> List[str]:
     return found
 
 
+#: C extensions: the solvers' hot loops (fleet_common/planning/_native.c). Optional: where it cannot be built
+#: (no compiler or Python headers), pip says so and the Python step, which it mirrors, is used.
+EXTENSIONS = [
+    Extension("fleet_common.planning._native",
+              [f"{PACKAGE_ROOTS['fleet_common']}/fleet_common/planning/_native.c"],
+              extra_compile_args=["-O2", "-std=c99"], optional=True),
+]
+
+
 def _version() -> str:
     # One version for the whole product: fleet_common's, which package.xml repeats.
     init = HERE / PACKAGE_ROOTS["fleet_common"] / "fleet_common" / "__init__.py"
@@ -59,6 +68,7 @@ setup(
     packages=_packages(),
     package_dir={name: posixpath.normpath(f"{root}/{name}") for name, root in PACKAGE_ROOTS.items()},
     package_data=PACKAGE_DATA,
+    ext_modules=EXTENSIONS,
     install_requires=[
         "numpy>=1.24,<3",
         "pyyaml>=6,<7",

@@ -129,10 +129,13 @@ ensure_venv() {
 }
 
 install_python_packages() {
-  local want
-  # Whatever decides what pip installs; the path too, since an editable install records it.
-  want=$(cat setup.py pyproject.toml <(printf '%s %s' "$PIP_SPEC" "$PWD") | sha256sum | cut -d' ' -f1)
-  if [[ -f $SETUP_STAMP && $(<"$SETUP_STAMP") == "$want" ]]; then
+  local want native
+  # Whatever decides what pip installs, the C sources it compiles in place (setup.py's EXTENSIONS),
+  # and the path, since an editable install records it.
+  want=$(cat setup.py pyproject.toml $(find catkin_ws/src -name '*.c' | sort) <(printf '%s %s' "$PIP_SPEC" "$PWD") |
+    sha256sum | cut -d' ' -f1)
+  native=$(find catkin_ws/src -name '_native*.so' | head -n 1)
+  if [[ -f $SETUP_STAMP && $(<"$SETUP_STAMP") == "$want" && -n $native ]]; then
     say "Python packages: up to date in $VENV"
     return
   fi

@@ -2,7 +2,7 @@
 
 Rows are indexed by free cell (`free_cells`). While goals x free cells stays
 under `LIST_ENTRIES` they are complete Python lists (fastest to index),
-unreachable cells reading F+1. Above that they are memoryviews of the lazy
+unreachable cells reading F+1 (or, for the C step, views of the table). Above that they are memoryviews of the lazy
 rows of `goal_distances`: `cover` keeps each agent's row exact `MARGIN`
 levels past its cell (a step reads distances only there: the agent's moves,
 and a move further for the swap rule), growing it by `GROW_AT_LEAST` levels
@@ -31,17 +31,24 @@ GROW_AT_LEAST = 16
 class AgentDistances:
     """`dist[i][cell]`: agent i's distance from free cell `cell` to its goal (exact where `cover` says)."""
 
-    def __init__(self, grid: Grid, goals: Sequence[int]) -> None:
+    def __init__(self, grid: Grid, goals: Sequence[int], lists: bool = True) -> None:
+        """`lists=False`: complete rows are read as views of the table too (for `_native`,
+        which reads the table itself; Python's few reads then skip building the lists)."""
         free = FreeCells.of(grid)
         rows = GoalDistances.of(grid, goals)
         n = len(goals)
+        #: the uint16 table behind every row (unreachable and not yet searched: 65535)
+        self.rows = rows
         self.lazy: Optional[GoalDistances] = None
         if len(rows.searches) * free.count <= LIST_ENTRIES:
             rows.complete()
-            f = free.count
-            body = rows.table[:, :f].astype(np.int64)
-            lists = np.where(body == UNREACHED, f + 1, body).tolist()
-            self.dist: List[Any] = [lists[r] for r in rows.row_of]
+            if lists:
+                f = free.count
+                body = rows.table[:, :f].astype(np.int64)
+                table = np.where(body == UNREACHED, f + 1, body).tolist()
+                self.dist: List[Any] = [table[r] for r in rows.row_of]
+            else:
+                self.dist = rows.views()
             #: per agent, the largest distance at its cell for which every read of a step is exact
             self.limit = [COMPLETE] * n
         else:

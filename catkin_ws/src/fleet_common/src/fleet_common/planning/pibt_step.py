@@ -51,22 +51,42 @@ from .agent_distances import AgentDistances
 from .cells import NIL
 from .free_cells import FreeCells
 
+try:  # the same step in C (setup builds it); robots and machines without a compiler use the Python below
+    from ._native import PIBTCore as _Core
+except ImportError:
+    _Core = None
+
+#: Is the C step built (and so used by default)?
+NATIVE = _Core is not None
+
 
 class PIBTStep:
     """Next configurations by PIBT, for one grid and one set of goals."""
 
-    def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False) -> None:
+    def __init__(self, grid: Grid, goals: Sequence[Coord], swap: bool = True, rotations: bool = False,
+                 native: Optional[bool] = None) -> None:
+        """`native`: steps by `_native.PIBTCore` (the same moves as the Python methods here, about 15x
+        faster); by default whenever it is built (`NATIVE`)."""
+        if native is None:
+            native = NATIVE
+        if native and _Core is None:
+            raise RuntimeError("the C step (fleet_common.planning._native) is not built here")
         self.free = FreeCells.of(grid)
         self.moves = self.free.moves()
-        #: per cell, its moves in each rotation (the tie orders of `_open`)
-        self.turns = [[m[r:] + m[:r] for r in range(len(m))] for m in self.moves]
+        #: per cell, its moves in each rotation (the tie orders of `_open`; the C step makes its own)
+        self.turns = [] if native else [[m[r:] + m[:r] for r in range(len(m))] for m in self.moves]
         self.adj = self.free.adjacency()
         self.goals = self.free.to_free(goals)
         self.swap = swap
         self.rotations = rotations
-        self.distances = AgentDistances(grid, self.goals)
+        self.distances = AgentDistances(grid, self.goals, lists=not native)
         self.dist = self.distances.dist
         self.limit = self.distances.limit
+        self.core = None
+        if native:
+            d = self.distances
+            self.core = _Core(self.moves, self.goals, d.rows.row_of, d.rows.table, d.limit,
+                              d.far if d.lazy is not None else None, swap, rotations)
         #: cycles undone after steps with cells fixed in advance (only those can close one)
         self.reverted = 0
         self.occ_now = [NIL] * self.free.count
@@ -97,6 +117,16 @@ class PIBTStep:
         fixed entries is undone by making its agents stay (fixed or not).
         """
         self.distances.cover(q_from, moving)
+        if self.core is not None:
+            ok, fixed = self.core.step(q_from, q_to, order, salt)
+        else:
+            ok, fixed = self._step(q_from, q_to, order, salt)
+        if ok and fixed and not self.rotations:
+            self._revert_cycles(q_from, q_to)
+        return ok
+
+    def _step(self, q_from: Sequence[int], q_to: List[int], order: Sequence[int], salt: int) -> Tuple[bool, int]:
+        """`step` after `cover`, before undoing rotations: (ok, how many entries were fixed)."""
         occ_now, occ_nxt = self.occ_now, self.occ_nxt
         claimed: List[int] = []
         for i, v in enumerate(q_from):
@@ -133,9 +163,7 @@ class PIBTStep:
             occ_now[v] = NIL
         for v in claimed:
             occ_nxt[v] = NIL
-        if ok and fixed and not self.rotations:
-            self._revert_cycles(q_from, q_to)
-        return ok
+        return ok, fixed
 
     def _revert_cycles(self, q_from: Sequence[int], q_to: List[int]) -> None:
         for _, agents in step_cycles(np.array([q_from, q_to], dtype=np.int64), min_length=2):
