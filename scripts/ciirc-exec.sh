@@ -146,6 +146,15 @@ install_python_packages() {
   printf '%s\n' "$want" >"$SETUP_STAMP"
 }
 
+# Bytecode of the sources, written now: an editable install leaves it to Python's first import,
+# which never writes it where PYTHONDONTWRITEBYTECODE is set (or the checkout is read-only), and
+# then every fleetctl start compiles its modules again. compileall redoes only stale files.
+compile_bytecode() {
+  run_logged "$VENV/compileall.log" "compiling the sources to bytecode" "$VENV/bin/python" -m compileall -q -j 0 \
+    catkin_ws/src/fleet_common/src catkin_ws/src/fleet_manager/src catkin_ws/src/agv_package/src \
+    fleetctl console deploy evaluation virtual_fleet
+}
+
 # A symlink BIN_DIR/fleetctl -> this checkout's .venv/bin/fleetctl (the last checkout set up wins).
 link_fleetctl() {
   local target="$PWD/$VENV/bin/fleetctl" link="$BIN_DIR/fleetctl"
@@ -165,6 +174,7 @@ cmd_setup() {
   install_apt_packages
   ensure_venv
   install_python_packages
+  compile_bytecode
   link_fleetctl
   say "setup done"
 }
