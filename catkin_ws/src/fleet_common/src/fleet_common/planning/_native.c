@@ -37,6 +37,8 @@ typedef struct {
     Py_buffer table;  /* uint16 rows x stride */
     Py_ssize_t stride;
     PyObject *limit;  /* the Python list AgentDistances keeps (far() updates it) */
+    PyObject **ids;   /* per cell, one int object: configurations share them, as the Python step's do
+                         (LaCAM keeps every configuration: a new int per entry would triple its memory) */
     PyObject *far;    /* AgentDistances.far, or None for complete tables */
     int swap, rotations;
     /* per step */
@@ -303,9 +305,9 @@ static PyObject *Core_step(Core *c, PyObject *args) {
     if (c->failed) return NULL;
     if (ok) {
         for (Py_ssize_t i = 0; i < n; i++) {
-            PyObject *v = PyLong_FromLong(q_to[i]);
-            if (v == NULL) return NULL;
-            PyList_SetItem(q_to_obj, i, v); /* steals v */
+            PyObject *v = c->ids[q_to[i]];
+            Py_INCREF(v);
+            PyList_SetItem(q_to_obj, i, v); /* steals the new reference */
         }
     }
     return Py_BuildValue("(Nn)", PyBool_FromLong(ok), fixed);
@@ -315,6 +317,9 @@ static void Core_dealloc(Core *c) {
     if (c->table.obj != NULL) PyBuffer_Release(&c->table);
     Py_XDECREF(c->limit);
     Py_XDECREF(c->far);
+    if (c->ids != NULL)
+        for (Py_ssize_t v = 0; v < c->cells; v++) Py_XDECREF(c->ids[v]);
+    PyMem_Free(c->ids);
     PyMem_Free(c->moves);
     PyMem_Free(c->nmoves);
     PyMem_Free(c->goals);
@@ -416,6 +421,15 @@ static int Core_init(Core *c, PyObject *args, PyObject *kwds) {
     c->limit = limit;
     Py_INCREF(far);
     c->far = far;
+    c->ids = PyMem_Calloc((size_t)cells + 1, sizeof(PyObject *));
+    if (c->ids == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t v = 0; v < cells; v++) {
+        c->ids[v] = PyLong_FromSsize_t(v);
+        if (c->ids[v] == NULL) return -1;
+    }
     c->swap = swap;
     c->rotations = rotations;
     return 0;

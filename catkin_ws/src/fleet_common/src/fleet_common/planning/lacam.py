@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import heapq
 import random
+from array import array
 import time
 from collections import deque
 from typing import Deque, Dict, List, Optional, Sequence, Tuple
@@ -69,11 +70,12 @@ class _Node:
 
     __slots__ = ("config", "parent", "prio", "order", "tree", "g", "h", "links")
 
-    def __init__(self, config: Config, parent: "Optional[_Node]", prio: List[float], g: int, h: int) -> None:
+    def __init__(self, config: Config, parent: "Optional[_Node]", prio: Sequence[float], g: int, h: int) -> None:
         self.config = config
         self.parent = parent
-        self.prio = prio
-        self.order = sorted(range(len(config)), key=prio.__getitem__, reverse=True)
+        # packed: the search keeps every node, and lists of Python numbers took 3x the memory
+        self.prio = array("d", prio)
+        self.order = array("l", sorted(range(len(config)), key=prio.__getitem__, reverse=True))
         self.tree: Deque[_Constraint] = deque([_Constraint()])
         self.g = g
         self.h = h
@@ -193,7 +195,7 @@ def _relax(start: _Node) -> None:
                 heapq.heappush(heap, (b.g, count, b))
 
 
-def _next_priorities(prio: List[float], cfg: Config, goal: Config, tie: List[float]) -> List[float]:
+def _next_priorities(prio: Sequence[float], cfg: Config, goal: Config, tie: List[float]) -> List[float]:
     return [p + 1.0 if c != g else t for p, c, g, t in zip(prio, cfg, goal, tie)]
 
 
