@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Coord, Grid
 from fleet_common.planning import agent_distances, pibt_step, solve
-from fleet_common.planning.bfs import UNREACHED, grow
+from fleet_common.planning.bfs import UNREACHED, grow, grow_in_numpy
 from fleet_common.planning.cells import NIL
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.free_cells import FreeCells
@@ -119,12 +119,36 @@ def test_complete_searches_in_c_fill_the_rows_the_numpy_search_fills(problem: Pr
     in_c, in_numpy = GoalDistances(free, ids), GoalDistances(free, ids)
     in_c.complete()
     rows = list(range(len(in_numpy.searches)))
-    grow(in_numpy.table, free, in_numpy.searches, rows, [COMPLETE] * len(rows))
+    grow_in_numpy(in_numpy.table, free, in_numpy.searches, rows, [COMPLETE] * len(rows))
     assert np.array_equal(in_c.table, in_numpy.table)
     assert all(s.done for s in in_c.searches)
     # a cell walled off from the goal reads UNREACHED, the sentinel column 0
     assert (in_c.table[:, free.count] == 0).all()
     assert in_c.table.max() <= UNREACHED
+
+
+@settings(max_examples=100, deadline=None)
+@given(problem=problems(), rounds=st.lists(st.tuples(st.integers(0, 12), st.booleans(), st.integers(0, 4)),
+                                           min_size=1, max_size=4))
+def test_resumed_searches_in_c_stop_where_the_numpy_searches_stop(problem: Problem,
+                                                                  rounds: List[Tuple[int, bool, int]]) -> None:
+    """Rows grown a few levels at a time, towards a target cell plus a margin (as PIBT's lazy rows
+    grow): after every round both have the same table, and each search the same level and frontier."""
+    grid, starts, goals = problem
+    free = FreeCells.of(grid)
+    ids, at = free.to_free(goals), free.to_free(starts)
+    in_c, in_numpy = GoalDistances(free, ids), GoalDistances(free, ids)
+    for extra, aimed, margin in rounds:
+        for rows, how in ((in_c, grow), (in_numpy, grow_in_numpy)):
+            k = len(rows.searches)
+            stops = [min(s.level + extra, COMPLETE) for s in rows.searches]
+            targets = [at[rows.row_of.index(r)] for r in range(k)] if aimed else None
+            how(rows.table, free, rows.searches, list(range(k)), stops, targets, margin)
+        assert np.array_equal(in_c.table, in_numpy.table)
+        for a, b in zip(in_c.searches, in_numpy.searches):
+            assert a.done == b.done
+            if not a.done:
+                assert a.level == b.level and sorted(a.frontier.tolist()) == sorted(b.frontier.tolist())
 
 
 def test_the_c_core_refuses_malformed_arguments_with_the_reason() -> None:
@@ -139,6 +163,11 @@ def test_the_c_core_refuses_malformed_arguments_with_the_reason() -> None:
         _native.bfs_rows(np.zeros((1, free.count + 1), dtype=np.int32), free.neighbours, [0], [0])
     with pytest.raises(ValueError, match="out of range"):
         _native.bfs_rows(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, [9], [0])
+    with pytest.raises(ValueError, match="frontier cell outside"):
+        _native.grow_row(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, 0,
+                         np.array([99], dtype=np.int64), 0, 5, -1, 0)
+    with pytest.raises(TypeError, match="int64 frontier"):
+        _native.grow_row(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, 0, b"abc", 0, 5, -1, 0)
     # the stepper is intact: a legitimate step still plans
     nxt = [NIL]
     assert stepper.step([0], nxt, [0], 0) and nxt == [1]

@@ -1,6 +1,7 @@
 /* The two hot loops of the built-in solvers in C: PIBT's step and complete breadth-first searches.
  *
- * `PIBTCore.step` is the inner loop of `pibt_step.PIBTStep.step`, move for move.
+ * `PIBTCore.step` is the inner loop of `pibt_step.PIBTStep.step`, move for move; `grow_row` and
+ * `bfs_rows` fill the distance rows of `bfs.py` (resumed searches, complete ones) as its numpy does.
  * The Python class stays the reference and the fallback (robots, machines
  * without a compiler): this file does exactly what its `step`, `_plan_agent`,
  * `_open`, `_pull`, `_swap_partner`, `_exits`, `_swap_required` and
@@ -545,7 +546,98 @@ done:
     return out;
 }
 
+/* grow_row(table, neighbours, row, frontier, level, stop, target, margin) -> (frontier, level): one
+ * resumable search of bfs.py (`Search`), advanced as `bfs.grow_in_numpy` advances it. Row `row` is
+ * exact up to `level`; `frontier` (bytes or array of int64 free-cell ids) holds the cells at that
+ * level. Each round: a reached `target` (-1: none) lowers `stop` to its distance + margin; at
+ * `stop` the search pauses; else one more level. Returns the new frontier (int64 bytes, empty
+ * once every reachable cell has its distance) and level. */
+static PyObject *grow_row(PyObject *self, PyObject *args) {
+    PyObject *table_obj, *nb_obj, *frontier_obj;
+    Py_ssize_t r;
+    long level, stop, target, margin;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "OOnOllll", &table_obj, &nb_obj, &r, &frontier_obj, &level, &stop, &target, &margin))
+        return NULL;
+    Py_buffer table, nb, fr;
+    if (PyObject_GetBuffer(table_obj, &table, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND | PyBUF_WRITABLE) < 0)
+        return NULL;
+    if (PyObject_GetBuffer(nb_obj, &nb, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND) < 0) {
+        PyBuffer_Release(&table);
+        return NULL;
+    }
+    if (PyObject_GetBuffer(frontier_obj, &fr, PyBUF_C_CONTIGUOUS) < 0) {
+        PyBuffer_Release(&nb);
+        PyBuffer_Release(&table);
+        return NULL;
+    }
+    PyObject *out = NULL;
+    int64_t *cur = NULL, *nxt = NULL;
+    if (table.ndim != 2 || table.itemsize != 2 || strcmp(table.format, "H") != 0 || nb.ndim != 2 ||
+        nb.itemsize != 4 || (strcmp(nb.format, "i") != 0 && strcmp(nb.format, "=i") != 0) || nb.shape[1] != 4 ||
+        nb.shape[0] != table.shape[1] || fr.len % 8 != 0) {
+        PyErr_SetString(PyExc_TypeError, "grow_row: a uint16 (rows, F+1) table, int32 (F+1, 4) neighbours and "
+                                         "an int64 frontier expected");
+        goto done;
+    }
+    Py_ssize_t cells = nb.shape[0] - 1, n = fr.len / 8;
+    if (r < 0 || r >= table.shape[0] || target < -1 || target >= cells || n > cells || level < 0) {
+        PyErr_SetString(PyExc_ValueError, "grow_row: a row, target or level out of range");
+        goto done;
+    }
+    const int32_t *next = (const int32_t *)nb.buf;
+    uint16_t *row = (uint16_t *)table.buf + r * table.shape[1];
+    cur = PyMem_Malloc(((size_t)cells + 1) * sizeof(int64_t));
+    nxt = PyMem_Malloc(((size_t)cells + 1) * sizeof(int64_t));
+    if (cur == NULL || nxt == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    memcpy(cur, fr.buf, (size_t)fr.len);
+    for (Py_ssize_t k = 0; k < n; k++) {
+        if (cur[k] < 0 || cur[k] >= cells) {
+            PyErr_SetString(PyExc_ValueError, "grow_row: a frontier cell outside the free cells");
+            goto done;
+        }
+    }
+    for (;;) {
+        if (target >= 0 && row[target] != 65535 && (long)row[target] + margin < stop) stop = (long)row[target] + margin;
+        if (level >= stop || n == 0) break;
+        level++;
+        if (level >= 65534) {
+            PyErr_SetString(PyExc_ValueError, "a shortest path on this map is 65534 moves or longer; "
+                                              "distance tables hold at most 65533");
+            goto done;
+        }
+        Py_ssize_t m = 0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            const int32_t *e = next + cur[k] * 4;
+            for (int d = 0; d < 4; d++) {
+                int32_t u = e[d];
+                if (row[u] == 65535) { /* the sentinel column holds 0: never taken */
+                    row[u] = (uint16_t)level;
+                    nxt[m++] = u;
+                }
+            }
+        }
+        int64_t *t = cur;
+        cur = nxt;
+        nxt = t;
+        n = m;
+    }
+    out = Py_BuildValue("(y#l)", (const char *)cur, (Py_ssize_t)(n * 8), level);
+done:
+    PyMem_Free(cur);
+    PyMem_Free(nxt);
+    PyBuffer_Release(&fr);
+    PyBuffer_Release(&nb);
+    PyBuffer_Release(&table);
+    return out;
+}
+
 static PyMethodDef module_methods[] = {
+    {"grow_row", grow_row, METH_VARARGS,
+     "grow_row(table, neighbours, row, frontier, level, stop, target, margin) -> (frontier, level)."},
     {"bfs_rows", bfs_rows, METH_VARARGS,
      "bfs_rows(table, neighbours, goals, rows) -> levels: complete distance rows, one per goal."},
     {NULL, NULL, 0, NULL},

@@ -1,4 +1,5 @@
-"""Breadth-first searches from many goals at once, in numpy, resumable.
+"""Breadth-first searches from many goals at once, resumable: in C where `_native` is built,
+else in numpy (`grow_in_numpy`, the reference, whose theory follows).
 
 Theory of operation. Row r of `table` (uint16, one column per free cell of
 `free_cells` plus its "no cell" column) holds distances to one goal,
@@ -23,6 +24,11 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from .free_cells import FreeCells
+
+try:  # the same searches in C (setup builds it)
+    from ._native import grow_row
+except ImportError:
+    grow_row = None
 
 #: Distance of a cell not reached (yet); larger than any distance the tables hold.
 UNREACHED = 65535
@@ -71,8 +77,25 @@ def grow(table: np.ndarray, free: FreeCells, searches: Sequence[Search], rows: S
     """Advance search k (filling row `rows[k]`) until its level reaches `stops[k]` or it is done.
 
     With `targets`, search k also stops `margin` levels after it reached free
-    cell `targets[k]` (-1: none), whichever comes first.
+    cell `targets[k]` (-1: none), whichever comes first. In C (`_native.grow_row`,
+    one search at a time, a queue per level) where it is built; `grow_in_numpy`
+    is the reference and gives the same rows, levels and frontiers.
     """
+    if grow_row is None:
+        grow_in_numpy(table, free, searches, rows, stops, targets, margin)
+        return
+    for k, s in enumerate(searches):
+        if s.done or s.level >= stops[k]:
+            continue
+        target = -1 if targets is None else targets[k]
+        frontier = np.ascontiguousarray(s.frontier, dtype=np.int64)
+        cells, s.level = grow_row(table, free.neighbours, rows[k], frontier, s.level, stops[k], target, margin)
+        s.frontier = np.frombuffer(cells, dtype=np.int64)
+
+
+def grow_in_numpy(table: np.ndarray, free: FreeCells, searches: Sequence[Search], rows: Sequence[int],
+                  stops: Sequence[int], targets: Optional[Sequence[int]] = None, margin: int = 0) -> None:
+    """`grow` in numpy: a batch of searches side by side, one level a round (see the module's theory)."""
     layout = _Layout.of(free)
     batch = max(8, BATCH_BYTES // (2 * layout.size))
     todo = sorted((k for k, s in enumerate(searches) if not s.done and s.level < stops[k]),

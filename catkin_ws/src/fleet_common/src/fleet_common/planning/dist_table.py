@@ -1,4 +1,4 @@
-"""Shortest-path distances to goals, by breadth-first search in numpy.
+"""Shortest-path distances to goals, by breadth-first search (`bfs`: C, or numpy).
 
 `dist_array(grid, goal)[cell id]` is the number of moves from that cell to
 `goal` (cell id = y * width + x), -1 where the goal cannot be reached.
