@@ -1,4 +1,4 @@
-/* The two hot loops of the built-in solvers in C: PIBT's step and complete breadth-first searches.
+/* The hot loops of the built-in solvers in C: PIBT's step and the breadth-first distance searches.
  *
  * `PIBTCore.step` is the inner loop of `pibt_step.PIBTStep.step`, move for move; `grow_row` and
  * `bfs_rows` fill the distance rows of `bfs.py` (resumed searches, complete ones) as its numpy does.
