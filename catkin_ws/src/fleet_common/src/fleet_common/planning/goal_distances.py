@@ -21,7 +21,7 @@ from ..grid import Grid
 from .bfs import UNREACHED, Search, grow
 from .free_cells import FreeCells
 
-try:  # complete searches in C (setup builds it); the numpy search `bfs.grow` is the reference
+try:  # complete searches in C (setup builds it); `bfs.grow_in_numpy` is the reference
     from ._native import bfs_rows
 except ImportError:
     bfs_rows = None
