@@ -232,17 +232,13 @@ def test_comp_time_counts_the_distance_tables_built_for_the_instance(shared_data
     from fleetctl.commands import solve as solve_command
 
     now = [1000.0]
+    search = goal_distances.grow
 
-    def slowed(search):
-        def slow_search(*args, **kwargs):
-            now[0] += 5.0
-            return search(*args, **kwargs)
-        return slow_search
+    def slow_search(*args, **kwargs):
+        now[0] += 5.0
+        return search(*args, **kwargs)
 
-    # rows grown level by level (numpy) and complete rows (in C, where it is built)
-    monkeypatch.setattr(goal_distances, "grow", slowed(goal_distances.grow))
-    if goal_distances.bfs_rows is not None:
-        monkeypatch.setattr(goal_distances, "bfs_rows", slowed(goal_distances.bfs_rows))
+    monkeypatch.setattr(goal_distances, "grow", slow_search)
     monkeypatch.setattr(solve_command, "Deadline", lambda seconds: Deadline(seconds, clock=lambda: now[0]))
     out = tmp_path / "out.txt"
     assert main(["solve", str(shared_data / "instances" / "makespan-soc-pareto.txt"), "-s", "pibt",

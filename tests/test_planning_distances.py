@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from helpers import python_bfs
 
 from fleet_common.grid import Coord, Grid
-from fleet_common.planning import agent_distances, bfs, goal_distances, solve
+from fleet_common.planning import agent_distances, bfs, solve
 from fleet_common.planning.components import component_labels
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.free_cells import FreeCells
@@ -107,19 +107,15 @@ class StubClock:
 def test_comp_time_counts_building_the_distance_tables(monkeypatch, lazy: bool) -> None:
     clock = StubClock()
     grid = Grid.from_rows(["......", ".@@@@.", "......"])
+    slow_search = bfs.grow
 
-    def slowed(search):
-        def slow(*args, **kwargs):
-            clock.now += 7.0
-            return search(*args, **kwargs)
-        return slow
+    def slow(*args, **kwargs):
+        clock.now += 7.0
+        return slow_search(*args, **kwargs)
 
     if lazy:
         monkeypatch.setattr(agent_distances, "LIST_ENTRIES", 0)
-    # rows grown level by level (numpy) and complete rows (in C, where it is built)
-    monkeypatch.setattr(goal_distances, "grow", slowed(bfs.grow))
-    if goal_distances.bfs_rows is not None:
-        monkeypatch.setattr(goal_distances, "bfs_rows", slowed(goal_distances.bfs_rows))
+    monkeypatch.setattr("fleet_common.planning.goal_distances.grow", slow)
     result = solve("pibt", grid, [(0, 0), (5, 2)], [(5, 0), (0, 2)], deadline=Deadline(None, clock=clock))
     assert result.solved
     assert result.comp_time_ms >= 7000.0  # the tables were built inside the solve, and counted

@@ -1,6 +1,6 @@
 """The C core of the solvers (`fleet_common.planning._native`) against its Python reference.
 
-PIBT's step and the complete breadth-first searches have a C version that setup builds;
+PIBT's step and the breadth-first distance searches have a C version that setup builds;
 the Python ones stay for robots and machines without a compiler. The C versions must give
 the same next configurations, plans and tables, move for move: these tests run both on the
 same inputs, with complete and lazily grown distance rows, with cells fixed in advance (as
@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Coord, Grid
-from fleet_common.planning import agent_distances, pibt_step, solve
+from fleet_common.planning import agent_distances, bfs, pibt_step, solve
 from fleet_common.planning.bfs import UNREACHED, grow, grow_in_numpy
 from fleet_common.planning.cells import NIL
 from fleet_common.planning.deadline import Deadline
@@ -35,7 +35,7 @@ Problem = Tuple[Grid, List[Coord], List[Coord]]
 def test_setup_builds_the_c_core_and_the_solvers_use_it() -> None:
     """`scripts/ciirc-exec.sh setup` builds it (pip, setup.py's EXTENSIONS): without it PIBT on
     arena_300agents_1 takes 2-3x longer (bench/README.md), so a machine set up without it is a bug."""
-    assert pibt_step.NATIVE
+    assert pibt_step.NATIVE and bfs.grow_row is not None
     grid = Grid.from_rows(["....", ".@..", "...."])
     assert PIBTStep(grid, [(0, 0)]).core is not None
     assert PIBTStep(grid, [(0, 0)], native=False).core is None
@@ -160,9 +160,11 @@ def test_the_c_core_refuses_malformed_arguments_with_the_reason() -> None:
         stepper.core.step([0, 1], [NIL], [0], 0)
     free = FreeCells.of(grid)
     with pytest.raises(TypeError, match="uint16"):
-        _native.bfs_rows(np.zeros((1, free.count + 1), dtype=np.int32), free.neighbours, [0], [0])
+        _native.grow_row(np.zeros((1, free.count + 1), dtype=np.int32), free.neighbours, 0,
+                         np.array([0], dtype=np.int64), 0, 5, -1, 0)
     with pytest.raises(ValueError, match="out of range"):
-        _native.bfs_rows(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, [9], [0])
+        _native.grow_row(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, 0,
+                         np.array([0], dtype=np.int64), 0, 5, 9, 0)
     with pytest.raises(ValueError, match="frontier cell outside"):
         _native.grow_row(np.zeros((1, free.count + 1), dtype=np.uint16), free.neighbours, 0,
                          np.array([99], dtype=np.int64), 0, 5, -1, 0)

@@ -1,7 +1,7 @@
 /* The hot loops of the built-in solvers in C: PIBT's step and the breadth-first distance searches.
  *
- * `PIBTCore.step` is the inner loop of `pibt_step.PIBTStep.step`, move for move; `grow_row` and
- * `bfs_rows` fill the distance rows of `bfs.py` (resumed searches, complete ones) as its numpy does.
+ * `PIBTCore.step` is the inner loop of `pibt_step.PIBTStep.step`, move for move; `grow_row`
+ * advances one distance search of `bfs.py` exactly as its numpy batches do.
  * The Python class stays the reference and the fallback (robots, machines
  * without a compiler): this file does exactly what its `step`, `_plan_agent`,
  * `_open`, `_pull`, `_swap_partner`, `_exits`, `_swap_required` and
@@ -454,97 +454,7 @@ static PyTypeObject CoreType = {
     .tp_methods = Core_methods,
 };
 
-/* ---- complete breadth-first searches (see bfs.py, the reference) ---- */
-
-/* bfs_rows(table, neighbours, goals, rows) -> levels: row rows[k] of `table` (uint16, F+1 columns) gets
- * every free cell's distance to free cell goals[k] (65535: unreachable); `neighbours` is FreeCells'
- * (F+1) x 4 int32 array, F meaning "no cell". Returns per row its largest distance + 1. */
-static PyObject *bfs_rows(PyObject *self, PyObject *args) {
-    PyObject *table_obj, *nb_obj, *goals_obj, *rows_obj;
-    (void)self;
-    if (!PyArg_ParseTuple(args, "OOOO", &table_obj, &nb_obj, &goals_obj, &rows_obj)) return NULL;
-    Py_buffer table, nb;
-    if (PyObject_GetBuffer(table_obj, &table, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND | PyBUF_WRITABLE) < 0)
-        return NULL;
-    if (PyObject_GetBuffer(nb_obj, &nb, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND) < 0) {
-        PyBuffer_Release(&table);
-        return NULL;
-    }
-    PyObject *out = NULL, *goals = NULL, *rows = NULL;
-    int32_t *queue = NULL;
-    if (table.ndim != 2 || table.itemsize != 2 || strcmp(table.format, "H") != 0 || nb.ndim != 2 ||
-        nb.itemsize != 4 || (strcmp(nb.format, "i") != 0 && strcmp(nb.format, "=i") != 0) || nb.shape[1] != 4 ||
-        nb.shape[0] != table.shape[1]) {
-        PyErr_SetString(PyExc_TypeError, "bfs_rows: a uint16 (rows, F+1) table and int32 (F+1, 4) neighbours expected");
-        goto done;
-    }
-    Py_ssize_t cells = nb.shape[0] - 1, stride = table.shape[1], nrows = table.shape[0];
-    const int32_t *next = (const int32_t *)nb.buf;
-    uint16_t *t = (uint16_t *)table.buf;
-    goals = PySequence_Fast(goals_obj, "goals");
-    rows = goals == NULL ? NULL : PySequence_Fast(rows_obj, "rows");
-    if (rows == NULL) goto done;
-    Py_ssize_t n = PySequence_Fast_GET_SIZE(goals);
-    if (PySequence_Fast_GET_SIZE(rows) != n) {
-        PyErr_SetString(PyExc_ValueError, "bfs_rows: as many rows as goals expected");
-        goto done;
-    }
-    for (Py_ssize_t v = 0; v < nb.shape[0] * 4; v++) {
-        if (next[v] < 0 || next[v] > cells) {
-            PyErr_SetString(PyExc_ValueError, "bfs_rows: a neighbour outside the free cells");
-            goto done;
-        }
-    }
-    queue = PyMem_Malloc(((size_t)cells + 1) * sizeof(int32_t));
-    out = PyList_New(n);
-    if (queue == NULL || out == NULL) {
-        if (queue == NULL) PyErr_NoMemory();
-        Py_CLEAR(out);
-        goto done;
-    }
-    for (Py_ssize_t k = 0; k < n; k++) {
-        long g = PyLong_AsLong(PySequence_Fast_GET_ITEM(goals, k));
-        long r = PyLong_AsLong(PySequence_Fast_GET_ITEM(rows, k));
-        if (PyErr_Occurred() || g < 0 || g >= cells || r < 0 || r >= nrows) {
-            if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "bfs_rows: a goal or row out of range");
-            Py_CLEAR(out);
-            goto done;
-        }
-        uint16_t *row = t + r * stride;
-        for (Py_ssize_t v = 0; v < cells; v++) row[v] = 65535;
-        row[cells] = 0; /* the sentinel never looks unreached */
-        Py_ssize_t head = 0, tail = 0;
-        long level = 0;
-        row[g] = 0;
-        queue[tail++] = (int32_t)g;
-        while (head < tail) {
-            int32_t v = queue[head++];
-            uint16_t d = row[v];
-            if (d >= 65533) {
-                PyErr_SetString(PyExc_ValueError, "a shortest path on this map is 65534 moves or longer; "
-                                                  "distance tables hold at most 65533");
-                Py_CLEAR(out);
-                goto done;
-            }
-            level = d + 1;
-            for (int e = 0; e < 4; e++) {
-                int32_t u = next[(Py_ssize_t)v * 4 + e];
-                if (row[u] == 65535) {
-                    row[u] = (uint16_t)(d + 1);
-                    queue[tail++] = u;
-                }
-            }
-        }
-        PyList_SET_ITEM(out, k, PyLong_FromLong(level));
-    }
-done:
-    Py_XDECREF(goals);
-    Py_XDECREF(rows);
-    PyMem_Free(queue);
-    PyBuffer_Release(&nb);
-    PyBuffer_Release(&table);
-    return out;
-}
+/* ---- breadth-first distance searches (see bfs.py, the reference) ---- */
 
 /* grow_row(table, neighbours, row, frontier, level, stop, target, margin) -> (frontier, level): one
  * resumable search of bfs.py (`Search`), advanced as `bfs.grow_in_numpy` advances it. Row `row` is
@@ -638,8 +548,6 @@ done:
 static PyMethodDef module_methods[] = {
     {"grow_row", grow_row, METH_VARARGS,
      "grow_row(table, neighbours, row, frontier, level, stop, target, margin) -> (frontier, level)."},
-    {"bfs_rows", bfs_rows, METH_VARARGS,
-     "bfs_rows(table, neighbours, goals, rows) -> levels: complete distance rows, one per goal."},
     {NULL, NULL, 0, NULL},
 };
 

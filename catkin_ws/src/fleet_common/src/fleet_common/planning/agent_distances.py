@@ -1,12 +1,12 @@
 """Each agent's distance to its goal, as PIBT's inner loop reads it: complete lists or lazy rows.
 
 Rows are indexed by free cell (`free_cells`). While goals x free cells stays
-under `LIST_ENTRIES` they are complete Python lists (fastest to index),
-unreachable cells reading F+1 (or, for the C step, views of the table). Above that they are memoryviews of the lazy
-rows of `goal_distances`: `cover` keeps each agent's row exact `MARGIN`
-levels past its cell (a step reads distances only there: the agent's moves,
-and a move further for the swap rule), growing it by `GROW_AT_LEAST` levels
-at a time; reads further along a corridor go through `far`, which grows a
+under `LIST_ENTRIES` they are complete: Python lists (fastest to index),
+unreachable cells reading F+1, or, for the C step, views of the table. Above
+that they are memoryviews of the lazy rows of `goal_distances`: `cover` keeps
+each agent's row exact `MARGIN` levels past its cell (a step reads distances
+only there: the agent's moves, and a move further for the swap rule), growing
+it by `GROW_AT_LEAST` levels at a time; reads further along a corridor go through `far`, which grows a
 row on demand. Cells not searched yet read 65535, like unreachable ones.
 """
 from __future__ import annotations

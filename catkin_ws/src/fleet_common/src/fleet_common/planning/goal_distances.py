@@ -21,11 +21,6 @@ from ..grid import Grid
 from .bfs import UNREACHED, Search, grow
 from .free_cells import FreeCells
 
-try:  # complete searches in C (setup builds it); `bfs.grow_in_numpy` is the reference
-    from ._native import bfs_rows
-except ImportError:
-    bfs_rows = None
-
 #: "Searched to the end": the radius of a complete row.
 COMPLETE = 1 << 30
 
@@ -98,14 +93,9 @@ class GoalDistances:
         return d != UNREACHED and search.level >= d + margin
 
     def complete(self) -> None:
-        """Search every row to the end (in C when `_native` is built: a queue per goal, 10-20x faster)."""
-        rows = [r for r, s in enumerate(self.searches) if not s.done]
-        if bfs_rows is None:
-            grow(self.table, self.free, self.searches, rows, [COMPLETE] * len(rows))
-            return
-        levels = bfs_rows(self.table, self.free.neighbours, [self.goal_cells[r] for r in rows], rows)
-        for r, level in zip(rows, levels):
-            self.searches[r].frontier, self.searches[r].level = np.zeros(0, dtype=np.int64), level
+        """Search every row to the end."""
+        rows = list(range(len(self.searches)))
+        grow(self.table, self.free, self.searches, rows, [COMPLETE] * len(rows))
 
     def distances(self, agents: Sequence[int], cells: Sequence[int]) -> List[int]:
         """Exact distance of each agent's cell to its goal (`UNREACHED` when it cannot reach it)."""

@@ -35,8 +35,8 @@ from __future__ import annotations
 
 import heapq
 import random
-from array import array
 import time
+from array import array
 from collections import deque
 from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
