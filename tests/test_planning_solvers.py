@@ -261,3 +261,47 @@ def test_pibt_undoes_a_rotation_closed_by_cells_fixed_in_advance() -> None:
     nxt = free.to_ids(TURNED)
     nxt[3] = NIL
     assert free.step(q, nxt, [3, 0, 1, 2], 0) and nxt == free.to_ids(TURNED) and free.reverted == 0
+
+
+def _pibt_with_float_priorities(problem: Problem, seed: int, steps: int) -> List[List[int]]:
+    """PIBT's configurations with mapf-IR's priorities as it states them: steps since the goal plus
+    a tie fraction, as floats, ordered by a stable sort (what pibt.py did before its integer keys)."""
+    from fleet_common.planning.pibt import initial_ties
+
+    grid, starts, goals = problem
+    rng = random.Random(seed)
+    stepper = PIBTStep(grid, goals)
+    q = stepper.to_ids(starts)
+    tie = initial_ties(stepper, q, rng)
+    prio = list(tie)
+    configs = [q]
+    for _ in range(steps):
+        if q == stepper.goals:
+            break
+        prio = [p + 1.0 if v != g else tv for p, v, g, tv in zip(prio, q, stepper.goals, tie)]
+        moving = [i for i in range(len(q)) if q[i] != stepper.goals[i]]
+        order = sorted(moving, key=prio.__getitem__, reverse=True)
+        nxt = [NIL] * len(q)
+        if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving):
+            break
+        q = nxt
+        configs.append(q)
+    return configs
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@given(problem=crowded_problems(), seed=st.integers(0, 1000))
+def test_pibt_orders_agents_as_the_float_priorities_of_mapf_ir_do(problem: Problem, seed: int) -> None:
+    """pibt keeps priorities as integers (steps x n + tie rank) in arrays; its plans must be the
+    ones the float rule gives, step for step, solved or not."""
+    grid, starts, goals = problem
+    try:
+        result = solve("pibt", grid, starts, goals, deadline=5.0, seed=seed, max_timestep=60)
+    except InvalidProblemError:
+        assume(False)
+    reference = _pibt_with_float_priorities(problem, seed, 60)
+    if result.plan is None:
+        assert reference[-1] != PIBTStep(grid, goals).goals
+        return
+    free = PIBTStep(grid, goals)
+    assert [free.to_ids([tuple(c) for c in row]) for row in result.plan.positions.tolist()] == reference

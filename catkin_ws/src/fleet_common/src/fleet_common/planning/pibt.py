@@ -12,6 +12,8 @@ from __future__ import annotations
 import random
 from typing import List, Sequence
 
+import numpy as np
+
 from ..formats.instance import DEFAULT_MAX_TIMESTEP
 from ..grid import Coord, Grid
 from ..plan import Plan
@@ -23,16 +25,21 @@ from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
 NAME = "pibt"
 
 
-def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[float]:
-    """Per agent a fraction in [0, 1): higher for a longer start-to-goal distance, else random."""
+def tie_ranks(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[int]:
+    """Per agent its rank 0..n-1 among all: higher for a longer start-to-goal distance, else random."""
     n = len(q)
     stepper.cover(q)
     keys = [(stepper.dist[i][q[i]], rng.random()) for i in range(n)]
-    ranked = sorted(range(n), key=keys.__getitem__)
-    tie = [0.0] * n
-    for rank, i in enumerate(ranked):
-        tie[i] = rank / n
-    return tie
+    rank = [0] * n
+    for r, i in enumerate(sorted(range(n), key=keys.__getitem__)):
+        rank[i] = r
+    return rank
+
+
+def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[float]:
+    """Per agent a fraction in [0, 1): its `tie_ranks` rank / n."""
+    n = len(q)
+    return [r / n for r in tie_ranks(stepper, q, rng)]
 
 
 def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
@@ -46,18 +53,23 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
     goal_ids = stepper.goals
     q = stepper.to_ids(starts)
     configs = [q]
-    tie = initial_ties(stepper, q, rng)
-    prio = list(tie)
+    # Priorities as integers, steps since the goal x n + the agent's tie rank: the same order as
+    # steps + rank / n, and all distinct, so any sort gives it. As arrays: a step's bookkeeping in
+    # Python loops cost as much as the C step (brc202d).
+    rank = np.asarray(tie_ranks(stepper, q, rng), dtype=np.int64)
+    prio = rank.copy()
+    goal_array = np.asarray(goal_ids, dtype=np.int64)
     for t in range(1, max_timestep + 1):
         if deadline.expired():
             return failed(NAME, TIMEOUT, "time limit reached at step {}".format(t - 1), timesteps=t - 1)
-        prio = [p + 1.0 if v != g else tv for p, v, g, tv in zip(prio, q, goal_ids, tie)]
-        moving = [i for i in range(n) if q[i] != goal_ids[i]]
-        # agents resting on their goals come last whatever their order: left out, step() lets them
-        # stay unless another agent needs their cell
-        order = sorted(moving, key=prio.__getitem__, reverse=True)
+        away = np.fromiter(q, np.int64, n) != goal_array
+        prio = np.where(away, prio + n, rank)
+        moving = np.flatnonzero(away)
+        # highest priority first; agents resting on their goals come last whatever their order:
+        # left out, step() lets them stay unless another agent needs their cell
+        order = moving[np.argsort(-prio[moving])].tolist()
         nxt = [NIL] * n
-        if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving):
+        if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving.tolist()):
             return failed(NAME, NO_SOLUTION, "PIBT found no next configuration at step {}".format(t))
         q = nxt
         configs.append(q)
