@@ -14,7 +14,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
-from fleet_common.arg_types import integer, port, positive
+from fleet_common.arg_types import Parser, integer, port, positive
 from fleet_common.errors import FleetError, FormatError
 from fleet_common.robots import default_definitions_path, read_robot_definitions
 from fleet_common.wire.ports import FEEDBACK_PORT, feedback_ports
@@ -78,7 +78,7 @@ def _jobs(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog=PROG, description="Deploy FleetControl to the server and the robots over SSH.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True

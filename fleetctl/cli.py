@@ -21,9 +21,11 @@ import warnings
 from types import ModuleType
 from typing import Any
 
+from fleet_common.arg_types import Parser
+
 from .commands import COMMANDS
 
-# no fleet_common here: `fleetctl --help` imports only what it prints (it is imported in main)
+# no more of fleet_common here: `fleetctl --help` imports only what it prints (the rest comes in main)
 
 
 def command_module(name: str) -> ModuleType | None:
@@ -34,12 +36,14 @@ def command_module(name: str) -> ModuleType | None:
     return None
 
 
-def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
+def build_parser(chosen: str | None = None) -> Parser:
     """The parser of command `chosen` alone, or (None) of all commands with just their help lines."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="fleetctl",
         description="FleetControl: check, convert, solve and run MAPF plans on the lab's robots.",
     )
+    if chosen is not None:
+        parser.see = "fleetctl " + chosen
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name, _, help_line in COMMANDS:

@@ -296,3 +296,33 @@ def test_a_nonsense_option_value_is_the_parsers_one_line_error(args: List[str], 
     assert error.startswith("fleetctl " + args[0]) and ": error: argument " in error, error
     assert args[-1] in error.split(": error: argument ")[1].split(":")[0], error  # the option
     assert "expected" in error and repr(value) in error, error
+
+
+# command-line mistakes of each program a user types: (argv, the program's name, the --help the line points to)
+WRONG_COMMAND_LINES = [
+    (["-m", "fleetctl"], "fleetctl", "fleetctl"),
+    (["-m", "fleetctl", "sovle"], "fleetctl", "fleetctl"),
+    (["-m", "fleetctl", "solve"], "fleetctl solve", "fleetctl solve"),
+    (["-m", "fleetctl", "solve", "i.txt", "--bogus"], "fleetctl", "fleetctl solve"),
+    (["-m", "fleetctl", "solve", "i.txt", "-s"], "fleetctl solve", "fleetctl solve"),
+    (["-m", "fleetctl", "solve", "i.txt", "-s", "astar"], "fleetctl solve", "fleetctl solve"),
+    (["-m", "fleetctl", "vicon", "listen", "--port", "0"], "fleetctl vicon listen", "fleetctl vicon listen"),
+    (["-m", "deploy", "robots:start", "--bogus"], "ciirc-exec.sh", "ciirc-exec.sh"),
+    (["-m", "deploy", "robots:ssh"], "ciirc-exec.sh robots:ssh", "ciirc-exec.sh robots:ssh"),
+    (["-c", "import sys; from fleet_manager.main import main; main(sys.argv[1:])", "--state-rate", "0"],
+     "fleet_manager", "fleet_manager"),
+]
+
+
+@pytest.mark.parametrize("argv, prog, see", WRONG_COMMAND_LINES, ids=[" ".join(a[1:])[:40] for a, _, _ in
+                                                                      WRONG_COMMAND_LINES])
+def test_a_wrong_command_line_is_one_line_naming_the_help_to_read(argv: List[str], prog: str, see: str) -> None:
+    """argparse's own output is the usage block and then the error; ours is the error alone, on one
+    line like every other error, with where the usage is."""
+    proc = subprocess.run([sys.executable, *argv], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith(prog + ": error: "), lines[0]
+    assert lines[0].endswith("(see {} --help)".format(see)), lines[0]
+    assert proc.stdout == ""

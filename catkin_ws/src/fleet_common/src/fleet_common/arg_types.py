@@ -1,14 +1,32 @@
-"""argparse types for numbers: a bad value is argparse's own one-line error naming the option,
-never a traceback from deep inside, nor a run with a value nobody meant (NaN and infinity are
-not numbers a user types on purpose). Shared by fleetctl, the manager's own command line and deployment's.
+"""argparse types for numbers, and the parser they are used with: a bad value is the parser's
+one-line error naming the option, never a traceback from deep inside, nor a run with a value nobody
+meant (NaN and infinity are not numbers a user types on purpose). Shared by fleetctl, the
+manager's own command line and deployment's.
 """
 from __future__ import annotations
 
 import argparse
 import math
-from typing import Callable, Optional
+from typing import Callable, NoReturn, Optional
 
-__all__ = ["number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port"]
+__all__ = ["Parser", "number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port"]
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose command-line errors are one line on stderr, exit status 2.
+
+    argparse prints its usage block before the error, two lines or more that every other error of
+    ours does not have; the usage stays one `-h` away, and the line says so. A command's
+    subparsers are of this class too (argparse makes them of their parent's class).
+    """
+
+    #: whose `--help` the line points to (default: this parser's prog); argparse reports an unknown
+    #: option from the top-level parser, so fleetctl names the command that was chosen here
+    see: Optional[str] = None
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, "{}: error: {} (see {} --help)\n".format(
+            self.prog, " ".join(message.split()), self.see or self.prog))
 
 
 def number(text: str, ok: Callable[[float], bool], expected: str) -> float:

@@ -17,7 +17,7 @@ import signal
 from pathlib import Path
 from typing import List, Optional
 
-from fleet_common.arg_types import count, port, positive, seed
+from fleet_common.arg_types import Parser, count, port, positive, seed
 
 DESCRIPTION = (
     "Execute PLAN (a mapf-IR solution, or an instance planned first with a built-in solver) on "
@@ -207,7 +207,7 @@ def main(argv: Optional[List[str]] = None) -> int:
 
     from fleet_common.errors import FleetError
 
-    parser = argparse.ArgumentParser(prog="fleet_manager", description=DESCRIPTION)
+    parser = Parser(prog="fleet_manager", description=DESCRIPTION)
     add_arguments(parser)
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     try:
