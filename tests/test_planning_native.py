@@ -9,6 +9,7 @@ LaCAM asks) and with rotations allowed or not.
 from __future__ import annotations
 
 import random
+from array import array
 from pathlib import Path
 from typing import List, Tuple
 
@@ -90,6 +91,76 @@ def test_the_c_step_chooses_the_moves_the_python_step_chooses(problem: Problem, 
         assert outcomes[0] == outcomes[1]
         if outcomes[0][0]:
             q = outcomes[0][1]
+
+
+def _packed(kind: str, ids: List[int]) -> object:
+    """`ids` as one of the buffers the C step reads in place (LaCAM keeps configurations packed)."""
+    if kind == "array H":
+        return array("H", ids)
+    if kind == "memoryview I":
+        return memoryview(array("I", ids).tobytes()).cast("I")
+    return np.asarray(ids, dtype=np.int64 if kind == "numpy int64" else np.uint16)
+
+
+@st.composite
+def wide_problems(draw: st.DrawFn) -> Problem:
+    """Maps of 300 to 1,600 cells: ids above 255 need every byte of a 16-bit entry."""
+    w, h = draw(st.integers(20, 40)), draw(st.integers(15, 40))
+    rng = random.Random(draw(st.integers(0, 2**32 - 1)))
+    free = np.array([[rng.random() >= 0.2 for _ in range(w)] for _ in range(h)])
+    grid = Grid(free)
+    cells = list(grid.free_cells())
+    n = draw(st.integers(1, 80))
+    return grid, rng.sample(cells, n), rng.sample(cells, n)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problem=wide_problems(), kind=st.sampled_from(["array H", "memoryview I", "numpy int64", "numpy uint16"]),
+       fixed_share=st.sampled_from([0.0, 0.3]), seed=st.integers(0, 1000))
+def test_the_c_step_reads_packed_configurations_as_it_reads_lists(problem: Problem, kind: str, fixed_share: float,
+                                                                  seed: int) -> None:
+    """A configuration or an order as a buffer of integers gives the step that lists give."""
+    grid, starts, goals = problem
+    stepper = PIBTStep(grid, goals)
+    rng = random.Random(seed)
+    n = len(starts)
+    q = stepper.to_ids(starts)
+    for _ in range(8):
+        order = rng.sample(range(n), rng.randint(0, n))
+        nxt = [NIL] * n
+        for i in range(n):
+            if rng.random() < fixed_share:
+                nxt[i] = rng.choice(stepper.moves[q[i]])
+        salt = rng.randrange(1 << 20)
+        as_lists, as_buffers = list(nxt), list(nxt)
+        ok = stepper.core.step(q, as_lists, order, salt)
+        assert stepper.core.step(_packed(kind, q), as_buffers, _packed(kind, order), salt) == ok
+        if not ok[0]:
+            break
+        assert as_buffers == as_lists
+        q = as_lists
+
+
+def test_the_c_step_refuses_buffers_that_are_not_one_row_of_integers() -> None:
+    grid = Grid.from_rows(["...."])
+    stepper = PIBTStep(grid, [(3, 0), (0, 0)])
+    core = stepper.core
+    with pytest.raises(TypeError, match="q_from: a 1-D buffer of integers expected, got format 'B'"):
+        core.step(bytes([0, 1]), [NIL, NIL], [0, 1], 0)  # bytes: which width would each id have?
+    with pytest.raises(TypeError, match="order: a 1-D buffer of integers expected, got format 'd'"):
+        core.step([0, 1], [NIL, NIL], np.array([0.0, 1.0]), 0)
+    with pytest.raises(TypeError, match="q_from: a 1-D buffer of integers expected"):
+        core.step(np.array([[0, 1]]), [NIL, NIL], [0, 1], 0)
+    with pytest.raises(ValueError, match="order: 3 entries, expected at most 2"):
+        core.step([0, 1], [NIL, NIL], array("H", [0, 1, 1]), 0)
+    with pytest.raises(ValueError, match="q_from: an entry outside 32-bit integers"):
+        core.step(np.array([0, 2**40], dtype=np.int64), [NIL, NIL], [0, 1], 0)
+    with pytest.raises(ValueError, match="q_from: an entry outside 32-bit integers"):
+        core.step(np.array([0, 2**64 - 1], dtype=np.uint64), [NIL, NIL], [0, 1], 0)  # not NIL
+    with pytest.raises(ValueError, match="an agent outside the agents"):
+        core.step(array("H", [0, 1]), [NIL, NIL], array("H", [0, 7]), 0)
+    nxt = [NIL, NIL]  # and the core still plans
+    assert core.step(array("H", [0, 3]), nxt, array("H", [0, 1]), 0) == (True, 0) and nxt == [1, 2]
 
 
 @pytest.mark.parametrize("lazy", [False, True], ids=["complete rows", "lazy rows"])
@@ -198,8 +269,8 @@ def test_an_error_raised_while_growing_a_row_reaches_the_caller_and_the_next_ste
 
 
 def test_configurations_from_the_c_step_share_one_int_object_per_cell() -> None:
-    """LaCAM keeps every configuration it reaches: a fresh int object per entry (cells above 256 are
-    not cached by Python) made its memory grow three times as fast as with the Python step."""
+    """PIBT keeps every configuration it passes through as a list: a fresh int object per entry (cells
+    above 256 are not cached by Python) made its memory three times what the Python step's takes."""
     grid = Grid.from_rows(["." * 40] * 10)
     starts = [(x, 9) for x in range(0, 40, 2)]
     stepper = PIBTStep(grid, [(x, 0) for x in range(0, 40, 2)])

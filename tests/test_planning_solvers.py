@@ -6,6 +6,7 @@ agents' starts, the matching upper-case letters their goals.
 from __future__ import annotations
 
 import random
+import tracemalloc
 from pathlib import Path
 from typing import List, Tuple
 
@@ -19,6 +20,8 @@ from fleet_common.grid import Coord, Grid
 from fleet_common.lab import lab_instance_path, lab_map_path
 from fleet_common.planning import SOLVER_NAMES, InvalidProblemError, solve
 from fleet_common.planning.cells import NIL
+from fleet_common.planning.deadline import Deadline
+from fleet_common.planning.lacam import lacam
 from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.planning.result import SolveResult
 from fleet_common.rotations import step_cycles
@@ -266,13 +269,13 @@ def test_pibt_undoes_a_rotation_closed_by_cells_fixed_in_advance() -> None:
 def _pibt_with_float_priorities(problem: Problem, seed: int, steps: int) -> List[List[int]]:
     """PIBT's configurations with mapf-IR's priorities as it states them: steps since the goal plus
     a tie fraction, as floats, ordered by a stable sort (what pibt.py did before its integer keys)."""
-    from fleet_common.planning.pibt import initial_ties
+    from fleet_common.planning.pibt import tie_ranks
 
     grid, starts, goals = problem
     rng = random.Random(seed)
     stepper = PIBTStep(grid, goals)
     q = stepper.to_ids(starts)
-    tie = initial_ties(stepper, q, rng)
+    tie = [r / len(q) for r in tie_ranks(stepper, q, rng)]
     prio = list(tie)
     configs = [q]
     for _ in range(steps):
@@ -305,3 +308,37 @@ def test_pibt_orders_agents_as_the_float_priorities_of_mapf_ir_do(problem: Probl
         assert reference[-1] != free.goals  # the float rule gets stuck too
         return
     assert [free.to_ids([tuple(c) for c in row]) for row in result.plan.positions.tolist()] == reference
+
+
+def test_lacam_star_keeps_each_configuration_in_a_few_bytes_per_agent() -> None:
+    """LaCAM* keeps every configuration it reaches until its time limit, so their size is its memory
+    (a minute on 400 agents used to take gigabytes). Packed, a configuration with its priorities,
+    agent order and constraints takes about 12 bytes per agent; as tuples and float arrays, 30."""
+    rng = random.Random(7)
+    grid = Grid(np.ones((30, 30), dtype=bool))
+    cells = list(grid.free_cells())
+    starts, goals = rng.sample(cells, 300), rng.sample(cells, 300)
+
+    def search(checks: int) -> Tuple[int, int]:
+        """(configurations, peak bytes) of a search stopped at the deadline's `checks`-th check
+        (one per 64 iterations: a clock that counts them, so both runs do the same first work)."""
+        calls = [0]
+
+        def clock() -> float:
+            calls[0] += 1
+            return float(calls[0])
+
+        tracemalloc.start()
+        try:
+            result = lacam(grid, starts, goals, Deadline(checks, clock=clock), seed=0, anytime=True)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert result.solved
+        return result.stats["explored"], peak
+
+    # the difference of two searches leaves out what does not grow with them (distance tables)
+    (few, low), (many, high) = search(20), search(80)
+    assert many - few > 1000
+    per_agent = (high - low) / (many - few) / len(starts)
+    assert per_agent < 20, "{:.1f} bytes per agent and configuration".format(per_agent)

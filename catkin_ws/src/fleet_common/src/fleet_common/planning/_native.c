@@ -39,11 +39,11 @@ typedef struct {
     Py_ssize_t stride;
     PyObject *limit;  /* the Python list AgentDistances keeps (far() updates it) */
     PyObject **ids;   /* per cell, one int object: configurations share them, as the Python step's do
-                         (LaCAM keeps every configuration: a new int per entry would triple its memory) */
+                         (PIBT keeps every configuration as a list: a new int per entry tripled its memory) */
     PyObject *far;    /* AgentDistances.far, or None for complete tables */
     int swap, rotations;
     /* per step */
-    int32_t *occ_now, *occ_nxt, *q_from, *q_to, *claimed;
+    int32_t *occ_now, *occ_nxt, *q_from, *q_to, *order, *claimed;
     Py_ssize_t nclaimed;
     Frame *stack;
     int failed;       /* a Python exception is set (from far) */
@@ -229,22 +229,83 @@ static int plan_agent(Core *c, int agent, long salt) {
     }
 }
 
-static int read_ints(PyObject *seq, int32_t *out, Py_ssize_t n, const char *what) {
+/* One entry of a buffer of integers in native byte order (format h, H, i, I, l, L, q or Q);
+ * -1 for another format or an unsigned entry too large for long long. */
+static int buffer_int(const Py_buffer *view, char kind, Py_ssize_t k, long long *v) {
+    const char *at = (const char *)view->buf + k * view->itemsize;
+    switch (kind) {
+    case 'h': *v = *(const int16_t *)at; return 0;
+    case 'H': *v = *(const uint16_t *)at; return 0;
+    case 'i': *v = *(const int32_t *)at; return 0;
+    case 'I': *v = *(const uint32_t *)at; return 0;
+    case 'l': case 'q': if (view->itemsize == 8) { *v = *(const int64_t *)at; return 0; }
+                        if (view->itemsize == 4) { *v = *(const int32_t *)at; return 0; } break;
+    case 'L': case 'Q': if (view->itemsize == 4) { *v = *(const uint32_t *)at; return 0; }
+                        if (view->itemsize == 8 && *(const uint64_t *)at <= INT64_MAX) {
+                            *v = (long long)*(const uint64_t *)at;
+                            return 0;
+                        }
+                        break;
+    }
+    return -1;
+}
+
+/* Reads `seq` into `out`: exactly `n` ints, or (exact = 0) up to `n`; returns how many, -1 on error.
+ * A buffer of integers (array 'H'/'I', memoryview.cast, a numpy array) is read in place: LaCAM
+ * keeps its configurations packed, and building a list of int objects from each cost a tenth of
+ * its step. Any other sequence is read item by item. */
+static Py_ssize_t read_ints(PyObject *seq, int32_t *out, Py_ssize_t n, int exact, const char *what) {
+    Py_ssize_t len;
+    if (PyObject_CheckBuffer(seq)) {
+        Py_buffer view;
+        if (PyObject_GetBuffer(seq, &view, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) return -1;
+        const char *f = view.format != NULL ? view.format : "B";
+        if (*f == '@' || *f == '=') f++;
+        len = view.ndim == 1 ? view.shape[0] : -1;
+        if (len < 0 || f[0] == 0 || f[1] != 0 || strchr("hHiIlLqQ", f[0]) == NULL) {
+            PyErr_Format(PyExc_TypeError, "%s: a 1-D buffer of integers expected, got format '%s'", what,
+                         view.format != NULL ? view.format : "B");
+            PyBuffer_Release(&view);
+            return -1;
+        }
+        if (exact ? len != n : len > n) {
+            PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %s%zd", what, len, exact ? "" : "at most ", n);
+            PyBuffer_Release(&view);
+            return -1;
+        }
+        for (Py_ssize_t i = 0; i < len; i++) {
+            long long v;
+            if (buffer_int(&view, f[0], i, &v) < 0 || v < INT32_MIN || v > INT32_MAX) {
+                PyErr_Format(PyExc_ValueError, "%s: an entry outside 32-bit integers", what);
+                PyBuffer_Release(&view);
+                return -1;
+            }
+            out[i] = (int32_t)v;
+        }
+        PyBuffer_Release(&view);
+        return len;
+    }
     PyObject *fast = PySequence_Fast(seq, what);
     if (fast == NULL) return -1;
-    if (PySequence_Fast_GET_SIZE(fast) != n) {
-        PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %zd", what, PySequence_Fast_GET_SIZE(fast), n);
+    len = PySequence_Fast_GET_SIZE(fast);
+    if (exact ? len != n : len > n) {
+        PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %s%zd", what, len, exact ? "" : "at most ", n);
         Py_DECREF(fast);
         return -1;
     }
     PyObject **items = PySequence_Fast_ITEMS(fast);
-    for (Py_ssize_t i = 0; i < n; i++) {
+    for (Py_ssize_t i = 0; i < len; i++) {
         long v = PyLong_AsLong(items[i]);
         if (v == -1 && PyErr_Occurred()) { Py_DECREF(fast); return -1; }
+        if (v < INT32_MIN || v > INT32_MAX) {
+            PyErr_Format(PyExc_ValueError, "%s: an entry outside 32-bit integers", what);
+            Py_DECREF(fast);
+            return -1;
+        }
         out[i] = (int32_t)v;
     }
     Py_DECREF(fast);
-    return 0;
+    return len;
 }
 
 /* step(q_from, q_to, order, salt) -> (ok, fixed); see PIBTStep.step (cover and rotations stay in Python). */
@@ -253,18 +314,16 @@ static PyObject *Core_step(Core *c, PyObject *args) {
     long salt;
     if (!PyArg_ParseTuple(args, "OO!Ol", &q_from_obj, &PyList_Type, &q_to_obj, &order_obj, &salt)) return NULL;
     Py_ssize_t n = c->agents;
-    if (read_ints(q_from_obj, c->q_from, n, "q_from") < 0 || read_ints(q_to_obj, c->q_to, n, "q_to") < 0)
+    if (read_ints(q_from_obj, c->q_from, n, 1, "q_from") < 0 || read_ints(q_to_obj, c->q_to, n, 1, "q_to") < 0)
         return NULL;
+    Py_ssize_t norder = read_ints(order_obj, c->order, n, 0, "order");
+    if (norder < 0) return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
         if (c->q_from[i] < 0 || c->q_from[i] >= c->cells || c->q_to[i] < NIL || c->q_to[i] >= c->cells) {
             PyErr_SetString(PyExc_ValueError, "a cell id outside the free cells");
             return NULL;
         }
     }
-    PyObject *order = PySequence_Fast(order_obj, "order");
-    if (order == NULL) return NULL;
-    Py_ssize_t norder = PySequence_Fast_GET_SIZE(order);
-    PyObject **order_items = PySequence_Fast_ITEMS(order);
     int32_t *q_from = c->q_from, *q_to = c->q_to, *occ_now = c->occ_now, *occ_nxt = c->occ_nxt;
     c->nclaimed = 0;
     c->failed = 0;
@@ -280,9 +339,9 @@ static PyObject *Core_step(Core *c, PyObject *args) {
     Py_ssize_t fixed = c->nclaimed;
     if (ok) {
         for (Py_ssize_t k = 0; k < norder; k++) {
-            long i = PyLong_AsLong(order_items[k]);
-            if ((i == -1 && PyErr_Occurred()) || i < 0 || i >= n) {
-                if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "an agent outside the agents");
+            long i = c->order[k];
+            if (i < 0 || i >= n) {
+                PyErr_SetString(PyExc_ValueError, "an agent outside the agents");
                 c->failed = 1;
                 break;
             }
@@ -300,7 +359,6 @@ static PyObject *Core_step(Core *c, PyObject *args) {
             for (Py_ssize_t i = 0; i < n; i++)
                 if (q_to[i] == NIL) q_to[i] = q_from[i];
     }
-    Py_DECREF(order);
     for (Py_ssize_t i = 0; i < n; i++) occ_now[q_from[i]] = NIL;
     for (Py_ssize_t k = 0; k < c->nclaimed; k++) occ_nxt[c->claimed[k]] = NIL;
     if (c->failed) return NULL;
@@ -329,6 +387,7 @@ static void Core_dealloc(Core *c) {
     PyMem_Free(c->occ_nxt);
     PyMem_Free(c->q_from);
     PyMem_Free(c->q_to);
+    PyMem_Free(c->order);
     PyMem_Free(c->claimed);
     PyMem_Free(c->stack);
     Py_TYPE(c)->tp_free((PyObject *)c);
@@ -373,11 +432,12 @@ static int Core_init(Core *c, PyObject *args, PyObject *kwds) {
     c->occ_nxt = PyMem_Malloc(((size_t)cells + 1) * sizeof(int32_t));
     c->q_from = PyMem_Calloc((size_t)n + 1, sizeof(int32_t));
     c->q_to = PyMem_Calloc((size_t)n + 1, sizeof(int32_t));
+    c->order = PyMem_Calloc((size_t)n + 1, sizeof(int32_t));
     /* an agent's frame opens once: it claims at most each candidate, its own cell, a pull and a fixed cell */
     c->claimed = PyMem_Calloc((size_t)n * (MAX_MOVES + 3) + 1, sizeof(int32_t));
     c->stack = PyMem_Calloc((size_t)n + 1, sizeof(Frame));
     if (!c->moves || !c->nmoves || !c->goals || !c->row_of || !c->occ_now || !c->occ_nxt || !c->q_from ||
-        !c->q_to || !c->claimed || !c->stack) {
+        !c->q_to || !c->order || !c->claimed || !c->stack) {
         Py_DECREF(mv);
         PyErr_NoMemory();
         return -1;
@@ -407,7 +467,7 @@ static int Core_init(Core *c, PyObject *args, PyObject *kwds) {
         Py_DECREF(row);
     }
     Py_DECREF(mv);
-    if (read_ints(goals, c->goals, n, "goals") < 0 || read_ints(row_of, c->row_of, n, "row_of") < 0) return -1;
+    if (read_ints(goals, c->goals, n, 1, "goals") < 0 || read_ints(row_of, c->row_of, n, 1, "row_of") < 0) return -1;
     for (Py_ssize_t i = 0; i < n; i++) {
         if (c->row_of[i] < 0 || c->row_of[i] >= rows || c->goals[i] < 0 || c->goals[i] >= cells) {
             PyErr_SetString(PyExc_ValueError, "goals/row_of: outside the free cells or the table");

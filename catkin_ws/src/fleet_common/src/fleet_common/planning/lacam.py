@@ -45,37 +45,53 @@ import numpy as np
 from ..grid import Coord, Grid
 from .cells import NIL
 from .deadline import Deadline
-from .pibt import initial_ties
+from .pibt import tie_ranks
 from .pibt_step import PIBTStep
 from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
 
 NAME = "lacam"
 #: After the first plan, the chance per iteration of diving again from the start (as LaCAM*'s code).
 RESTART_RATE = 0.001
-Config = Tuple[int, ...]
+#: A configuration, packed: per agent its free-cell id as uint16 (uint32 on maps of more cells), as
+#: bytes. The search keeps every configuration it reaches, so their size is LaCAM*'s memory; bytes
+#: also hash once, where a tuple hashes every entry at each lookup.
+Config = bytes
 
 
 class _Constraint:
-    """Low-level node: the agents `who` are sent to cells `where` (parallel tuples)."""
+    """Low-level node: agent `who` is sent to cell `where`, and so are those of `up` (its parent).
 
-    __slots__ = ("who", "where")
+    Linked to the parent rather than copying its lists: a constraint at depth d then costs
+    one object, not two tuples of d entries."""
 
-    def __init__(self, who: Tuple[int, ...] = (), where: Tuple[int, ...] = ()) -> None:
+    __slots__ = ("up", "who", "where", "depth")
+
+    def __init__(self, up: "Optional[_Constraint]" = None, who: int = -1, where: int = -1) -> None:
+        self.up = up
         self.who = who
         self.where = where
+        self.depth = 0 if up is None else up.depth + 1
+
+    def apply(self, nxt: List[int]) -> None:
+        con: Optional[_Constraint] = self
+        while con is not None and con.up is not None:
+            nxt[con.who] = con.where
+            con = con.up
 
 
 class _Node:
     """High-level node: a configuration, its cheapest known parent and cost, its constraint tree."""
 
-    __slots__ = ("config", "parent", "prio", "order", "tree", "g", "h", "links")
+    __slots__ = ("config", "parent", "steps", "order", "tree", "g", "h", "links")
 
-    def __init__(self, config: Config, parent: "Optional[_Node]", prio: Sequence[float], g: int, h: int) -> None:
+    def __init__(self, config: Config, parent: "Optional[_Node]", steps: np.ndarray, order: np.ndarray,
+                 g: int, h: int) -> None:
         self.config = config
         self.parent = parent
-        # packed: the search keeps every node, and lists of Python numbers took 3x the memory
-        self.prio = array("d", prio)
-        self.order = array("l", sorted(range(len(config)), key=prio.__getitem__, reverse=True))
+        #: per agent, steps since it was last at its goal: its priority (ties by rank, see `lacam`)
+        self.steps = steps
+        #: the agents by priority, highest first (the depth order of the constraint tree)
+        self.order = order
         self.tree: Deque[_Constraint] = deque([_Constraint()])
         self.g = g
         self.h = h
@@ -90,18 +106,25 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
     rng = random.Random(seed)
     n = len(starts)
     stepper = PIBTStep(grid, goals, rotations=rotations)
-    goal_cfg: Config = tuple(stepper.goals)
-    start_cfg: Config = tuple(stepper.to_ids(starts))
-    tie = initial_ties(stepper, start_cfg, rng)
+    packing = _Packing(stepper.free.count, n, stepper.goals)
+    goal_cfg = packing.pack(stepper.goals)
+    start_ids = stepper.to_ids(starts)
+    start_cfg = packing.pack(start_ids)
+    # priorities as PIBT's (`pibt`): steps since the goal x n + a rank, all distinct
+    rank = np.asarray(tie_ranks(stepper, start_ids, rng), dtype=np.int64)
     dist = stepper.dist
 
     def h_of(cfg: Config) -> int:  # sum of distances: no plan from cfg has a smaller loss
-        return sum(dist[i][v] for i, v in enumerate(cfg)) if anytime else 0
+        return sum(dist[i][v] for i, v in enumerate(packing.ids(cfg))) if anytime else 0
 
     def loss(a: Config, b: Config) -> int:  # agents not resting on their goals during the step
-        return sum(1 for x, y, g in zip(a, b, goal_cfg) if x != g or y != g) if anytime else 0
+        return int(np.count_nonzero(packing.away(a) | packing.away(b))) if anytime else 0
 
-    root = _Node(start_cfg, None, list(tie), 0, h_of(start_cfg))
+    def make_node(cfg: Config, parent: Optional[_Node], steps: np.ndarray, g: int) -> _Node:
+        order = np.argsort(-(steps.astype(np.int64) * n + rank)).astype(packing.agent_type)
+        return _Node(cfg, parent, steps, order, g, h_of(cfg))
+
+    root = make_node(start_cfg, None, np.zeros(n, dtype=np.uint32), 0)
     open_: List[_Node] = [root]
     explored: Dict[Config, _Node] = {start_cfg: root}
     moves = stepper.moves
@@ -113,7 +136,7 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
     def improved() -> None:
         nonlocal best_g
         best_g = best.g  # type: ignore[union-attr]
-        history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(_backtrack(best), goal_cfg)))
+        history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(packing, _backtrack(best), goal_cfg)))
 
     while open_:
         loops += 1
@@ -136,19 +159,18 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
             open_.pop()
             continue
         con = node.tree.popleft()
-        depth = len(con.who)
-        if depth < n:  # grow the constraint tree one agent deeper, lazily
-            i = node.order[depth]
-            cells = list(moves[node.config[i]])
+        here = packing.ids(node.config)
+        if con.depth < n:  # grow the constraint tree one agent deeper, lazily
+            i = int(node.order[con.depth])
+            cells = list(moves[here[i]])
             rng.shuffle(cells)
             for v in cells:
-                node.tree.append(_Constraint(con.who + (i,), con.where + (v,)))
+                node.tree.append(_Constraint(con, i, v))
         nxt = [NIL] * n
-        for i, v in zip(con.who, con.where):
-            nxt[i] = v
-        if not stepper.step(node.config, nxt, node.order, rng.randrange(1 << 20)):
+        con.apply(nxt)
+        if not stepper.step(here, nxt, node.order, rng.randrange(1 << 20)):
             continue
-        cfg = tuple(nxt)
+        cfg = packing.pack(nxt)
         known = explored.get(cfg)
         if known is not None:
             if anytime and known not in node.links:
@@ -156,8 +178,8 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
                 _relax(node)
             open_.append(known)  # go back to it: its next constraint may lead elsewhere
             continue
-        child = _Node(cfg, node, _next_priorities(node.prio, cfg, goal_cfg, tie), node.g + loss(node.config, cfg),
-                      h_of(cfg))
+        steps = np.where(packing.away(cfg), node.steps + 1, 0).astype(np.uint32)
+        child = make_node(cfg, node, steps, node.g + loss(node.config, cfg))
         if anytime:
             node.links[child] = child.g - node.g
         explored[cfg] = child
@@ -169,10 +191,37 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         if anytime:
             stats["anytime"] = history
             stats["optimal_loss"] = not open_
-        return solved(stepper.plan(_backtrack(best)), NAME, **stats)
+        return solved(stepper.plan(packing.unpack(_backtrack(best))), NAME, **stats)
     if open_:
         return failed(NAME, TIMEOUT, "time limit reached after {} configurations".format(len(explored)), **stats)
     return failed(NAME, NO_SOLUTION, "every reachable configuration was explored: no plan exists", **stats)
+
+
+class _Packing:
+    """How configurations are packed (`Config`), for `cells` free cells and `n` agents."""
+
+    def __init__(self, cells: int, n: int, goals: Sequence[int]) -> None:
+        self.code = "H" if cells <= 0xFFFF else "I"
+        self.cell_type = np.uint16 if cells <= 0xFFFF else np.uint32
+        #: the agents' numbers in a node's `order` (the C step reads it in place)
+        self.agent_type = np.uint16 if n <= 0xFFFF else np.uint32
+        self.n = n
+        self.goals = np.asarray(goals, dtype=self.cell_type)
+
+    def pack(self, ids: Sequence[int]) -> Config:
+        return array(self.code, ids).tobytes()
+
+    def ids(self, cfg: Config) -> memoryview:
+        """The free-cell ids of `cfg`, in place (indexable, iterable; the C step reads it as a buffer)."""
+        return memoryview(cfg).cast(self.code)
+
+    def away(self, cfg: Config) -> np.ndarray:
+        """Per agent, whether it is off its goal in `cfg`."""
+        return np.frombuffer(cfg, dtype=self.cell_type) != self.goals
+
+    def unpack(self, configs: List[Config]) -> np.ndarray:
+        """Configurations as rows of free-cell ids."""
+        return np.frombuffer(b"".join(configs), dtype=self.cell_type).reshape(len(configs), self.n)
 
 
 def _relax(start: _Node) -> None:
@@ -195,10 +244,6 @@ def _relax(start: _Node) -> None:
                 heapq.heappush(heap, (b.g, count, b))
 
 
-def _next_priorities(prio: Sequence[float], cfg: Config, goal: Config, tie: List[float]) -> List[float]:
-    return [p + 1.0 if c != g else t for p, c, g, t in zip(prio, cfg, goal, tie)]
-
-
 def _backtrack(node: _Node) -> List[Config]:
     configs: List[Config] = []
     cur: Optional[_Node] = node
@@ -209,9 +254,9 @@ def _backtrack(node: _Node) -> List[Config]:
     return configs
 
 
-def _soc(configs: List[Config], goal: Config) -> int:
+def _soc(packing: _Packing, configs: List[Config], goal: Config) -> int:
     """mapf-IR's sum of costs: per agent, the step from which it stays at its goal."""
-    away = np.asarray(configs, dtype=np.int64) != np.asarray(goal, dtype=np.int64)
+    away = packing.unpack(configs) != np.frombuffer(goal, dtype=packing.cell_type)
     steps = away.shape[0]
     last = steps - np.argmax(away[::-1], axis=0)  # one past the last step away from the goal
     return int(np.where(away.any(axis=0), last, 0).sum())

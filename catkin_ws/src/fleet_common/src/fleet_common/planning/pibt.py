@@ -36,12 +36,6 @@ def tie_ranks(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[i
     return rank
 
 
-def initial_ties(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[float]:
-    """Per agent a fraction in [0, 1): its `tie_ranks` rank / n."""
-    n = len(q)
-    return [r / n for r in tie_ranks(stepper, q, rng)]
-
-
 def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
          seed: int = 0, max_timestep: int = DEFAULT_MAX_TIMESTEP, rotations: bool = False) -> SolveResult:
     """Run PIBT until every agent is at its goal, `max_timestep` steps, or the deadline."""
