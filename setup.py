@@ -95,5 +95,5 @@ setup(
             "ruff>=0.6,<1",
         ],
     },
-    entry_points={"console_scripts": ["fleetctl=fleetctl.cli:main"]},
+    entry_points={"console_scripts": ["fleetctl=fleetctl.cli:entry"]},
 )

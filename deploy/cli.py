@@ -77,7 +77,7 @@ def _jobs(text: str) -> int:
     return integer(text, 0, None, "a number of machines at a time (0: all)")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> Parser:
     parser = Parser(
         prog=PROG, description="Deploy FleetControl to the server and the robots over SSH.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -194,7 +194,14 @@ def _net_check(args: argparse.Namespace) -> int:
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    args = build_parser().parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    # argparse reports an unknown option from the top level, whose help lists the commands only:
+    # point such a line to the command's own help (the top level has no options, so the first
+    # word names the command)
+    if words and words[0] in COMMANDS:
+        parser.see = "{} {}".format(PROG, words[0])
+    args = parser.parse_args(words)
     side, action, _ = COMMANDS[args.command]
     try:
         if action == "net":

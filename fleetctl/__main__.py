@@ -1,3 +1,3 @@
-from fleetctl.cli import main
+from fleetctl.cli import entry
 
-raise SystemExit(main())
+raise SystemExit(entry())

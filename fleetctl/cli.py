@@ -9,7 +9,9 @@ one. What a reader doubts (`FormatWarning`: an unknown header key) is printed
 as `FILE:LINE: warning: ...` on stderr and leaves the exit status alone.
 
 Only the chosen command's module is imported (see `commands`), after the
-command line names it: `fleetctl --help` imports none.
+command line names it: `fleetctl --help` imports none. The `fleetctl` program is
+`entry`: `main`, and for the one-shot file commands a start and an end without
+what they do not need (`one_shot`); tests call `main`.
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from typing import Any
 
 from fleet_common.arg_types import Parser
 
-from .commands import COMMANDS
+from .commands import COMMANDS, ONE_SHOT
 
 # no more of fleet_common here: `fleetctl --help` imports only what it prints (the rest comes in main)
 
@@ -58,13 +60,38 @@ def build_parser(chosen: str | None = None) -> Parser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+def chosen_command(argv: list[str]) -> str | None:
+    """The command word of `argv` (unchecked), or None."""
     # the top level has no options but -h, so the first other word names the command
     chosen = next((a for a in argv if not a.startswith("-")), None)
     if chosen is not None and argv.index(chosen) > 0:
-        chosen = None  # `fleetctl -h solve`: the top level's help, with every command
-    module = command_module(chosen) if chosen is not None else None
+        return None  # `fleetctl -h solve`: the top level's help, with every command
+    return chosen
+
+
+def entry() -> int:
+    """The `fleetctl` program: `main`, then for a one-shot command the end without teardown."""
+    status = main()
+    if chosen_command(sys.argv[1:]) in ONE_SHOT:
+        from . import one_shot
+
+        if one_shot.alone():
+            one_shot.exit_now(status)
+    return status
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    chosen = chosen_command(argv)
+    module = None
+    if chosen is not None:
+        if chosen in ONE_SHOT:
+            from . import one_shot
+
+            with one_shot.numpy_parts_on_first_use():
+                module = command_module(chosen)
+        else:
+            module = command_module(chosen)
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
     passthrough: list[str] = []

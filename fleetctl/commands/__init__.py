@@ -31,3 +31,8 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("report", "report", "an HTML report with plots of a sweep's results table or of one run folder"),
     ("vicon", "vicon", "the Vicon motion-capture stream: listen to it, calibrate it, or simulate Tracker"),
 )
+
+#: The commands that read and write files and end, in one thread, their files written in `with`
+#: blocks: `fleetctl` loads numpy's unused parts lazily for them and ends their process without the
+#: interpreter's teardown (`fleetctl.one_shot`). Add one only after checking its code for that.
+ONE_SHOT = frozenset({"info", "validate", "repair", "convert", "solve", "trace"})
