@@ -342,3 +342,14 @@ def test_lacam_star_keeps_each_configuration_in_a_few_bytes_per_agent() -> None:
     assert many - few > 1000
     per_agent = (high - low) / (many - few) / len(starts)
     assert per_agent < 20, "{:.1f} bytes per agent and configuration".format(per_agent)
+
+
+def test_lacam_plans_on_a_map_of_more_cells_than_16_bits_count() -> None:
+    """Configurations are packed as 16-bit cell ids up to 65,535 free cells, 32-bit above."""
+    grid = Grid(np.ones((300, 230), dtype=bool))  # 69,000 free cells
+    starts = [(0, 0), (229, 299), (100, 250)]
+    goals = [(229, 299), (0, 0), (120, 290)]
+    result = solve("lacam", grid, starts, goals, deadline=60.0)
+    assert result.solved, result.summary()
+    assert validate_plan(result.plan, grid, starts=starts, goals=goals).ok
+    assert [tuple(c) for c in result.plan.positions[-1].tolist()] == goals
