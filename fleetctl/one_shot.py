@@ -83,6 +83,10 @@ def exit_now(status: int) -> NoReturn:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
+        except BrokenPipeError:
+            # the reader went away (`fleetctl info x | head`) before the last of the output: the
+            # status `cli` gives when that happens earlier, and nothing printed about it
+            status = status or 141
         except (OSError, ValueError):
-            pass  # the reader went away, or the stream was closed: nothing left to deliver
+            pass  # the stream was closed or failed: nothing left to deliver it to
     os._exit(status)

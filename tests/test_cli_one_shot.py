@@ -114,3 +114,18 @@ sys.exit(entry())
     assert proc.returncode == 0, proc.stderr
     assert "49" in proc.stdout  # info printed the map's size
     assert written.read_text() == "written"
+
+
+def test_a_reader_gone_before_the_last_output_gives_141_and_no_message(shared_data: Path) -> None:
+    """`fleetctl info FILE | head -0`: the output still in the buffer at the end finds no reader.
+    As when that happens earlier (cli), status 141 and nothing on stderr (Python's own exit says
+    `Exception ignored ... BrokenPipeError` and exits 120)."""
+    read, write = os.pipe()
+    os.close(read)  # a reader that is gone before the first byte
+    try:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+        proc = subprocess.run([sys.executable, "-m", "fleetctl", "info", shared_data / "maps" / "arena.map"],
+                              stdout=write, stderr=subprocess.PIPE, text=True, timeout=60, env=env)
+    finally:
+        os.close(write)
+    assert (proc.returncode, proc.stderr) == (141, "")
