@@ -179,13 +179,19 @@ def test_mapf_ir_from_the_environment_and_its_failures(shared_data, tmp_path):
     out = tmp_path / "out.txt"
     ok = fleetctl(instance, "-s", "mapf-ir:PIBT", "-o", out, env={"MAPF_IR_APP": str(app)})
     assert ok.returncode == 0, ok.stderr
+    work = tmp_path / "tmp"  # where the work folders go (TMPDIR), kept after a failure for the user
+    work.mkdir()
     failed = fleetctl(instance, "-s", "mapf-ir:PIBT", "-o", out,
-                      env={"MAPF_IR_APP": str(app), "FAKE_MAPF_IR_MODE": "exit"})
+                      env={"MAPF_IR_APP": str(app), "FAKE_MAPF_IR_MODE": "exit", "TMPDIR": str(work)})
     assert failed.returncode == 1 and "exited with status 3" in failed.stderr
     assert "error@run" in failed.stderr and "Traceback" not in failed.stderr
     garbage = fleetctl(instance, "-s", "mapf-ir:PIBT", "-o", out,
-                       env={"MAPF_IR_APP": str(app), "FAKE_MAPF_IR_MODE": "garbage"})
+                       env={"MAPF_IR_APP": str(app), "FAKE_MAPF_IR_MODE": "garbage", "TMPDIR": str(work)})
     assert garbage.returncode == 2 and "output.txt:2:" in one_line(garbage.stderr)
+    kept = sorted(work.iterdir(), key=lambda p: p.stat().st_mtime)
+    assert len(kept) == 2 and all("mapf-IR's files are kept in {}".format(k) in e.stderr
+                                  for k, e in zip(kept, (failed, garbage)))
+    assert (kept[1] / "instance.txt").is_file() and (kept[1] / "output.txt").is_file()
     missing = fleetctl(instance, "-s", "mapf-ir:PIBT", "-o", out)
     assert missing.returncode == 2 and "MAPF_IR_APP" in one_line(missing.stderr)
 

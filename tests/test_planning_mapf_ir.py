@@ -36,9 +36,10 @@ def argv_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return log
 
 
-@pytest.fixture
+@pytest.fixture(autouse=True)
 def work_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """Where the adapter's work folders go, to see what it leaves behind."""
+    """Where the adapter's work folders go, to see what it leaves behind (and, for every test,
+    so that the folders kept after a failure stay out of the machine's /tmp)."""
     folder = tmp_path / "tmp"
     folder.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(folder))
