@@ -61,7 +61,10 @@ def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: P
 
 def start_demo(folder: Path) -> Tuple["subprocess.Popen[str]", List[str]]:
     """The demo in its own session, and what it printed until its run was under way."""
-    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(folder)], env=headless(),
+    scratch = folder / "tmp"  # TMPDIR: what a killed demo cannot remove stays in the test's folder
+    scratch.mkdir()
+    demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(folder)],
+                            env=dict(headless(), TMPDIR=str(scratch)),
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
     lines: List[str] = []
     try:
@@ -93,6 +96,7 @@ def test_ctrl_c_stops_every_process_the_demo_started(tmp_path: Path) -> None:
     while not all(gone(pid) for pid in children) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert [pid for pid in children if not gone(pid)] == []
+    assert list((tmp_path / "tmp").iterdir()) == []  # its scratch folders (plan, logs) removed too
 
 
 def test_a_demo_killed_outright_takes_its_processes_along(tmp_path: Path) -> None:
