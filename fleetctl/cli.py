@@ -83,15 +83,16 @@ def entry() -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     chosen = chosen_command(argv)
-    module = None
-    if chosen is not None:
-        if chosen in ONE_SHOT:
-            from . import one_shot
+    if chosen in ONE_SHOT:
+        from . import one_shot
 
-            with one_shot.numpy_parts_on_first_use():
-                module = command_module(chosen)
-        else:
-            module = command_module(chosen)
+        with one_shot.numpy_parts_on_first_use():
+            return _main(argv, chosen)
+    return _main(argv, chosen)
+
+
+def _main(argv: list[str], chosen: str | None) -> int:
+    module = command_module(chosen) if chosen is not None else None
     # argparse cannot take `-- OPTIONS` after a positional; a command that sets PASSTHROUGH
     # (solve: options for mapf-IR) gets what follows `--` unparsed, as args.passthrough
     passthrough: list[str] = []

@@ -7,8 +7,8 @@ bench/README.md). Two parts of that serve no one here:
 
 - `import numpy` (1.24) executes `numpy.random`, `numpy.ma`, `numpy.polynomial`
   and `numpy.fft`, which none of these commands uses at start (about 20 ms).
-  While the command's module is imported they are made lazy: each is executed
-  on its first use (importlib's LazyLoader), so code that uses one still gets it.
+  While the command runs they are made lazy: each is executed on its first use
+  (importlib's LazyLoader), so code that uses one still gets it.
 - After the command has returned, the interpreter frees every object of numpy's
   and ours one by one and collects garbage (25-35 ms), for memory the process
   is about to give back whole. `exit_now` runs what a normal exit runs for others
@@ -16,7 +16,7 @@ bench/README.md). Two parts of that serve no one here:
 
 Each applies only where it cannot change what the command does: the lazy
 modules only in a process that has not imported numpy yet (tests that call
-`cli.main` in pytest have), and only while the command's module is imported;
+`cli.main` in pytest have), and only while the command runs;
 the quick end only from the `fleetctl` program (`cli.entry`), never from
 `cli.main`, and only when no other thread is alive. The commands' files are all
 written through `with` blocks (closed before they return), which is why a
