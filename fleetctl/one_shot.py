@@ -79,7 +79,9 @@ def alone() -> bool:
 
 def exit_now(status: int) -> NoReturn:
     """End the process with `status` as a normal exit would, minus the interpreter's teardown."""
-    atexit._run_exitfuncs()  # the callbacks a normal exit runs (logging's flush, weakref finalizers)
+    # the callbacks a normal exit runs (logging's flush, weakref finalizers); atexit has no public
+    # way to run them, and this is the function the interpreter's own exit calls
+    atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
