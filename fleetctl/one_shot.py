@@ -80,7 +80,7 @@ def alone() -> bool:
 def exit_now(status: int) -> NoReturn:
     """End the process with `status` as a normal exit would, minus the interpreter's teardown."""
     # the callbacks a normal exit runs (logging's flush, weakref finalizers); atexit has no public
-    # way to run them, and this is the function the interpreter's own exit calls
+    # way to run them; this one runs them as the interpreter's own exit does
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
