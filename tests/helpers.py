@@ -169,3 +169,24 @@ def python_bfs(grid: Grid, goal: Coord) -> List[int]:
                 d[v] = d[u] + 1
                 q.append(v)
     return d
+
+
+def dense_instance(shared_data: Path, folder: Path, agents: int = 400) -> Path:
+    """`agents` random starts and goals (seed 0) in random-32-32-20's largest component: LaCAM
+    needs some thousands of configurations for its first plan, LaCAM* keeps finding better."""
+    import random
+
+    from fleet_common.formats.instance import make_instance, write_instance
+    from fleet_common.formats.mapfile import read_map
+    from fleet_common.planning.components import component_labels
+
+    grid = read_map(shared_data / "maps" / "random-32-32-20.map").grid
+    labels = component_labels(grid)
+    cells = [c for c in grid.free_cells() if labels[grid.index(c)] >= 0]
+    biggest = max(set(labels[grid.index(c)] for c in cells), key=[labels[grid.index(c)] for c in cells].count)
+    cells = [c for c in cells if labels[grid.index(c)] == biggest]
+    rng = random.Random(0)
+    path = folder / "dense.txt"
+    write_instance(make_instance(grid, "random-32-32-20.map", rng.sample(cells, agents), rng.sample(cells, agents),
+                                 seed=0, max_timestep=1000, max_comp_time=120000), str(path))
+    return path

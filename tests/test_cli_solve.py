@@ -11,6 +11,7 @@ from typing import Dict, Optional
 import pytest
 
 import fake_mapf_ir
+from helpers import dense_instance
 from fleet_common.formats.solution import read_solution
 from fleet_common.validate import validate_plan
 
@@ -268,3 +269,41 @@ def test_ecbs_and_anytime_lacam_from_the_command_line(shared_data, tmp_path):
     assert "soc={} ".format(socs[-1]) in lines[-1]
     wrong = fleetctl(instance, "-s", "pibt", "--w", "1.2")
     assert wrong.returncode == 2 and one_line(wrong.stderr) == "fleetctl solve: --w is for ecbs, not pibt"
+
+
+def test_lacam_star_stops_at_its_memory_limit_with_its_best_plan(shared_data, tmp_path):
+    """LaCAM* keeps every configuration until its time limit; at --memory-limit it stops and
+    writes the best plan so far rather than grow until the OOM killer takes the plan with it."""
+    instance = dense_instance(shared_data, tmp_path)
+    out = tmp_path / "out.txt"
+    proc = fleetctl(instance, "--anytime", "--memory-limit", 100, "--time-limit", 120, "-o", out,
+                    "--map-dir", shared_data / "maps")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith("  soc ") and lines[-1].startswith("solved=1, solver=lacam")
+    assert lines[-2].startswith("  stopped at the memory limit (100 MB, --memory-limit) after ")
+    sol = assert_valid_solution(out, shared_data, 400)
+    assert sol.comp_time < 120000  # it stopped well before its time limit
+    assert sol.soc == int(lines[-3].split()[1])  # the plan is the best it had found
+
+
+def test_lacam_without_a_plan_at_its_memory_limit_says_so_and_exits_3(shared_data, tmp_path):
+    instance = dense_instance(shared_data, tmp_path)
+    proc = fleetctl(instance, "--memory-limit", 1, "-o", tmp_path / "out.txt", "--map-dir", shared_data / "maps")
+    assert proc.returncode == 3, proc.stderr
+    assert one_line(proc.stderr).startswith(
+        "fleetctl solve: no plan: lacam reached the memory limit of 1 MB (--memory-limit) after ")
+    assert not read_solution(tmp_path / "out.txt", [shared_data / "maps"]).solved
+
+
+def test_options_of_the_built_in_solvers_are_refused_for_others(shared_data, tmp_path):
+    instance = shared_data / "instances" / "makespan-soc-pareto.txt"
+    app = fake_mapf_ir.install(tmp_path)
+    pibt = fleetctl(instance, "-s", "pibt", "--memory-limit", 100)
+    assert pibt.returncode == 2 and one_line(pibt.stderr) == "fleetctl solve: --memory-limit is for lacam, not pibt"
+    theirs = fleetctl(instance, "-s", "mapf-ir:ECBS", "--mapf-ir", app, "--anytime", "--w", 1.2)
+    assert theirs.returncode == 2 and one_line(theirs.stderr) == (
+        "fleetctl solve: --anytime, --w are for the built-in solvers; give mapf-IR's own options after `--` "
+        "(e.g. `-- -w 1.2`)")
+    zero = fleetctl(instance, "--memory-limit", 0)
+    assert zero.returncode == 2 and "--memory-limit" in one_line(zero.stderr)

@@ -26,6 +26,7 @@ from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.planning.result import SolveResult
 from fleet_common.rotations import step_cycles
 from fleet_common.validate import ROTATION, validate_plan
+from helpers import dense_instance
 
 Problem = Tuple[Grid, List[Coord], List[Coord]]
 
@@ -353,3 +354,19 @@ def test_lacam_plans_on_a_map_of_more_cells_than_16_bits_count() -> None:
     assert result.solved, result.summary()
     assert validate_plan(result.plan, grid, starts=starts, goals=goals).ok
     assert [tuple(c) for c in result.plan.positions[-1].tolist()] == goals
+
+
+def test_lacam_stops_at_the_memory_limit_as_at_its_deadline(shared_data: Path, tmp_path: Path) -> None:
+    """A limit the process has already reached: the search stops at its first check (64
+    iterations), long before its first plan on this instance, and says which limit stopped it."""
+    from fleet_common.planning.memory_limit import MemoryLimit, rss_mb, usable_mb
+
+    inst = read_instance(dense_instance(shared_data, tmp_path), [shared_data / "maps"])
+    result = lacam(inst.grid, inst.starts, inst.goals, Deadline(60), memory_limit_mb=rss_mb() / 2)
+    assert not result.solved and result.status == "timeout" and result.stats["loops"] == 64
+    assert result.stats["stopped"] == "memory" and result.message.startswith("memory limit of ")
+    unlimited = lacam(inst.grid, inst.starts, inst.goals, Deadline(60))
+    assert unlimited.solved and "stopped" not in unlimited.stats and unlimited.stats["loops"] > 1000
+    assert 0 < MemoryLimit().limit_mb < usable_mb()
+    with pytest.raises(ValueError, match="positive"):
+        MemoryLimit(0)

@@ -37,7 +37,8 @@ DESCRIPTION = (
     "comp_time in ms) that mapf-IR's visualizer and `fleetctl validate` read. Default output: "
     "<instance stem>.<solver>.txt in the current folder, e.g. arena_300agents_1.lacam.txt "
     "(`-o -` writes to stdout). Prints one summary line. Solvers: pibt (fast, may get stuck), "
-    "lacam (default; complete, PIBT-guided; --anytime keeps improving it until the time limit), "
+    "lacam (default; complete, PIBT-guided; --anytime keeps improving it until the time limit, "
+    "or until --memory-limit, since it keeps every configuration it reaches), "
     "cbs (optimal sum of costs, dozens of agents), ecbs (sum of costs within --w times the optimum), "
     "pp (prioritized planning), or mapf-ir:NAME to run mapf-IR's solver NAME (PIBT, CBS, ECBS, "
     "IR_HYBRID, ...) with the binary from --mapf-ir or ${}; options after `--` go to it "
@@ -79,6 +80,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--anytime", action="store_true",
                         help="lacam: keep improving the plan until the time limit (LaCAM*); prints the sum of "
                              "costs at each improvement")
+    parser.add_argument("--memory-limit", type=positive, metavar="MB",
+                        help="lacam: stop searching when this process's memory reaches MB, keeping the best plan "
+                             "so far (it keeps every configuration it reaches; default: half of the memory the "
+                             "process may use)")
     parser.add_argument("--w", type=at_least_one, metavar="W",
                         help="ecbs: suboptimality bound, the plan's sum of costs is at most W x the optimum "
                              "(default: 1.1)")
@@ -129,16 +134,27 @@ def run(args: argparse.Namespace) -> int:
         write_solution(sol, out)
     where = "stdout" if to_stdout else out
     if not result.solved:
-        print("fleetctl solve: no plan: {} {} after {:.0f} ms{}; wrote the failed output to {}".format(
-            result.solver, "ran out of time" if result.status == "timeout" else "found no solution",
-            result.comp_time_ms, " ({})".format(result.message) if result.message else "", where),
-            file=sys.stderr)
+        print("fleetctl solve: no plan: {}; wrote the failed output to {}".format(_why_no_plan(result), where),
+              file=sys.stderr)
         return 3
     report = sys.stderr if to_stdout else sys.stdout
     for ms, soc in result.stats.get("anytime", []):
         print("  soc {} at {:.0f} ms".format(soc, ms), file=report)
+    if result.stats.get("stopped") == "memory":
+        print("  stopped at the memory limit ({:.0f} MB, --memory-limit) after {} configurations: the plan "
+              "is the best found by then".format(result.stats["memory_limit_mb"], result.stats["explored"]),
+              file=report)
     print(_summary(result, result.plan, grid, lb_soc, lb_makespan, where), file=report)
     return 0
+
+
+def _why_no_plan(result: SolveResult) -> str:
+    if result.stats.get("stopped") == "memory":
+        return "{} reached the memory limit of {:.0f} MB (--memory-limit) after {} configurations and {:.0f} " \
+            "ms".format(result.solver, result.stats["memory_limit_mb"], result.stats["explored"], result.comp_time_ms)
+    return "{} {} after {:.0f} ms{}".format(
+        result.solver, "ran out of time" if result.status == "timeout" else "found no solution",
+        result.comp_time_ms, " ({})".format(result.message) if result.message else "")
 
 
 def _mapf_ir_failed(err: FleetError) -> bool:
@@ -179,6 +195,11 @@ def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int, st
         if args.allow_rotations:
             raise FleetError("--allow-rotations is for the built-in solvers; mapf-IR's solvers always "
                              "allow rotations")
+        ours = [o for o, v in (("--anytime", args.anytime), ("--memory-limit", args.memory_limit),
+                               ("--w", args.w)) if v]
+        if ours:  # mapf-IR would never see them: say so rather than ignore them
+            raise FleetError("{} {} for the built-in solvers; give mapf-IR's own options after `--` "
+                             "(e.g. `-- -w 1.2`)".format(", ".join(ours), "is" if len(ours) == 1 else "are"))
         adapter = MapfIrSolver(args.mapf_ir, map_dir=args.mapf_ir_map_dir, timeout_s=limit)
         return adapter.solve(inst.grid, inst.starts, inst.goals, args.solver[len(MAPF_IR_PREFIX):],
                              options=args.passthrough, deadline=Deadline(limit), seed=seed,
@@ -191,6 +212,10 @@ def _solve(args: argparse.Namespace, inst: Instance, limit: float, seed: int, st
         if args.solver != "lacam":
             raise FleetError("--anytime is for lacam, not {}".format(args.solver))
         options["anytime"] = True
+    if args.memory_limit is not None:
+        if args.solver != "lacam":
+            raise FleetError("--memory-limit is for lacam, not {}".format(args.solver))
+        options["memory_limit_mb"] = args.memory_limit
     if args.w is not None:
         if args.solver != "ecbs":
             raise FleetError("--w is for ecbs, not {}".format(args.solver))

@@ -45,6 +45,7 @@ import numpy as np
 from ..grid import Coord, Grid
 from .cells import NIL
 from .deadline import Deadline
+from .memory_limit import MemoryLimit
 from .pibt import tie_ranks
 from .pibt_step import PIBTStep
 from .result import NO_SOLUTION, TIMEOUT, SolveResult, failed, solved
@@ -100,9 +101,15 @@ class _Node:
 
 
 def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
-          seed: int = 0, rotations: bool = False, anytime: bool = False) -> SolveResult:
-    """Search until a plan is found (or, `anytime`, the deadline), every configuration is exhausted."""
+          seed: int = 0, rotations: bool = False, anytime: bool = False,
+          memory_limit_mb: Optional[float] = None) -> SolveResult:
+    """Search until a plan is found (or, `anytime`, the deadline), every configuration is exhausted.
+
+    The search also stops, as at its deadline, when the process's resident memory reaches
+    `memory_limit_mb` (default: half the memory it may use, see `memory_limit`); the best
+    plan so far is returned, and `stats["stopped"]` says "memory"."""
     began = time.perf_counter()
+    memory = MemoryLimit(memory_limit_mb)
     rng = random.Random(seed)
     n = len(starts)
     stepper = PIBTStep(grid, goals, rotations=rotations)
@@ -138,10 +145,16 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         best_g = best.g  # type: ignore[union-attr]
         history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(packing, _backtrack(best), goal_cfg)))
 
+    stopped = ""
     while open_:
         loops += 1
-        if loops & 63 == 0 and deadline.expired():
-            break
+        if loops & 63 == 0:
+            if deadline.expired():
+                stopped = "time"
+                break
+            if memory.reached():  # every configuration is kept: the OOM killer would lose the plan
+                stopped = "memory"
+                break
         node = open_[-1]
         if best is None and node.config == goal_cfg:
             best = node
@@ -184,7 +197,9 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
             node.links[child] = child.g - node.g
         explored[cfg] = child
         open_.append(child)
-    stats = dict(explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
+    stats: Dict[str, object] = dict(explored=len(explored), loops=loops, undone_rotations=stepper.reverted)
+    if stopped == "memory":
+        stats.update(stopped="memory", memory_limit_mb=memory.limit_mb)
     if best is not None:
         if best.g < best_g:
             improved()
@@ -192,6 +207,9 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
             stats["anytime"] = history
             stats["optimal_loss"] = not open_
         return solved(stepper.plan(packing.unpack(_backtrack(best))), NAME, **stats)
+    if stopped == "memory":
+        return failed(NAME, TIMEOUT, "memory limit of {:.0f} MB reached after {} configurations".format(
+            memory.limit_mb, len(explored)), **stats)
     if open_:
         return failed(NAME, TIMEOUT, "time limit reached after {} configurations".format(len(explored)), **stats)
     return failed(NAME, NO_SOLUTION, "every reachable configuration was explored: no plan exists", **stats)
