@@ -30,6 +30,10 @@ sum of distances cannot beat the best plan is not expanded, and now and then
 the search dives again from the start. The best plan
 only improves; when nothing is left to expand it is optimal for the sum of
 loss. `stats["anytime"]` lists (milliseconds, soc) at each improvement.
+
+Memory. Every configuration reached is kept (packed, see `Config`), so the
+search stops at a memory limit as at its deadline (`memory_limit`), keeping
+its best plan.
 """
 from __future__ import annotations
 
@@ -74,6 +78,7 @@ class _Constraint:
         self.depth = 0 if up is None else up.depth + 1
 
     def apply(self, nxt: List[int]) -> None:
+        """Fix in `nxt` the cells of this constraint and of its ancestors (the root fixes none)."""
         con: Optional[_Constraint] = self
         while con is not None and con.up is not None:
             nxt[con.who] = con.where
