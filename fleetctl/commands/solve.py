@@ -150,8 +150,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _why_no_plan(result: SolveResult) -> str:
     if result.stats.get("stopped") == "memory":
-        return "{} reached the memory limit of {:.0f} MB (--memory-limit) after {} configurations and {:.0f} " \
-            "ms".format(result.solver, result.stats["memory_limit_mb"], result.stats["explored"], result.comp_time_ms)
+        return "{} reached the memory limit of {:.0f} MB (--memory-limit) after {} configurations and {:.0f} ms".format(
+            result.solver, result.stats["memory_limit_mb"], result.stats["explored"], result.comp_time_ms)
     return "{} {} after {:.0f} ms{}".format(
         result.solver, "ran out of time" if result.status == "timeout" else "found no solution",
         result.comp_time_ms, " ({})".format(result.message) if result.message else "")
