@@ -314,7 +314,7 @@ def test_pibt_orders_agents_as_the_float_priorities_of_mapf_ir_do(problem: Probl
 def test_lacam_star_keeps_each_configuration_in_a_few_bytes_per_agent() -> None:
     """LaCAM* keeps every configuration it reaches until its time limit, so their size is its memory
     (a minute on 400 agents used to take gigabytes). Packed, a configuration with its priorities,
-    agent order and constraints takes about 12 bytes per agent; as tuples and float arrays, 30."""
+    agent order and constraints takes about 10 bytes per agent; as tuples and float arrays, 30."""
     rng = random.Random(7)
     grid = Grid(np.ones((30, 30), dtype=bool))
     cells = list(grid.free_cells())

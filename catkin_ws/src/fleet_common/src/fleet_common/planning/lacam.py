@@ -41,8 +41,7 @@ import heapq
 import random
 import time
 from array import array
-from collections import deque
-from typing import Deque, Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -85,10 +84,14 @@ class _Constraint:
             con = con.up
 
 
+#: The empty constraint every node's tree starts from (constraints are never changed).
+_ROOT = _Constraint()
+
+
 class _Node:
     """High-level node: a configuration, its cheapest known parent and cost, its constraint tree."""
 
-    __slots__ = ("config", "parent", "steps", "order", "tree", "g", "h", "links")
+    __slots__ = ("config", "parent", "steps", "order", "tree", "next", "g", "h", "links")
 
     def __init__(self, config: Config, parent: "Optional[_Node]", steps: np.ndarray, order: np.ndarray,
                  g: int, h: int) -> None:
@@ -98,7 +101,11 @@ class _Node:
         self.steps = steps
         #: the agents by priority, highest first (the depth order of the constraint tree)
         self.order = order
-        self.tree: Deque[_Constraint] = deque([_Constraint()])
+        #: the constraints in breadth-first order, `tree[next]` the next to try: a list and an
+        #: index, not a deque (whose first block alone is 624 bytes; the tried ones are kept alive
+        #: by their children's `up` anyway)
+        self.tree: List[_Constraint] = [_ROOT]
+        self.next = 0
         self.g = g
         self.h = h
         #: configurations reached from this one, with the cost of that step (anytime only)
@@ -173,10 +180,11 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
         if best is not None and node.g + node.h >= best.g:
             open_.pop()  # cannot lead to a cheaper plan
             continue
-        if not node.tree:
+        if node.next == len(node.tree):
             open_.pop()
             continue
-        con = node.tree.popleft()
+        con = node.tree[node.next]
+        node.next += 1
         here = packing.ids(node.config)
         if con.depth < n:  # grow the constraint tree one agent deeper, lazily
             i = int(node.order[con.depth])

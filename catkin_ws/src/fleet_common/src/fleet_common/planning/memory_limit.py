@@ -1,7 +1,7 @@
 """How much memory a search may take before it stops as it does at its deadline.
 
 LaCAM keeps every configuration it reaches, and LaCAM* keeps searching until its time limit:
-its memory grows for as long as it runs (about 12 bytes per agent and configuration; 200 MB
+its memory grows for as long as it runs (about 10 bytes per agent and configuration; 200 MB
 in 10 s on 400 agents, gigabytes in minutes on thousands). A search that the kernel's OOM
 killer ends loses the plan it had already found, so the search also watches the process's
 resident memory and, at the limit, stops and returns its best plan.
