@@ -250,12 +250,28 @@ static int buffer_int(const Py_buffer *view, char kind, Py_ssize_t k, long long 
     return -1;
 }
 
+/* Whether `len` entries are what the caller wants: exactly `n`, or (exact = 0) at most `n`. */
+static int length_ok(Py_ssize_t len, Py_ssize_t n, int exact, const char *what) {
+    if (exact ? len == n : len <= n) return 1;
+    PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %s%zd", what, len, exact ? "" : "at most ", n);
+    return 0;
+}
+
+static int store_int(long long v, int32_t *out, const char *what) {
+    if (v < INT32_MIN || v > INT32_MAX) {
+        PyErr_Format(PyExc_ValueError, "%s: an entry outside 32-bit integers", what);
+        return 0;
+    }
+    *out = (int32_t)v;
+    return 1;
+}
+
 /* Reads `seq` into `out`: exactly `n` ints, or (exact = 0) up to `n`; returns how many, -1 on error.
  * A buffer of integers (array 'H'/'I', memoryview.cast, a numpy array) is read in place: LaCAM
- * keeps its configurations packed, and building a list of int objects from each cost a tenth of
- * its step. Any other sequence is read item by item. */
+ * keeps its configurations packed, and would otherwise pay for a list of int objects per step.
+ * Any other sequence is read item by item. */
 static Py_ssize_t read_ints(PyObject *seq, int32_t *out, Py_ssize_t n, int exact, const char *what) {
-    Py_ssize_t len;
+    Py_ssize_t len, i;
     if (PyObject_CheckBuffer(seq)) {
         Py_buffer view;
         if (PyObject_GetBuffer(seq, &view, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) return -1;
@@ -265,22 +281,14 @@ static Py_ssize_t read_ints(PyObject *seq, int32_t *out, Py_ssize_t n, int exact
         if (len < 0 || f[0] == 0 || f[1] != 0 || strchr("hHiIlLqQ", f[0]) == NULL) {
             PyErr_Format(PyExc_TypeError, "%s: a 1-D buffer of integers expected, got format '%s'", what,
                          view.format != NULL ? view.format : "B");
-            PyBuffer_Release(&view);
-            return -1;
+            len = -1;
+        } else if (!length_ok(len, n, exact, what)) {
+            len = -1;
         }
-        if (exact ? len != n : len > n) {
-            PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %s%zd", what, len, exact ? "" : "at most ", n);
-            PyBuffer_Release(&view);
-            return -1;
-        }
-        for (Py_ssize_t i = 0; i < len; i++) {
+        for (i = 0; i < len; i++) {
             long long v;
-            if (buffer_int(&view, f[0], i, &v) < 0 || v < INT32_MIN || v > INT32_MAX) {
-                PyErr_Format(PyExc_ValueError, "%s: an entry outside 32-bit integers", what);
-                PyBuffer_Release(&view);
-                return -1;
-            }
-            out[i] = (int32_t)v;
+            if (buffer_int(&view, f[0], i, &v) < 0) v = (long long)INT32_MAX + 1; /* too large for long long */
+            if (!store_int(v, &out[i], what)) { len = -1; break; }
         }
         PyBuffer_Release(&view);
         return len;
@@ -288,21 +296,11 @@ static Py_ssize_t read_ints(PyObject *seq, int32_t *out, Py_ssize_t n, int exact
     PyObject *fast = PySequence_Fast(seq, what);
     if (fast == NULL) return -1;
     len = PySequence_Fast_GET_SIZE(fast);
-    if (exact ? len != n : len > n) {
-        PyErr_Format(PyExc_ValueError, "%s: %zd entries, expected %s%zd", what, len, exact ? "" : "at most ", n);
-        Py_DECREF(fast);
-        return -1;
-    }
+    if (!length_ok(len, n, exact, what)) len = -1;
     PyObject **items = PySequence_Fast_ITEMS(fast);
-    for (Py_ssize_t i = 0; i < len; i++) {
-        long v = PyLong_AsLong(items[i]);
-        if (v == -1 && PyErr_Occurred()) { Py_DECREF(fast); return -1; }
-        if (v < INT32_MIN || v > INT32_MAX) {
-            PyErr_Format(PyExc_ValueError, "%s: an entry outside 32-bit integers", what);
-            Py_DECREF(fast);
-            return -1;
-        }
-        out[i] = (int32_t)v;
+    for (i = 0; i < len; i++) {
+        long long v = PyLong_AsLongLong(items[i]);
+        if ((v == -1 && PyErr_Occurred()) || !store_int(v, &out[i], what)) { len = -1; break; }
     }
     Py_DECREF(fast);
     return len;

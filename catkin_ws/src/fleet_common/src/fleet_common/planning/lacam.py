@@ -155,7 +155,7 @@ def lacam(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline:
     def improved() -> None:
         nonlocal best_g
         best_g = best.g  # type: ignore[union-attr]
-        history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(packing, _backtrack(best), goal_cfg)))
+        history.append((round((time.perf_counter() - began) * 1000.0, 1), _soc(packing, _backtrack(best))))
 
     stopped = ""
     while open_:
@@ -232,8 +232,8 @@ class _Packing:
     """How configurations are packed (`Config`), for `cells` free cells and `n` agents."""
 
     def __init__(self, cells: int, n: int, goals: Sequence[int]) -> None:
-        self.code = "H" if cells <= 0xFFFF else "I"
-        self.cell_type = np.uint16 if cells <= 0xFFFF else np.uint32
+        self.cell_type = np.dtype(np.uint16 if cells <= 0xFFFF else np.uint32)
+        self.code = self.cell_type.char  # the same width for array and memoryview: "H" or "I"
         #: the agents' numbers in a node's `order` (the C step reads it in place)
         self.agent_type = np.uint16 if n <= 0xFFFF else np.uint32
         self.n = n
@@ -285,9 +285,9 @@ def _backtrack(node: _Node) -> List[Config]:
     return configs
 
 
-def _soc(packing: _Packing, configs: List[Config], goal: Config) -> int:
+def _soc(packing: _Packing, configs: List[Config]) -> int:
     """mapf-IR's sum of costs: per agent, the step from which it stays at its goal."""
-    away = packing.unpack(configs) != np.frombuffer(goal, dtype=packing.cell_type)
+    away = packing.unpack(configs) != packing.goals
     steps = away.shape[0]
     last = steps - np.argmax(away[::-1], axis=0)  # one past the last step away from the goal
     return int(np.where(away.any(axis=0), last, 0).sum())
