@@ -84,8 +84,8 @@ def event_costs(plan: Plan, strategy: str, seed: int = 0) -> np.ndarray:
         return handle(event)
 
     engine.handle = timed  # type: ignore[method-assign]
-    waits, durations = simulator_durations(parse_delay_model("moderate"), engine.table.robot,
-                                           engine.table.num_robots, seed)
+    waits, durations = simulator_durations(parse_delay_model("moderate"), engine.table.agent,
+                                           engine.table.num_agents, seed)
     result = simulate_engine(engine, durations, waits=waits)
     if not result.finished or result.collisions:
         raise SystemExit("benchmark run failed: finished={}, collisions={}".format(

@@ -27,10 +27,10 @@ def run(stamps_path: Path, args: List[str]) -> int:
     publish = Manager._publish
 
     def stamped(self: Manager, now: float) -> None:
-        before = self._seq
+        before = self.core._states
         publish(self, now)
-        if self._seq != before:
-            stamps.append((self._seq, time.monotonic()))
+        if self.core._states != before:
+            stamps.append((self.core._states, time.monotonic()))
 
     Manager._publish = stamped  # type: ignore[method-assign]
     try:

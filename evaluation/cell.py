@@ -69,24 +69,24 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
 
 def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Optional[SimResult]) -> Row:
     m1 = first.metrics
-    waits = [r.wait_time for r in m1.robots]
-    held = sum(r.held_time for r in m1.robots)
+    waits = [r.wait_time for r in m1.agents]
+    held = sum(r.held_time for r in m1.agents)
     blocked: Dict[int, float] = {}
-    for r in m1.robots:
+    for r in m1.agents:
         for q, t in r.blocked_by.items():
             blocked[q] = blocked.get(q, 0.0) + t
-    arrival: List[Optional[float]] = [r.arrival for r in m1.robots]
+    arrival: List[Optional[float]] = [r.arrival for r in m1.agents]
     makespan, collisions, count = m1.makespan, len(first.collisions), m1.total_waits
-    moves = sum(r.moves for r in m1.robots)
+    moves = sum(r.moves for r in m1.agents)
     if second is not None:
         t0, m2 = first.end_time, second.metrics
-        for r, rm in enumerate(m2.robots):
+        for r, rm in enumerate(m2.agents):
             waits[r] += rm.wait_time
             held += rm.held_time
             for q, t in rm.blocked_by.items():
                 blocked[q] = blocked.get(q, 0.0) + t
         final = second.trace.final_cells()
-        for r, rm in enumerate(m2.robots):
+        for r, rm in enumerate(m2.agents):
             if tuple(final[r]) != tuple(plan.goals[r]) or r in first.disabled_at or rm.arrival is None:
                 arrival[r] = None  # stranded, or the robot that is out
             elif second.engine.table.count(r) or arrival[r] is None:
@@ -94,7 +94,7 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
         makespan = max(makespan, t0 + m2.makespan) if m2.last_completion is not None else makespan
         collisions += len(second.collisions)
         count += m2.total_waits
-        moves += sum(r.moves for r in m2.robots)
+        moves += sum(r.moves for r in m2.agents)
     reached = [a for a in arrival if a is not None]
     return make_row(cell, plan, p, makespan=makespan, soc=float(sum(reached)), waits=waits,
                     count=count, held=held, blocked=blocked, collisions=collisions,

@@ -50,14 +50,14 @@ def test_worked_example_of_the_docstring():
 def test_a_follower_starts_only_once_the_leader_has_left(strategy):
     engine = Engine(EXAMPLE, strategy)
     first = engine.handle(Resume(0.0))
-    assert [(d.robot, d.index) for d in first] == [(0, 0)]
+    assert [(d.agent, d.index) for d in first] == [(0, 0)]
     assert engine.handle(ActionCompleted(0, 0, 1.0)) == [first[0]._replace(index=1, step=1, src=(1, 0), dst=(2, 0))]
     # robot 0 is moving out of C: robot 1 may not start into C, under either strategy
     released = engine.handle(ActionCompleted(0, 1, 2.0))
-    assert [(d.robot, d.index) for d in released] == [(0, 2)]
-    assert engine.waiting()[0].robot == 1 and engine.waiting()[0].cell == (2, 0)
+    assert [(d.agent, d.index) for d in released] == [(0, 2)]
+    assert engine.waiting()[0].agent == 1 and engine.waiting()[0].cell == (2, 0)
     released = engine.handle(ActionCompleted(0, 2, 3.0))
-    assert [(d.robot, d.index) for d in released] == [(1, 0)]
+    assert [(d.agent, d.index) for d in released] == [(1, 0)]
 
 
 def test_a_swap_is_a_plan_error():

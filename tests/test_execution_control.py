@@ -44,7 +44,7 @@ def drive(engine: Engine, pending: List, time: float = 1.0) -> List:
     while pending:
         d = pending.pop(0)
         seen.append(d)
-        pending.extend(engine.handle(ActionCompleted(d.robot, d.index, time)))
+        pending.extend(engine.handle(ActionCompleted(d.agent, d.index, time)))
     return seen
 
 
@@ -53,7 +53,7 @@ def test_adg_blocks_only_the_chain_behind_a_disabled_robot():
     engine = Engine(CORRIDOR, "adg")
     engine.handle(Disabled(0, 0.0))
     done = drive(engine, engine.handle(Resume(0.0)))
-    assert {d.robot for d in done} == {3} and engine.run.finished_robot(3)
+    assert {d.agent for d in done} == {3} and engine.run.finished_agent(3)
     assert engine.waiting() == [(1, (0,), (3, 0), CELL), (2, (1,), (2, 0), CELL)]
     assert engine.blocked_by() == {0: [1, 2]} and engine.stalled and not engine.finished
     drive(engine, engine.handle(Enabled(0, 5.0)))  # continues where it stopped
@@ -64,8 +64,8 @@ def test_under_the_step_barrier_a_disabled_robot_blocks_everyone_waiting_for_the
     engine = Engine(CORRIDOR, "step")
     engine.handle(Disabled(0, 0.0))
     done = drive(engine, engine.handle(Resume(0.0)))
-    assert [(d.robot, d.step) for d in done] == [(3, 0)]  # then robot 3 waits for 1's step 0
-    waits = {w.robot: w for w in engine.waiting()}
+    assert [(d.agent, d.step) for d in done] == [(3, 0)]  # then robot 3 waits for 1's step 0
+    waits = {w.agent: w for w in engine.waiting()}
     assert waits[3].reason == BARRIER and waits[3].on == (1, 2)
     assert engine.blocked_by() == {0: [1, 2, 3]}
     drive(engine, engine.handle(Enabled(0, 5.0)))
@@ -74,29 +74,29 @@ def test_under_the_step_barrier_a_disabled_robot_blocks_everyone_waiting_for_the
 
 def test_a_robot_disabled_mid_move_may_still_finish_that_move_but_gets_nothing_new():
     engine = Engine(CORRIDOR, "adg", lookahead=3)
-    sent = [d for d in engine.handle(Resume(0.0)) if d.robot == 0]
+    sent = [d for d in engine.handle(Resume(0.0)) if d.agent == 0]
     assert [d.index for d in sent] == [0, 1, 2]  # three free cells ahead: sent at once
     engine.handle(ActionStarted(0, 0, 0.0))
     engine.handle(Disabled(0, 0.5))  # the unstarted two are taken back
     released = engine.handle(ActionCompleted(0, 0, 1.0))  # robot 1 may now enter (3, 0), no further
-    assert [(d.robot, d.index, d.dst) for d in released] == [(1, 0, (3, 0))]
+    assert [(d.agent, d.index, d.dst) for d in released] == [(1, 0, (3, 0))]
     assert engine.run.completed[0] == 1 and engine.run.dispatched[0] == 1
     with pytest.raises(EventError):
         engine.handle(ActionCompleted(0, 2, 1.5))
     again = engine.handle(Enabled(0, 2.0))
-    assert [(d.robot, d.index) for d in again] == [(0, 1), (0, 2)]
+    assert [(d.agent, d.index) for d in again] == [(0, 1), (0, 2)]
 
 
 def test_a_failed_robot_holds_both_cells_of_its_move_and_retries_it_when_enabled():
     engine = Engine(EXAMPLE, "adg")
     pending = engine.handle(Resume(0.0))
     pending = engine.handle(ActionCompleted(0, 0, 1.0))  # robot 0 in B, sent B->C
-    assert [(d.robot, d.index) for d in pending] == [(0, 1)]
+    assert [(d.agent, d.index) for d in pending] == [(0, 1)]
     engine.handle(ActionStarted(0, 1, 1.0))
     assert engine.handle(RobotFailed(0, 1.5)) == []
     assert engine.waiting() == [(1, (0,), (2, 0), CELL)] and engine.blocked_by() == {0: [1]}
     retry = engine.handle(Enabled(0, 9.0))
-    assert [(d.robot, d.index, d.src, d.dst) for d in retry] == [(0, 1, (1, 0), (2, 0))]
+    assert [(d.agent, d.index, d.src, d.dst) for d in retry] == [(0, 1, (1, 0), (2, 0))]
     drive(engine, retry)
     assert engine.finished
 
@@ -110,7 +110,7 @@ def test_disabled_then_enabled_in_a_simulated_run_is_safe_and_finishes(sample):
     resumed = simulate(sample, "adg", MODERATE, seed=3, disable={5: 10}, controls=[Enabled(5, late)])
     assert resumed.finished and not resumed.collisions
     assert resumed.trace.final_cells() == sample.goals
-    assert sum(resumed.metrics.robots[r].blocked_by.get(5, 0.0) for r in blocked) > 0
+    assert sum(resumed.metrics.agents[r].blocked_by.get(5, 0.0) for r in blocked) > 0
 
 
 # ---- pause and step ----------------------------------------------------------------------
@@ -121,7 +121,7 @@ def test_a_run_starts_paused_and_pause_stops_new_actions(sample):
     assert len(pending) > 50
     engine.handle(Pause(0.5))
     for d in pending:  # robots finish what they were sent, nothing new is sent
-        assert engine.handle(ActionCompleted(d.robot, d.index, 1.0)) == []
+        assert engine.handle(ActionCompleted(d.agent, d.index, 1.0)) == []
     assert engine.paused and not engine.stalled and engine.waiting()
     assert len(engine.handle(Resume(2.0))) > 50
 
@@ -134,8 +134,8 @@ def test_step_round_of_the_step_strategy_releases_exactly_one_plan_step(sample):
         steps = {d.step for d in done}
         assert len(steps) == 1
         t = steps.pop()
-        expected = {(r, a.index) for r in range(table.num_robots) for a in table.actions_of(r) if a.step == t}
-        assert {(d.robot, d.index) for d in done} == expected  # followers included, nothing more
+        expected = {(r, a.index) for r in range(table.num_agents) for a in table.actions_of(r) if a.step == t}
+        assert {(d.agent, d.index) for d in done} == expected  # followers included, nothing more
         assert not engine.run.moving and engine.paused
 
 
@@ -152,7 +152,7 @@ def test_step_round_of_the_adg_strategy_releases_one_action_per_robot(sample):
 def _starts_after_barrier_violations(result, since: float) -> int:
     """Moves started after `since` that began before an earlier-step move had completed."""
     table = result.engine.table
-    moves = [(m, a) for r in range(table.num_robots)
+    moves = [(m, a) for r in range(table.num_agents)
              for m, a in zip(result.trace.moves[r], table.actions_of(r))]
     last_end_before = {}
     for m, a in moves:
@@ -225,11 +225,11 @@ def test_events_that_contradict_the_progress_are_refused_and_change_nothing():
     engine = Engine(EXAMPLE, "adg")
     engine.handle(Resume(0.0))
     before = (list(engine.run.completed), list(engine.run.dispatched), bytes(engine.run.done))
-    with pytest.raises(EventError, match="robot 1 reports completing action 0, but .* it was sent 0"):
+    with pytest.raises(EventError, match="agent 1 reports completing action 0, but .* it was sent 0"):
         engine.handle(ActionCompleted(1, 0, 1.0))
-    with pytest.raises(EventError, match="robot 0 reports completing action 1, but its next action to complete is 0"):
+    with pytest.raises(EventError, match="agent 0 reports completing action 1, but its next action to complete is 0"):
         engine.handle(ActionCompleted(0, 1, 1.0))
-    with pytest.raises(EventError, match="no robot 7 in this plan of 2 robots"):
+    with pytest.raises(EventError, match="no agent 7 in this plan of 2 agents"):
         engine.handle(ActionStarted(7, 0, 1.0))
     with pytest.raises(EventError, match="not an engine event"):
         engine.handle("go")
@@ -258,7 +258,7 @@ def test_waits_are_charged_to_the_robot_that_held_them_up():
     durations = np.array([3.0, 1.0, 1.0])  # robot 0's only move is slow
     step = simulate(plan, "step", durations=durations)
     assert step.metrics.makespan == 4.0 and step.metrics.soc == 3.0 + 4.0
-    robot1 = step.metrics.robots[1]
+    robot1 = step.metrics.agents[1]
     assert (robot1.waits, robot1.wait_time, robot1.blocked_by) == (1, 2.0, {0: 2.0})
     adg = simulate(plan, "adg", durations=durations)
     assert adg.metrics.makespan == 3.0 and adg.metrics.total_waits == 0
@@ -268,7 +268,7 @@ def test_a_follower_waits_for_its_leader_and_the_metrics_say_so():
     result = simulate(EXAMPLE, "adg", durations=np.array([1.0, 1.0, 2.0, 1.0, 1.0]))
     m = result.metrics
     assert m.makespan == 6.0 and m.soc == 4.0 + 6.0 and m.reached == [0, 1]
-    assert (m.robots[1].waits, m.robots[1].wait_time, m.robots[1].blocked_by) == (1, 4.0, {0: 4.0})
+    assert (m.agents[1].waits, m.agents[1].wait_time, m.agents[1].blocked_by) == (1, 4.0, {0: 4.0})
     assert m.blocking_pairs() == [(4.0, 1, 0)]
 
 
@@ -279,10 +279,10 @@ def test_a_new_strategy_is_one_class_and_one_registration(shared_data):
 
         def holds(self, a: int) -> bool:
             run = self.run
-            return any(run.dispatched[r] > run.completed[r] for r in range(run.num_robots))
+            return any(run.dispatched[r] > run.completed[r] for r in range(run.num_agents))
 
         def on_completed(self, a: int):
-            return range(self.run.num_robots)
+            return range(self.run.num_agents)
 
     register(OneAtATime)
     try:

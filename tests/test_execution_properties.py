@@ -58,15 +58,15 @@ def delay_models(draw) -> DelayModel:
 def draw_delays(model: DelayModel, plan: Plan, seed: int):
     model = dataclasses.replace(model, robots=tuple((r % plan.num_agents, f) for r, f in model.robots))
     table = ActionTable.from_plan(plan)
-    return simulator_durations(model, table.robot, table.num_robots, seed)
+    return simulator_durations(model, table.agent, table.num_agents, seed)
 
 
 def naive_trace(table: ActionTable, durations: np.ndarray, waits: Optional[np.ndarray] = None) -> Trace:
     """Every robot keeps its own timeline: a plan step of waiting takes 1, a move its wait and
     duration."""
-    trace = Trace([table.start(r) for r in range(table.num_robots)])
+    trace = Trace([table.start(r) for r in range(table.num_agents)])
     waits = np.zeros(table.num_actions) if waits is None else waits
-    for r in range(table.num_robots):
+    for r in range(table.num_agents):
         now, step = 0.0, 0
         for a in table.actions_of(r):
             now += a.step - step + float(waits[table.first[r] + a.index])

@@ -9,7 +9,7 @@ from fleet_common.execution.trace import SWAP, VERTEX, CollisionCount, Trace, fi
 
 
 def kinds(trace: Trace):
-    return sorted((c.kind, c.robots) for c in find_collisions(trace))
+    return sorted((c.kind, c.agents) for c in find_collisions(trace))
 
 
 def test_entering_a_cell_where_a_robot_stands_is_a_vertex_collision():
@@ -17,7 +17,7 @@ def test_entering_a_cell_where_a_robot_stands_is_a_vertex_collision():
     trace.add(1, 1.0, 2.0, (0, 0), (1, 0))
     trace.add(1, 2.0, 3.0, (1, 0), (1, 1))  # drives through without stopping
     [hit] = find_collisions(trace)  # one incident, counted once
-    assert hit.kind == VERTEX and hit.robots == (0, 1) and hit.cells == ((1, 0),)
+    assert hit.kind == VERTEX and hit.agents == (0, 1) and hit.cells == ((1, 0),)
     assert hit.time == 1.0 and hit.moving == (False, True)
 
 
@@ -60,7 +60,7 @@ def test_two_robots_starting_in_one_cell_collide_at_the_beginning():
 
 def test_a_trace_refuses_a_move_from_where_the_robot_is_not():
     trace = Trace([(0, 0)])
-    with pytest.raises(ValueError, match=r"robot 0 cannot move \(3, 3\)->\(3, 4\)"):
+    with pytest.raises(ValueError, match=r"agent 0 cannot move \(3, 3\)->\(3, 4\)"):
         trace.add(0, 0.0, 1.0, (3, 3), (3, 4))
 
 
@@ -98,6 +98,6 @@ def test_the_running_count_agrees_with_judging_the_whole_trace(example):
 
 def test_the_running_count_refuses_a_move_from_where_the_robot_is_not():
     count = CollisionCount([(0, 0)])
-    with pytest.raises(ValueError, match=r"robot 0 cannot move"):
+    with pytest.raises(ValueError, match=r"agent 0 cannot move"):
         count.add(0, 0.0, 1.0, (3, 3), (3, 4))
     assert count.collisions == 0

@@ -136,7 +136,7 @@ def _robots(names: Names, n: int) -> str:
 
 def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int, names: Names) -> List[str]:
     engine, m = result.engine, result.metrics
-    n = engine.run.num_robots
+    n = engine.run.num_agents
     missing = result.unfinished()
     partial = "" if not missing else " (robots that reached their goals only)"
     lines = [
@@ -148,7 +148,7 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
             m.makespan, partial),
         "sum of costs: {:.2f}{}".format(m.soc, partial),
         "waits: {} by {} robots, {:.2f} in total".format(
-            m.total_waits, sum(1 for r in m.robots if r.waits), m.total_wait_time),
+            m.total_waits, sum(1 for r in m.agents if r.waits), m.total_wait_time),
     ]
     pairs = m.blocking_pairs()[:5]
     if pairs:
@@ -163,7 +163,7 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
     vertex = sum(1 for c in result.collisions if c.kind == VERTEX)
     swap = sum(1 for c in result.collisions if c.kind == SWAP)
     lines.append("collisions: {} (vertex {}, swap {})".format(len(result.collisions), vertex, swap))
-    enabled = n - len(engine.out_robots())
+    enabled = n - len(engine.out_agents())
     reached = "reached goal: {} of {} enabled robots".format(enabled - len(missing), enabled)
     if missing:
         reached += "; not reached: robot{} {}".format("s" if len(missing) > 1 else "", names.all(missing))
@@ -173,7 +173,7 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
 
 def _per_robot(result: SimResult, names: Names) -> List[str]:
     lines = ["robot  moves  arrival  waits  wait time  waited for robot (time)"]
-    for r, rm in enumerate(result.metrics.robots):
+    for r, rm in enumerate(result.metrics.agents):
         arrival = "-" if rm.arrival is None else "{:.2f}".format(rm.arrival)
         who = ", ".join("{} ({:.2f})".format(names(q), t) for q, t in sorted(
             rm.blocked_by.items(), key=lambda kv: -kv[1]))

@@ -123,7 +123,8 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
     from fleet_common.formats.mapsearch import default_map_dirs
 
-    from .manager import Manager, ManagerSettings
+    from .manager import Manager
+    from .settings import ManagerSettings
     from .plan_source import load_plan, pick_robots
 
     dirs = list(args.map_dir) + default_map_dirs()
@@ -151,9 +152,9 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda signum, _frame: stopping.append(signal.Signals(signum).name))
     print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}; consoles on {} ({}){}".format(
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
-        loaded.plan.makespan, manager.engine.strategy.describe(), manager.consoles.endpoint,
+        loaded.plan.makespan, manager.core.run.engine.strategy.describe(), manager.consoles.endpoint,
         ("CURVE" if keys is not None else "no CURVE") + (
-            "; Vicon on UDP {}:{}".format(*manager.vicon.provider.address)
+            "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),
         "; run folder {}".format(manager.folder) if manager.folder else ""), flush=True)
     outcome: Optional[str] = None
@@ -165,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
                                   time_limit=args.time_limit)
     finally:
         reason = ("interrupted ({})".format(stopping[0]) if stopping else outcome
-                  or ("done" if manager.run_state == "done" else "manager stopped"))
+                  or ("done" if manager.core.run.phase.phase == "done" else "manager stopped"))
         manager.stop_robots()
         manager.close(reason)
     summary = manager.summary()
@@ -190,9 +191,9 @@ def _start_when_ready(manager, timeout: float, should_stop) -> Optional[str]:
     while not should_stop():
         until = min(deadline, manager.now() + 0.2)
         manager.run(lambda: should_stop() or manager.now() >= until)
-        problem = manager.steering.not_ready()
+        problem = manager.core.run.not_ready()
         if not problem:
-            ok, problem = manager.steering.start({})
+            ok, problem = manager.start()
             if ok:
                 print("started: every robot connected and on its start cell", flush=True)
                 return None

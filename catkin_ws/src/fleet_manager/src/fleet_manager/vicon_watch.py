@@ -1,63 +1,63 @@
-"""The manager's Vicon: poses from the provider into `Positions`, changes told to consoles.
+"""Vicon's view of the fleet: poses in, robots that disagree with it or that it lost, told.
 
-`ViconWatch` is what the manager's loop calls when the Vicon socket is
-readable (`readable`) and on its pose timer (`check`). It feeds every fresh
-Vicon pose to `Positions`, asks it to compare each robot's own pose with
-Vicon's, and reports, as `vicon` run-log records and console events, a robot
-that starts or stops disagreeing and one that Vicon loses (stale) or sees again.
+The manager's loop reads Vicon's stream (`vicon_provider`) and gives the
+core each fresh pose (`ViconWatch.poses`); on its pose timer it asks which
+robots Vicon lost or sees again (`check`). Each robot's own pose is compared
+with Vicon's (`pose_disagreement`), and a robot that starts or stops
+disagreeing, that Vicon loses (no pose for the stale time) or sees again, is
+reported as a `vicon` run-log record and a console notice.
 """
 from __future__ import annotations
 
-import logging
-from pathlib import Path
-from typing import Callable, Dict, Optional, Sequence
+from typing import Iterable
 
-from fleet_common.robots import RobotDefinition
-from fleet_common.vicon.base_grid import load_vicon_to_base
+from fleet_common.vicon.base_grid import ViconFix
 
-from .positions import VICON, Positions
-from .vicon_provider import ViconProvider
+from .outbox import Outbox
+from .pose_disagreement import DisagreementDetector
+from .robot import VICON, Fleet, Seen
 
 __all__ = ["ViconWatch"]
 
 
 class ViconWatch:
-    def __init__(self, robots: Sequence[RobotDefinition], positions: Positions, port: int,
-                 bind: str, frames: Optional[Path], now: Callable[[], float],
-                 note: Callable[..., None], tell: Callable[[str, Optional[int], str], None],
-                 clock: Callable[[], float], log: Optional[logging.Logger] = None) -> None:
-        self.positions = positions
-        self.now, self.note, self.tell = now, note, tell
-        self.provider = ViconProvider(robots, load_vicon_to_base(frames), port=port, bind=bind,
-                                      stale_after=positions.stale_after, clock=clock, log=log)
-        self.lost: Dict[int, bool] = {}  # robot id -> Vicon has lost it (seen before)
-        positions.vicon_enabled = True
+    def __init__(self, fleet: Fleet, out: Outbox, disagree_after: float = 0.5,
+                 agree_below: float = 0.3) -> None:
+        self.fleet = fleet
+        self.out = out
+        self.detector = DisagreementDetector(disagree_after, agree_below)
+        fleet.vicon_enabled = True
 
-    def readable(self) -> None:
-        now = self.now()
-        for fix in self.provider.handle_readable():
-            self.positions.from_vicon(fix.robot_id, fix.pose, now)
-        for robot, disagrees, distance in self.positions.compare(now):
-            self.note("vicon", robot=robot, event="disagree" if disagrees else "agree",
-                      distance=round(distance, 3))
-            self.tell("vicon", robot, "robot {}: {} ({:.2f} cells apart)".format(
-                robot, "its own pose and Vicon's disagree: is it lost?" if disagrees
-                else "its own pose agrees with Vicon again", distance))
+    def poses(self, fixes: Iterable[ViconFix], now: float) -> None:
+        for fix in fixes:
+            robot = self.fleet.by_id.get(fix.robot_id)
+            if robot is not None:
+                robot.vicon = Seen(fix.pose, now)
+        stale = self.fleet.stale_after
+        for robot in self.fleet:
+            own, seen = robot.own, robot.vicon
+            if own is None or seen is None or now - own.at > stale or now - seen.at > stale:
+                continue
+            event = self.detector.update(robot.id, own.pose, own.at, seen.pose, seen.at, now)
+            if event is None:
+                continue
+            robot.disagreeing = event.disagree
+            self.out.record("vicon", robot=robot.id, event="disagree" if event.disagree else "agree",
+                            distance=round(event.distance, 3))
+            self.out.tell("vicon", robot.id, "robot {}: {} ({:.2f} cells apart)".format(
+                robot.id, "its own pose and Vicon's disagree: is it lost?" if event.disagree
+                else "its own pose agrees with Vicon again", event.distance))
 
     def check(self, now: float) -> None:
         """Tell when Vicon loses a robot (no pose for the stale time) or sees it again."""
-        for robot in self.positions.vicon:
-            age = self.positions.age(robot, now, VICON)
+        for robot in self.fleet:
+            age = robot.age(now, VICON)
             if age is None:
                 continue
-            lost = age > self.positions.stale_after
-            if lost != self.lost.get(robot, False):
-                self.lost[robot] = lost
-                self.note("vicon", robot=robot, event="stale" if lost else "seen",
-                          distance=None)
-                self.tell("vicon", robot, "robot {}: {}".format(
-                    robot, "Vicon does not see it ({:.1f} s)".format(age) if lost
+            lost = age > self.fleet.stale_after
+            if lost != robot.vicon_lost:
+                robot.vicon_lost = lost
+                self.out.record("vicon", robot=robot.id, event="stale" if lost else "seen", distance=None)
+                self.out.tell("vicon", robot.id, "robot {}: {}".format(
+                    robot.id, "Vicon does not see it ({:.1f} s)".format(age) if lost
                     else "Vicon sees it again"))
-
-    def close(self) -> None:
-        self.provider.close()

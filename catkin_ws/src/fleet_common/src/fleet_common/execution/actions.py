@@ -30,7 +30,7 @@ def _identity(c: Coord) -> Coord:
 class Action(NamedTuple):
     """One move of one robot: its `index`-th action, made in plan step `step`."""
 
-    robot: int
+    agent: int
     index: int
     step: int
     src: Coord
@@ -40,13 +40,13 @@ class Action(NamedTuple):
 class ActionTable:
     """Every robot's moves in a plan, as flat arrays (see the module docstring)."""
 
-    __slots__ = ("robot", "step", "src", "dst", "first", "start_cell", "x0", "y0", "width",
+    __slots__ = ("agent", "step", "src", "dst", "first", "start_cell", "x0", "y0", "width",
                  "makespan")
 
-    def __init__(self, robot: np.ndarray, step: np.ndarray, src: np.ndarray, dst: np.ndarray,
+    def __init__(self, agent: np.ndarray, step: np.ndarray, src: np.ndarray, dst: np.ndarray,
                  first: np.ndarray, start_cell: np.ndarray, x0: int, y0: int, width: int,
                  makespan: int) -> None:
-        self.robot = robot
+        self.agent = agent
         self.step = step
         self.src = src
         self.dst = dst
@@ -74,12 +74,12 @@ class ActionTable:
         width = int(pos[:, :, 0].max()) - x0 + 1
         ids = (pos[:, :, 1] - y0) * width + (pos[:, :, 0] - x0)  # (steps, n)
         moving = ids[1:] != ids[:-1]  # (steps - 1, n)
-        robot, step = np.nonzero(moving.T)  # robot-major, steps ascending within a robot
-        dist = np.abs(pos[step + 1, robot] - pos[step, robot]).sum(axis=1)
+        agent, step = np.nonzero(moving.T)  # robot-major, steps ascending within a robot
+        dist = np.abs(pos[step + 1, agent] - pos[step, agent]).sum(axis=1)
         bad = np.nonzero(dist != 1)[0]
         if bad.size:
             a = int(bad[0])
-            r, t = int(robot[a]), int(step[a])
+            r, t = int(agent[a]), int(step[a])
             here = (int(pos[t, r, 0]), int(pos[t, r, 1]))
             there = (int(pos[t + 1, r, 0]), int(pos[t + 1, r, 1]))
             raise PlanError("agent {} jumps from {} at t={} to {} at t={}: robots move between "
@@ -87,46 +87,46 @@ class ActionTable:
                             JUMP, t, (r,), (here, there))
         first = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(moving.sum(axis=0), out=first[1:])
-        return cls(robot.astype(np.int64), step.astype(np.int64), ids[step, robot],
-                   ids[step + 1, robot], first, ids[0].copy(), x0, y0, width, steps - 1)
+        return cls(agent.astype(np.int64), step.astype(np.int64), ids[step, agent],
+                   ids[step + 1, agent], first, ids[0].copy(), x0, y0, width, steps - 1)
 
     @property
-    def num_robots(self) -> int:
+    def num_agents(self) -> int:
         return int(self.first.shape[0]) - 1
 
     @property
     def num_actions(self) -> int:
-        return int(self.robot.shape[0])
+        return int(self.agent.shape[0])
 
     def coord(self, cell: int) -> Coord:
         """The base-grid cell of cell id `cell`."""
         y, x = divmod(int(cell), self.width)
         return (x + self.x0, y + self.y0)
 
-    def count(self, robot: int) -> int:
+    def count(self, agent: int) -> int:
         """How many actions robot `robot` has."""
-        return int(self.first[robot + 1] - self.first[robot])
+        return int(self.first[agent + 1] - self.first[agent])
 
-    def action(self, robot: int, index: int) -> Action:
-        a = int(self.first[robot]) + index
-        if not 0 <= index < self.count(robot):
-            raise IndexError("robot {} has no action {} (it has {})".format(
-                robot, index, self.count(robot)))
+    def action(self, agent: int, index: int) -> Action:
+        a = int(self.first[agent]) + index
+        if not 0 <= index < self.count(agent):
+            raise IndexError("agent {} has no action {} (it has {})".format(
+                agent, index, self.count(agent)))
         return self.action_at(a)
 
     def action_at(self, a: int) -> Action:
         """The action with flat index `a`."""
-        r = int(self.robot[a])
+        r = int(self.agent[a])
         return Action(r, a - int(self.first[r]), int(self.step[a]), self.coord(self.src[a]),
                       self.coord(self.dst[a]))
 
-    def actions_of(self, robot: int) -> List[Action]:
-        return [self.action_at(a) for a in range(int(self.first[robot]), int(self.first[robot + 1]))]
+    def actions_of(self, agent: int) -> List[Action]:
+        return [self.action_at(a) for a in range(int(self.first[agent]), int(self.first[agent + 1]))]
 
-    def start(self, robot: int) -> Coord:
-        return self.coord(self.start_cell[robot])
+    def start(self, agent: int) -> Coord:
+        return self.coord(self.start_cell[agent])
 
-    def goal(self, robot: int) -> Coord:
+    def goal(self, agent: int) -> Coord:
         """Where the robot ends: the target of its last action, else its start."""
-        end = int(self.first[robot + 1])
-        return self.coord(self.dst[end - 1]) if end > int(self.first[robot]) else self.start(robot)
+        end = int(self.first[agent + 1])
+        return self.coord(self.dst[end - 1]) if end > int(self.first[agent]) else self.start(agent)

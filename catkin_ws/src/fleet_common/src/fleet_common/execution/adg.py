@@ -81,7 +81,7 @@ class ActionDependencyGraph:
     def type1_edges(self) -> np.ndarray:
         """(E, 2) array of (before, after) pairs along each robot's actions."""
         a = np.arange(1, self.table.num_actions)
-        same = self.table.robot[a] == self.table.robot[a - 1]
+        same = self.table.agent[a] == self.table.agent[a - 1]
         return np.stack([a[same] - 1, a[same]], axis=1)
 
     def type2_edges(self) -> np.ndarray:
@@ -92,7 +92,7 @@ class ActionDependencyGraph:
     def predecessors(self, a: int) -> List[int]:
         """Every action that must complete before action `a` may start."""
         out = []
-        if a > 0 and self.table.robot[a - 1] == self.table.robot[a]:
+        if a > 0 and self.table.agent[a - 1] == self.table.agent[a]:
             out.append(a - 1)
         if self.dep[a] >= 0:
             out.append(int(self.dep[a]))
@@ -110,41 +110,41 @@ def build_adg(table: ActionTable, show: Callable[[Coord], Coord] = _identity) ->
 
     `show` turns base cells into the coordinates messages should use.
     """
-    n, count = table.num_robots, table.num_actions
-    first, robot, step = table.first, table.robot, table.step
+    n, count = table.num_agents, table.num_actions
+    first, agent, step = table.first, table.agent, table.step
     dep = np.full(count, -1, dtype=np.int64)
     succ = np.full(count, -1, dtype=np.int64)
     if n < 2:
         return ActionDependencyGraph(table, dep, succ)
     acts = np.arange(count, dtype=np.int64)
     has_moves = first[1:] > first[:-1]
-    last_of_robot = first[robot + 1] - 1
+    last_of_agent = first[agent + 1] - 1
     # one visit per start cell and per action (the cell it enters)
-    v_robot = np.concatenate([np.arange(n, dtype=np.int64), robot])
+    v_agent = np.concatenate([np.arange(n, dtype=np.int64), agent])
     v_cell = np.concatenate([table.start_cell, table.dst])
     v_begin = np.concatenate([np.zeros(n, dtype=np.int64), step + 1])
     v_enter = np.concatenate([np.full(n, -1, dtype=np.int64), acts])
-    v_leave = np.concatenate([np.where(has_moves, first[:-1], -1), np.where(acts < last_of_robot, acts + 1, -1)])
+    v_leave = np.concatenate([np.where(has_moves, first[:-1], -1), np.where(acts < last_of_agent, acts + 1, -1)])
     order = np.argsort(v_cell * (table.makespan + 2) + v_begin, kind="stable")
-    cell_o, robot_o = v_cell[order], v_robot[order]
-    pair = np.nonzero((cell_o[1:] == cell_o[:-1]) & (robot_o[1:] != robot_o[:-1]))[0]
+    cell_o, agent_o = v_cell[order], v_agent[order]
+    pair = np.nonzero((cell_o[1:] == cell_o[:-1]) & (agent_o[1:] != agent_o[:-1]))[0]
     p, q = order[pair], order[pair + 1]  # p's visit, then q's visit to the same cell
     leave, enter = v_leave[p], v_enter[q]
     # q arrives (at v_begin[q]) while p is still there: p never leaves, or leaves later
     padded = np.append(step, 0)  # index -1 (no such action) reads the pad
     clash = (leave < 0) | (enter < 0) | (padded[leave] > padded[enter])
     if clash.any():
-        _raise_vertex(table, p[clash], q[clash], v_robot, v_cell, v_begin, show)
+        _raise_vertex(table, p[clash], q[clash], v_agent, v_cell, v_begin, show)
     dep[enter] = leave
     succ[leave] = enter
     _check_cycles(table, dep, show)
     return ActionDependencyGraph(table, dep, succ)
 
 
-def _raise_vertex(table: ActionTable, p: np.ndarray, q: np.ndarray, v_robot: np.ndarray,
+def _raise_vertex(table: ActionTable, p: np.ndarray, q: np.ndarray, v_agent: np.ndarray,
                   v_cell: np.ndarray, v_begin: np.ndarray, show: Callable[[Coord], Coord]) -> None:
     k = int(np.argmin(v_begin[q]))  # the earliest clash
-    i, j, t = int(v_robot[p[k]]), int(v_robot[q[k]]), int(v_begin[q[k]])
+    i, j, t = int(v_agent[p[k]]), int(v_agent[q[k]]), int(v_begin[q[k]])
     cell = table.coord(v_cell[q[k]])
     raise PlanError("vertex conflict at t={}: agents {} and {} both at {}".format(
         t, min(i, j), max(i, j), show(cell)), VERTEX, t, (min(i, j), max(i, j)), (cell,))
@@ -155,12 +155,12 @@ def _check_cycles(table: ActionTable, dep: np.ndarray, show: Callable[[Coord], C
     # same-step type-2 edges are following moves: a follows dep[a]; their cycles are swaps and
     # rotations, found as the validator finds them (fleet_common.rotations)
     links = np.where((dep >= 0) & (step[np.maximum(dep, 0)] == step), dep, -1)
-    found = cycles(links, table.num_robots, limit=1)
+    found = cycles(links, table.num_agents, limit=1)
     if not found:
         return
     cycle = found[0].tolist()  # the one with the smallest action: the lowest robot's first
     t = int(step[cycle[0]])
-    agents = [int(table.robot[a]) for a in cycle]
+    agents = [int(table.agent[a]) for a in cycle]
     cells = [table.coord(table.dst[a]) for a in cycle]
     if len(cycle) == 2:
         i, j = sorted(agents)

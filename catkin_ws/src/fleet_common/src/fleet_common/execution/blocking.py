@@ -24,7 +24,7 @@ def blocked_by(waits: Sequence[Wait], out: Iterable[int]) -> Dict[int, List[int]
     waiters: Dict[Tuple[str, int], List[Tuple[str, int]]] = {}
     groups: Dict[int, int] = {}  # id(on tuple) -> group number
     for w in waits:
-        me = ("r", w.robot)
+        me = ("r", w.agent)
         if len(w.on) == 1:
             waiters.setdefault(("r", w.on[0]), []).append(me)
             continue

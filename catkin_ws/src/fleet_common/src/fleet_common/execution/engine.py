@@ -69,7 +69,7 @@ class Engine:
                 ", ".join(settings)))
         self.strategy = make_strategy(strategy, **settings) if isinstance(strategy, str) else strategy
         self.strategy.attach(self.run)
-        self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_robots)])
+        self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_agents)])
         self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
         self._handlers: Dict[type, Callable[..., Recheck]] = {
             ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
@@ -82,10 +82,10 @@ class Engine:
         handler = self._handlers.get(type(event))
         if handler is None:
             raise EventError("not an engine event: {!r}".format(event))
-        robots, released_by = handler(event)
+        agents, released_by = handler(event)
         self.run.version += 1
         self.metrics.record(event)
-        return self._dispatch(robots, released_by, event.time)  # type: ignore[attr-defined]
+        return self._dispatch(agents, released_by, event.time)  # type: ignore[attr-defined]
 
     @property
     def paused(self) -> bool:
@@ -101,13 +101,13 @@ class Engine:
         """Running, not finished, and nothing moving: only an out robot can cause this."""
         return not self.paused and not self.finished and not self.run.moving
 
-    def out_robots(self) -> List[int]:
+    def out_agents(self) -> List[int]:
         return [r for r, why in enumerate(self.run.out) if why is not None]
 
     def waiting(self) -> List[Wait]:
         """Robots ready for their next action that may not start it, and why."""
         run, cap, out = self.run, self._cap, []
-        for r in range(run.num_robots):
+        for r in range(run.num_agents):
             if run.out[r] is not None or run.dispatched[r] > run.completed[r]:
                 continue
             a = run.next_undispatched(r)
@@ -117,7 +117,7 @@ class Engine:
             if cap is not None and run.dispatched[r] >= cap[r]:
                 out.append(Wait(r, (), None, PAUSED))
             elif d >= 0 and not run.done[d]:
-                out.append(Wait(r, (run.robot[d],), self.table.coord(run.dst[a]), CELL))
+                out.append(Wait(r, (run.agent[d],), self.table.coord(run.dst[a]), CELL))
             elif self.strategy.holds(a):
                 reason, on = self.strategy.hold_reason(a)
                 out.append(Wait(r, on, None, reason))
@@ -125,29 +125,29 @@ class Engine:
 
     def blocked_by(self) -> Dict[int, List[int]]:
         """For each out robot, the robots now waiting for it, directly or transitively."""
-        return blocked_by(self.waiting(), self.out_robots())
+        return blocked_by(self.waiting(), self.out_agents())
 
     # ---- events -------------------------------------------------------------------------
-    def _robot(self, r: object, event: object) -> int:
-        if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.run.num_robots:
-            raise EventError("{!r}: no robot {!r} in this plan of {} robots".format(
-                event, r, self.run.num_robots))
+    def _agent(self, r: object, event: object) -> int:
+        if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.run.num_agents:
+            raise EventError("{!r}: no agent {!r} in this plan of {} agents".format(
+                event, r, self.run.num_agents))
         return r
 
     def _started(self, e: ActionStarted) -> Recheck:
-        run, r = self.run, self._robot(e.robot, e)
+        run, r = self.run, self._agent(e.agent, e)
         if not run.completed[r] <= e.index < run.sent[r]:
-            raise EventError("robot {} reports starting action {}, but it was sent actions up to {} "
+            raise EventError("agent {} reports starting action {}, but it was sent actions up to {} "
                              "and completed {}".format(r, e.index, run.sent[r] - 1, run.completed[r]), r)
         run.started[r] = max(run.started[r], e.index + 1)
         run.dispatched[r] = max(run.dispatched[r], e.index + 1)  # a withdrawn action it began anyway
         return (), None
 
     def _completed(self, e: ActionCompleted) -> Recheck:
-        run, r = self.run, self._robot(e.robot, e)
+        run, r = self.run, self._agent(e.agent, e)
         k = e.index
         if k != run.completed[r] or k >= run.sent[r]:
-            raise EventError("robot {} reports completing action {}, but its next action to complete "
+            raise EventError("agent {} reports completing action {}, but its next action to complete "
                              "is {} and it was sent {}".format(r, k, run.completed[r], run.sent[r]), r)
         a = run.first[r] + k
         run.done[a] = 1
@@ -156,13 +156,13 @@ class Engine:
         run.dispatched[r] = max(run.dispatched[r], k + 1)
         extra = self.strategy.on_completed(a)
         s = run.succ[a]
-        robots = [r] if s < 0 else [r, run.robot[s]]
+        agents = [r] if s < 0 else [r, run.agent[s]]
         if extra:
-            robots.extend(extra)
-        return robots, r
+            agents.extend(extra)
+        return agents, r
 
     def _failed(self, e: RobotFailed) -> Recheck:
-        run, r = self.run, self._robot(e.robot, e)
+        run, r = self.run, self._agent(e.agent, e)
         was_active = run.out[r] is None
         run.out[r] = FAILED
         # nothing it was sent counts as done; on Enabled it is sent its next action again
@@ -170,7 +170,7 @@ class Engine:
         return (self.strategy.on_out(r) if was_active else ()), r
 
     def _disabled(self, e: Disabled) -> Recheck:
-        run, r = self.run, self._robot(e.robot, e)
+        run, r = self.run, self._agent(e.agent, e)
         was_active = run.out[r] is None
         if run.out[r] is None:
             run.out[r] = DISABLED
@@ -178,7 +178,7 @@ class Engine:
         return (self.strategy.on_out(r) if was_active else ()), r
 
     def _enabled(self, e: Enabled) -> Recheck:
-        run, r = self.run, self._robot(e.robot, e)
+        run, r = self.run, self._agent(e.agent, e)
         if run.out[r] is None:
             return (), None
         run.out[r] = None
@@ -186,7 +186,7 @@ class Engine:
 
     def _resume(self, e: Resume) -> Recheck:
         self._cap = None
-        return range(self.run.num_robots), None
+        return range(self.run.num_agents), None
 
     def _pause(self, e: Pause) -> Recheck:
         self._cap = list(self.run.dispatched)
@@ -195,7 +195,7 @@ class Engine:
     def _step_round(self, e: StepRound) -> Recheck:
         limits = self.strategy.round()
         self._cap = [max(c, d) for c, d in zip(limits, self.run.dispatched)]
-        return range(self.run.num_robots), None
+        return range(self.run.num_agents), None
 
     def _switch(self, e: SwitchStrategy) -> Recheck:
         new = e.strategy
@@ -203,15 +203,15 @@ class Engine:
             raise EventError("SwitchStrategy needs a new strategy from make_strategy(), got {!r}".format(new))
         new.attach(self.run)
         self.strategy = new
-        return range(self.run.num_robots), None
+        return range(self.run.num_agents), None
 
     # ---- decisions ----------------------------------------------------------------------
-    def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
+    def _dispatch(self, agents: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
         run, strategy, cap, out = self.run, self.strategy, self._cap, []
         first, dep, done, step = run.first, run.dep, run.done, run.step
         window = strategy.window
         coord = self.table.coord
-        for r in robots:
+        for r in agents:
             if run.out[r] is not None:
                 continue
             base = first[r]

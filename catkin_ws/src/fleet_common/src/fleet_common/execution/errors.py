@@ -35,9 +35,9 @@ class PlanError(FleetError, ValueError):
 class EventError(FleetError, ValueError):
     """A progress event the engine cannot accept in its current state (it is ignored)."""
 
-    def __init__(self, message: str, robot: Optional[int] = None) -> None:
+    def __init__(self, message: str, agent: Optional[int] = None) -> None:
         super().__init__(message)
-        self.robot = robot
+        self.agent = agent
 
 
 class UnknownStrategyError(FleetError, ValueError):

@@ -7,7 +7,7 @@ it only passes times on to the metrics. Robots report progress (`ActionStarted`,
 (`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`).
 A run starts paused: the first `Resume` starts it.
 
-`Engine.handle(event)` answers with `Dispatch` decisions: robot r may start
+`Engine.handle(event)` answers with `Dispatch` decisions: agent r may start
 its action `index` now (move from `src` to `dst`, plan step `step`). The
 caller sends each one to its robot exactly once. An action that `RobotFailed` or
 `Disabled` took back (sent, not started) is dispatched again when the robot
@@ -30,43 +30,43 @@ from .strategy import Strategy
 
 @dataclass(frozen=True)
 class ActionStarted:
-    """Robot `robot` began its action `index` (optional: completion implies it)."""
+    """Agent `agent` began its action `index` (optional: completion implies it)."""
 
-    robot: int
+    agent: int
     index: int
     time: float
 
 
 @dataclass(frozen=True)
 class ActionCompleted:
-    """Robot `robot` finished its action `index`: it is wholly in the action's `dst`."""
+    """Agent `agent` finished its action `index`: it is wholly in the action's `dst`."""
 
-    robot: int
+    agent: int
     index: int
     time: float
 
 
 @dataclass(frozen=True)
 class RobotFailed:
-    """Robot `robot` stopped with a fault; it is out until `Enabled`, then retries."""
+    """The robot of agent `agent` stopped with a fault; it is out until `Enabled`, then retries."""
 
-    robot: int
+    agent: int
     time: float
 
 
 @dataclass(frozen=True)
 class Disabled:
-    """The operator took `robot` out (a dead battery): it is sent nothing new."""
+    """The operator took agent `agent` out (a dead battery): it is sent nothing new."""
 
-    robot: int
+    agent: int
     time: float
 
 
 @dataclass(frozen=True)
 class Enabled:
-    """`robot` takes part again and continues where it stopped."""
+    """Agent `agent` takes part again and continues where it stopped."""
 
-    robot: int
+    agent: int
     time: float
 
 
@@ -100,9 +100,9 @@ class SwitchStrategy:
 
 
 class Dispatch(NamedTuple):
-    """Decision: robot `robot` may start its action `index` (plan step `step`)."""
+    """Decision: agent `agent` may start its action `index` (plan step `step`)."""
 
-    robot: int
+    agent: int
     index: int
     step: int
     src: Coord
@@ -116,12 +116,12 @@ PAUSED = "paused"
 
 
 class Wait(NamedTuple):
-    """Robot `robot` is ready for its next action but waits for robots `on`.
+    """Agent `agent` is ready for its next action but waits for agents `on`.
 
     `cell` is the cell it waits to enter (reason CELL) or None.
     """
 
-    robot: int
+    agent: int
     on: Tuple[int, ...]
     cell: Optional[Coord]
     reason: str

@@ -33,9 +33,9 @@ class RobotMetrics:
 class Metrics:
     """Fed by the engine with every event and dispatch; read at any time."""
 
-    def __init__(self, actions_per_robot: List[int]) -> None:
-        self.counts = list(actions_per_robot)
-        self.robots = [RobotMetrics(arrival=0.0 if c == 0 else None) for c in self.counts]
+    def __init__(self, actions_per_agent: List[int]) -> None:
+        self.counts = list(actions_per_agent)
+        self.agents = [RobotMetrics(arrival=0.0 if c == 0 else None) for c in self.counts]
         self.begin: Optional[float] = None
         self.last_completion: Optional[float] = None
         self._ready: List[Optional[float]] = [None] * len(self.counts)
@@ -46,39 +46,39 @@ class Metrics:
 
     def record(self, event: object) -> None:
         if isinstance(event, ActionCompleted):
-            self._completed(event.robot, event.time)
+            self._completed(event.agent, event.time)
         elif isinstance(event, (Resume, StepRound)) and self.begin is None:
             self.begin = event.time
             self._ready = [event.time] * len(self.counts)
         elif isinstance(event, Enabled):
-            self._ready[event.robot] = event.time
+            self._ready[event.agent] = event.time
         elif isinstance(event, (Disabled, RobotFailed)):
-            self._ready[event.robot] = None
+            self._ready[event.agent] = None
 
-    def record_dispatch(self, robot: int, index: int, time: float, released_by: Optional[int]) -> None:
-        ready = self._ready[robot]
-        if index != self._done[robot] or ready is None:
+    def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int]) -> None:
+        ready = self._ready[agent]
+        if index != self._done[agent] or ready is None:
             return  # sent ahead (lookahead) or not ready: no wait
-        self._ready[robot] = None
+        self._ready[agent] = None
         waited = time - ready
         if waited <= 0:
             return
-        self.last_wait[robot] = waited
-        m = self.robots[robot]
+        self.last_wait[agent] = waited
+        m = self.agents[agent]
         m.waits += 1
         m.wait_time += waited
-        if released_by is None or released_by == robot:
+        if released_by is None or released_by == agent:
             m.held_time += waited
         else:
             m.blocked_by[released_by] = m.blocked_by.get(released_by, 0.0) + waited
 
-    def _completed(self, robot: int, time: float) -> None:
-        self._done[robot] += 1
-        m = self.robots[robot]
+    def _completed(self, agent: int, time: float) -> None:
+        self._done[agent] += 1
+        m = self.agents[agent]
         m.moves += 1
-        self._ready[robot] = time
+        self._ready[agent] = time
         self.last_completion = time
-        if self._done[robot] == self.counts[robot]:
+        if self._done[agent] == self.counts[agent]:
             m.arrival = time - (self.begin or 0.0)
 
     @property
@@ -90,22 +90,22 @@ class Metrics:
     @property
     def reached(self) -> List[int]:
         """Robots that completed all their actions (or had none)."""
-        return [r for r, m in enumerate(self.robots) if m.arrival is not None]
+        return [r for r, m in enumerate(self.agents) if m.arrival is not None]
 
     @property
     def soc(self) -> float:
-        return sum(m.arrival for m in self.robots if m.arrival is not None)
+        return sum(m.arrival for m in self.agents if m.arrival is not None)
 
     @property
     def total_waits(self) -> int:
-        return sum(m.waits for m in self.robots)
+        return sum(m.waits for m in self.agents)
 
     @property
     def total_wait_time(self) -> float:
-        return sum(m.wait_time for m in self.robots)
+        return sum(m.wait_time for m in self.agents)
 
     def blocking_pairs(self) -> List[tuple]:
         """(time, waiting robot, blocking robot), longest first."""
-        pairs = [(t, r, q) for r, m in enumerate(self.robots) for q, t in m.blocked_by.items()]
+        pairs = [(t, r, q) for r, m in enumerate(self.agents) for q, t in m.blocked_by.items()]
         pairs.sort(key=lambda p: (-p[0], p[1], p[2]))
         return pairs

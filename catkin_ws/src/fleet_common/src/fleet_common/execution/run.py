@@ -34,15 +34,15 @@ class RunState:
         table = graph.table
         self.table: ActionTable = table
         self.graph = graph
-        self.num_robots = table.num_robots
+        self.num_agents = table.num_agents
         self.first: List[int] = table.first.tolist()
         self.step: List[int] = table.step.tolist()
-        self.robot: List[int] = table.robot.tolist()
+        self.agent: List[int] = table.agent.tolist()
         self.src: List[int] = table.src.tolist()
         self.dst: List[int] = table.dst.tolist()
         self.dep: List[int] = graph.dep.tolist()
         self.succ: List[int] = graph.succ.tolist()
-        n = self.num_robots
+        n = self.num_agents
         self.done = bytearray(table.num_actions)
         self.completed = [0] * n
         self.started = [0] * n
@@ -60,7 +60,7 @@ class RunState:
     def active(self, r: int) -> bool:
         return self.out[r] is None
 
-    def finished_robot(self, r: int) -> bool:
+    def finished_agent(self, r: int) -> bool:
         return self.completed[r] == self.first[r + 1] - self.first[r]
 
     def next_undispatched(self, r: int) -> int:
@@ -76,25 +76,25 @@ class RunState:
         """Per action: not completed and its robot is not out."""
         done = np.frombuffer(bytes(self.done), dtype=np.uint8).astype(bool)
         active = np.array([o is None for o in self.out], dtype=bool)
-        return ~done & active[self.table.robot] if self.table.num_actions else done
+        return ~done & active[self.table.agent] if self.table.num_actions else done
 
-    def robots_at_step(self, t: int) -> List[int]:
+    def agents_at_step(self, t: int) -> List[int]:
         """Robots that have an action in plan step t (built once, on first use)."""
         if self._by_step is None:
             steps = self.table.step
             order = np.argsort(steps, kind="stable")
             bounds = np.searchsorted(steps[order], np.arange(self.table.makespan + 2))
-            robots = self.table.robot[order].tolist()
+            agents = self.table.agent[order].tolist()
             b = bounds.tolist()
-            self._by_step = [robots[b[s]:b[s + 1]] for s in range(len(b) - 1)]
+            self._by_step = [agents[b[s]:b[s + 1]] for s in range(len(b) - 1)]
         return self._by_step[t] if 0 <= t < len(self._by_step) else []
 
     @property
     def finished(self) -> bool:
         """Every robot that is not out has completed all its actions."""
-        return all(self.out[r] is not None or self.finished_robot(r) for r in range(self.num_robots))
+        return all(self.out[r] is not None or self.finished_agent(r) for r in range(self.num_agents))
 
     @property
     def moving(self) -> bool:
         """Some robot has an action it was sent and has not completed."""
-        return any(self.dispatched[r] > self.completed[r] for r in range(self.num_robots))
+        return any(self.dispatched[r] > self.completed[r] for r in range(self.num_agents))

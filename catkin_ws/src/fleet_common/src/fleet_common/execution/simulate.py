@@ -62,7 +62,7 @@ class SimResult:
     def unfinished(self) -> List[int]:
         """Robots taking part that did not reach their goal."""
         run = self.engine.run
-        return [r for r in range(run.num_robots) if run.out[r] is None and not run.finished_robot(r)]
+        return [r for r in range(run.num_agents) if run.out[r] is None and not run.finished_agent(r)]
 
 
 def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] = None, seed: int = 0,
@@ -73,8 +73,8 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
     (none: no delays)."""
     engine = Engine(plan, strategy, **settings)  # type: ignore[arg-type]
     if durations is None:
-        waits, durations = simulator_durations(delays or DelayModel(), engine.table.robot,
-                                                engine.run.num_robots, seed, nominal)
+        waits, durations = simulator_durations(delays or DelayModel(), engine.table.agent,
+                                                engine.run.num_agents, seed, nominal)
     return simulate_engine(engine, durations, disable, controls, waits, journal)
 
 
@@ -91,7 +91,7 @@ def simulate_engine(engine: Engine, durations: np.ndarray, disable: Optional[Map
 class _Simulation:
     def __init__(self, engine: Engine, durations: np.ndarray, disable: Mapping[int, int],
                  waits: Optional[np.ndarray], journal: bool) -> None:
-        n = engine.run.num_robots
+        n = engine.run.num_agents
         self.engine = engine
         self.durations = durations
         self.dur: List[float] = durations.tolist()
@@ -140,32 +140,32 @@ class _Simulation:
                 self._note_waits()
 
     def _control(self, event: object) -> None:
-        robot = getattr(event, "robot", None)
+        agent = getattr(event, "agent", None)
         if isinstance(event, (Disabled, RobotFailed)):
-            self.queue[robot].clear()  # type: ignore[index]
-        busy = self.busy[robot] if isinstance(event, (Disabled, RobotFailed)) else None  # type: ignore[index]
-        if busy is not None and not self.moving[robot]:  # type: ignore[index]
-            self.busy[robot] = None  # type: ignore[index]  # it had not started: nothing to finish
+            self.queue[agent].clear()  # type: ignore[index]
+        busy = self.busy[agent] if isinstance(event, (Disabled, RobotFailed)) else None  # type: ignore[index]
+        if busy is not None and not self.moving[agent]:  # type: ignore[index]
+            self.busy[agent] = None  # type: ignore[index]  # it had not started: nothing to finish
         elif busy is not None and isinstance(event, RobotFailed):
-            self.stuck[robot] = (busy[0], busy[1])  # type: ignore[index]
-            self.busy[robot] = None  # type: ignore[index]
-            self.moving[robot] = False  # type: ignore[index]
+            self.stuck[agent] = (busy[0], busy[1])  # type: ignore[index]
+            self.busy[agent] = None  # type: ignore[index]
+            self.moving[agent] = False  # type: ignore[index]
         if isinstance(event, (Disabled, RobotFailed, Enabled)):
             why = "disabled" if isinstance(event, Disabled) else "failed" if isinstance(event, RobotFailed) else None
-            self._note("out", robot=robot, why=why, reason=type(event).__name__)
+            self._note("out", robot=agent, why=why, reason=type(event).__name__)
         self._deliver(self.engine.handle(event))
         if isinstance(event, Enabled):
-            self._try_start(robot)  # type: ignore[arg-type]
+            self._try_start(agent)  # type: ignore[arg-type]
 
     def _deliver(self, dispatches: List[Dispatch]) -> None:
         for d in dispatches:
-            self.queue[d.robot].append(d)
+            self.queue[d.agent].append(d)
             if self.journal is not None:
-                waited, by = self._waited(d.robot)
-                self._note("dispatch", robot=d.robot, index=d.index, step=d.step, src=d.src, dst=d.dst,
+                waited, by = self._waited(d.agent)
+                self._note("dispatch", robot=d.agent, index=d.index, step=d.step, src=d.src, dst=d.dst,
                            waited=waited, released_by=by)
         for d in dispatches:
-            self._try_start(d.robot)
+            self._try_start(d.agent)
 
     def _try_start(self, r: int) -> None:
         if self.busy[r] is not None or not self.queue[r] or self.engine.run.out[r] is not None:
@@ -208,7 +208,7 @@ class _Simulation:
 
     def _waited(self, r: int) -> Tuple[float, Optional[int]]:
         """What the metrics charged robot r since its last dispatch: time waited, and to whom."""
-        m = self.engine.metrics.robots[r]
+        m = self.engine.metrics.agents[r]
         seen = self._charged.get(r, (0.0, {}))
         waited = m.wait_time - seen[0]
         by = next((q for q, t in m.blocked_by.items() if t > seen[1].get(q, 0.0)), None)
@@ -216,7 +216,7 @@ class _Simulation:
         return round(waited, 6), by
 
     def _note_waits(self) -> None:
-        waits = tuple((w.robot, w.on, w.cell, w.reason) for w in self.engine.waiting())
+        waits = tuple((w.agent, w.on, w.cell, w.reason) for w in self.engine.waiting())
         if waits != self._waits_seen:
             self._waits_seen = waits
             self._note("waits", w=[list(w) for w in waits])

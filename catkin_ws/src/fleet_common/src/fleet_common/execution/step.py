@@ -58,13 +58,13 @@ class DiscreteTimeStep(Strategy):
             self._reason_key = key
             t = self.barrier
             self._reason = tuple(sorted({
-                r for r in run.robots_at_step(t)
+                r for r in run.agents_at_step(t)
                 if run.active(r) and not run.done[self._action_at(r, t)]}))
         return (BARRIER, self._reason)
 
     def on_completed(self, a: int) -> Sequence[int]:
         run = self.run
-        if run.out[run.robot[a]] is not None:  # type: ignore[union-attr]
+        if run.out[run.agent[a]] is not None:  # type: ignore[union-attr]
             return ()  # not counted while out
         t = run.step[a]  # type: ignore[union-attr]
         self.remaining[t] -= 1
@@ -72,18 +72,18 @@ class DiscreteTimeStep(Strategy):
             return self._advance()
         return ()
 
-    def on_out(self, robot: int) -> Sequence[int]:
+    def on_out(self, agent: int) -> Sequence[int]:
         run = self._attached()
-        for a in range(run.first[robot] + run.completed[robot], run.first[robot + 1]):
+        for a in range(run.first[agent] + run.completed[agent], run.first[agent + 1]):
             self.remaining[run.step[a]] -= 1
         if self.barrier < len(self.remaining) and self.remaining[self.barrier] == 0:
             return self._advance()
         return ()
 
-    def on_back(self, robot: int) -> Sequence[int]:
+    def on_back(self, agent: int) -> Sequence[int]:
         run = self._attached()
-        a = run.next_incomplete(robot)
-        for b in range(run.first[robot] + run.completed[robot], run.first[robot + 1]):
+        a = run.next_incomplete(agent)
+        for b in range(run.first[agent] + run.completed[agent], run.first[agent + 1]):
             self.remaining[run.step[b]] += 1
         if a >= 0:
             self.barrier = min(self.barrier, run.step[a])
@@ -92,13 +92,13 @@ class DiscreteTimeStep(Strategy):
     def round(self) -> List[int]:
         """One plan step: the lowest step some robot has not been sent yet."""
         run = self._attached()
-        nxt = [run.next_undispatched(r) for r in range(run.num_robots)]
+        nxt = [run.next_undispatched(r) for r in range(run.num_agents)]
         pending = [run.step[a] for r, a in enumerate(nxt) if a >= 0 and run.active(r)]
         if not pending:
             return list(run.dispatched)
         t = min(pending)
         return [bisect_right(run.step, t, run.first[r] + run.dispatched[r], run.first[r + 1]) - run.first[r]
-                for r in range(run.num_robots)]
+                for r in range(run.num_agents)]
 
     def _advance(self) -> List[int]:
         """Move the barrier past empty steps; the robots of the new barrier step."""
@@ -107,9 +107,9 @@ class DiscreteTimeStep(Strategy):
         while t < end and self.remaining[t] == 0:
             t += 1
         self.barrier = t
-        return self.run.robots_at_step(t) if t < end else []  # type: ignore[union-attr]
+        return self.run.agents_at_step(t) if t < end else []  # type: ignore[union-attr]
 
-    def _action_at(self, robot: int, t: int) -> int:
+    def _action_at(self, agent: int, t: int) -> int:
         run = self._attached()
-        lo, hi = run.first[robot], run.first[robot + 1]
+        lo, hi = run.first[agent], run.first[agent + 1]
         return bisect_right(run.step, t, lo, hi) - 1

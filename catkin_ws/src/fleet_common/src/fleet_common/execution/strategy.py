@@ -66,11 +66,11 @@ class Strategy:
         """Action `a` completed: robots that may now start an action because of it."""
         return ()
 
-    def on_out(self, robot: int) -> Sequence[int]:
+    def on_out(self, agent: int) -> Sequence[int]:
         """`robot` was disabled or failed: robots that may now start an action."""
         return ()
 
-    def on_back(self, robot: int) -> Sequence[int]:
+    def on_back(self, agent: int) -> Sequence[int]:
         """`robot` takes part again: robots that may now start an action."""
         return ()
 
@@ -81,7 +81,7 @@ class Strategy:
     def round(self) -> List[int]:
         """Per robot, how many of its actions may have been sent after one round."""
         run = self._attached()
-        return [run.dispatched[r] + 1 for r in range(run.num_robots)]
+        return [run.dispatched[r] + 1 for r in range(run.num_agents)]
 
     def settings(self) -> Dict[str, object]:
         return {key: getattr(self, key) for key in self.SETTINGS}

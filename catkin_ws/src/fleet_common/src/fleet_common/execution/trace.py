@@ -46,7 +46,7 @@ class Move(NamedTuple):
 
 class Collision(NamedTuple):
     kind: str
-    robots: Tuple[int, int]
+    agents: Tuple[int, int]
     cells: Tuple[Coord, ...]
     time: float
     moving: Tuple[bool, bool]
@@ -60,12 +60,12 @@ class Trace:
         self.begin = begin
         self.moves: List[List[Move]] = [[] for _ in self.starts]
 
-    def add(self, robot: int, start: float, end: float, src: Coord, dst: Coord) -> None:
-        here = self.moves[robot][-1].dst if self.moves[robot] else self.starts[robot]
+    def add(self, agent: int, start: float, end: float, src: Coord, dst: Coord) -> None:
+        here = self.moves[agent][-1].dst if self.moves[agent] else self.starts[agent]
         if tuple(src) != tuple(here) or end < start:
-            raise ValueError("robot {} cannot move {}->{} over [{}, {}]: it is at {}".format(
-                robot, src, dst, start, end, here))
-        self.moves[robot].append(Move(start, end, tuple(src), tuple(dst)))  # type: ignore[arg-type]
+            raise ValueError("agent {} cannot move {}->{} over [{}, {}]: it is at {}".format(
+                agent, src, dst, start, end, here))
+        self.moves[agent].append(Move(start, end, tuple(src), tuple(dst)))  # type: ignore[arg-type]
 
     def final_cells(self) -> List[Coord]:
         return [m[-1].dst if m else s for s, m in zip(self.starts, self.moves)]
@@ -107,7 +107,7 @@ def find_collisions(trace: Trace) -> List[Collision]:
             if one[3] != two[3]:
                 found.append(Collision(SWAP, (min(one[2], two[2]), max(one[2], two[2])), key,
                                        max(one[0], two[0]), (True, True)))
-    found.sort(key=lambda c: (c.time, c.kind, c.robots))
+    found.sort(key=lambda c: (c.time, c.kind, c.agents))
     return found
 
 
@@ -155,27 +155,27 @@ class CollisionCount:
         return self.vertex + self.swaps + sum(1 for a, b in self._pending
                                               if max(a[0], b[0]) < min(a[1], b[1]))
 
-    def add(self, robot: int, start: float, end: float, src: Coord, dst: Coord) -> None:
+    def add(self, agent: int, start: float, end: float, src: Coord, dst: Coord) -> None:
         """Robot `robot` moved `src`->`dst` over [start, end); ValueError (nothing counted)
         if it was not at `src`."""
-        visit = self._here[robot]
+        visit = self._here[agent]
         if visit[3] != tuple(src) or end < start:
-            raise ValueError("robot {} cannot move {}->{} over [{}, {}]: it is at {}".format(
-                robot, src, dst, start, end, visit[3]))
+            raise ValueError("agent {} cannot move {}->{} over [{}, {}]: it is at {}".format(
+                agent, src, dst, start, end, visit[3]))
         visit[1] = end
-        self._here[robot] = self._enter(robot, tuple(dst), start, end)  # type: ignore[arg-type]
+        self._here[agent] = self._enter(agent, tuple(dst), start, end)  # type: ignore[arg-type]
         forward = tuple(src) < tuple(dst)
         key = (tuple(src), tuple(dst)) if forward else (tuple(dst), tuple(src))
         edge = self._edges.setdefault(key, [])  # type: ignore[arg-type]
         self.swaps += sum(1 for s, e, r, f in edge
-                          if r != robot and f != forward and max(s, start) < min(e, end))
-        edge.append((start, end, robot, forward))
+                          if r != agent and f != forward and max(s, start) < min(e, end))
+        edge.append((start, end, agent, forward))
 
-    def _enter(self, robot: int, cell: Coord, at: float, now: float) -> List:
+    def _enter(self, agent: int, cell: Coord, at: float, now: float) -> List:
         """A new visit from `at`; `now` is the latest completion (every open visit ends later)."""
-        visit = [at, math.inf, robot, cell]
+        visit = [at, math.inf, agent, cell]
         for other in self._visits.setdefault(cell, []):
-            if other[2] == robot:
+            if other[2] == agent:
                 continue
             both_in = max(at, other[0])
             if both_in >= other[1]:

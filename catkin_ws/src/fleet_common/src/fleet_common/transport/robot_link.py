@@ -216,13 +216,18 @@ class RobotLink:
 
     # ---- internals -------------------------------------------------------------------
 
-    def _issue(self, make: Callable[[int], Command]) -> int:
-        command = make(self._next_id)
-        self._next_id += 1
+    def send(self, command: Command) -> int:
+        """Send `command` as it is, its id chosen by the caller (ids must keep increasing: the
+        robot refuses an id at or below one it has seen from this epoch); sent once the link
+        is up, and again after a reconnect until it is settled."""
+        self._next_id = max(self._next_id, command.id + 1)
         self._unsettled[command.id] = (command, None)
         if self.state == "up":
             self._send_command(command, self.clock())
         return command.id
+
+    def _issue(self, make: Callable[[int], Command]) -> int:
+        return self.send(make(self._next_id))
 
     def _send_command(self, command: Command, now: float) -> None:
         self._unsettled[command.id] = (command, self.session)

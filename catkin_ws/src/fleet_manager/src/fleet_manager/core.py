@@ -1,0 +1,262 @@
+"""The manager's run as a sans-I/O core: values in, values out, no sockets, threads or clocks.
+
+Theory of operation (the model is h11's connection object). `RunCore` owns
+everything the manager knows and decides: one `Robot` per robot (link, poses
+and their sources, faults, hold, the command in flight), the `Run` (the plan,
+its execution engine and driver, the phase machine, the replanner's state)
+and the consoles' desk (who is connected, the version clock). Its inputs are
+values, each with the time (seconds since the manager started):
+
+    link_event(event, now)        a robot's link: up, down, a reply, a pose
+    vicon(fixes, now)             Vicon's poses
+    console_frame(peer, data, now)  bytes from a console (hello, request, ...)
+    plan_ready(job, result, error, now)  the outcome of a PlanJob
+    tick(now), publish(now), log_poses(now)  what is due with time
+
+and everything it decides comes out of `take()` as effects, in order
+(`outbox`): wire commands to send, run-log records, frames for consoles,
+lines for the terminal, planning to run in a thread, a new run folder. The
+manager's loop (`manager.py`) owns the sockets and the run log and carries
+the effects out; tests drive the core directly with a fake clock and
+in-memory robots. Nothing a peer sends can raise out of an input: a console
+frame that does not decode is refused by the desk, a reply the engine cannot
+place is reported and ignored (`driver`).
+"""
+from __future__ import annotations
+
+from typing import Dict, Iterable, List, Optional, Sequence
+
+from fleet_common.control import Bye, Event, Waiting
+from fleet_common.control.desk import ControlDesk
+from fleet_common.planning.replan import ReplanResult
+from fleet_common.robots import RobotDefinition
+from fleet_common.runlog.summary import RunSummary
+from fleet_common.transport.link_events import LinkDown, LinkEvent, LinkUp, RobotReply
+from fleet_common.vicon.base_grid import ViconFix
+from fleet_common.wire import PoseFeedback, Stop
+
+from . import operator
+from .outbox import Effect, Outbox
+from .plan_source import LoadedPlan
+from .replanning import SAFE_POINT, walled
+from .robot import Fleet, Seen
+from .run import Run
+from .run_phase import RUNNING
+from .settings import ManagerSettings
+from .state_view import build_state, proposal, robot_waits
+from .vicon_watch import ViconWatch
+
+__all__ = ["RunCore"]
+
+_STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up
+
+
+class RunCore:
+    def __init__(self, loaded: LoadedPlan, robots: Sequence[RobotDefinition], settings: ManagerSettings,
+                 session: str, now: float = 0.0, vicon: bool = False) -> None:
+        self.desk = ControlDesk(session, now)
+        self.out = Outbox(self.desk)
+        self.out.now = now
+        self.fleet = Fleet(robots, settings.stale_after)
+        self.settings = settings
+        self.run = Run(loaded, self.fleet, self.out, settings)
+        self.vicon_watch = ViconWatch(self.fleet, self.out) if vicon else None
+        self._states = 0
+        self._last_waits: Optional[Dict[int, Waiting]] = None
+        self._stuck_since: Optional[float] = None
+
+    def take(self) -> List[Effect]:
+        """The effects of the inputs so far, in order (and forget them)."""
+        return self.out.take()
+
+    def _at(self, now: float) -> None:
+        self.out.now = now
+
+    # ---- robots -----------------------------------------------------------------------------
+
+    def link_event(self, event: LinkEvent, now: float) -> None:
+        self._at(now)
+        robot = self.fleet.by_id.get(event.robot_id)
+        if robot is None:
+            return
+        driver = self.run.driver
+        if isinstance(event, PoseFeedback):
+            robot.own = Seen(event.pose, now)
+            robot.facing = None
+            if tuple(event.faults) != robot.faults:
+                driver.faults(robot, event.faults)
+        elif isinstance(event, RobotReply):
+            driver.reply(robot, event.reply, now)
+        elif isinstance(event, LinkUp):
+            robot.link, robot.link_reason = "up", ""
+            driver.link_up(robot, event.restarted, now)
+        elif isinstance(event, LinkDown):
+            robot.link, robot.link_reason = ("failed" if event.fatal else "down"), event.reason
+            driver.link_down(robot, event.reason, event.fatal)
+
+    def vicon(self, fixes: Iterable[ViconFix], now: float) -> None:
+        self._at(now)
+        if self.vicon_watch is not None:
+            self.vicon_watch.poses(fixes, now)
+
+    # ---- consoles ---------------------------------------------------------------------------
+
+    def console_frame(self, peer: bytes, data: bytes, now: float) -> Optional[str]:
+        """A frame from console `peer`; the refusal to log, if the desk refused it."""
+        self._at(now)
+        intake = self.desk.receive(peer, data, now)
+        self.out.frames(intake.out)
+        if intake.joined is not None:
+            self.out.frames(self.desk.to(intake.joined, self.run.scene()))
+            pending = self.run.replanner.pending
+            if self.run.replanner.proposal_id is not None and pending is not None:
+                self.out.frames(self.desk.to(intake.joined, proposal(pending, self.fleet, self.run.loaded.name)))
+            self.out.frames(self.desk.to(intake.joined, self.state(now, self.waits())))
+        if intake.request is not None:
+            console = self.desk.consoles.get(peer)
+            name = console.name if console is not None else "?"
+            action = intake.request.action
+            ok, reason = operator.apply(self.run, action, intake.args, now)
+            self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
+            if ok:
+                self.out.tell("operator", None, "{}: {}{}".format(name, action, " " + reason if reason else ""))
+            self.out.frames(self.desk.answer(peer, intake.request, ok, reason))
+            self.publish(now)
+        if intake.refusal is None:
+            return None
+        return "console {}{!r}: {}".format(intake.refusal.name + " " if intake.refusal.name else "",
+                                           peer[:16], intake.refusal.reason)
+
+    def request(self, action: str, args: Dict, now: float) -> operator.Answer:
+        """An operator request from the manager itself (--start), carried out like a console's."""
+        self._at(now)
+        return operator.apply(self.run, action, args, now)
+
+    # ---- time -------------------------------------------------------------------------------
+
+    def tick(self, now: float) -> None:
+        """What is due whatever arrives: a replan at its safe point, the end of the run,
+        heartbeats to consoles."""
+        self._at(now)
+        run = self.run
+        if run.replanner.state == SAFE_POINT and not run.driver.moving:
+            out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
+            here = run.positions()
+            grid = walled(run.grid, run.engine, self.fleet.robots, here, out)
+            self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
+        if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
+            run.move("arrived", "every robot taking part is at its goal")
+            self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            self.publish(now)
+        self.out.frames(self.desk.tick(now))
+
+    def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
+                   now: float) -> None:
+        self._at(now)
+        replanner = self.run.replanner
+        message = replanner.finished(job_id, result, error)
+        if message is None:
+            return
+        self.out.tell("plan", None, message)
+        self.out.desk.bump(message if replanner.pending is None else
+                           "replan {} proposed".format(replanner.pending.id))
+        if replanner.pending is not None:
+            self.out.broadcast(proposal(replanner.pending, self.fleet, self.run.loaded.name))
+        elif replanner.was_running and self.run.phase.refusal("resume") is None:
+            operator.resume(self.run, now, "resume")
+
+    def waits(self) -> Dict[int, Waiting]:
+        return robot_waits(self.run.engine, self.fleet)
+
+    def state(self, now: float, waits: Dict[int, Waiting]):
+        self._states += 1
+        return build_state(self._states, self.desk.version, now, self.run.clock(now),
+                           self.settings.step_time, self.run.engine, self.fleet, self.run.phase,
+                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits)
+
+    def publish(self, now: float) -> bool:
+        """Who waits for whom to the run log when it changed; the State to the consoles.
+        True if a State went out."""
+        self._at(now)
+        waits = self.waits()
+        if waits != self._last_waits:
+            self._last_waits = waits
+            self.out.record("waits", w=[[rid, list(w.on), None if w.cell is None else list(w.cell), w.reason]
+                                        for rid, w in sorted(waits.items())])
+        if not self.desk.consoles:
+            return False
+        self.out.broadcast(self.state(now, waits))
+        return True
+
+    def log_poses(self, now: float) -> None:
+        """Every robot's pose to the run log (the summary finds the closest pair in it)."""
+        self._at(now)
+        if self.vicon_watch is not None:
+            self.vicon_watch.check(now)
+        rows = []
+        for robot in self.fleet:
+            seen = robot.seen()
+            if seen is not None:
+                p = seen.pose
+                rows.append([robot.id, round(p.x, 3), round(p.y, 3), round(p.theta, 3), robot.source,
+                             round(now - seen.at, 3)])
+        if rows:
+            self.out.record("poses", p=rows)
+
+    # ---- the run's outcome ------------------------------------------------------------------
+
+    def summary(self) -> RunSummary:
+        return self.out.summary.summary()
+
+    @property
+    def min_distance(self) -> Optional[float]:
+        """The smallest distance between two robots in the run so far (cells)."""
+        found = self.out.summary.min_distance
+        return None if found is None else round(found, 3)
+
+    @property
+    def collisions(self) -> int:
+        return self.out.summary.collisions
+
+    def cannot_go_on(self, now: float) -> Optional[str]:
+        """Why an unattended run (--until-done) cannot finish, once that has lasted a while."""
+        run = self.run
+        if not run.stuck():
+            self._stuck_since = None
+            return None
+        if self._stuck_since is None:
+            self._stuck_since = now
+        if now - self._stuck_since < _STALL_GRACE:
+            return None
+        parts = []
+        for agent, waiting in sorted(run.engine.blocked_by().items()):
+            robot = self.fleet[agent]
+            why = run.engine.run.out[agent]
+            parts.append("robot {} is {}{}{}".format(
+                robot.id, "held by a fault" if why == "failed" else "disabled",
+                " ({})".format(robot.hold_reason) if robot.hold_reason else "",
+                "; {} for it".format(_robots_wait([self.fleet[a].id for a in waiting])) if waiting else ""))
+        return "the run cannot go on without an operator: " + ("; ".join(parts) or "nothing can move")
+
+    def stop_all(self, now: float) -> None:
+        """Tell every connected robot to stop now."""
+        self._at(now)
+        for robot in self.fleet:
+            if robot.link_up:
+                self.out.send(robot.id, Stop(robot.take_id()))
+
+    def close(self, reason: str, now: float) -> None:
+        """The manager stops: the run log's last record, and every console told."""
+        self._at(now)
+        summary = self.summary()
+        self.out.record("end", reason=reason, arrived=len(summary.arrived), robots=summary.robots,
+                        summary=summary.as_dict())
+        self.out.broadcast(Event(self.out.notices + 1, round(now, 3), "run", None, "manager stopping: " + reason))
+        # consoles learn at once that this manager is gone (not after 3.5 s of silence)
+        self.out.broadcast(Bye("manager stopping: " + reason))
+
+
+def _robots_wait(ids: List[int]) -> str:
+    if len(ids) == 1:
+        return "robot {} waits".format(ids[0])
+    return "robots {} wait".format(", ".join(map(str, ids)))

@@ -1,0 +1,184 @@
+"""One run: a plan, its engine and driver, the run's phase, and how plans change under it.
+
+`Run` is what the operator's requests act on (`operator.py`) and what the
+core (`core.py`) feeds robot news to. It owns the plan being run (a new one
+after a `load`, which starts a new run in a new run folder, or an accepted
+replan, which continues the same run with plan-2.txt, plan-3.txt ...), the
+execution engine for it, the driver that turns the engine's decisions into
+commands, the phase (`run_phase`) and the replanner's state. Everything it
+does goes out through the `Outbox` as values.
+"""
+from __future__ import annotations
+
+import math
+from typing import List, Optional
+
+from fleet_common.execution import Disabled, Engine, RobotFailed
+from fleet_common.formats.solution import format_solution, make_solution
+from fleet_common.grid import Coord, Grid
+from fleet_common.plan import Plan
+from fleet_common.runlog.records import FORMAT_VERSION, plan_file
+from fleet_common.runlog.summary import SummaryBuilder
+
+from .driver import AT_CELL, Driver
+from .outbox import NewRunFolder, Outbox, WriteFile
+from .plan_source import LoadedPlan
+from .replanning import Replanner
+from .robot import Fleet
+from .run_phase import RUNNING, RunPhase
+from .settings import ManagerSettings
+from .state_view import scene
+
+__all__ = ["Run"]
+
+
+def action_counts(plan: Plan) -> List[int]:
+    pos = plan.positions
+    return [int((pos[1:, i] != pos[:-1, i]).any(axis=1).sum()) for i in range(plan.num_agents)]
+
+
+class Run:
+    def __init__(self, loaded: LoadedPlan, fleet: Fleet, out: Outbox, settings: ManagerSettings) -> None:
+        self.fleet = fleet
+        self.out = out
+        self.settings = settings
+        self.phase = RunPhase()
+        self.replanner = Replanner(settings.replan_limit)
+        self.loaded = loaded
+        self.plan: Plan = loaded.plan
+        self.plan_id = 1
+        self.started_at: Optional[float] = None
+        self.engine = self._engine(self.plan)
+        self.driver = Driver(self.engine, fleet.robots, out, settings.preturn)
+        self._begin()
+
+    @property
+    def grid(self) -> Grid:
+        return self.loaded.grid
+
+    def clock(self, now: float) -> float:
+        """Seconds since the run started (0 before Start)."""
+        return 0.0 if self.started_at is None else max(0.0, now - self.started_at)
+
+    # ---- the phase ------------------------------------------------------------------------
+
+    def move(self, trigger: str, reason: str = "") -> None:
+        """Move the phase (the caller checked `phase.refusal`); recorded and versioned."""
+        if self.phase.move(trigger, reason):
+            self._phase_changed()
+
+    def _phase_changed(self) -> None:
+        state, reason = self.phase.phase, self.phase.reason
+        self.out.desk.bump("run {}{}".format(state, ": " + reason if reason else ""))
+        self.out.record("state", run=state, reason=reason)
+
+    def all_arrived(self) -> bool:
+        """Every robot not disabled by an operator is at its goal (a robot held by a fault
+        has not arrived: it still takes part, and waits for someone to clear the fault)."""
+        run = self.engine.run
+        return all(run.out[a] == "disabled" or run.finished_agent(a) for a in range(run.num_agents))
+
+    def stuck(self) -> bool:
+        """Running, not everyone arrived, and nothing can happen without an operator."""
+        return (self.phase.phase == RUNNING and not self.engine.paused and not self.all_arrived()
+                and not self.engine.run.moving and not self.driver.moving and not self.replanner.busy
+                and not any(r.hold == "recover" or not r.link_up for r in self.fleet))
+
+    def not_ready(self) -> str:
+        """Why the run cannot start now ("" if it can): robots not connected or not on their starts."""
+        down = [r.id for r in self.fleet if not r.link_up]
+        if down:
+            return "not connected: robot{} {}".format("s" if len(down) > 1 else "", _ids(down))
+        off: List[str] = []
+        for robot in self.fleet:
+            if self.engine.run.out[robot.agent] is not None:
+                continue
+            start = self.engine.table.start(robot.agent)
+            pose = robot.pose
+            if pose is None:
+                off.append("robot {} has not reported a pose".format(robot.id))
+            elif math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
+                off.append("robot {} is at ({:.1f}, {:.1f}), its start is {}".format(
+                    robot.id, pose.x, pose.y, self.loaded.show(start)))
+        if off:
+            return "not on their start cells: " + "; ".join(off[:5]) + (
+                "; and {} more".format(len(off) - 5) if len(off) > 5 else "")
+        return ""
+
+    def positions(self) -> List[Coord]:
+        """The cell each robot holds for planning."""
+        return [self.driver.position(r) for r in self.fleet]
+
+    # ---- plans ----------------------------------------------------------------------------
+
+    def _engine(self, plan: Plan) -> Engine:
+        settings = {"lookahead": self.settings.lookahead} if self.settings.strategy == "adg" else {}
+        return Engine(plan, self.settings.strategy, show=self.loaded.show, **settings)
+
+    def _begin(self) -> None:
+        """The first records of a run (and of each run after a `load`)."""
+        loaded = self.loaded
+        self.out.add(NewRunFolder(loaded.text()))
+        self.out.record("run", version=FORMAT_VERSION, started=None, source="manager", time_unit="s",
+                        plan=plan_file(1), definitions=None, robots=self.fleet.ids,
+                        strategy=self.settings.strategy, settings={"lookahead": self.settings.lookahead},
+                        plan_name=loaded.name, actions=action_counts(loaded.plan),
+                        starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
+                        map=self.grid.name, step_time=self.settings.step_time)
+
+    def switch_plan(self, plan: Plan, reason: str, now: float) -> None:
+        """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out."""
+        old = self.engine
+        self.plan_id += 1
+        self.plan = plan
+        engine = self._engine(plan)
+        for agent, why in enumerate(old.run.out):
+            if why is not None:
+                engine.handle((Disabled if why == "disabled" else RobotFailed)(agent, now))
+        self._drive(engine)
+        name = plan_file(self.plan_id)
+        starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
+        sol = make_solution(self.grid, self.loaded.solution.map_file or "", plan, starts,
+                            [tuple(int(v) for v in c) for c in plan.positions[-1]],
+                            "fleetcontrol-replan", True, 0)
+        sol.orientation = self.loaded.solution.orientation
+        self.out.add(WriteFile(name, format_solution(sol)))
+        self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
+                        actions=action_counts(plan), starts=[list(c) for c in starts])
+        self.out.desk.bump("plan {} ({})".format(self.plan_id, reason))
+        self.out.broadcast(self.scene())
+
+    def load(self, loaded: LoadedPlan, now: float) -> None:
+        """Another plan (the operator's `load`): a new run, in a new run folder, waiting for Start."""
+        summary = self.out.summary.summary()
+        self.out.record("end", reason="another plan was loaded", arrived=len(summary.arrived),
+                        robots=len(self.fleet), summary=summary.as_dict())
+        self.out.summary = SummaryBuilder()
+        self.loaded, self.plan = loaded, loaded.plan
+        self.started_at = None
+        self.plan_id += 1
+        old_out = self.engine.run.out
+        engine = self._engine(self.plan)
+        for agent, why in enumerate(old_out):
+            if why == "disabled":  # the operator's choice outlives the plan
+                engine.handle(Disabled(agent, now))
+        self._begin()
+        self._drive(engine)
+        self.move("load", "{} loaded; waiting for Start".format(loaded.name))
+        self.out.broadcast(self.scene())
+
+    def _drive(self, engine: Engine) -> None:
+        """Run `engine` from now on: robots keep their state, not the old plan's queue."""
+        for robot in self.fleet:
+            robot.queue.clear()
+            robot.flight = None
+        self.engine = engine
+        self.driver = Driver(engine, self.fleet.robots, self.out, self.settings.preturn)
+
+    def scene(self):
+        return scene(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
+                     self.settings.step_time)
+
+
+def _ids(ids: List[int]) -> str:
+    return ", ".join(str(i) for i in ids)

@@ -1,0 +1,29 @@
+"""The manager's settings, from its command line (`main.py`) or a test."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import List, Optional
+
+from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
+
+__all__ = ["ManagerSettings"]
+
+
+@dataclass
+class ManagerSettings:
+    strategy: str = "adg"
+    lookahead: int = 1
+    bind: str = DEFAULT_ENDPOINT
+    log_dir: Optional[Path] = None
+    step_time: float = 2.5       # s a plan step is expected to take (the planned-position ghost)
+    state_rate: float = 20.0     # state messages per second, at least
+    state_max_rate: float = 50.0  # and at most, when news (poses, replies) comes faster
+    stale_after: float = 1.0     # s without a pose before a robot's position is stale
+    replan_limit: float = 5.0    # s a replan may take
+    preturn: bool = True         # robots turn towards their next cell while they wait
+    definitions: Optional[Path] = None
+    map_dirs: List[Path] = field(default_factory=list)  # where `load` looks for map files
+    vicon_port: Optional[int] = None  # Vicon Tracker's UDP stream (None: no Vicon)
+    vicon_bind: str = "0.0.0.0"
+    frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)

@@ -1,0 +1,101 @@
+"""What every console is told: the State (many times a second), the Scene and a Proposal.
+
+Built from the run core's own records (its robots, the engine, the run's
+phase) into the console protocol's messages; nothing here changes anything.
+Robots are named by their robot_definitions.txt id throughout, also in who
+waits for whom.
+"""
+from __future__ import annotations
+
+import math
+from typing import Dict, List, Optional, Sequence
+
+from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, RobotState, RunInfo, Scene,
+                                  State, Waiting)
+from fleet_common.execution import STRATEGIES, Engine
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
+
+from .replanning import Pending, Replanner
+from .robot import VICON, Fleet
+from .run_phase import RUNNING, RunPhase
+
+__all__ = ["robot_waits", "build_state", "scene", "proposal", "plan_data"]
+
+
+def robot_waits(engine: Engine, fleet: Fleet) -> Dict[int, Waiting]:
+    """Who waits for whom, by robot id (engine waits, and robots held by their link or a restart)."""
+    out: Dict[int, Waiting] = {}
+    for w in engine.waiting():
+        out[fleet[w.agent].id] = Waiting(tuple(fleet[a].id for a in w.on), w.cell, w.reason)
+    run = engine.run
+    for robot in fleet:
+        if run.finished_agent(robot.agent) or run.out[robot.agent] is not None:
+            continue
+        if not robot.link_up:
+            out[robot.id] = Waiting((), None, "link")
+        elif robot.hold == "recover":
+            out[robot.id] = Waiting((), None, "recovering")
+    return out
+
+
+def build_state(seq: int, version: int, now: float, clock: float, step_time: float, engine: Engine,
+                fleet: Fleet, phase: RunPhase, plan_id: int, replanner: Replanner,
+                min_distance: Optional[float], collisions: int,
+                waits: Dict[int, Waiting]) -> State:
+    """The State at `now`; `clock` is the seconds since the run started (0 before)."""
+    run = engine.run
+    plan_time = clock / step_time if step_time > 0 else 0.0
+    running = phase.phase == RUNNING
+    robots: List[RobotState] = []
+    arrived = 0
+    for robot in fleet:
+        agent = robot.agent
+        done, total = run.completed[agent], run.count(agent)
+        finished = done >= total
+        if finished and run.out[agent] is None:
+            arrived += 1
+        nxt = run.next_incomplete(agent)
+        step = run.step[nxt] if nxt >= 0 else engine.table.makespan
+        seen, source = fleet.shown(robot)
+        pose = None if seen is None else seen.pose
+        flight = robot.flight
+        activity = None if flight is None else Activity(
+            flight.kind, flight.index,
+            *((flight.target[0], flight.target[1], None) if flight.kind == "drive"
+              else (None, None, flight.target[0] if flight.target else None)))
+        behind = max(0.0, plan_time - step) if running and not finished and run.out[agent] is None else 0.0
+        robots.append(RobotState(
+            id=robot.id, link=robot.link, link_reason=robot.link_reason,
+            x=None if pose is None else pose.x, y=None if pose is None else pose.y,
+            theta=None if pose is None or not math.isfinite(pose.theta) else pose.theta,
+            source=source, age=robot.age(now, source), stale=fleet.stale(robot, now),
+            faults=robot.faults, out=run.out[agent], activity=activity, done=done, total=total,
+            step=step, waiting=waits.get(robot.id), behind=round(behind, 2),
+            vicon_age=robot.age(now, VICON), disagree=robot.disagreeing))
+    info = RunInfo(
+        state=phase.phase, reason=phase.reason, strategy=engine.strategy.name,
+        lookahead=int(getattr(engine.strategy, "lookahead", 1)), clock=round(clock, 3),
+        plan_time=round(plan_time, 3), plan_id=plan_id, arrived=arrived, robots=len(fleet),
+        min_distance=min_distance, collisions=collisions, proposal=replanner.proposal_id,
+        replanning=replanner.busy)
+    return State(seq, version, info, tuple(robots))
+
+
+def plan_data(plan_id: int, plan: Plan, fleet: Fleet, name: str = "") -> PlanData:
+    return PlanData(plan_id, tuple(fleet.ids), plan.positions, name)
+
+
+def scene(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float) -> Scene:
+    rows = tuple("".join("." if grid.free[y, x] else "@" for x in range(grid.width))
+                 for y in range(grid.height - 1, -1, -1))
+    robots = tuple(RobotInfo(r.id, r.colour, r.vicon_name) for r in fleet)
+    return Scene(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
+                 tuple(STRATEGIES), step_time)
+
+
+def proposal(pending: Pending, fleet: Fleet, name: str) -> Proposal:
+    plan = pending.result.plan
+    unreachable: Sequence[int] = tuple(fleet[a].id for a in sorted(pending.result.unreachable))
+    return Proposal(pending.id, plan_data(pending.id + 1000, plan, fleet, name), pending.result.message,
+                    int(plan.soc), int(plan.makespan), tuple(unreachable))
