@@ -24,7 +24,7 @@ import zmq
 
 from fleet_common.robots import RobotDefinition
 from fleet_common.transport.curve_keys import ManagerKeys
-from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
+from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.pose_feedback import subscribe_feedback
 from fleet_common.transport.robot_link import RobotLink

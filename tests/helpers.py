@@ -9,12 +9,22 @@ from contextlib import contextmanager
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
-from typing import Dict, Iterator, List, Optional, Set, Tuple
+from typing import Callable, Dict, Iterator, List, Optional, Set, Tuple
 
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleetctl.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
+
+
+def wait_until(condition: Callable[[], object], timeout: float, what: str) -> None:
+    """Wait (bounded) until `condition()` holds; AssertionError naming `what` if it never does."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() >= deadline:
+            raise AssertionError("not seen in {:g} s: {}".format(timeout, what))
+        time.sleep(0.02)
 
 
 def fleetctl(*args: object, cwd: Optional[Path] = None, env: Optional[Dict[str, str]] = None,

@@ -372,7 +372,7 @@ def test_net_check_listens_without_disturbing_a_manager_and_hello_takes_the_robo
     from fleet_common.robots import parse_robot_definitions
     from fleet_common.transport.curve_keys import (load_manager_keys, load_robot_keys,
                                                    make_keys)
-    from fleet_common.transport.link_events import LinkDown, LinkUp
+    from fleet_common.wire.link_events import LinkDown, LinkUp
     from fleet_common.transport.links import LinkSet
     from fleet_common.transport.robot_link import RobotLink
     from virtual_fleet.fleet import FleetThread, VirtualFleet

@@ -31,7 +31,7 @@ from agv_package.tag_map import load_tag_map
 from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.wire import PoseFeedback
 from fleet_common.transport.curve_keys import ManagerKeys, load_manager_keys, make_keys
-from fleet_common.transport.link_events import LinkDown, LinkUp, RobotReply
+from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
 from fleet_common.transport.links import LinkSet
 from fleet_common.transport.robot_link import RobotLink
 from helpers import free_port

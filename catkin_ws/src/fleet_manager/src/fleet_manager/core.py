@@ -31,7 +31,7 @@ from fleet_common.control.desk import ControlDesk
 from fleet_common.planning.replan import ReplanResult
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog.summary import RunSummary
-from fleet_common.transport.link_events import LinkDown, LinkEvent, LinkUp, RobotReply
+from fleet_common.wire.link_events import LinkDown, LinkEvent, LinkUp, RobotReply
 from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 

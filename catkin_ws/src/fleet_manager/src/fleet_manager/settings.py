@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import List, Optional
 
-from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
+from fleet_common.control.messages import DEFAULT_ENDPOINT
 
 __all__ = ["ManagerSettings"]
 

@@ -34,6 +34,9 @@ import numpy as np
 
 PROTOCOL_VERSION = 1
 
+#: Where a manager listens by default, and where a console looks for it.
+DEFAULT_ENDPOINT = "tcp://127.0.0.1:7100"
+
 #: What a console may ask, and the arguments each action takes (see `requests.py`).
 ACTIONS = ("start", "pause", "stop", "step", "halt", "strategy", "enable", "disable", "source",
            "load", "replan", "accept", "reject")

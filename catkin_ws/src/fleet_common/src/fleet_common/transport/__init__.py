@@ -12,7 +12,6 @@ way of binding, connecting, securing (CurveZMQ) and polling.
     robot_loop       many robot endpoints served from one thread
     robot_link       the manager's connection to one robot (DEALER + SUB), reconnecting
     pose_feedback    the manager's subscription to a robot's pose stream
-    link_events      what a robot link reports (LinkUp, LinkDown, RobotReply)
     links            many robot links polled from one thread (`LinkSet`)
     truth_stream     the virtual fleet's ground truth (PUB), read by the simulated Vicon
 

@@ -19,14 +19,13 @@ from typing import List, Optional, Tuple
 
 import zmq
 
+from ..control.messages import DEFAULT_ENDPOINT
 from ..errors import FleetError
 from .curve_keys import ConsoleKeys, ManagerKeys
 from .zap import ZapHandler
 
 __all__ = ["ConsoleServer", "ConsoleClient", "DEFAULT_ENDPOINT", "MAX_FRAME"]
 
-#: Where a manager listens by default, and where a console looks for it.
-DEFAULT_ENDPOINT = "tcp://127.0.0.1:7100"
 #: Larger frames are not the console protocol's: libzmq drops the peer.
 MAX_FRAME = 256 * 1024 * 1024
 _BUDGET = 200  # frames read per wake-up, so one flooding console cannot starve the fleet

@@ -43,13 +43,11 @@ from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed
                     Heartbeat, Hello, Liveness, RemoteProtocolError, Role, Status, Stop, Turn,
                     VersionMismatchError, Welcome)
 from .curve_keys import ManagerKeys
-from .link_events import LinkDown, LinkEvent, LinkUp, RobotReply
+from ..wire.link_events import OUTCOME_UNKNOWN, LinkDown, LinkEvent, LinkUp, RobotReply
 from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
 __all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOME_UNKNOWN"]
 
-#: The end of the reason of a command failed here because its robot restarted under it.
-OUTCOME_UNKNOWN = "its outcome is unknown"
 
 
 _POLLIN = int(zmq.POLLIN)

@@ -1,15 +1,20 @@
 """What a robot link reports to the manager: link up and down, the robot's replies.
 
-Pose feedback arrives as fleet_common.wire's `PoseFeedback` itself.
+Values only (the link itself, with its sockets, is `fleet_common.transport.robot_link`), so
+that the manager's core reads them without pyzmq. Pose feedback arrives as `PoseFeedback`
+itself.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Union
 
-from ..wire import PoseFeedback, Reply
+from .messages import PoseFeedback, Reply
 
-__all__ = ["LinkUp", "LinkDown", "RobotReply", "LinkEvent"]
+__all__ = ["LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOME_UNKNOWN"]
+
+#: The end of the reason of a command failed by the link because its robot restarted under it.
+OUTCOME_UNKNOWN = "its outcome is unknown"
 
 
 @dataclass(frozen=True)

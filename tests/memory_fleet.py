@@ -1,0 +1,257 @@
+"""The manager's run core wired to robots and consoles in memory, on a fake clock (no sockets).
+
+As h11 tests a connection by wiring two of them together, `MemoryFleet` wires
+a `RunCore` to one robot per definition, each the robot's own command
+executor (`fleet_common.wire.CommandExecutor`) driving the virtual fleet's
+kinematics (`virtual_fleet.kinematics.VirtualNavigator`), and to consoles
+that speak the console protocol's bytes. Time moves only when a test says so
+(`advance`), and everything the core asks for happens at once: commands reach
+their robot, replies and poses come back at the next tick, planning jobs are
+solved in place.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+from fleet_common.control import codec
+from fleet_common.control import messages as m
+from fleet_common.planning.replan import replan
+from fleet_common.robots import RobotDefinition
+from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
+from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
+from fleet_manager.core import RunCore
+from fleet_manager.outbox import NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
+from fleet_manager.plan_source import LoadedPlan
+from fleet_manager.settings import ManagerSettings
+from virtual_fleet.kinematics import VirtualNavigator
+
+EPOCH = "memory"
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+class MemoryRobot:
+    """One robot: its executor and kinematics; `up` while its link is."""
+
+    def __init__(self, robot_id: int, pose: Pose, clock: FakeClock, speed: float, turn_speed: float) -> None:
+        self.id = robot_id
+        self.navigator = VirtualNavigator(pose, speed=speed, turn_speed=turn_speed, clock=clock)
+        self.executor = CommandExecutor(self.navigator)
+        self.session = "s1"
+        self.up = False
+        self.seq = 0
+        self.commands: List[object] = []  # everything it was sent while up, in order
+
+    def restart(self) -> None:
+        """A new process where the robot stands: an empty command memory, a new session."""
+        self.executor = CommandExecutor(self.navigator)
+        self.session = "s{}".format(int(self.session[1:]) + 1)
+
+
+@dataclass
+class MemoryConsole:
+    """A console: what it received, decoded; what it asked and the answers."""
+
+    peer: bytes
+    name: str
+    received: List[object] = field(default_factory=list)
+    next_id: int = 1
+    last_sent: float = 0.0
+
+    @property
+    def states(self) -> List[m.State]:
+        return [x for x in self.received if isinstance(x, m.State)]
+
+    @property
+    def state(self) -> Optional[m.State]:
+        states = self.states
+        return states[-1] if states else None
+
+    @property
+    def version(self) -> int:
+        versioned = [x.version for x in self.received if isinstance(x, (m.State, m.Answer, m.Welcome))]
+        return max(versioned, default=0)
+
+    def answers(self) -> List[m.Answer]:
+        return [x for x in self.received if isinstance(x, m.Answer)]
+
+    def notices(self) -> List[m.Event]:
+        return [x for x in self.received if isinstance(x, m.Event)]
+
+
+class MemoryFleet:
+    def __init__(self, loaded: LoadedPlan, definitions: Sequence[RobotDefinition],
+                 settings: Optional[ManagerSettings] = None, poses: Optional[Dict[int, Pose]] = None,
+                 speed: float = 2.0, turn_speed: float = 6.0) -> None:
+        self.clock = FakeClock()
+        self.settings = settings or ManagerSettings(step_time=0.5)
+        self.core = RunCore(loaded, definitions, self.settings, "session-1", 0.0)
+        starts = loaded.starts
+        self.robots: Dict[int, MemoryRobot] = {}
+        for i, d in enumerate(definitions):
+            pose = (poses or {}).get(d.id, Pose(float(starts[i][0]), float(starts[i][1]), 0.0))
+            self.robots[d.id] = MemoryRobot(d.id, pose, self.clock, speed, turn_speed)
+        self.consoles: Dict[bytes, MemoryConsole] = {}
+        self.records: List[Tuple[str, float, dict]] = []
+        self.folders = 0
+        self.files: Dict[str, str] = {}
+        self.said: List[str] = []
+        self._replies: List[RobotReply] = []
+        self.solve: Callable[[PlanJob], object] = lambda job: replan(
+            job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method)
+        self.hold_plans = False  # keep planning jobs until `finish_plans` (a replan under way)
+        self.jobs: List[PlanJob] = []
+        self.pump()
+
+    @property
+    def now(self) -> float:
+        return self.clock.t
+
+    # ---- wiring ---------------------------------------------------------------------------
+
+    def pump(self) -> None:
+        """Carry out what the core asked for, until it asks for nothing more."""
+        while True:
+            effects = self.core.take()
+            if not effects and not self._replies:
+                return
+            for effect in effects:
+                self._carry_out(effect)
+            replies, self._replies = self._replies, []
+            for reply in replies:
+                self.core.link_event(reply, self.now)
+
+    def _carry_out(self, effect: object) -> None:
+        if isinstance(effect, Send):
+            robot = self.robots[effect.robot]
+            if robot.up:
+                robot.commands.append(effect.command)
+                for _, reply in robot.executor.handle(EPOCH, effect.command):
+                    self._replies.append(RobotReply(robot.id, reply))
+        elif isinstance(effect, Record):
+            self.records.append((effect.kind, effect.t, effect.fields))
+        elif isinstance(effect, ToConsole):
+            console = self.consoles.get(effect.peer)
+            if console is not None:
+                console.received.append(codec.decode(effect.data, m.MANAGER_MESSAGES,
+                                                     codec.MAX_MANAGER_BYTES))
+        elif isinstance(effect, Say):
+            self.said.append(effect.text)
+        elif isinstance(effect, PlanJob):
+            self.jobs.append(effect)
+            if not self.hold_plans:
+                self.finish_plans()
+        elif isinstance(effect, NewRunFolder):
+            self.folders += 1
+        elif isinstance(effect, WriteFile):
+            self.files[effect.name] = effect.text
+
+    def finish_plans(self) -> None:
+        jobs, self.jobs = self.jobs, []
+        for job in jobs:
+            self.core.plan_ready(job.id, self.solve(job), None, self.now)
+
+    def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
+        for robot in self._chosen(robot_id):
+            robot.up = True
+            self.core.link_event(LinkUp(robot.id, robot.session, restarted), self.now)
+        self.feedback()
+        self.pump()
+
+    def link_down(self, robot_id: int, reason: str = "silent for 3.5 s") -> None:
+        self.robots[robot_id].up = False
+        self.core.link_event(LinkDown(robot_id, reason), self.now)
+        self.pump()
+
+    def feedback(self) -> None:
+        """Every robot whose link is up reports its pose."""
+        for robot in self.robots.values():
+            if robot.up:
+                robot.seq += 1
+                self.core.link_event(PoseFeedback(robot.id, robot.seq, robot.navigator.pose(),
+                                                  robot.executor.current, robot.navigator.faults()), self.now)
+
+    def _chosen(self, robot_id: Optional[int]) -> List[MemoryRobot]:
+        return list(self.robots.values()) if robot_id is None else [self.robots[robot_id]]
+
+    # ---- time -----------------------------------------------------------------------------
+
+    def advance(self, seconds: float, step: float = 0.05) -> None:
+        """Let `seconds` pass: robots move and report, the core does what is due."""
+        end = self.now + seconds
+        while self.now < end - 1e-9:
+            self.clock.t = min(end, self.now + step)
+            for robot in self.robots.values():
+                if robot.up:
+                    for _, reply in robot.executor.poll():
+                        self._replies.append(RobotReply(robot.id, reply))
+            self.pump()
+            self.feedback()
+            for console in self.consoles.values():  # a live console's heartbeat
+                if self.now - console.last_sent >= 1.0:
+                    self._frame(console, m.Heartbeat())
+            self.core.tick(self.now)
+            self.core.log_poses(self.now)
+            self.core.publish(self.now)
+            self.pump()
+
+    def run_until(self, condition: Callable[[], bool], limit: float = 120.0) -> bool:
+        """Advance until `condition()` (True) or `limit` seconds have passed (False)."""
+        end = self.now + limit
+        while not condition():
+            if self.now >= end:
+                return False
+            self.advance(0.1)
+        return True
+
+    # ---- consoles -------------------------------------------------------------------------
+
+    def console(self, name: str = "ops") -> MemoryConsole:
+        peer = "console-{}".format(len(self.consoles) + 1).encode()
+        console = self.consoles[peer] = MemoryConsole(peer, name)
+        self._frame(console, m.Hello(name))
+        return console
+
+    def ask(self, console: MemoryConsole, action: str, based_on: Optional[int] = None,
+            **args: object) -> m.Answer:
+        """`console` asks for `action`; the manager's answer."""
+        request = m.Request(console.next_id, action, dict(args),
+                            console.version if based_on is None else based_on)
+        console.next_id += 1
+        self._frame(console, request)
+        return next(a for a in reversed(console.answers()) if a.id == request.id)
+
+    def _frame(self, console: MemoryConsole, message: object) -> None:
+        console.last_sent = self.now
+        self.core.console_frame(console.peer, codec.encode(message), self.now)
+        self.pump()
+
+    # ---- what happened --------------------------------------------------------------------
+
+    def kinds(self, kind: str) -> List[dict]:
+        return [fields for k, _, fields in self.records if k == kind]
+
+    def sent(self, robot_id: int, kind: str) -> List[object]:
+        return [c for c in self.robots[robot_id].commands if getattr(c, "TYPE", "") == kind]
+
+    @property
+    def phase(self) -> str:
+        return self.core.run.phase.phase
+
+    def at_goals(self) -> bool:
+        goals = self.core.run.loaded.goals
+        return all(abs(r.navigator.true_pose().x - g[0]) < 1e-6 and abs(r.navigator.true_pose().y - g[1]) < 1e-6
+                   for r, g in zip(self.robots.values(), goals))
+
+
+def lab_fleet(n: int = 5) -> List[RobotDefinition]:
+    colours = ["red", "green", "blue", "orange", "purple", "cyan", "magenta", "yellow"]
+    return [RobotDefinition(i + 1, "127.0.0.1", 9000 + i, "u", "tb{}".format(i + 1), colours[i % len(colours)])
+            for i in range(n)]

@@ -1,0 +1,326 @@
+"""The manager's run core in memory: robots, consoles and a fake clock, no sockets, no processes.
+
+Each control an operator has is driven through the console protocol's bytes
+and checked by what the robots did (the commands they received, where they
+stand) and what the consoles were told; refused requests change nothing.
+"""
+from __future__ import annotations
+
+import sys
+from typing import List
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from fleet_common.lab import lab_instance_path
+from fleet_common.wire import Pose
+from fleet_common.wire.link_events import OUTCOME_UNKNOWN
+from fleet_manager.plan_source import LoadedPlan, load_plan
+from fleet_manager.run_phase import TRANSITIONS
+from memory_fleet import MemoryFleet, lab_fleet
+
+_LAB: List[LoadedPlan] = []
+
+
+def lab() -> LoadedPlan:
+    if not _LAB:
+        _LAB.append(load_plan(lab_instance_path(), 5, "the lab fleet", []))
+    return _LAB[0]
+
+
+def fleet(**kwargs) -> MemoryFleet:
+    return MemoryFleet(lab(), lab_fleet(), **kwargs)
+
+
+def done(f: MemoryFleet) -> bool:
+    return f.phase == "done"
+
+
+def test_zmq_stays_out_of_the_core():
+    assert "zmq" not in sys.modules or "fleet_manager.manager" in sys.modules
+    import fleet_manager.core  # noqa: F401
+    assert not any(name.startswith("fleet_common.transport") for name in sys.modules
+                   if "fleet_manager.manager" not in sys.modules)
+
+
+def test_a_started_run_takes_every_robot_to_its_goal_and_says_so():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f))
+    assert f.at_goals()
+    summary = f.core.summary()
+    assert len(summary.arrived) == 5 and summary.collisions == 0
+    assert ops.state.run.state == "done" and ops.state.run.arrived == 5
+    assert any(n.kind == "run" and n.text.startswith("run done: arrived: 5/5") for n in ops.notices())
+    # the run log tells the same story: started, one completion per action, done
+    states = [r["run"] for r in f.kinds("state")]
+    assert states[0] == "running" and states[-1] == "done"
+    completed = [r for r in f.kinds("action") if r["phase"] == "completed"]
+    assert len(completed) == f.core.run.engine.table.num_actions
+
+
+def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
+    f = fleet(poses={3: Pose(0.0, 0.0, 0.0)})
+    ops = f.console()
+    answer = f.ask(ops, "start")
+    assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
+    f.link_up()
+    answer = f.ask(ops, "start")
+    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])  # the file's own coordinates
+    assert not answer.ok and "robot 3 is at (0.0, 0.0), its start is {}".format(start) in answer.reason
+    assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
+
+
+def test_pause_sends_nothing_new_and_start_drives_on():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(1.0)
+    assert f.ask(ops, "pause").ok and f.phase == "paused"
+    f.advance(0.1)  # replies in flight arrive
+    drives = {i: len(f.sent(i, "drive")) for i in f.robots}
+    f.advance(3.0)
+    assert {i: len(f.sent(i, "drive")) for i in f.robots} == drives
+    assert not any(r.navigator.moving for r in f.robots.values())  # they finished their moves
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_step_releases_one_round_then_holds():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "step").ok and f.phase == "paused"
+    f.advance(3.0)
+    engine = f.core.run.engine
+    assert sum(engine.run.completed) > 0
+    first = list(engine.run.completed)
+    f.advance(3.0)
+    assert list(engine.run.completed) == first  # nothing more without another step
+    assert f.ask(ops, "step").ok
+    f.advance(3.0)
+    assert sum(engine.run.completed) > sum(first)
+
+
+def test_stop_lets_robots_finish_their_move_and_start_continues():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(1.0)
+    assert f.ask(ops, "stop").ok and f.phase == "stopped"
+    f.advance(3.0)
+    assert not any(r.navigator.moving for r in f.robots.values())
+    for r in f.robots.values():  # every robot stands on a cell centre
+        p = r.navigator.true_pose()
+        assert abs(p.x - round(p.x)) < 1e-6 and abs(p.y - round(p.y)) < 1e-6
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_halt_stops_robots_mid_move_and_start_drives_on_from_there():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.run_until(lambda: any(r.navigator.moving and r.executor.current is not None
+                            and f.sent(r.id, "drive") for r in f.robots.values()))
+    assert f.ask(ops, "halt").ok and f.phase == "paused"
+    assert any(f.sent(i, "stop") for i in f.robots)
+    f.advance(0.2)
+    assert not any(r.navigator.moving for r in f.robots.values())
+    held = [r for r in f.core.fleet if r.hold == "halted"]
+    assert held
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
+
+
+def test_a_disabled_robot_gets_nothing_new_and_enabling_it_finishes_the_run():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(0.5)
+    assert f.ask(ops, "disable", robot=2).ok
+    f.advance(0.2)
+    drives = len(f.sent(2, "drive"))
+    f.advance(10.0)
+    assert len(f.sent(2, "drive")) == drives
+    assert ops.state.robots[1].out == "disabled"
+    assert not f.ask(ops, "disable", robot=2).ok  # already disabled: refused
+    assert f.ask(ops, "enable", robot=2).ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_a_strategy_switch_mid_run_keeps_progress_and_is_told():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(1.0)
+    before = sum(f.core.run.engine.run.completed)
+    assert f.ask(ops, "strategy", name="step").ok
+    assert f.core.run.engine.strategy.name == "step" and sum(f.core.run.engine.run.completed) == before
+    assert any(n.kind == "strategy" and "adg" in n.text and "step" in n.text for n in ops.notices())
+    assert not f.ask(ops, "strategy", name="fastest").ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_a_lost_link_holds_only_that_robot_and_the_run_goes_on_when_it_is_back():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(0.5)
+    f.link_down(4)
+    sent = len(f.robots[4].commands)
+    f.advance(2.0)
+    assert len(f.robots[4].commands) == sent  # nothing new while down
+    assert ops.state.robots[3].link == "down"
+    assert any(n.kind == "link" and n.robot == 4 for n in ops.notices())
+    f.link_up(4)
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_a_robot_restarted_mid_move_is_asked_where_it_is_and_nothing_runs_twice():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.run_until(lambda: f.robots[1].executor.current is not None and f.sent(1, "drive"))
+    robot = f.robots[1]
+    f.link_down(1)
+    robot.restart()
+    # the link reports the command it had in flight as failed, outcome unknown
+    from fleet_common.wire import Failed
+    from fleet_common.wire.link_events import RobotReply
+    flight = f.core.fleet.by_id[1].flight
+    f.link_up(1, restarted=True)
+    f.core.link_event(RobotReply(1, Failed(flight.id, "robot 1 restarted; " + OUTCOME_UNKNOWN)), f.now)
+    f.pump()
+    assert f.sent(1, "get_status")
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+    moves = [(r["src"], r["dst"]) for r in f.kinds("action") if r["robot"] == 1 and r["phase"] == "completed"]
+    assert len(moves) == len(set(moves)) == f.core.run.engine.table.count(0)
+
+
+def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
+    f = fleet()
+    f.robots[2].navigator.bumps = {1}
+    f.robots[2].navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    assert any(n.kind == "fault" and n.robot == 2 for n in ops.notices())
+    f.advance(2.0)
+    assert f.phase == "running" and not done(f)
+    assert f.ask(ops, "enable", robot=2).ok
+    assert f.sent(2, "stop")  # clears the fault
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(0.5)
+    f.ask(ops, "disable", robot=3)
+    f.hold_plans = True
+    answer = f.ask(ops, "replan")
+    assert answer.ok and f.phase == "paused"
+    assert not f.ask(ops, "start").ok  # a replan under way: answer it first
+    f.advance(2.0)  # the safe point: every robot finishes its move, then planning is asked for
+    assert len(f.jobs) == 1 and 2 in f.jobs[0].out
+    f.finish_plans()
+    f.advance(0.1)  # the console sees the State that goes with the proposal
+    proposals = [x for x in ops.received if type(x).__name__ == "Proposal"]
+    assert proposals
+    assert f.ask(ops, "accept", proposal=proposals[-1].id).ok
+    assert "plan-2.txt" in f.files and f.phase == "running"
+    assert f.run_until(lambda: done(f))
+    goals = f.core.run.loaded.goals
+    for rid, robot in f.robots.items():
+        if rid != 3:
+            p = robot.navigator.true_pose()
+            assert (round(p.x), round(p.y)) == goals[rid - 1]
+
+
+def test_a_rejected_replan_keeps_the_plan_and_the_run_resumes():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(0.5)
+    f.ask(ops, "replan")
+    f.advance(2.0)
+    proposal = [x for x in ops.received if type(x).__name__ == "Proposal"][-1]
+    assert f.ask(ops, "reject", proposal=proposal.id).ok
+    assert f.core.run.plan_id == 1 and f.phase == "running"
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_a_request_on_a_stale_picture_of_its_robot_is_refused_and_changes_nothing():
+    f = fleet()
+    ops, other = f.console("ops"), f.console("visitor desk")
+    f.link_up()
+    f.advance(0.1)  # both see the robots up
+    seen = ops.version
+    assert f.ask(other, "disable", robot=4).ok
+    answer = f.ask(ops, "enable", based_on=seen, robot=4)
+    assert not answer.ok and "the state changed since you looked" in answer.reason
+    assert f.core.run.engine.run.out[3] == "disabled"
+    # a change to another robot does not make a request about this one stale
+    seen = ops.version
+    assert f.ask(other, "disable", robot=5).ok
+    assert f.ask(ops, "enable", based_on=seen, robot=4).ok
+
+
+def test_garbage_from_a_console_is_answered_and_changes_nothing():
+    f = fleet()
+    ops = f.console()
+    before = (f.phase, f.core.desk.version, len(f.records))
+    refusal = f.core.console_frame(ops.peer, b"\xff{not json", f.now)
+    f.pump()
+    assert refusal is not None and "not a valid console message" in refusal
+    assert (f.phase, f.core.desk.version) == before[:2]
+    assert not ops.answers()[-1].ok
+
+
+REQUESTS = ["start", "pause", "stop", "step", "halt"]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(st.sampled_from(REQUESTS), st.floats(0.0, 1.5)), min_size=1, max_size=12))
+def test_any_sequence_of_run_requests_follows_the_phase_table_and_ends_safely(steps):
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    for action, wait in steps:
+        phase = f.phase
+        engine_before = (list(f.core.run.engine.run.dispatched), f.core.run.engine.paused)
+        answer = f.ask(ops, action)
+        if (phase, action) in TRANSITIONS and (action not in ("start", "step") or answer.ok):
+            assert answer.ok and f.phase == TRANSITIONS[(phase, action)]
+        if not answer.ok:  # a refusal changes nothing
+            assert f.phase == phase
+            assert (list(f.core.run.engine.run.dispatched), f.core.run.engine.paused) == engine_before
+        f.advance(wait)
+    if f.phase != "done":
+        assert f.ask(ops, "start").ok or f.phase == "running"
+    assert f.run_until(lambda: done(f))
+    assert f.at_goals() and f.core.summary().collisions == 0
+
+
+@pytest.mark.parametrize("action", ["pause", "stop", "halt"])
+def test_requests_that_need_a_run_under_way_are_refused_while_waiting(action):
+    f = fleet()
+    ops = f.console()
+    answer = f.ask(ops, action)
+    assert not answer.ok and "waiting" in answer.reason
+    assert f.phase == "waiting" and not f.kinds("state")
