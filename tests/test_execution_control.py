@@ -55,7 +55,7 @@ def test_adg_blocks_only_the_chain_behind_a_disabled_robot():
     done = drive(engine, engine.handle(Resume(0.0)))
     assert {d.agent for d in done} == {3} and engine.run.finished_agent(3)
     assert engine.waiting() == [(1, (0,), (3, 0), CELL), (2, (1,), (2, 0), CELL)]
-    assert engine.blocked_by() == {0: [1, 2]} and engine.stalled and not engine.finished
+    assert engine.blocked_by() == {0: [1, 2]} and engine.stuck and not engine.finished
     drive(engine, engine.handle(Enabled(0, 5.0)))  # continues where it stopped
     assert engine.finished and not engine.waiting()
 
@@ -105,7 +105,7 @@ def test_disabled_then_enabled_in_a_simulated_run_is_safe_and_finishes(sample):
     stalled = simulate(sample, "adg", MODERATE, seed=3, disable={5: 10})
     blocked = stalled.engine.blocked_by()[5]
     assert blocked and stalled.unfinished() == blocked and not stalled.collisions
-    assert stalled.engine.stalled
+    assert stalled.engine.stuck
     late = stalled.end_time + 10.0
     resumed = simulate(sample, "adg", MODERATE, seed=3, disable={5: 10}, controls=[Enabled(5, late)])
     assert resumed.finished and not resumed.collisions
@@ -122,7 +122,7 @@ def test_a_run_starts_paused_and_pause_stops_new_actions(sample):
     engine.handle(Pause(0.5))
     for d in pending:  # robots finish what they were sent, nothing new is sent
         assert engine.handle(ActionCompleted(d.agent, d.index, 1.0)) == []
-    assert engine.paused and not engine.stalled and engine.waiting()
+    assert engine.paused and not engine.stuck and engine.waiting()
     assert len(engine.handle(Resume(2.0))) > 50
 
 

@@ -78,7 +78,7 @@ def naive_trace(table: ActionTable, durations: np.ndarray, waits: Optional[np.nd
 
 def assert_safe_and_complete(result: SimResult, plan: Plan) -> None:
     assert result.collisions == [], result.collisions[:3]
-    assert result.finished and not result.engine.stalled  # no deadlock
+    assert result.finished and not result.engine.stuck  # no deadlock
     assert result.trace.final_cells() == plan.goals  # every robot reached its goal
     table = result.engine.table
     for r in range(plan.num_agents):  # every action executed once, in order, none lost

@@ -97,7 +97,7 @@ class Engine:
         return self.strategy.finished()
 
     @property
-    def stalled(self) -> bool:
+    def stuck(self) -> bool:
         """Running, not finished, and nothing moving: only an out robot can cause this."""
         return not self.paused and not self.finished and not self.run.moving
 

@@ -6,7 +6,7 @@ simulator turns their progress into engine events in time order and records
 the executed trace, which `trace.find_collisions` then judges. Control
 events (`Pause`, `SwitchStrategy`, `Disabled`, `Enabled`, `RobotFailed`, ...) may be
 scheduled at given times. The run starts with `Resume` at time 0 and ends
-when nothing is left to happen: finished, or stalled because robots wait for
+when nothing is left to happen: finished, or stuck because robots wait for
 an out robot.
 
 `disable={robot: step}` models a battery dying: the robot stops where the

@@ -72,7 +72,7 @@ def write_simulation(parent: Union[str, Path], plan: Plan, result: SimResult, so
         for t, kind, fields in entries:
             log.record(kind, t=t, **fields)
         missing = result.unfinished()
-        reason = "done" if not missing else "stalled"
+        reason = "done" if not missing else "stuck"
         log.record("state", t=end, run="done" if not missing else "stopped", reason=reason)
         summary_fields: dict = {
             "lines": list(summary), "makespan": m.makespan, "soc": m.soc,
