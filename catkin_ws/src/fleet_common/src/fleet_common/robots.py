@@ -8,7 +8,9 @@ One robot a line, six whitespace-separated fields in the thesis's order:
 `#` starts a comment (a whole line, or the rest of a line) when it begins a
 field, except in the colour field, where `#` and letters or digits are a hex
 colour (`#ff8800`; `#ggg` is then reported as a bad colour).
-Blank lines are ignored. Every field is checked, and ids, host:port pairs and
+Blank lines are ignored. One optional line gives the robots' size for the
+whole fleet (`size diameter=0.354 margin=0.10`, metres; see `robot_size`).
+Every field is checked, and ids, host:port pairs and
 Vicon names must be unique; a bad line raises `RobotDefinitionsError` naming
 the file, line and column of the field and what was expected, quoting the
 field as a short excerpt. Lines end at LF (a CR before it is dropped) and
@@ -27,15 +29,18 @@ from .colours import COLOUR_FORMS, colour_to_rgb, is_tk_colour
 from .errors import RobotDefinitionsError
 from .limits import (MAX_DEFINITIONS_BYTES, MAX_INT_DIGITS, MAX_NAME_CHARS, VICON_NAME_BYTES,
                      excerpt)
+from .robot_size import RobotSize, parse_size_line
 
 __all__ = [
     "RobotDefinition", "parse_robot_definitions", "read_robot_definitions",
     "format_robot_definitions", "default_definitions_path", "colour_to_rgb",
+    "parse_robot_size", "read_robot_size",
 ]
 
 FILE_NAME = "robot_definitions.txt"
 ENV_VAR = "FLEETCONTROL_ROBOTS"
 COLUMNS = ("id", "host", "command_port", "ssh_user", "vicon_name", "colour")
+SIZE_LINE = "size"
 
 _IPV4_LIKE = re.compile(r"[0-9.]+\Z")
 _OCTET = re.compile(r"(?:0|[1-9][0-9]{0,2})\Z")
@@ -120,6 +125,9 @@ def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[Robot
         fields = _fields(line)
         if not fields:
             continue
+        if fields[0][1] == SIZE_LINE:
+            parse_size_line(fields, path, number)  # checked here, read by parse_robot_size
+            continue
         if len(fields) != len(COLUMNS):
             column = fields[len(COLUMNS)][0] if len(fields) > len(COLUMNS) else None
             raise RobotDefinitionsError(
@@ -152,6 +160,30 @@ def parse_robot_definitions(text: str, path: Optional[str] = None) -> List[Robot
         raise RobotDefinitionsError(
             "no robot defined: expected lines of '{}'".format(" ".join(COLUMNS)), path)
     return robots
+
+
+def parse_robot_size(text: str, path: Optional[str] = None, cell: Optional[float] = None) -> RobotSize:
+    """The robots' size from `text`'s size line (a TurtleBot 2 without one); `cell` in metres
+    (default: the lab's)."""
+    size = RobotSize()
+    seen = 0
+    for number, line in enumerate(text.split("\n"), 1):
+        fields = _fields(line[:-1] if line.endswith("\r") else line)
+        if fields and fields[0][1] == SIZE_LINE:
+            seen += 1
+            if seen > 1:
+                raise RobotDefinitionsError("a second size line: the fleet has one size", path, number)
+            size = parse_size_line(fields, path, number)
+    return size if cell is None else size.with_cell(cell)
+
+
+def read_robot_size(path: Union[str, Path, None] = None, cell: Optional[float] = None) -> RobotSize:
+    """The robots' size in a definitions file (default: `default_definitions_path()`)."""
+    from .formats.lines import read_text
+
+    path = Path(path) if path is not None else default_definitions_path()
+    text = read_text(str(path), RobotDefinitionsError, MAX_DEFINITIONS_BYTES, strict=True)
+    return parse_robot_size(text, str(path), cell)
 
 
 def read_robot_definitions(path: Union[str, Path, None] = None) -> List[RobotDefinition]:

@@ -14,10 +14,10 @@ in seconds.
 """
 from __future__ import annotations
 
-from .draw import MoveFates, draw_fates, robot_profile, simulator_durations
+from .draw import MoveFates, draw_fates, robot_profile, simulator_durations, simulator_fates
 from .model import DelayModel, DelayModelError, EventDelays, ProneDelays
 from .spec import FORMS, PRESETS, parse_delay_model, read_delay_file
 
 __all__ = ["DelayModel", "DelayModelError", "EventDelays", "ProneDelays", "MoveFates", "draw_fates",
-           "robot_profile", "simulator_durations", "FORMS", "PRESETS", "parse_delay_model",
+           "robot_profile", "simulator_durations", "simulator_fates", "FORMS", "PRESETS", "parse_delay_model",
            "read_delay_file"]

@@ -99,11 +99,21 @@ def draw_fates(model: DelayModel, u: np.ndarray, robot_factor: np.ndarray,
     return MoveFates(wait, slowdown, stall, u[:, _STALL_AT], dropout, u[:, _DROP_AT])
 
 
-def simulator_durations(model: DelayModel, robots: np.ndarray, num_robots: int, seed: int,
-                        nominal: float = 1.0) -> Tuple[np.ndarray, np.ndarray]:
-    """(wait before, duration of) each move of a plan whose moves are made by `robots`
-    (flat action order), in units of `nominal`. A dropout holds the robot like a stall."""
+def simulator_fates(model: DelayModel, robots: np.ndarray, num_robots: int, seed: int,
+                    nominal: float = 1.0) -> MoveFates:
+    """The fate of each move of a plan whose moves are made by `robots` (flat action order),
+    times in units of `nominal`: the wait, the stall and the dropout scaled, the slowdown a
+    factor of `nominal` (a move drives for nominal x slowdown)."""
     u = np.random.default_rng(seed).random((robots.shape[0], COLUMNS))
     factor, prone = robot_profile(model, seed, num_robots)
     f = draw_fates(model, u, factor[robots], prone[robots])
-    return nominal * f.wait, nominal * (f.slowdown + f.stall + f.dropout)
+    return MoveFates(nominal * f.wait, f.slowdown, nominal * f.stall, f.stall_at, nominal * f.dropout,
+                     f.dropout_at)
+
+
+def simulator_durations(model: DelayModel, robots: np.ndarray, num_robots: int, seed: int,
+                        nominal: float = 1.0) -> Tuple[np.ndarray, np.ndarray]:
+    """(wait before, duration of) each move, stalls and dropouts counted in the duration (the
+    same draws as `simulator_fates`)."""
+    f = simulator_fates(model, robots, num_robots, seed, nominal)
+    return f.wait, nominal * f.slowdown + f.stall + f.dropout

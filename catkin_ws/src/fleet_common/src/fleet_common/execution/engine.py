@@ -12,7 +12,8 @@ dispatched when
 2. fewer than `strategy.window` of its actions are sent and incomplete,
 3. the run is not paused (or the current round allows it),
 4. its ADG predecessor (the other robot's move out of the cell it enters)
-   has completed: the safety rule, the same for every strategy,
+   has completed, or, for robots smaller than a cell (`follow`), has been
+   dispatched: the safety rule, the same for every strategy,
 5. the strategy does not hold it (the discrete time step's barrier).
 
 So a completion costs O(1) plus the dispatches it causes, whatever the
@@ -20,14 +21,31 @@ fleet's size. No sockets, threads or clocks: time is a number in each event,
 used only for the metrics. An event that contradicts the progress raises
 `EventError` and changes nothing.
 
+Following (`follow=True`). Robots of their real size may follow one another:
+a robot may start into a cell that another is leaving as soon as the
+leaver's move is dispatched, not completed, so that a train of robots moves
+as one instead of one robot at a time. Such a `Dispatch` names its leader
+(`follows`): until the leader's move completes, the follower may only go as
+far as keeps it at the safe distance from where the leader is known to be
+(`following.hold_fraction`, applied by whoever drives the robot: the
+simulator, the manager's driver). Why that is safe, whatever the delays: the
+leader only ever moves on along its path, so a position it reported is
+never ahead of the truth; the follower stops short of the hold point
+computed from it, and a late or lost report only stops it earlier. Why no
+new deadlock: a follower waits only for its leader's move, as before, and
+every chain of leaders ends at a robot whose move depends on nobody
+unfinished (the ADG has no cycles). `following()` lists who follows whom.
+
 Switching strategies keeps the progress and attaches the new strategy to it;
 actions already sent stay sent. Because rule 4 holds under every strategy,
 any mix of strategies, pauses, disabled and failed robots is collision-free:
 a robot that stops (even mid-move) still holds both cells of its move, since
-nobody may enter a cell before its previous occupant's move out is complete.
+nobody may enter a cell before its previous occupant's move out is complete
+(for followers: nobody comes closer than the safe distance to it).
 """
 from __future__ import annotations
 
+from collections import deque
 from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 from ..grid import Coord
@@ -37,7 +55,7 @@ from .adg import build_adg
 from .blocking import blocked_by
 from .errors import EventError, UnknownStrategyError
 from .events import (
-    CELL, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
+    CELL, FOLLOW, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
     RobotFailed, StepRound, SwitchStrategy, Wait,
 )
 from .metrics import Metrics
@@ -55,12 +73,17 @@ class Engine:
     """One run of `plan` under a switchable strategy; see the module docstring."""
 
     def __init__(self, plan: Plan, strategy: Union[str, Strategy] = "adg",
-                 show: Callable[[Coord], Coord] = _identity, **settings: object) -> None:
+                 show: Callable[[Coord], Coord] = _identity, follow: bool = False,
+                 **settings: object) -> None:
         """Build actions and ADG (raising `PlanError` for plans robots cannot run).
 
         `strategy` is a registered name (with its `settings`, e.g. `lookahead=2`)
-        or a `Strategy`; `show` turns base cells into the frame messages use.
+        or a `Strategy`; `show` turns base cells into the frame messages use;
+        `follow`: robots smaller than a cell, which may follow one another.
         """
+        self.follow = follow
+        #: follower action -> leader action, for actions dispatched before their leader completed
+        self.early: Dict[int, int] = {}
         table = ActionTable.from_plan(plan, show)
         self.run = RunState(build_adg(table, show))
         self.table = table
@@ -123,9 +146,16 @@ class Engine:
                 out.append(Wait(r, on, None, reason))
         return out
 
+    def following(self) -> List[Wait]:
+        """Followers whose leader's move is not complete yet: they may not come closer to it
+        than the safe distance (reason FOLLOW, `on` the leader, `cell` the cell they enter)."""
+        run = self.run
+        return [Wait(run.agent[a], (run.agent[d],), self.table.coord(run.dst[a]), FOLLOW)
+                for a, d in sorted(self.early.items())]
+
     def blocked_by(self) -> Dict[int, List[int]]:
         """For each out robot, the robots now waiting for it, directly or transitively."""
-        return blocked_by(self.waiting(), self.out_agents())
+        return blocked_by(self.waiting() + self.following(), self.out_agents())
 
     # ---- events -------------------------------------------------------------------------
     def _agent(self, r: object, event: object) -> int:
@@ -154,6 +184,9 @@ class Engine:
         run.completed[r] = k + 1
         run.started[r] = max(run.started[r], k + 1)
         run.dispatched[r] = max(run.dispatched[r], k + 1)
+        if self.early:
+            self.early.pop(a, None)
+            self.early.pop(run.succ[a], None)
         extra = self.strategy.on_completed(a)
         s = run.succ[a]
         agents = [r] if s < 0 else [r, run.agent[s]]
@@ -167,6 +200,7 @@ class Engine:
         run.out[r] = FAILED
         # nothing it was sent counts as done; on Enabled it is sent its next action again
         run.dispatched[r] = run.started[r] = run.completed[r]
+        self._forget_early(r)
         return (self.strategy.on_out(r) if was_active else ()), r
 
     def _disabled(self, e: Disabled) -> Recheck:
@@ -175,7 +209,15 @@ class Engine:
         if run.out[r] is None:
             run.out[r] = DISABLED
         run.dispatched[r] = max(run.started[r], run.completed[r])  # keeps only what it began
+        self._forget_early(r)
         return (self.strategy.on_out(r) if was_active else ()), r
+
+    def _forget_early(self, r: int) -> None:
+        """Robot r's actions taken back are no longer following anyone."""
+        if self.early:
+            run = self.run
+            for a in range(run.first[r] + run.dispatched[r], run.first[r + 1]):
+                self.early.pop(a, None)
 
     def _enabled(self, e: Enabled) -> Recheck:
         run, r = self.run, self._agent(e.agent, e)
@@ -206,28 +248,41 @@ class Engine:
         return range(self.run.num_agents), None
 
     # ---- decisions ----------------------------------------------------------------------
-    def _dispatch(self, agents: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
+    def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
         run, strategy, cap, out = self.run, self.strategy, self._cap, []
-        first, dep, done, step = run.first, run.dep, run.done, run.step
+        first, dep, done, step, agent = run.first, run.dep, run.done, run.step, run.agent
+        dispatched, succ, follow, early = run.dispatched, run.succ, self.follow, self.early
         window = strategy.window
         coord = self.table.coord
-        for r in agents:
+        todo = deque(robots)
+        while todo:
+            r = todo.popleft()
             if run.out[r] is not None:
                 continue
             base = first[r]
             limit = min(first[r + 1], base + run.completed[r] + window)
             if cap is not None:
                 limit = min(limit, base + cap[r])
-            a = base + run.dispatched[r]
+            a = base + dispatched[r]
             while a < limit:
                 d = dep[a]
-                if (d >= 0 and not done[d]) or strategy.holds(a):
+                leader = None
+                if d >= 0 and not done[d]:
+                    # the leader's move out of the cell: complete, or (following) dispatched
+                    if not follow or dispatched[agent[d]] <= d - first[agent[d]]:
+                        break
+                    leader = (agent[d], d - first[agent[d]])
+                if strategy.holds(a):
                     break
                 k = a - base
-                run.dispatched[r] = k + 1
+                dispatched[r] = k + 1
                 if k >= run.sent[r]:
                     run.sent[r] = k + 1
-                out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a])))
+                if leader is not None:
+                    early[a] = d
+                out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a]), leader))
                 self.metrics.record_dispatch(r, k, time, released_by)
+                if follow and succ[a] >= 0 and not done[a]:
+                    todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1
         return out

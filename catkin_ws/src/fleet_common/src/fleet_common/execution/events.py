@@ -100,19 +100,25 @@ class SwitchStrategy:
 
 
 class Dispatch(NamedTuple):
-    """Decision: agent `agent` may start its action `index` (plan step `step`)."""
+    """Decision: agent `agent` may start its action `index` (plan step `step`).
+
+    `follows` names the leader (agent, action index) whose move out of `dst` is not
+    complete yet: keep the safe distance from it until it is (see `following`)."""
 
     agent: int
     index: int
     step: int
     src: Coord
     dst: Coord
+    follows: Optional[Tuple[int, int]] = None
 
 
 #: Wait reasons (stable strings): the cell to enter is not free yet, the strategy
-#: holds the robot (e.g. the step barrier), or the run is paused.
+#: holds the robot (e.g. the step barrier), the run is paused, or it follows a leader
+#: into a cell at the safe distance (`Engine.following`).
 CELL = "cell"
 PAUSED = "paused"
+FOLLOW = "follow"
 
 
 class Wait(NamedTuple):

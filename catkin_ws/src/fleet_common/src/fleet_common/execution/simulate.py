@@ -1,43 +1,57 @@
 """A whole run in one process: the engine against simulated robots, in simulated time.
 
 Each simulated robot keeps a queue of the actions it was sent and drives them
-one after the other, each taking its drawn duration (`delays`); the
-simulator turns their progress into engine events in time order and records
-the executed trace, which `trace.find_collisions` then judges. Control
-events (`Pause`, `SwitchStrategy`, `Disabled`, `Enabled`, `RobotFailed`, ...) may be
+one after the other (`motion`: a wait in its cell, then a straight drive at
+its drawn speed, stalled or slowed anywhere inside the move as the delay
+model says). The simulator turns their progress into engine events in time
+order and records what really happened: every robot's path (the centre's
+knots, judged in metres by `approach`) and the cells it occupied (`trace`,
+judged by the cell rule for robots as large as a cell). Control events
+(`Pause`, `SwitchStrategy`, `Disabled`, `Enabled`, `RobotFailed`, ...) may be
 scheduled at given times. The run starts with `Resume` at time 0 and ends
 when nothing is left to happen: finished, or stuck because robots wait for
 an out robot.
 
+Robots of a real size (`size`, smaller than a cell) follow one another: a
+follower dispatched before its leader's move completed drives only to its
+hold point (`following.hold_fraction`), computed as the manager computes it:
+from where the leader was at the last pose report that has reached the
+manager (reports every `feedback.period`, arriving `feedback.latency`
+later). A follower that reaches its hold point stops there and looks again
+at each new report; the leader's completion is known the same way.
+
 `disable={robot: step}` models a battery dying: the robot stops where the
 plan has it at that step (before its first action of that step or later) and
-is disabled there; its in-flight moves are never cut short.
-A robot that `RobotFailed` stops mid-move: it keeps both cells of that move, and when
-it is enabled again it is sent the same action and completes it.
-
-A move may have a wait before it (`waits`, from delay events): the robot stays in
-its cell that long after the action reaches it, then starts moving. With
-`journal=True` the run also keeps what a run log records (`SimResult.journal`:
-dispatches, starts, completions, robots out, and who waits for whom whenever
-that changes), for `runlog_sim` to write.
+is disabled there; its in-flight moves are never cut short. A robot that
+`RobotFailed` stops mid-move where it is: when it is enabled again it is sent
+the same action and drives on from there. With `journal=True` the run also
+keeps what a run log records (`SimResult.journal`: dispatches, starts,
+completions, robots out, and who waits for whom whenever that changes), for
+`runlog.simulated` to write.
 """
 from __future__ import annotations
 
 import heapq
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Deque, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..delays import DelayModel, MoveFates, simulator_fates
 from ..plan import Plan
-from ..delays import DelayModel, simulator_durations
+from ..robot_size import RobotSize
+from .approach import Approach, Safety, judge
 from .engine import Engine
 from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed
+from .following import hold_fraction
 from .metrics import Metrics
+from .motion import Feedback, Motion
 from .trace import Collision, Trace, find_collisions
 
-_COMPLETE, _CONTROL, _BEGIN = 0, 1, 2
+_WAKE, _CONTROL, _RECHECK = 0, 1, 2
+_EPS = 1e-9
 
 
 @dataclass
@@ -50,6 +64,9 @@ class SimResult:
     disabled_at: Dict[int, float]
     waits: Optional[np.ndarray] = None
     journal: Optional[List[Tuple[float, str, dict]]] = None
+    paths: Optional[List[List[Tuple[float, float, float]]]] = None
+    safety: Optional[Safety] = None
+    size: Optional[RobotSize] = None
 
     @property
     def metrics(self) -> Metrics:
@@ -58,6 +75,10 @@ class SimResult:
     @property
     def finished(self) -> bool:
         return self.engine.finished
+
+    @property
+    def closest(self) -> Optional[Approach]:
+        return None if self.safety is None else self.safety.closest
 
     def unfinished(self) -> List[int]:
         """Robots taking part that did not reach their goal."""
@@ -68,43 +89,72 @@ class SimResult:
 def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] = None, seed: int = 0,
              durations: Optional[np.ndarray] = None, disable: Optional[Mapping[int, int]] = None,
              controls: Sequence[object] = (), nominal: float = 1.0, waits: Optional[np.ndarray] = None,
-             journal: bool = False, **settings: object) -> SimResult:
-    """Run `plan` under `strategy`; waits and durations drawn from `delays`, or given
-    (none: no delays)."""
-    engine = Engine(plan, strategy, **settings)  # type: ignore[arg-type]
-    if durations is None:
-        waits, durations = simulator_durations(delays or DelayModel(), engine.table.agent,
-                                                engine.run.num_agents, seed, nominal)
-    return simulate_engine(engine, durations, disable, controls, waits, journal)
+             journal: bool = False, size: Optional[RobotSize] = None,
+             feedback: Optional[Feedback] = None, fates: Optional[MoveFates] = None,
+             **settings: object) -> SimResult:
+    """Run `plan` under `strategy` with robots of `size` (None: as large as a cell); each move's
+    fate drawn from `delays` with `seed`, or given as `fates`, or as plain `durations` (and
+    `waits`); no delays by default."""
+    follow = size is not None and not size.cell_sized
+    engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
+    if fates is None and durations is None:
+        fates = simulator_fates(delays or DelayModel(), engine.table.agent, engine.run.num_agents, seed,
+                                nominal)
+    return simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
+                           feedback=feedback, fates=fates, nominal=nominal)
 
 
-def simulate_engine(engine: Engine, durations: np.ndarray, disable: Optional[Mapping[int, int]] = None,
-                    controls: Sequence[object] = (), waits: Optional[np.ndarray] = None,
-                    journal: bool = False) -> SimResult:
-    """Run a fresh `engine` (not yet resumed) with one duration (and wait) per action."""
-    sim = _Simulation(engine, durations, disable or {}, waits, journal)
+def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
+                    disable: Optional[Mapping[int, int]] = None, controls: Sequence[object] = (),
+                    waits: Optional[np.ndarray] = None, journal: bool = False,
+                    size: Optional[RobotSize] = None, feedback: Optional[Feedback] = None,
+                    fates: Optional[MoveFates] = None, nominal: float = 1.0) -> SimResult:
+    """Run a fresh `engine` (not yet resumed): each move as `fates` say, or taking `durations`
+    after `waits` (a constant speed)."""
+    if fates is None:
+        if durations is None:
+            raise ValueError("simulate_engine needs fates or durations")
+        n = durations.shape[0]
+        zero = np.zeros(n)
+        fates = MoveFates(np.zeros(n) if waits is None else waits, durations / nominal, zero, zero, zero, zero)
+    sim = _Simulation(engine, fates, nominal, disable or {}, journal, size, feedback or Feedback())
     sim.run(controls)
-    return SimResult(engine, sim.trace, sim.durations, find_collisions(sim.trace), sim.now, sim.disabled_at,
-                     waits, sim.journal)
+    total = nominal * fates.slowdown + fates.stall + fates.dropout
+    paths = [m.knots for m in sim.paths]
+    if size is None or size.cell_sized:
+        collisions = find_collisions(sim.trace)
+        safety = judge(paths, 1.0 if size is None else size.safe_cells, sim.now)
+    else:
+        safety = judge(paths, size.safe_cells, sim.now)
+        collisions = [Collision("too-close", a.agents, (a.place,), a.time, (True, True))  # type: ignore[arg-type]
+                      for a in safety.violations]
+    return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
+                     sim.journal, paths, safety, size)
 
 
 class _Simulation:
-    def __init__(self, engine: Engine, durations: np.ndarray, disable: Mapping[int, int],
-                 waits: Optional[np.ndarray], journal: bool) -> None:
+    def __init__(self, engine: Engine, fates: MoveFates, nominal: float, disable: Mapping[int, int],
+                 journal: bool, size: Optional[RobotSize], feedback: Feedback) -> None:
         n = engine.run.num_agents
         self.engine = engine
-        self.durations = durations
-        self.dur: List[float] = durations.tolist()
-        self.wait: Optional[List[float]] = None if waits is None or not waits.any() else waits.tolist()
+        self.wait: List[float] = fates.wait.tolist()
+        self.drive: List[float] = (nominal * fates.slowdown).tolist()
+        self.stall: List[float] = fates.stall.tolist()
+        self.stall_at: List[float] = fates.stall_at.tolist()
+        self.drop: List[float] = fates.dropout.tolist()
+        self.drop_at: List[float] = fates.dropout_at.tolist()
+        self.safe = None if size is None or size.cell_sized else size.safe_cells
+        self.feedback = feedback
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
         self._charged: Dict[int, Tuple[float, Dict[int, float]]] = {}
         self.disable = dict(disable)
-        self.trace = Trace([engine.table.start(r) for r in range(n)])
+        table = engine.table
+        self.trace = Trace([table.start(r) for r in range(n)])
+        self.paths = [Motion.at_rest(table.start(r)) for r in range(n)]
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
-        self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, seq
-        self.moving: List[bool] = [False] * n  # False while the busy action waits to start
-        self.stuck: List[Optional[Tuple[Dispatch, float]]] = [None] * n  # failed mid-move
+        self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, token
+        self.completed_at: Dict[int, float] = {}  # flat action -> when it completed
         self.heap: List[tuple] = []
         self.seq = 0
         self.now = 0.0
@@ -115,41 +165,148 @@ class _Simulation:
             self._push(event.time, _CONTROL, event)  # type: ignore[attr-defined]
         self._deliver(self.engine.handle(Resume(0.0)))
         while self.heap:
-            time, seq, kind, payload = heapq.heappop(self.heap)
+            time, _, kind, payload = heapq.heappop(self.heap)
             self.now = time
-            if kind == _COMPLETE:
-                r = payload
-                current = self.busy[r]
-                if current is None or current[2] != seq:
-                    continue  # cancelled by a failure
-                d, start, _ = current
-                self.busy[r] = None
-                self.moving[r] = False
-                self.trace.add(r, start, time, d.src, d.dst)
-                self._note("action", robot=r, index=d.index, phase="completed", src=d.src, dst=d.dst)
-                self._deliver(self.engine.handle(ActionCompleted(r, d.index, time)))
-                self._try_start(r)
-            elif kind == _BEGIN:
-                r, token = payload
-                current = self.busy[r]
-                if current is not None and current[2] == token:
-                    self._begin(r, current[0], time, time)
-            else:
+            if kind == _CONTROL:
                 self._control(payload)
+            else:
+                r, token = payload
+                busy = self.busy[r]
+                if busy is None or busy[2] != token:
+                    continue  # superseded (a failure, a new plan of motion)
+                if kind == _WAKE:
+                    self._wake(r)
+                else:
+                    self._drive_on(r)
             if self.journal is not None:
                 self._note_waits()
+
+    # ---- robots --------------------------------------------------------------------------
+
+    def _try_start(self, r: int) -> None:
+        if self.busy[r] is not None or not self.queue[r] or self.engine.run.out[r] is not None:
+            return
+        d = self.queue[r][0]
+        stop = self.disable.get(r)
+        if stop is not None and d.step >= stop:
+            del self.disable[r]
+            self.queue[r].clear()
+            self.disabled_at[r] = self.now
+            self._note("out", robot=r, why="disabled", reason="disable")
+            self._deliver(self.engine.handle(Disabled(r, self.now)))
+            return
+        self.queue[r].popleft()
+        a = self.engine.run.first[r] + d.index
+        path = self.paths[r]
+        if path.action == a:  # the move it stopped in (a fault): it drives on from where it is
+            path.resume(self.now)
+            self._begin(r, d, path.began)
+            return
+        path.start(a, d.src, d.dst, self.now, self.wait[a], self.drive[a],
+                   (self.stall_at[a], self.stall[a]), (self.drop_at[a], self.drop[a]))
+        if self.wait[a] > 0:  # it stays in its cell for the wait, then starts moving
+            self._set_busy(r, d, self.now)
+            self._schedule(r, _WAKE, self.now + self.wait[a])
+            return
+        self._begin(r, d, self.now)
+
+    def _begin(self, r: int, d: Dispatch, began: float) -> None:
+        """Robot r starts its move d (it occupies both cells from `began`)."""
+        self.engine.handle(ActionStarted(r, d.index, self.now))
+        self._note("action", robot=r, index=d.index, phase="started", src=d.src, dst=d.dst)
+        self._set_busy(r, d, began)
+        self.paths[r].moving = True
+        self._drive_on(r)
+
+    def _wake(self, r: int) -> None:
+        """Robot r reached what it was heading for: the end of its wait, a stall, its hold point
+        or the end of its move."""
+        busy = self.busy[r]
+        path = self.paths[r]
+        assert busy is not None
+        if not path.moving:  # its wait is over
+            self._begin(r, busy[0], self.now)
+            return
+        path.advance(self.now)
+        if path.progress >= 1.0 - _EPS:
+            self._complete(r)
+        else:
+            self._drive_on(r)
+
+    def _drive_on(self, r: int) -> None:
+        """Robot r goes on (or stays) as its stall and its hold point allow; its next wake."""
+        path = self.paths[r]
+        busy = self.busy[r]
+        assert busy is not None
+        path.advance(self.now)
+        if path.stalled_until > self.now + _EPS:
+            self._schedule(r, _WAKE, path.stalled_until)
+            return
+        d = busy[0]
+        hold = 1.0 if d.follows is None or self.safe is None else self._hold(r, d, path.progress)
+        if hold <= path.progress + _EPS:
+            path.halt(self.now)  # it waits at its hold point for the next report
+            self._schedule(r, _RECHECK, self.feedback.next_report(self.now))
+            return
+        self._schedule(r, _WAKE, path.go(self.now, hold))
+
+    def _hold(self, r: int, d: Dispatch, progress: float) -> float:
+        """How far robot r may go in its move d, following d.follows, by the newest report."""
+        leader, index = d.follows  # type: ignore[misc]
+        run = self.engine.run
+        lead = run.first[leader] + index
+        seen = self.feedback.seen_at(self.now)
+        done = self.completed_at.get(lead)
+        if done is not None and done <= seen:
+            return 1.0
+        lpath = self.paths[leader]
+        x, y = lpath.position(seen)
+        first = lead
+        while first > run.first[leader] and self.completed_at.get(first - 1, math.inf) > seen:
+            first -= 1
+        table = self.engine.table
+        points = [(x, y)] + [table.coord(run.dst[b]) for b in range(first, lead + 1)]
+        return hold_fraction(d.src, d.dst, points, self.safe, progress)  # type: ignore[arg-type]
+
+    def _complete(self, r: int) -> None:
+        busy = self.busy[r]
+        assert busy is not None
+        d, began, _ = busy
+        self.busy[r] = None
+        a = self.engine.run.first[r] + d.index
+        self.paths[r].arrive(self.now)
+        self.completed_at[a] = self.now
+        self.trace.add(r, began, self.now, d.src, d.dst)
+        self._note("action", robot=r, index=d.index, phase="completed", src=d.src, dst=d.dst)
+        self._deliver(self.engine.handle(ActionCompleted(r, d.index, self.now)))
+        self._try_start(r)
+
+    def _set_busy(self, r: int, d: Dispatch, began: float) -> None:
+        self.seq += 1
+        self.busy[r] = (d, began, self.seq)
+
+    def _schedule(self, r: int, kind: int, time: float) -> None:
+        busy = self.busy[r]
+        assert busy is not None
+        self.seq += 1
+        self.busy[r] = (busy[0], busy[1], self.seq)
+        heapq.heappush(self.heap, (time, self.seq, kind, (r, self.seq)))
+
+    # ---- control -------------------------------------------------------------------------
 
     def _control(self, event: object) -> None:
         agent = getattr(event, "agent", None)
         if isinstance(event, (Disabled, RobotFailed)):
             self.queue[agent].clear()  # type: ignore[index]
-        busy = self.busy[agent] if isinstance(event, (Disabled, RobotFailed)) else None  # type: ignore[index]
-        if busy is not None and not self.moving[agent]:  # type: ignore[index]
-            self.busy[agent] = None  # type: ignore[index]  # it had not started: nothing to finish
-        elif busy is not None and isinstance(event, RobotFailed):
-            self.stuck[agent] = (busy[0], busy[1])  # type: ignore[index]
-            self.busy[agent] = None  # type: ignore[index]
-            self.moving[agent] = False  # type: ignore[index]
+            busy = self.busy[agent]  # type: ignore[index]
+            path = self.paths[agent]  # type: ignore[index]
+            if busy is not None and not path.moving:
+                self.busy[agent] = None  # type: ignore[index]  # it had not started: nothing to finish
+                path.forget()
+            elif busy is not None and isinstance(event, RobotFailed):
+                path.advance(self.now)
+                path.halt(self.now)  # stops where it is, in both cells, until enabled
+                self.busy[agent] = None  # type: ignore[index]
         if isinstance(event, (Disabled, RobotFailed, Enabled)):
             why = "disabled" if isinstance(event, Disabled) else "failed" if isinstance(event, RobotFailed) else None
             self._note("out", robot=agent, why=why, reason=type(event).__name__)
@@ -167,40 +324,7 @@ class _Simulation:
         for d in dispatches:
             self._try_start(d.agent)
 
-    def _try_start(self, r: int) -> None:
-        if self.busy[r] is not None or not self.queue[r] or self.engine.run.out[r] is not None:
-            return
-        d = self.queue[r][0]
-        stop = self.disable.get(r)
-        if stop is not None and d.step >= stop:
-            del self.disable[r]
-            self.queue[r].clear()
-            self.disabled_at[r] = self.now
-            self._note("out", robot=r, why="disabled", reason="disable")
-            self._deliver(self.engine.handle(Disabled(r, self.now)))
-            return
-        self.queue[r].popleft()
-        start = self.now
-        stuck = self.stuck[r]
-        self.stuck[r] = None
-        if stuck is not None and stuck[0].index == d.index:
-            start = stuck[1]  # resuming the move it stopped in: it held both cells since then
-        elif self.wait is not None and self.wait[self.engine.run.first[r] + d.index] > 0:
-            self.seq += 1  # it stays in its cell for the wait, then starts moving
-            self.busy[r] = (d, start, self.seq)
-            self._push(self.now + self.wait[self.engine.run.first[r] + d.index], _BEGIN, (r, self.seq))
-            return
-        self._begin(r, d, start, self.now)
-
-    def _begin(self, r: int, d: Dispatch, start: float, now: float) -> None:
-        """Robot r starts moving (occupying both cells from `start`) with action d."""
-        self.engine.handle(ActionStarted(r, d.index, now))
-        self._note("action", robot=r, index=d.index, phase="started", src=d.src, dst=d.dst)
-        self.seq += 1
-        self.busy[r] = (d, start, self.seq)
-        self.moving[r] = True
-        heapq.heappush(self.heap, (now + self.dur[self.engine.run.first[r] + d.index], self.seq,
-                                   _COMPLETE, r))
+    # ---- the journal ---------------------------------------------------------------------
 
     def _note(self, kind: str, **fields: object) -> None:
         if self.journal is not None:
