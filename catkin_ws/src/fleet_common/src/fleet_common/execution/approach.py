@@ -119,8 +119,9 @@ def closest_approaches(paths: Sequence[Knots], end: Optional[float] = None,
             p_sq, p_piece = p_square[known], piece[known]
             if p_sq.size == 0:
                 continue
-            hi = np.searchsorted(b_start, p_sq * span + (t1[p_piece] - origin), side="left")
-            lo = np.searchsorted(b_end, p_sq * span + (t0[p_piece] - origin), side="right")
+            # pieces meeting at an instant count (two robots starting in one cell collide)
+            hi = np.searchsorted(b_start, p_sq * span + (t1[p_piece] - origin), side="right")
+            lo = np.searchsorted(b_end, p_sq * span + (t0[p_piece] - origin), side="left")
             lo = np.maximum(lo, np.searchsorted(b_start, p_sq * span, side="left"))
             count = np.maximum(hi - lo, 0)
             if not count.any():
