@@ -89,7 +89,7 @@ def test_a_300_agent_arena_plan_from_pibt_in_mapf_ir_mode_runs_under_both_strate
         run = fleetctl("simulate", "plan.txt", "--strategy", strategy, *maps, cwd=tmp_path)
         assert run.returncode == 0, run.stdout + run.stderr
         assert run.stdout.startswith("plan.txt: {} rotations repaired: agents ".format(len(rotations)))
-        assert "collisions: 0 (vertex 0, swap 0)" in run.stdout and "reached goal: 300 of 300" in run.stdout
+        assert "collisions: 0 (" in run.stdout and "reached goal: 300 of 300" in run.stdout
 
 
 def test_simulate_names_the_lab_robots_by_their_ids(tmp_path: Path) -> None:

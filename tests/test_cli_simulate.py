@@ -36,7 +36,7 @@ def test_shipped_solutions_run_without_collision_under_both_strategies(name, sha
         proc = simulate(shared_data / "solutions" / name, "--strategy", strategy, "--seed", "5")
         assert proc.returncode == 0, proc.stdout + proc.stderr
         out = proc.stdout
-        assert "collisions: 0 (vertex 0, swap 0)" in out
+        assert "collisions: 0 (" in out
         n = int(re.search(r"^robots: (\d+)", out, re.M).group(1))
         assert "reached goal: {0} of {0} enabled robots".format(n) in out
         assert re.search(r"^strategy: {}.*; delays: moves take 0.8-1.5 x nominal; stalls of 3 moves "
@@ -65,7 +65,7 @@ def test_a_disabled_robot_blocks_others_who_are_named(shared_data):
                         out, re.M).group(1)
     missing = re.search(r"^reached goal: (\d+) of 99 enabled robots; not reached: robots ([0-9, ]+)$", out, re.M)
     assert missing.group(2) == blocked and int(missing.group(1)) == 99 - len(blocked.split(", "))
-    assert "collisions: 0 (vertex 0, swap 0)" in out
+    assert "collisions: 0 (" in out
     assert "(robots that reached their goals only)" in out
     assert "fleet: simulated robots, numbered by agent index from 0" in out
     rows = [ln for ln in out.splitlines() if re.match(r"^\s+\d+\s+\d+\s+", ln)]
@@ -123,7 +123,7 @@ def test_a_rotation_is_repaired_in_one_line_and_no_repair_refuses_it_in_the_file
     first = proc.stdout.splitlines()[0]
     assert re.fullmatch(r"{}: 1 rotation repaired: agents [0-3](, [0-3])*; soc \+\d+, makespan \+\d+".format(
         re.escape(str(path))), first), first
-    assert "collisions: 0 (vertex 0, swap 0)" in proc.stdout and "reached goal: 4 of 4" in proc.stdout
+    assert "collisions: 0 (" in proc.stdout and "reached goal: 4 of 4" in proc.stdout
     refused = simulate(path, "--no-repair")
     assert refused.returncode == 1
     assert refused.stdout.startswith("{}: cannot be executed by robots: rotation at t=0->1: agents ".format(path))

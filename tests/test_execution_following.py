@@ -156,6 +156,20 @@ def test_a_leader_that_stops_dead_leaves_its_follower_short_of_it():
     assert result.metrics.makespan > 50  # and waited there for the leader
 
 
+def test_a_follower_behind_a_leader_out_for_good_waits_there_and_the_run_ends():
+    # the leader is disabled (a dead battery) while it waits to start: its follower, already on its
+    # way, stops short of it and says who it waits for; the simulation ends (nothing more can happen)
+    plan = Plan(np.array([[[2, 0], [1, 0]], [[3, 0], [2, 0]]], dtype=np.int32))
+    table = Engine(plan).table
+    n = table.num_actions
+    fates = MoveFates(np.where(table.agent == 0, 0.5, 0.0), np.ones(n), np.zeros(n), np.zeros(n),
+                      np.zeros(n), np.zeros(n))
+    result = simulate(plan, "adg", size=TURTLEBOT2, fates=fates, controls=[Disabled(0, 0.2)])
+    assert result.unfinished() == [1] and result.engine.blocked_by() == {0: [1]}
+    assert result.safety.violations == ()
+    assert result.closest.distance == pytest.approx(TURTLEBOT2.safe_cells, abs=1e-6)
+
+
 def test_robots_as_large_as_a_cell_keep_the_cell_rule():
     plan = Plan(np.array([[[2, 0], [1, 0]], [[3, 0], [2, 0]]], dtype=np.int32))
     cell = simulate(plan, "adg", size=cell_sized())

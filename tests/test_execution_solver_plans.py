@@ -61,7 +61,7 @@ def test_fleetctl_solve_then_simulate_runs_with_no_collision(shared_data: Path, 
     assert solved.returncode == 0 and "rotations" not in solved.stdout, solved.stdout + solved.stderr
     run = fleetctl("simulate", "plan.txt", "--strategy", "adg", *maps, cwd=tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert "collisions: 0 (vertex 0, swap 0)" in run.stdout and "reached goal: 70 of 70" in run.stdout
+    assert "collisions: 0 (" in run.stdout and "reached goal: 70 of 70" in run.stdout
     # mapf-IR's semantics: the summary counts the rotations; simulate repairs them first, or refuses
     free = fleetctl("solve", instance, "-s", "pibt", "--allow-rotations", "-o", "free.txt", *maps, cwd=tmp_path)
     found = re.search(r", (\d+) rotations \(robots cannot execute these\) ->", free.stdout)
@@ -69,6 +69,6 @@ def test_fleetctl_solve_then_simulate_runs_with_no_collision(shared_data: Path, 
     repaired = fleetctl("simulate", "free.txt", *maps, cwd=tmp_path)
     assert repaired.returncode == 0, repaired.stdout + repaired.stderr
     assert repaired.stdout.startswith("free.txt: {} rotation".format(found.group(1)))
-    assert "collisions: 0 (vertex 0, swap 0)" in repaired.stdout and "reached goal: 70 of 70" in repaired.stdout
+    assert "collisions: 0 (" in repaired.stdout and "reached goal: 70 of 70" in repaired.stdout
     refused = fleetctl("simulate", "free.txt", "--no-repair", *maps, cwd=tmp_path)
     assert refused.returncode == 1 and "cannot be executed by robots: rotation at t=" in refused.stdout

@@ -6,13 +6,14 @@ import re
 from pathlib import Path
 from typing import Dict, List
 
-from fleet_common.arg_types import count, seed
+from fleet_common.arg_types import ROBOT_SIZE_HELP, count, robot_size, seed
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.planning.repair import RepairError
+from fleet_common.robots import read_robot_size
 
 from ..options import add_map_dir
 from ..robot_plans import Names, add_repair_options, for_robots, valid_solution
@@ -72,6 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run on the fleet of this robot definitions file (agent i is the robot on "
                              "its line i, named by its id); by default a plan on the lab map with at most "
                              "as many agents as robot_definitions.txt has robots runs on the lab fleet")
+    parser.add_argument("--robot-size", type=robot_size, default=None, metavar="D:M|cell",
+                        help=ROBOT_SIZE_HELP)
     add_repair_options(parser)
 
 
@@ -98,9 +101,10 @@ def run(args: argparse.Namespace) -> int:
                 robot, step, _robots(names, plan.num_agents)))
         disable[agent] = step
     settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
+    size = args.robot_size or read_robot_size(args.definitions)
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
-                          journal=args.log is not None, **settings)
+                          journal=args.log is not None, size=size, **settings)
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
@@ -160,14 +164,34 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
         if blocked:
             lines.append("robot {} is out; waiting for it, directly or behind others: robot{} {}".format(
                 names(robot), "s" if len(blocked) > 1 else "", names.all(blocked)))
-    vertex = sum(1 for c in result.collisions if c.kind == VERTEX)
-    swap = sum(1 for c in result.collisions if c.kind == SWAP)
-    lines.append("collisions: {} (vertex {}, swap {})".format(len(result.collisions), vertex, swap))
+    lines += _safety(result, names)
     enabled = n - len(engine.out_agents())
     reached = "reached goal: {} of {} enabled robots".format(enabled - len(missing), enabled)
     if missing:
         reached += "; not reached: robot{} {}".format("s" if len(missing) > 1 else "", names.all(missing))
     lines.append(reached)
+    return lines
+
+
+def _safety(result: SimResult, names: Names) -> List[str]:
+    """The robots' size, how close they came, and what broke the rule (cell or metres)."""
+    size = result.size
+    assert size is not None and result.safety is not None
+    lines = ["robot size: " + size.describe()]
+    c = result.closest
+    if c is None:
+        lines.append("closest approach: no two robots within a cell ({:.3f} m) of each other".format(size.cell))
+    else:
+        lines.append("closest approach: {:.3f} m ({:.2f} cells), robots {} and {} at t={:.2f} near ({:.2f}, "
+                     "{:.2f})".format(c.distance * size.cell, c.distance, names(c.agents[0]),
+                                      names(c.agents[1]), c.time, c.place[0], c.place[1]))
+    if size.cell_sized:
+        vertex = sum(1 for c in result.collisions if c.kind == VERTEX)
+        swap = sum(1 for c in result.collisions if c.kind == SWAP)
+        lines.append("collisions: {} (vertex {}, swap {})".format(len(result.collisions), vertex, swap))
+    else:
+        lines.append("collisions: {} (pairs of robots closer than {:.3f} m)".format(
+            len(result.collisions), size.safe))
     return lines
 
 

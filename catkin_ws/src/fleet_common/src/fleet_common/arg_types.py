@@ -9,7 +9,8 @@ import argparse
 import math
 from typing import Callable, NoReturn, Optional
 
-__all__ = ["Parser", "number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port"]
+__all__ = ["Parser", "number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port",
+           "robot_size", "ROBOT_SIZE_HELP"]
 
 
 class Parser(argparse.ArgumentParser):
@@ -79,3 +80,25 @@ def count(text: str) -> int:
 def port(text: str) -> int:
     """argparse type: a TCP or UDP port."""
     return integer(text, 1, 65535, "a port 1-65535")
+
+
+ROBOT_SIZE_HELP = ("the robots' size: DIAMETER:MARGIN in metres (0.354:0.1 is a TurtleBot 2), or 'cell' "
+                   "for robots as large as a cell (the cell rule alone; nobody follows into a cell "
+                   "being left); default: the size line of the robot definitions, else a TurtleBot 2")
+
+
+def robot_size(text: str) -> "RobotSize":  # noqa: F821
+    """argparse type: `cell` or DIAMETER:MARGIN (metres), on the lab's 0.7 m cells."""
+    from .robot_size import RobotSize, cell_sized
+
+    if text.strip() == "cell":
+        return cell_sized()
+    parts = text.split(":")
+    try:
+        diameter, margin = float(parts[0]), float(parts[1]) if len(parts) == 2 else math.nan
+    except ValueError:
+        diameter = margin = math.nan
+    if len(parts) != 2 or not (0 < diameter < 100 and 0 <= margin < 100):
+        raise argparse.ArgumentTypeError(
+            "expected DIAMETER:MARGIN in metres (e.g. 0.354:0.1) or 'cell', got {!r}".format(text))
+    return RobotSize(diameter, margin)

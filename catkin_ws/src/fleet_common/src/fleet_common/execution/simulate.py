@@ -35,7 +35,7 @@ import heapq
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import Deque, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Deque, Dict, List, Mapping, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
@@ -155,6 +155,7 @@ class _Simulation:
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
         self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, token
         self.completed_at: Dict[int, float] = {}  # flat action -> when it completed
+        self.held_by: Dict[int, Set[int]] = {}  # leader -> followers held until it moves
         self.heap: List[tuple] = []
         self.seq = 0
         self.now = 0.0
@@ -246,9 +247,22 @@ class _Simulation:
         hold = 1.0 if d.follows is None or self.safe is None else self._hold(r, d, path.progress)
         if hold <= path.progress + _EPS:
             path.halt(self.now)  # it waits at its hold point for the next report
-            self._schedule(r, _RECHECK, self.feedback.next_report(self.now))
+            lpath = self.paths[d.follows[0]]  # type: ignore[index]
+            if lpath.driving or lpath.knots[-1][0] > self.feedback.seen_at(self.now):
+                self._schedule(r, _RECHECK, self.feedback.next_report(self.now))
+            else:  # reports would say the same until the leader moves: wait for that
+                self.held_by.setdefault(d.follows[0], set()).add(r)  # type: ignore[index]
             return
+        starting = not path.driving
         self._schedule(r, _WAKE, path.go(self.now, hold))
+        if starting:
+            self._moved(r)
+
+    def _moved(self, r: int) -> None:
+        """Robot r began to move or arrived: robots held behind it look at the next report."""
+        for follower in self.held_by.pop(r, ()):
+            if self.busy[follower] is not None:
+                self._schedule(follower, _RECHECK, self.feedback.next_report(self.now))
 
     def _hold(self, r: int, d: Dispatch, progress: float) -> float:
         """How far robot r may go in its move d, following d.follows, by the newest report."""
@@ -278,6 +292,7 @@ class _Simulation:
         self.completed_at[a] = self.now
         self.trace.add(r, began, self.now, d.src, d.dst)
         self._note("action", robot=r, index=d.index, phase="completed", src=d.src, dst=d.dst)
+        self._moved(r)
         self._deliver(self.engine.handle(ActionCompleted(r, d.index, self.now)))
         self._try_start(r)
 

@@ -10,7 +10,9 @@ ignore what they do not know), so later versions can add detail.
 
     run        version, started (ISO 8601, UTC), source ("manager" | "simulate"),
                time_unit ("s" | "step"), plan (file name), definitions (file
-               name or null), robots [ids by agent], strategy, settings {}
+               name or null), robots [ids by agent], strategy, settings {},
+               size {diameter_m, margin_m, cell_m, safe_m} (the robots' size;
+               absent in older folders: robots as large as a cell)
     plan       file, robots [ids by agent], reason ("loaded" | "replan"),
                at (plan step of the old plan the new one starts from, or null)
     state      run ("waiting" | "running" | "paused" | "stopped" | "done" |
@@ -33,7 +35,8 @@ ignore what they do not know), so later versions can add detail.
                (written when the set of waits changes)
     vicon      robot, event ("disagree" | "agree" | "stale" | "seen"), distance
     end        reason, arrived, robots (counts), summary {} (the figures the
-               manager printed)
+               manager printed; `closest`: {distance_m, robots [a, b], t,
+               place [x, y]}, the closest approach of the run)
 """
 from __future__ import annotations
 
@@ -64,6 +67,18 @@ KINDS: Dict[str, Tuple[str, ...]] = {
 
 EVENTS_FILE = "events.jsonl"
 DEFINITIONS_FILE = "robot_definitions.txt"
+
+
+def size_fields(size: "RobotSize") -> Dict[str, float]:  # noqa: F821
+    """A robot size as the `run` record carries it."""
+    return {"diameter_m": size.diameter, "margin_m": size.margin, "cell_m": size.cell,
+            "safe_m": round(size.safe, 6)}
+
+
+def approach_fields(closest: "Approach", size: "RobotSize") -> Dict[str, object]:  # noqa: F821
+    """The closest approach of a run as the `end` record's summary carries it."""
+    return {"distance_m": round(closest.distance * size.cell, 4), "robots": list(closest.agents),
+            "t": round(closest.time, 4), "place": [round(v, 3) for v in closest.place]}
 
 
 def plan_file(number: int) -> str:

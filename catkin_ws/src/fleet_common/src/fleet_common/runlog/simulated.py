@@ -13,14 +13,14 @@ from __future__ import annotations
 import heapq
 import math
 from pathlib import Path
-from typing import Any, Iterator, List, Sequence, Tuple, Union
+from typing import Any, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from ..execution.simulate import SimResult
 from ..execution.trace import Trace
 from ..plan import Plan
-from .records import plan_file
+from .records import approach_fields, plan_file, size_fields
 from .writer import RunLog, new_run_folder
 
 POSE_RATE = 10  # pose samples per plan step
@@ -28,9 +28,11 @@ POSE_RATE = 10  # pose samples per plan step
 Entry = Tuple[float, str, dict]
 
 
-def pose_samples(trace: Trace, end: float, rate: int = POSE_RATE) -> Iterator[Entry]:
-    """`poses` entries from `trace.begin` to `end`: each robot's cell-centre position,
-    moving in a straight line during a move, heading along its last move."""
+def pose_samples(trace: Trace, end: float, rate: int = POSE_RATE,
+                 paths: Optional[Sequence[Sequence[Tuple[float, float, float]]]] = None) -> Iterator[Entry]:
+    """`poses` entries from `trace.begin` to `end`: each robot's centre where its path (knots
+    (t, x, y)) has it, or, without paths, moving in a straight line during each move of
+    `trace`; heading along its last move."""
     n = len(trace.starts)
     times = np.arange(trace.begin, end + 1e-9, 1.0 / rate)
     if n == 0 or times.size == 0:
@@ -45,6 +47,8 @@ def pose_samples(trace: Trace, end: float, rate: int = POSE_RATE) -> Iterator[En
             y += [float(m.src[1]), float(m.dst[1])]
             heading_t.append(m.start)
             heading.append(math.atan2(m.dst[1] - m.src[1], m.dst[0] - m.src[0]))
+        if paths is not None:
+            t, x, y = (list(v) for v in zip(*paths[r]))
         xs[r], ys[r] = np.interp(times, t, x), np.interp(times, t, y)
         thetas[r] = np.asarray(heading)[np.searchsorted(heading_t, times, side="right") - 1]
     for k, when in enumerate(times.tolist()):
@@ -62,12 +66,14 @@ def write_simulation(parent: Union[str, Path], plan: Plan, result: SimResult, so
     n = plan.num_agents
     with RunLog(folder, clock=lambda: 0.0) as log:
         log.copy_in(solution, plan_file(1))
+        size = result.size
         log.run_started(source="simulate", time_unit="step", plan=plan_file(1), robots=list(range(n)),
                         strategy=engine.strategy.name, settings={}, definitions=None,
-                        strategy_text=engine.strategy.describe(), delays=delays, seed=seed)
+                        strategy_text=engine.strategy.describe(), delays=delays, seed=seed,
+                        size=None if size is None else size_fields(size))
         log.record("state", t=0.0, run="running", reason="start")
         end = result.end_time
-        entries: Iterator[Entry] = heapq.merge(result.journal, pose_samples(result.trace, end),
+        entries: Iterator[Entry] = heapq.merge(result.journal, pose_samples(result.trace, end, paths=result.paths),
                                                key=lambda e: e[0])
         for t, kind, fields in entries:
             log.record(kind, t=t, **fields)
@@ -79,6 +85,7 @@ def write_simulation(parent: Union[str, Path], plan: Plan, result: SimResult, so
             "plan_makespan": plan.makespan, "plan_soc": plan.soc,
             "wait_time": m.total_wait_time, "collisions": len(result.collisions),
             "blocked_by": _blocked_by(result),
+            "closest": None if result.closest is None or size is None else approach_fields(result.closest, size),
         }
         log.record("end", t=end, reason=reason, arrived=len(m.reached),
                    robots=n, summary=summary_fields)
