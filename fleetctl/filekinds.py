@@ -3,8 +3,8 @@
 The sniffing looks at the first meaningful lines, the way a person would:
 `version 1` starts a MovingAI scenario, `<` an XML file of the original
 system, `height`/`width`/`map` a grid map, a `solution=` line a solver output,
-`map_file=` an instance, and six whitespace-separated fields a robot
-definitions file.
+`map_file=` an instance, and six whitespace-separated fields (and a `size`
+line) a robot definitions file.
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ ROBOTS = "robot-definitions"
 
 KINDS = (MAP, INSTANCE, SOLUTION, SCEN, LEGACY_MAP, LEGACY_PLAN, ROBOTS)
 
-_ROBOT_LINE = re.compile(r"^\s*\d+\s+\S+\s+\d+\s+\S+\s+\S+\s+\S+\s*(#.*)?$")
+_ROBOT_LINE = re.compile(r"^\s*(\d+\s+\S+\s+\d+\s+\S+\s+\S+\s+\S+|size(\s+\S+)+)\s*(#.*)?$")
 
 
 def sniff(path: Path) -> str:

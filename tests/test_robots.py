@@ -161,3 +161,35 @@ def test_colour_to_rgb_matches_tk(colour: str, rgb: tuple) -> None:
 def test_colour_to_rgb_rejects_unknown_colours() -> None:
     with pytest.raises(ValueError, match="unknown colour 'blurple'"):
         colour_to_rgb("blurple")
+
+
+def test_the_size_line_gives_the_fleets_robot_size_and_a_file_without_one_a_turtlebot(tmp_path: Path) -> None:
+    from fleet_common.robots import parse_robot_size, read_robot_size
+    from fleet_common.robot_size import TURTLEBOT2
+
+    line = "1 127.0.0.1 9001 u tb1 red\n"
+    assert parse_robot_size(line) == TURTLEBOT2
+    size = parse_robot_size("size diameter=0.7 margin=0\n" + line)
+    assert size.cell_sized and parse_robot_definitions("size diameter=0.7 margin=0\n" + line)[0].id == 1
+    small = parse_robot_size("# the lab's\nsize  diameter=0.2  margin=0.05  # small robots\n" + line)
+    assert (small.diameter, small.margin, small.safe) == (0.2, 0.05, 0.25) and not small.cell_sized
+    assert read_robot_size(None) == TURTLEBOT2  # the shipped file: a TurtleBot 2
+
+
+@pytest.mark.parametrize("text, line, column, expected", [
+    ("size diameter=0\n", 1, 6, "bad diameter '0': expected metres"),
+    ("size margin=0.1\n", 1, None, "a size line needs diameter=METRES"),
+    ("size diameter=0.3 width=2\n", 1, 19, "bad size term 'width=2'"),
+    ("size diameter=0.3 diameter=0.4\n", 1, 19, "once each"),
+    ("size diameter=nan\n", 1, 6, "bad diameter 'nan'"),
+    ("1 127.0.0.1 9001 u tb1 red\nsize diameter=0.3\nsize diameter=0.4\n", 3, None, "a second size line"),
+])
+def test_a_bad_size_line_names_file_line_column(text: str, line: int, column, expected: str) -> None:
+    from fleet_common.robots import parse_robot_size
+
+    with pytest.raises(RobotDefinitionsError) as err:
+        parse_robot_size(text, "fleet.txt")
+        parse_robot_definitions(text, "fleet.txt")
+    assert err.value.line == line and expected in str(err.value) and "fleet.txt" in str(err.value)
+    if column is not None:
+        assert err.value.column == column

@@ -109,10 +109,10 @@ def _legacy_plan(args: argparse.Namespace) -> List[str]:
 
 
 def _robots(args: argparse.Namespace) -> List[str]:
-    from fleet_common.robots import read_robot_definitions
+    from fleet_common.robots import read_robot_definitions, read_robot_size
 
     robots = read_robot_definitions(args.file)
-    lines = ["robot definitions: {} robots".format(len(robots))]
+    lines = ["robot definitions: {} robots; {}".format(len(robots), read_robot_size(args.file).describe())]
     for r in robots:
         lines.append("robot {}: {}:{} ssh {} vicon {} colour {}".format(
             r.id, r.host, r.command_port, r.ssh_user, r.vicon_name, r.colour))
