@@ -138,9 +138,9 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
     from console.live.model import LiveModel
     from console.palette import distinct_colours
     from console.ui.live_app import LiveApp
+    from fleet_common.children import Child
+    from fleet_common.local_fleet import local_definitions
     from fleet_common.robots import RobotDefinition
-    from fleetctl.children import Child
-    from fleetctl.local_fleet import local_definitions
 
     work = Path(tempfile.mkdtemp(prefix="bench-console-"))
     children: List[Child] = []

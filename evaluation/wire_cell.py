@@ -25,10 +25,12 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
+from fleet_common.children import Child
 from fleet_common.errors import FleetError
 from fleet_common.formats.mapfile import map_from_grid, write_map
 from fleet_common.formats.solution import make_solution, write_solution
 from fleet_common.grid import Grid
+from fleet_common.local_fleet import local_definitions
 from fleet_common.plan import Plan
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import read_run
@@ -45,9 +47,6 @@ _START_S = 60.0   # seconds the fleet and the manager may take to start and conn
 
 def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, object]:
     """The row of one run on virtual robots through the manager."""
-    from fleetctl.children import Child  # the command line's process handling, only here
-    from fleetctl.local_fleet import local_definitions
-
     began = time.perf_counter()
     p = Plan(plan.positions)
     move_s = 1.0 / SPEED / time_scale  # a nominal move, in wall seconds
