@@ -36,8 +36,8 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import read_run
 from fleet_common.runlog.summary import SummaryBuilder
 
-from .cell import make_row
 from .plans import LoadedPlan
+from .row import make_row
 from .spec import Cell
 
 #: The virtual robots' speed (cells a second of fleet time): a nominal move of 2 s, as in the lab.
