@@ -20,6 +20,7 @@ from agv_package.sim.base_model import BaseModel, BaseNoise
 from agv_package.sim.floor_camera import FloorCamera
 from agv_package.tag_localizer import TagLocalizer
 from agv_package.tag_map import load_tag_map
+from fleet_common.wire.navigator import MotionOutcome
 
 CONFIG = Path(__file__).resolve().parents[1] / "catkin_ws" / "src" / "agv_package" / "config"
 MOTION = MotionSettings.from_dict(yaml.safe_load((CONFIG / "navigation.yaml").read_text())["motion"])
@@ -181,5 +182,5 @@ def test_navigator_refuses_to_move_without_a_pose_and_stops_when_told() -> None:
     navigator.interlock = lambda: "bumper pressed" if world.now > 1.0 else None
     goal = world.frame.point_to_robot(4, 2)
     result = navigator.drive_to_position(goal[0], goal[1], 0.0)
-    assert result == (False, "bumper pressed") and world.command == STOP
+    assert result == MotionOutcome(False, "bumper pressed") and world.command == STOP
     assert world.now < 1.2

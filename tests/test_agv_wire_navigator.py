@@ -11,15 +11,15 @@ import pytest
 
 from agv_package.geometry import Pose2D
 from agv_package.grid_frame import GridFrame
-from agv_package.navigator import DONE, NavResult, Navigator
+from agv_package.navigator import DONE, BlockingNavigator
 from agv_package.wire_navigator import BUMPER, NOT_LOCALIZED, WireNavigator
 from fleet_common.lab import node_table
 from fleet_common.wire import (Accepted, CommandExecutor, Completed, DriveToPosition, Failed,
-                               GetStatus, Stop, Turn)
+                               GetStatus, MotionOutcome, Stop, Turn)
 from fleet_common.wire.command_check import CommandCheck
 
 
-class FakeNavigator(Navigator):
+class FakeNavigator(BlockingNavigator):
     """Records the calls in robot metres; a motion lasts until `finish()` or `stop()`."""
 
     def __init__(self) -> None:
@@ -32,25 +32,25 @@ class FakeNavigator(Navigator):
     def now(self) -> float:
         return self.clock
 
-    def drive_to_position(self, x: float, y: float, arrival: float) -> NavResult:
+    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
         self.calls.append(("drive", (x, y, arrival)))
         return self._wait()
 
-    def turn(self, heading: float) -> NavResult:
+    def turn(self, heading: float) -> MotionOutcome:
         self.calls.append(("turn", (heading,)))
         return self._wait()
 
-    def _wait(self) -> NavResult:
+    def _wait(self) -> MotionOutcome:
         self._end.wait(5.0)
         self._end.clear()
         return self._result
 
     def stop(self, reason: str) -> None:
         self.calls.append(("stop", ()))
-        self._result = NavResult(False, reason)
+        self._result = MotionOutcome(False, reason)
         self._end.set()
 
-    def finish(self, result: NavResult = DONE) -> None:
+    def finish(self, result: MotionOutcome = DONE) -> None:
         self._result = result
         self._end.set()
 
@@ -87,7 +87,7 @@ def test_commands_in_cells_reach_the_navigator_in_metres(robot: tuple) -> None:
     executor.handle("e", Turn(2, math.pi / 2))
     time.sleep(0.05)
     assert fake.calls[1] == ("turn", (pytest.approx(math.pi / 2),))
-    fake.finish(NavResult(False, "timed out"))
+    fake.finish(MotionOutcome(False, "timed out"))
     assert settle(executor) == [Failed(2, "timed out")]
     fake.where = Pose2D(2.1, 4.2, math.pi)  # cell (2, 3)
     status = executor.handle("e", GetStatus(3))[0][1]

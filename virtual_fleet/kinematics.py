@@ -1,6 +1,6 @@
 """A virtual robot's motion: turn in place, then drive straight, at set speeds.
 
-`VirtualNavigator` implements fleet_common.wire's `Navigator` without ROS. A
+`VirtualNavigator` implements fleet_common.wire's `PollingNavigator` without ROS. A
 move is laid out when it starts as a few timed segments (wait, turn, drive,
 stall) and the pose is read off them whenever asked, so a robot costs nothing
 between questions. Time is the fleet's own: wall time since start times
@@ -77,7 +77,7 @@ class VirtualNavigator:
         """Fleet seconds since this navigator was made."""
         return (self.clock() - self._t0) * self.time_scale
 
-    # ---- Navigator -------------------------------------------------------------------
+    # ---- PollingNavigator ------------------------------------------------------------
 
     def start_drive(self, x: float, y: float, time: float) -> None:
         start = self.true_pose()
