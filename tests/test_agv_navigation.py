@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from agv_package.camera_model import CameraMount
-from agv_package.geometry import Pose2D, wrap_angle
+from agv_package.geometry import Pose2D
 from agv_package.grid_frame import GridFrame
 from agv_package.motion import STOP, DriveController, TurnController, Twist
 from agv_package.navigator import ControlledNavigator
@@ -20,6 +20,7 @@ from agv_package.sim.base_model import BaseModel, BaseNoise
 from agv_package.sim.floor_camera import FloorCamera
 from agv_package.tag_localizer import TagLocalizer
 from agv_package.tag_map import load_tag_map
+from fleet_common.angles import wrap_angle
 from fleet_common.wire.navigator import MotionOutcome
 
 CONFIG = Path(__file__).resolve().parents[1] / "catkin_ws" / "src" / "agv_package" / "config"

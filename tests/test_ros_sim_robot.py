@@ -25,9 +25,10 @@ import numpy as np
 import pytest
 import zmq
 
-from agv_package.geometry import Pose2D, interpolate, wrap_angle
+from agv_package.geometry import Pose2D, interpolate
 from agv_package.grid_frame import GridFrame
 from agv_package.tag_map import load_tag_map
+from fleet_common.angles import wrap_angle
 from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.wire import PoseFeedback
 from fleet_common.transport.curve_keys import ManagerKeys, load_manager_keys, make_keys

@@ -19,18 +19,13 @@ import time as _time
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Set, Tuple
 
+from fleet_common.angles import wrap_angle
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
 
 from .delays import FleetDelays, MoveFate
 
-__all__ = ["VirtualNavigator", "wrap_angle"]
-
-
-def wrap_angle(a: float) -> float:
-    """`a` in (-pi, pi]."""
-    a = math.fmod(a + math.pi, 2.0 * math.pi)
-    return a - math.pi if a > 0 else a + math.pi
+__all__ = ["VirtualNavigator"]
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,10 @@ import threading
 import time
 from typing import Callable, Optional, Union
 
+from fleet_common.angles import wrap_angle
 from fleet_common.wire.navigator import MotionOutcome
 
-from .geometry import Pose2D, wrap_angle
+from .geometry import Pose2D
 from .motion import STOP, DriveController, TurnController, Twist, needs_turn
 from .settings import MotionSettings
 
