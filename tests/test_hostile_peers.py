@@ -23,6 +23,7 @@ import zmq
 from fleet_common.robots import RobotDefinition
 from fleet_common.transport.curve_keys import load_manager_keys, make_keys
 from fleet_common.transport.links import LinkSet
+from fleet_common.transport.pose_feedback import NotThisRobotsPose, read_pose
 from fleet_common.transport.robot_link import LinkEvent, LinkUp, RobotLink, RobotReply
 from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosition, Failed,
                                Heartbeat, Hello, PoseFeedback, Pose, RemoteProtocolError, Role,
@@ -332,6 +333,24 @@ def test_no_frame_from_a_robot_brings_the_manager_side_down(caplog) -> None:
     assert len([m for m in logged if "robot 4: bad pose feedback frame: " in m]) == 1
     assert all(len(m) < 1000 and "\n" not in m for m in logged)
 
+
+
+def test_a_feedback_frame_is_read_or_refused_with_who_sent_it() -> None:
+    """One reader of pose feedback for the manager's links and `deploy`'s net check: a pose of
+    this robot, or a refusal that says whether the frame was garbage, another message or
+    another robot's pose (net:check then names a port two robots share)."""
+    pose = PoseFeedback(4, 7, Pose(1.0, 2.0, 0.5), None)
+    assert read_pose(encode(pose), 4) == pose
+    with pytest.raises(NotThisRobotsPose) as other:
+        read_pose(encode(PoseFeedback(5, 0, Pose(0.0, 0.0, 0.0), None)), 4)
+    assert other.value.sender == 5
+    with pytest.raises(NotThisRobotsPose) as status:
+        read_pose(encode(Completed(3)), 4)
+    assert status.value.sender is None and "feedback port sent Completed(id=3)" in str(status.value)
+    for frame in HOSTILE.values():
+        with pytest.raises(RemoteProtocolError) as bad:
+            read_pose(frame, 4)
+        assert not isinstance(bad.value, NotThisRobotsPose)
 
 def test_a_fleet_whose_robots_would_start_off_its_map_is_refused(tmp_path: Path) -> None:
     command = free_ports(1)[0]
