@@ -13,7 +13,7 @@ from fleet_common.control import (Activity, Answer, ControlProtocolError, Event,
 from fleet_common.control import messages as m
 from fleet_common.control.desk import ControlDesk
 from fleet_common.control.requests import check_args
-from fleet_common.control.schema import SchemaError
+from fleet_common.schema import SchemaError
 from fleet_common.control.session import ConsoleSession
 
 

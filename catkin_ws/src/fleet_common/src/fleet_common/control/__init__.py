@@ -1,8 +1,8 @@
 """The manager <-> console protocol, sans-I/O (thesis 5.1.1, 5.4).
 
     messages   what a console sees (Scene, State, Event, Proposal) and asks (Request)
-    schema     composable checkers that make decoding total
-    codec      messages <-> JSON frames, with size and depth limits
+    codec      messages <-> JSON frames, with size and depth limits, checked by the schema
+               (`fleet_common.schema`, the checkers the robot protocol's codec uses too)
     requests   the actions and their arguments, checked (what `Request.args` may hold)
     desk       the manager's end: consoles, versions (the Lamport clock), answers
     session    the console's end: what it has seen, what it asked, what came back

@@ -17,7 +17,7 @@ from typing import Any, Dict
 
 from .codec import MAX_REQUEST_BYTES
 from .messages import ACTIONS, SOURCES
-from .schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
+from ..schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
 
 __all__ = ["ARGS", "check_args"]
 

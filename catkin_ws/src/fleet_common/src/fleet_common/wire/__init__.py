@@ -29,9 +29,10 @@ command id seen before is acknowledged again, never executed twice; one
 command at a time; stop preempts), `command_check` (what the robot's world
 forbids: off the map, into obstacles, more than a step, too long), `navigator`
 (the `PollingNavigator` interface it drives), `liveness` (heartbeat timing), `ports`.
-Decoding is total (`fleet_common.limits`): any bytes are a message or a
-`MalformedFrameError`. The sockets, robot side and
-manager side, live in `fleet_common.transport`.
+Decoding is total (`fleet_common.limits`, and the message schemas of
+`fleet_common.schema`, as in the console protocol): any bytes are a message or a
+`MalformedFrameError`. The sockets, robot side and manager side, live in
+`fleet_common.transport`.
 """
 from __future__ import annotations
 
