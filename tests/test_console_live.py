@@ -379,6 +379,34 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
         gc.collect()
 
 
+
+def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> None:
+    """One table of run controls: each button and each Run menu entry sends its action, one the
+    manager knows (accept and reject only as buttons: they name the proposal shown)."""
+    from console.ui.admin_panel import RUN_CONTROLS
+    from fleet_common.control import ACTIONS
+
+    asked: List[str] = []
+    root = tk.Tk()
+    try:
+        app = LiveApp(root, LiveFeed(), LiveModel("tcp://127.0.0.1:1"),
+                      lambda action, **args: asked.append(action))
+        root.after_cancel(app._after)
+        run = app.menubar.nametowidget(app.menubar.entrycget("Run", "menu"))
+        labels = [run.entrycget(i, "label") for i in range(run.index("end") + 1)]
+        assert labels == [c.menu for c in RUN_CONTROLS if c.menu is not None]
+        for i in range(len(labels)):
+            run.invoke(i)
+        menu_asked, asked[:] = list(asked), []
+        for c in RUN_CONTROLS:
+            app.admin.buttons[c.action].invoke()
+        assert menu_asked == [c.action for c in RUN_CONTROLS if c.menu is not None]
+        assert asked == [c.action for c in RUN_CONTROLS if c.action not in ("accept", "reject")]
+        assert {c.action for c in RUN_CONTROLS} <= set(ACTIONS)
+    finally:
+        root.destroy()
+        gc.collect()
+
 def _pictures(root: tk.Tk) -> set:
     return {name for name in root.image_names() if name.startswith("pyimage")}
 

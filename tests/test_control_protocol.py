@@ -12,9 +12,9 @@ from fleet_common.control import (Activity, Answer, ControlProtocolError, Event,
                                   RunInfo, Scene, State, Waiting, decode, encode)
 from fleet_common.control import messages as m
 from fleet_common.control.desk import ControlDesk
-from fleet_common.control.requests import check_args
-from fleet_common.schema import SchemaError
+from fleet_common.control.requests import ACTIONS, check_args
 from fleet_common.control.session import ConsoleSession
+from fleet_common.schema import SchemaError
 
 
 def wire(desk: ControlDesk, session: ConsoleSession, peer: bytes, frame: bytes, now: float = 0.0):
@@ -110,7 +110,7 @@ def test_garbage_is_answered_with_an_error_and_changes_nothing(frame: bytes) -> 
 def test_any_bytes_from_a_console_give_an_answer_never_an_exception(data: bytes) -> None:
     desk = ControlDesk("s1", 0.0)
     intake = desk.receive(b"A", data, 0.0)
-    assert intake.request is None or intake.request.action in m.ACTIONS
+    assert intake.request is None or intake.request.action in ACTIONS
 
 
 @given(st.binary(max_size=2000))
@@ -127,7 +127,7 @@ _json = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | s
                      max_leaves=20)
 
 
-@given(st.sampled_from(sorted(m.ACTIONS)), _json)
+@given(st.sampled_from(sorted(ACTIONS)), _json)
 def test_request_arguments_are_checked_or_refused_with_a_reason(action: str, args) -> None:
     try:
         checked = check_args(action, args if isinstance(args, dict) else {"x": args})

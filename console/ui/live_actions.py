@@ -13,11 +13,9 @@ from typing import Any, Optional
 from ..keys import AGENTS, KEYS, VIEW
 from ..live.describe import cell_text, greyed
 from . import capture
+from .admin_panel import RUN_CONTROLS
 from .help_window import show_keys
 from .window import LiveWindow
-
-RUN_MENU = (("Start", "start"), ("Pause", "pause"), ("Step", "step"), ("Stop", "stop"),
-            ("Halt every robot", "halt"), ("Replan", "replan"))
 
 
 class LiveActions:
@@ -30,8 +28,9 @@ class LiveActions:
         file.add_command(label="quit", accelerator="q, Ctrl+Q", command=self.actions["quit"])
         bar.add_cascade(label="File", menu=file)
         run = tk.Menu(bar, tearoff=False)
-        for label, action in RUN_MENU:
-            run.add_command(label=label, command=lambda a=action: self.ask(a))
+        for control in RUN_CONTROLS:
+            if control.menu is not None:
+                run.add_command(label=control.menu, command=lambda a=control.action: self.ask(a))
         bar.add_cascade(label="Run", menu=run)
         for group in (VIEW, AGENTS):
             menu = tk.Menu(bar, tearoff=False)

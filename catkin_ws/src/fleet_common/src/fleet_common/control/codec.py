@@ -6,7 +6,7 @@ Decoding is total: any bytes become a message or a `ControlProtocolError`
 saying what was wrong (too large, not JSON, nested too deep, an unknown type,
 a field of the wrong shape), never another exception. Size, depth and number
 lengths are checked before or while JSON is parsed (`fleet_common.limits`,
-with the console channel's own frame sizes below); fields and ranges by
+with the console channel's own frame sizes); fields and ranges by
 `SCHEMAS`, declared with the checkers of `fleet_common.schema` as the robot
 protocol declares its own. Which messages each end may receive
 is decided by the caller: `decode(data, CONSOLE_MESSAGES)` on the manager.
@@ -22,17 +22,14 @@ from typing import Any, Dict, Sequence, Type
 import numpy as np
 
 from ..errors import FleetError
-from ..limits import DecodeError, loads_frame
+from ..limits import MAX_REQUEST_BYTES, DecodeError, loads_frame
 from ..schema import AnyObj, Bool, Checker, Int, ListOf, Num, Opt, Record, SchemaError, Str, short
 from . import messages as m
 from .columns import robots_from_columns, robots_to_columns
+from .requests import ACTIONS
 
-__all__ = ["ControlProtocolError", "encode", "decode", "SCHEMAS", "MAX_REQUEST_BYTES", "MAX_MANAGER_BYTES"]
+__all__ = ["ControlProtocolError", "encode", "decode", "SCHEMAS"]
 
-#: Largest frame a manager reads from a console (a plan's text may be sent with `load`).
-MAX_REQUEST_BYTES = 32 * 1024 * 1024
-#: Largest frame a console reads from a manager (a scene carries a whole plan).
-MAX_MANAGER_BYTES = 256 * 1024 * 1024
 #: Deepest nesting of any legitimate message (a plan's positions: 5 levels).
 MAX_DEPTH = 12
 _ID = Int(0, 2 ** 53)
@@ -107,7 +104,7 @@ _RUN = Record(m.RunInfo, {
 #: Fields of each message type (the frame's "t" and "v" aside).
 SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, fields, optional in (
     (m.Hello, {"name": _NAME}, None),
-    (m.Request, {"id": _ID, "action": Str(choices=m.ACTIONS), "args": AnyObj(), "based_on": _ID}, None),
+    (m.Request, {"id": _ID, "action": Str(choices=ACTIONS), "args": AnyObj(), "based_on": _ID}, None),
     (m.Heartbeat, {}, None),
     (m.Bye, {"reason": _TEXT}, None),
     (m.Welcome, {"session": _NAME, "version": _ID}, None),

@@ -34,10 +34,6 @@ import numpy as np
 
 PROTOCOL_VERSION = 1
 
-#: What a console may ask, and the arguments each action takes (see `requests.py`).
-ACTIONS = ("start", "pause", "stop", "step", "halt", "strategy", "enable", "disable", "source",
-           "load", "replan", "accept", "reject")
-
 #: How a refusal to a console the manager does not know begins: the console says hello again.
 HELLO_FIRST = "say hello first"
 

@@ -21,7 +21,8 @@ from typing import Any, Deque, Dict, Optional, Tuple
 
 from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from . import messages as m
-from .codec import MAX_MANAGER_BYTES, decode, encode
+from ..limits import MAX_MANAGER_BYTES
+from .codec import decode, encode
 
 __all__ = ["ConsoleSession"]
 
