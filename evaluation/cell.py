@@ -19,11 +19,10 @@ from typing import Dict, List, Optional
 
 from fleet_common.delays import parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
-from fleet_common.grid import Grid
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import replan
 
-from .plans import LoadedPlan
 from .row import Row, make_row
 from .spec import Cell
 from .wire_cell import run_wire_cell
@@ -35,7 +34,7 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
         return run_wire_cell(cell, plan, cell.time_scale)
     began = time.perf_counter()
     model = parse_delay_model(cell.delay, default="none")
-    p = Plan(plan.positions)
+    p = plan.plan
     settings = dict(cell.settings)
     disable = {}
     if cell.disable != "none":
@@ -45,7 +44,7 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():
         current = first.trace.final_cells()
-        result = replan(Grid(plan.free), current, plan.goals, set(first.disabled_at), deadline=30.0,
+        result = replan(plan.grid, current, plan.goals, set(first.disabled_at), deadline=30.0,
                         seed=cell.seed)
         if result.plan is not None:
             second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, **settings)

@@ -9,8 +9,8 @@ import json
 from typing import Any, Dict, List
 
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import LoadedPlan
 
-from .plans import LoadedPlan
 from .spec import Cell
 
 #: Columns of the results table, in order.
