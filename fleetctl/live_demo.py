@@ -1,7 +1,7 @@
 """The live demo: the lab scenario on virtual robots, driven by the manager, seen in the console.
 
 Theory of operation. Three processes, each in its own process group
-(`fleetctl.children`), all on 127.0.0.1 with free ports (`local_fleet`), never
+(`fleet_common.children`), all on 127.0.0.1 with free ports (`fleet_common.local_fleet`), never
 the lab's addresses:
 
 1. `fleetctl virtual-fleet`: the five lab robots on a definitions copy, with

@@ -21,7 +21,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence
 from fleet_common.control import RunInfo
 
 from ..live.describe import RobotRow
-from ..live.feed import CONNECTED, LOST, Connection, Reply
+from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
 from ..live.model import reply_text
 from .table import scrolled_table
 
@@ -135,7 +135,7 @@ class AdminPanel(ttk.Frame):
 
     # -- showing -----------------------------------------------------------------------
 
-    def show_connection(self, connection: Connection) -> None:
+    def show_connection(self, connection: LinkStatus) -> None:
         colour = {CONNECTED: "#1d6b22", LOST: "#c8101a"}.get(connection.status, "#8a5a00")
         text = "MANAGER LOST: " + connection.text if connection.status == LOST else connection.text
         self.connection.configure(text=text, foreground=colour)

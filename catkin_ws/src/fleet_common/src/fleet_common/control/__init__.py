@@ -1,6 +1,6 @@
 """The manager <-> console protocol, sans-I/O (thesis 5.1.1, 5.4).
 
-    messages   what a console sees (Scene, State, Event, Proposal) and asks (Request)
+    messages   what a console sees (RunSetup, State, Notice, Proposal) and asks (Request)
     codec      messages <-> JSON frames, with size and depth limits, checked by the schema
                (`fleet_common.schema`, the checkers the robot protocol's codec uses too)
     requests   the actions (`ACTIONS`) and their arguments, checked (what `Request.args` may hold)
@@ -13,11 +13,16 @@ console and a manager can be wired together in memory in tests.
 from __future__ import annotations
 
 from .codec import ControlProtocolError, decode, encode
-from .messages import (PROTOCOL_VERSION, Activity, Answer, Bye, Event, Heartbeat, Hello,
-                       PlanData, Proposal, Request, RobotInfo, RobotState, RunInfo, Scene, State,
-                       Waiting, Welcome)
+from .messages import (PROTOCOL_VERSION, Activity, Answer, Bye, Heartbeat, Hello, Notice, PlanData,
+                       Proposal, Request, RobotInfo, RobotState, RunInfo, RunSetup, State, Waiting,
+                       Welcome)
 from .requests import ACTIONS
 
 __all__ = ["ControlProtocolError", "decode", "encode", "ACTIONS", "PROTOCOL_VERSION", "Activity",
-           "Answer", "Bye", "Event", "Heartbeat", "Hello", "PlanData", "Proposal", "Request",
-           "RobotInfo", "RobotState", "RunInfo", "Scene", "State", "Waiting", "Welcome"]
+           "Answer", "Bye", "Heartbeat", "Hello", "Notice", "PlanData", "Proposal", "Request",
+           "RobotInfo", "RobotState", "RunInfo", "RunSetup", "State", "Waiting", "Welcome"]
+
+# The old names of RunSetup and Notice, kept only for fleet_manager/manager.py until the manager's
+# core (issue 24) imports the new ones; then delete them. Not exported: nothing new may use them.
+Scene = RunSetup
+Event = Notice
