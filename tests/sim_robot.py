@@ -12,7 +12,6 @@ bench/sim_robot.py times it. Call it inside a network namespace of its own
 from __future__ import annotations
 
 import math
-import sys
 import threading
 import time
 from collections import deque
@@ -34,7 +33,7 @@ from fleet_common.transport.robot_link import RobotLink
 from fleet_common.wire import PoseFeedback
 from helpers import free_port
 from live import Proc
-from ros_procs import ROSLAUNCH, master_up, ros_environment, set_ros_variables, wait_for
+from ros_procs import ROSLAUNCH, leave_ros, master_up, ros_environment, set_ros_variables, wait_for
 
 __all__ = ["ROBOT_ID", "START", "AT_NODE", "Manager", "Observer", "SimRobot", "running_sim_robot"]
 
@@ -308,9 +307,4 @@ def running_sim_robot(home: Path) -> Iterator[SimRobot]:
     finally:
         if manager is not None:
             manager.close()
-        if "rospy" in sys.modules and sys.modules["rospy"].core.is_initialized():
-            sys.modules["rospy"].signal_shutdown("simulated robot done")
-        for process in reversed(started):
-            process.stop()
-        if saved is not None:
-            set_ros_variables(saved)
+        leave_ros(started, saved)
