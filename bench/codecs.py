@@ -6,8 +6,8 @@ PoseFeedback (3,000 a second reach a manager of 300 robots), plus a drive comman
 Status (the general decoding path of the robot protocol). CPU time per call, best of
 --repeat timings. With `--compare COMMIT` the fleet_common of that commit is extracted with
 `git archive`, renamed `fleet_common_then` and imported beside this tree's, and the two are
-timed alternately, case by case, in one process: on a shared machine a busy spell then
-hits both, and the ratio is what to read.
+timed alternately, one short timing each, --rounds x --repeat times, in one process: on a
+shared machine a busy spell then hits both, and the ratio of the best times is what to read.
 
     .venv/bin/python bench/codecs.py [--repeat 7] [--compare 4b3a68d]
 """
@@ -58,14 +58,14 @@ def cases(package: str = "fleet_common") -> List[Case]:
     assert control.decode(state_frame, accept, 1 << 28) == state
     assert wire.decode(pose_frame) == pose and wire.decode(pose_general) == pose
     return [
-        ("State of {} robots, encode".format(ROBOTS), lambda: control.encode(state), 20),
-        ("State of {} robots, decode".format(ROBOTS), lambda: control.decode(state_frame, accept, 1 << 28), 20),
-        ("PoseFeedback, encode", lambda: wire.encode(pose), 20000),
-        ("PoseFeedback, decode", lambda: wire.decode(pose_frame), 20000),
-        ("PoseFeedback, decode (general path)", lambda: wire.decode(pose_general), 20000),
-        ("DriveToPosition, encode", lambda: wire.encode(drive), 20000),
-        ("DriveToPosition, decode", lambda: wire.decode(drive_frame), 20000),
-        ("Status, decode", lambda: wire.decode(status_frame), 20000),
+        ("State of {} robots, encode".format(ROBOTS), lambda: control.encode(state), 5),
+        ("State of {} robots, decode".format(ROBOTS), lambda: control.decode(state_frame, accept, 1 << 28), 5),
+        ("PoseFeedback, encode", lambda: wire.encode(pose), 2000),
+        ("PoseFeedback, decode", lambda: wire.decode(pose_frame), 2000),
+        ("PoseFeedback, decode (general path)", lambda: wire.decode(pose_general), 2000),
+        ("DriveToPosition, encode", lambda: wire.encode(drive), 2000),
+        ("DriveToPosition, decode", lambda: wire.decode(drive_frame), 2000),
+        ("Status, decode", lambda: wire.decode(status_frame), 2000),
     ]
 
 
@@ -94,7 +94,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--compare", metavar="COMMIT", help="also time this commit's fleet_common")
-    parser.add_argument("--rounds", type=int, default=5, help="alternations with --compare")
+    parser.add_argument("--rounds", type=int, default=10, help="with --compare: alternations, x --repeat")
     args = parser.parse_args()
     print("load average {:.2f} {:.2f} {:.2f} on {} CPUs".format(*os.getloadavg(), os.cpu_count()))
     ours = cases()
@@ -107,9 +107,9 @@ def main() -> None:
         print("{:<38} {:>12} {:>12} {:>8}".format("CPU per call", "this tree", args.compare, "ratio"))
         for (name, work, n), (_, then, _) in zip(ours, theirs):
             a, b = float("inf"), float("inf")
-            for _ in range(args.rounds):  # alternately, so that a busy spell hits both
-                a = min(a, best(work, n, args.repeat))
-                b = min(b, best(then, n, args.repeat))
+            for _ in range(args.rounds * args.repeat):  # alternately, so that a busy spell hits both
+                a = min(a, best(work, n, 1))
+                b = min(b, best(then, n, 1))
             print("{:<38} {:>9.1f} us {:>9.1f} us {:>7.2f}x".format(name, a * 1e6, b * 1e6, a / b))
     print("load average {:.2f} {:.2f} {:.2f} at the end".format(*os.getloadavg()))
 

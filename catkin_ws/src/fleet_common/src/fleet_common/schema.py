@@ -178,6 +178,7 @@ class Obj(Checker):
 
     def __init__(self, fields: Dict[str, Checker], optional: Optional[Dict[str, Any]] = None) -> None:
         self.fields = fields
+        self._items = tuple(fields.items())
         self.optional = dict(optional or {})
         self.what = "an object with fields " + ", ".join(fields) if fields else "an empty object"
         #: (name, its dump, or None where the value is its own JSON form)
@@ -188,7 +189,7 @@ class Obj(Checker):
             raise self.fail(value, path)
         out: Dict[str, Any] = {}
         found = 0
-        for name, check in self.fields.items():
+        for name, check in self._items:
             if name in value:
                 out[name] = check(value[name], path + "." + name if path else name)
                 found += 1
