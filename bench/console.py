@@ -138,9 +138,9 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
     from console.live.model import LiveModel
     from console.palette import distinct_colours
     from console.ui.live_app import LiveApp
+    from fleet_common.children import Child
+    from fleet_common.local_fleet import local_definitions
     from fleet_common.robots import RobotDefinition
-    from fleetctl.children import Child
-    from fleetctl.local_fleet import local_definitions
 
     work = Path(tempfile.mkdtemp(prefix="bench-console-"))
     children: List[Child] = []
@@ -237,13 +237,13 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
 def synthetic_states(robots: int, count: int):
     """A scene of `robots` on a 49 x 49 floor and `count` States in which every robot moves and
     every tenth waits for the next one: what the live console draws, without a network."""
-    from fleet_common.control import (Activity, PlanData, RobotInfo, RobotState, RunInfo, Scene,
+    from fleet_common.control import (Activity, PlanData, RobotInfo, RobotState, RunInfo, RunSetup,
                                       State, Waiting)
 
     side = 49
     starts = [(i % side, (i // side) * 2) for i in range(robots)]
     plan = Plan.from_paths([[s, (s[0], s[1] + 1)] * 10 for s in starts])
-    scene = Scene("floor", tuple("." * side for _ in range(side)),
+    scene = RunSetup("floor", tuple("." * side for _ in range(side)),
                   tuple(RobotInfo(i + 1, "red", "tb") for i in range(robots)),
                   PlanData(1, tuple(range(1, robots + 1)), plan.positions, "synthetic"), ("adg",), 1.0)
     states = []
@@ -264,7 +264,7 @@ def draw_and_decode_costs(robots: int, xvfb_pid: int, count: int = 120) -> None:
     import json
     import tkinter as tk
 
-    from console.live.feed import CONNECTED, Connection, LiveFeed
+    from console.live.feed import CONNECTED, LinkStatus, LiveFeed
     from console.live.model import LiveModel
     from console.ui.live_app import LiveApp
     from fleet_common.control import encode
@@ -287,7 +287,7 @@ def draw_and_decode_costs(robots: int, xvfb_pid: int, count: int = 120) -> None:
         app = LiveApp(root, feed, model, lambda *a, **k: None)
         root.after_cancel(app._after)
         app._after = None
-        feed.offer(Connection(CONNECTED, "synthetic"), 0.0)
+        feed.offer(LinkStatus(CONNECTED, "synthetic"), 0.0)
         feed.offer(scene, 0.0)
         app.refresh()
         root.update()

@@ -26,10 +26,9 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.transport.curve_keys import ManagerKeys
 from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
 from fleet_common.transport.links import LinkSet
-from fleet_common.transport.pose_feedback import subscribe_feedback
+from fleet_common.transport.pose_feedback import NotThisRobotsPose, read_pose, subscribe_feedback
 from fleet_common.transport.robot_link import RobotLink
 from fleet_common.wire import PoseFeedback, RemoteProtocolError, Status
-from fleet_common.wire.codec import decode
 
 from .config import DeployConfig
 from .errors import DeployError, HostKeyRefused
@@ -125,15 +124,13 @@ def feedback_status(robots: Sequence[RobotDefinition], ports: Dict[int, int],
                 if robot.id in out:
                     continue
                 try:
-                    message = decode(data)
+                    out[robot.id] = _status_text(read_pose(data, robot.id))
+                except NotThisRobotsPose as err:
+                    if err.sender is not None:
+                        problems[robot.id] = "port {} carries robot {}'s poses (another --feedback-base?)".format(
+                            ports[robot.id], err.sender)
                 except RemoteProtocolError as err:
                     problems[robot.id] = "bad pose feedback on port {}: {}".format(ports[robot.id], err)
-                    continue
-                if isinstance(message, PoseFeedback) and message.robot_id == robot.id:
-                    out[robot.id] = _status_text(message)
-                elif isinstance(message, PoseFeedback):
-                    problems[robot.id] = "port {} carries robot {}'s poses (another --feedback-base?)".format(
-                        ports[robot.id], message.robot_id)
     finally:
         for sock in of_socket:
             sock.close(0)

@@ -1,4 +1,5 @@
-"""One cell of a sweep: one simulated run, and the row of the results table it gives.
+"""One cell of a sweep: one simulated run, and the row of the results table it gives
+(a wire cell, `chain: wire`, runs in `wire_cell.py` instead).
 
 Pure apart from the clock (`wall_s`): a cell is a plain `Cell` and a
 `LoadedPlan`, so it runs the same in this process, a local worker or a Dask
@@ -13,42 +14,27 @@ strategy and delay model (seed + 1); times add up.
 """
 from __future__ import annotations
 
-import json
 import time
-from typing import Any, Dict, List, Optional
+from typing import Dict, List, Optional
 
 from fleet_common.delays import parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
-from fleet_common.grid import Grid
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import replan
 
-from .plans import LoadedPlan
+from .row import Row, make_row
 from .spec import Cell
-
-#: Columns of the results table, in order.
-COLUMNS = ("key", "plan", "solver", "agents", "strategy", "delay", "p", "seed", "disable", "recover",
-           "plan_makespan", "plan_soc", "makespan", "soc", "makespan_ratio", "soc_ratio",
-           "wait_total", "wait_mean", "wait_max", "waits", "held_time", "wait_by_robot", "blocked_by",
-           "collisions", "reached", "finished", "replanned", "moves", "wall_s")
-
-Row = Dict[str, Any]
-
-
-def strategy_label(cell: Cell) -> str:
-    """The strategy column: its name and settings, and " (wire)" for a run through the manager,
-    so reports show the two kinds of run side by side."""
-    return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings) + (
-        " (wire)" if cell.chain == "wire" else "")
+from .wire_cell import run_wire_cell
 
 
 def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
+    """The results row of `cell`: simulated by the engine, or run through the manager (wire)."""
     if cell.chain == "wire":
-        from .wire_cell import run_wire_cell
         return run_wire_cell(cell, plan, cell.time_scale)
     began = time.perf_counter()
     model = parse_delay_model(cell.delay, default="none")
-    p = Plan(plan.positions)
+    p = plan.plan
     settings = dict(cell.settings)
     disable = {}
     if cell.disable != "none":
@@ -58,7 +44,7 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():
         current = first.trace.final_cells()
-        result = replan(Grid(plan.free), current, plan.goals, set(first.disabled_at), deadline=30.0,
+        result = replan(plan.grid, current, plan.goals, set(first.disabled_at), deadline=30.0,
                         seed=cell.seed)
         if result.plan is not None:
             second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, **settings)
@@ -99,26 +85,3 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
     return make_row(cell, plan, p, makespan=makespan, soc=float(sum(reached)), waits=waits,
                     count=count, held=held, blocked=blocked, collisions=collisions,
                     reached=len(reached), replanned=second is not None, moves=moves)
-
-
-def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: float,
-             waits: List[float], count: int, held: float, blocked: Dict[int, float],
-             collisions: int, reached: int, replanned: bool, moves: int) -> Row:
-    """A results row (all but `wall_s`) from a run's figures, times in plan steps; `waits` per
-    agent. Engine and wire cells both make their rows here."""
-    n = p.num_agents
-    return {
-        "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
-        "strategy": strategy_label(cell), "delay": cell.delay, "p": cell.p, "seed": cell.seed,
-        "disable": cell.disable, "recover": cell.recover,
-        "plan_makespan": p.makespan, "plan_soc": p.soc,
-        "makespan": round(makespan, 6), "soc": round(soc, 6),
-        "makespan_ratio": round(makespan / p.makespan, 6) if p.makespan else 1.0,
-        "soc_ratio": round(soc / p.soc, 6) if p.soc else 1.0,
-        "wait_total": round(sum(waits), 6), "wait_mean": round(sum(waits) / n, 6) if n else 0.0,
-        "wait_max": round(max(waits), 6) if n else 0.0, "waits": count, "held_time": round(held, 6),
-        "wait_by_robot": json.dumps([round(w, 4) for w in waits]),
-        "blocked_by": json.dumps({str(q): round(t, 4) for q, t in sorted(blocked.items())}),
-        "collisions": collisions, "reached": reached, "finished": reached == n,
-        "replanned": replanned, "moves": moves,
-    }

@@ -17,8 +17,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, Iterator, List, Optional, TextIO
 
-from .cell import Row, run_cell
-from .plans import LoadedPlan, load_plans
+from fleet_common.plan_loading import LoadedPlan
+
+from .cell import run_cell
+from .plans import load_plans
+from .row import Row
 from .spec import Cell, Experiment
 from .table import CSV_NAME, CsvAppender, read_csv, write_tables
 

@@ -21,7 +21,7 @@ import pyarrow.parquet as pq
 from fleet_common.errors import FormatError
 from fleet_common.formats.lines import read_text
 
-from .cell import COLUMNS, Row
+from .row import COLUMNS, Row
 
 CSV_NAME = "results.csv"
 PARQUET_NAME = "results.parquet"

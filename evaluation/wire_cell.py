@@ -25,17 +25,18 @@ import time
 from pathlib import Path
 from typing import Dict, List
 
+from fleet_common.children import Child
 from fleet_common.errors import FleetError
 from fleet_common.formats.mapfile import map_from_grid, write_map
 from fleet_common.formats.solution import make_solution, write_solution
-from fleet_common.grid import Grid
+from fleet_common.local_fleet import local_definitions
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import read_run
 from fleet_common.runlog.summary import SummaryBuilder
 
-from .cell import make_row
-from .plans import LoadedPlan
+from .row import make_row
 from .spec import Cell
 
 #: The virtual robots' speed (cells a second of fleet time): a nominal move of 2 s, as in the lab.
@@ -45,18 +46,15 @@ _START_S = 60.0   # seconds the fleet and the manager may take to start and conn
 
 def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, object]:
     """The row of one run on virtual robots through the manager."""
-    from fleetctl.children import Child  # the command line's process handling, only here
-    from fleetctl.local_fleet import local_definitions
-
     began = time.perf_counter()
-    p = Plan(plan.positions)
+    p = plan.plan
     move_s = 1.0 / SPEED / time_scale  # a nominal move, in wall seconds
     limit = _START_S + 5.0 * (p.makespan + 1) * move_s + 30.0
     with tempfile.TemporaryDirectory(prefix="fleetcontrol-wire-cell-") as scratch:
         work = Path(scratch)
-        grid = Grid(plan.free)
+        grid = plan.grid
         write_map(map_from_grid(grid), str(work / "plan.map"))
-        starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
+        starts = [tuple(int(v) for v in c) for c in p.positions[0]]
         write_solution(make_solution(grid, "plan.map", p, starts, plan.goals, plan.solver, True, 0),
                        str(work / "plan.txt"))
         robots = [RobotDefinition(i + 1, "127.0.0.1", 0, "virtual", "v{}".format(i + 1), "grey")

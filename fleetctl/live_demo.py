@@ -1,7 +1,7 @@
 """The live demo: the lab scenario on virtual robots, driven by the manager, seen in the console.
 
 Theory of operation. Three processes, each in its own process group
-(`fleetctl.children`), all on 127.0.0.1 with free ports (`local_fleet`), never
+(`fleet_common.children`), all on 127.0.0.1 with free ports (`fleet_common.local_fleet`), never
 the lab's addresses:
 
 1. `fleetctl virtual-fleet`: the five lab robots on a definitions copy, with
@@ -31,15 +31,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, List, Optional, Sequence
 
+from fleet_common.children import Child
 from fleet_common.errors import FleetError
 from fleet_common.grid import Coord
+from fleet_common.local_fleet import local_definitions
 from fleet_common.plan import Plan
 from fleet_common.robots import RobotDefinition
 
 from virtual_fleet.stalls import parse_stall
-
-from .children import Child
-from .local_fleet import local_definitions
 
 __all__ = ["StallChoice", "pick_stall", "DemoSettings", "run_live_demo"]
 

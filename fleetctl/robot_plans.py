@@ -1,7 +1,8 @@
 """What every command that executes a plan does first: know the fleet, repair rotations.
 
-`fleetctl simulate` and `fleetctl demo` (and the manager, by the same
-library calls) run plans on robots. Robots cannot perform a rotation, so a
+`fleetctl simulate` and `fleetctl demo` (and the manager) run plans on robots;
+reading and checking a plan is `fleet_common.plan_loading`'s, this module says
+what it found the way a command line does. Robots cannot perform a rotation, so a
 plan's rotations are repaired first (`fleet_common.planning.repair`), saying
 so in one line; `--no-repair` keeps the plan as it is, and the execution
 engine then refuses it. On the lab fleet (`fleet_common.lab.fleet`) agents
@@ -17,8 +18,8 @@ from fleet_common.formats.solution import Solution, read_solution
 from fleet_common.grid import Grid
 from fleet_common.lab.fleet import lab_fleet, robot_ids
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import InvalidPlan, PlanLoadError, check_solved, check_valid, file_coordinates
 from fleet_common.planning.repair import repair_rotations
-from fleet_common.validate import validate_plan
 
 from .options import map_dirs
 from .report import print_findings
@@ -61,16 +62,16 @@ def valid_solution(args: argparse.Namespace, not_done: str) -> Optional[Solution
     (`not_done`: what is then not done, "not simulated")."""
     sol = read_solution(args.solution, map_dirs=map_dirs(args))
     name = str(args.solution)
-    if sol.plan is None or not sol.solved:
-        print("{}: no plan: solver {} did not solve it (solved={})".format(
-            name, sol.solver or "?", int(bool(sol.solved))))
-        return None
-    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
-    report = validate_plan(sol.plan, sol.grid, starts=sol.starts, goals=sol.goals, show=show)
-    if not report.ok:
-        print_findings(name, report)
+    try:
+        plan = check_solved(sol, name)
+        check_valid(plan, sol.grid, name, sol.starts, sol.goals, file_coordinates(sol))
+    except InvalidPlan as err:
+        print_findings(name, err.report)
         print("{}: INVALID: {} problem(s); {} (`fleetctl validate` explains)".format(
-            name, len(report.errors), not_done))
+            name, len(err.report.errors), not_done))
+        return None
+    except PlanLoadError as err:
+        print(err)
         return None
     return sol
 

@@ -15,7 +15,7 @@ from typing import Callable, Dict, Iterator, List, Optional, Set, Tuple
 
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
-from fleetctl.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
+from fleet_common.local_fleet import free_port_block  # noqa: F401  (the tests' helper too)
 
 
 def wait_until(condition: Callable[[], object], timeout: float, what: str) -> None:

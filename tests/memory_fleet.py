@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from fleet_common.control import codec
+from fleet_common.limits import MAX_MANAGER_BYTES
 from fleet_common.control import messages as m
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
@@ -22,7 +23,7 @@ from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
 from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
 from fleet_manager.core import RunCore
 from fleet_manager.outbox import NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
-from fleet_manager.plan_source import LoadedPlan
+from fleet_common.plan_loading import LoadedPlan
 from fleet_manager.settings import ManagerSettings
 from virtual_fleet.kinematics import VirtualNavigator
 
@@ -82,8 +83,8 @@ class MemoryConsole:
     def answers(self) -> List[m.Answer]:
         return [x for x in self.received if isinstance(x, m.Answer)]
 
-    def notices(self) -> List[m.Event]:
-        return [x for x in self.received if isinstance(x, m.Event)]
+    def notices(self) -> List[m.Notice]:
+        return [x for x in self.received if isinstance(x, m.Notice)]
 
 
 class MemoryFleet:
@@ -141,7 +142,7 @@ class MemoryFleet:
             console = self.consoles.get(effect.peer)
             if console is not None:
                 console.received.append(codec.decode(effect.data, m.MANAGER_MESSAGES,
-                                                     codec.MAX_MANAGER_BYTES))
+                                                     MAX_MANAGER_BYTES))
         elif isinstance(effect, Say):
             self.said.append(effect.text)
         elif isinstance(effect, PlanJob):

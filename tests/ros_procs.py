@@ -20,7 +20,7 @@ import sys
 import time
 import xmlrpc.client
 from pathlib import Path
-from typing import Callable, Dict, Mapping, Optional
+from typing import Callable, Dict, List, Mapping, Optional
 
 import pytest
 
@@ -88,6 +88,17 @@ def set_ros_variables(values: Mapping[str, Optional[str]]) -> Dict[str, Optional
         else:
             os.environ[key] = value
     return old
+
+
+def leave_ros(started: List[Proc], saved: Optional[Dict[str, Optional[str]]]) -> None:
+    """Undo a ROS set-up: this process's rospy node down, the `started` processes stopped (last
+    first), the ROS variables `set_ros_variables` replaced put back (`saved`, if any)."""
+    if "rospy" in sys.modules and sys.modules["rospy"].core.is_initialized():
+        sys.modules["rospy"].signal_shutdown("done")
+    for process in reversed(started):
+        process.stop()
+    if saved is not None:
+        set_ros_variables(saved)
 
 
 def wait_for(condition: Callable[[], bool], timeout: float, what: str,

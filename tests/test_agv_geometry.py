@@ -7,8 +7,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agv_package.geometry import Pose2D, interpolate, wrap_angle
+from agv_package.geometry import Pose2D, interpolate
 from agv_package.grid_frame import GridFrame
+from fleet_common.angles import wrap_angle
 from fleet_common.frames import readable
 from fleet_common.lab import node_table
 

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from agv_package.camera_model import CameraMount
-from agv_package.geometry import Pose2D, wrap_angle
+from agv_package.geometry import Pose2D
 from agv_package.grid_frame import GridFrame
 from agv_package.motion import STOP, DriveController, TurnController, Twist
 from agv_package.navigator import ControlledNavigator
@@ -20,6 +20,8 @@ from agv_package.sim.base_model import BaseModel, BaseNoise
 from agv_package.sim.floor_camera import FloorCamera
 from agv_package.tag_localizer import TagLocalizer
 from agv_package.tag_map import load_tag_map
+from fleet_common.angles import wrap_angle
+from fleet_common.wire.navigator import MotionOutcome
 
 CONFIG = Path(__file__).resolve().parents[1] / "catkin_ws" / "src" / "agv_package" / "config"
 MOTION = MotionSettings.from_dict(yaml.safe_load((CONFIG / "navigation.yaml").read_text())["motion"])
@@ -181,5 +183,5 @@ def test_navigator_refuses_to_move_without_a_pose_and_stops_when_told() -> None:
     navigator.interlock = lambda: "bumper pressed" if world.now > 1.0 else None
     goal = world.frame.point_to_robot(4, 2)
     result = navigator.drive_to_position(goal[0], goal[1], 0.0)
-    assert result == (False, "bumper pressed") and world.command == STOP
+    assert result == MotionOutcome(False, "bumper pressed") and world.command == STOP
     assert world.now < 1.2

@@ -11,11 +11,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agv_package.camera_model import CameraMount, floor_to_pixels
-from agv_package.geometry import Pose2D, wrap_angle
+from agv_package.geometry import Pose2D
 from agv_package.sim.floor_camera import FloorCamera, marker_bitmap
 from agv_package.tag_localizer import TagLocalizer
 from agv_package.tag_map import TagMap, TagPlacement, load_tag_map, node_tag_id
 from agv_package.tag_pose import robot_pose_from_tag, tag_in_camera
+from fleet_common.angles import wrap_angle
 from fleet_common.errors import FormatError
 from fleet_common.lab import node_table
 

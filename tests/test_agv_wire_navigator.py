@@ -5,25 +5,26 @@ from __future__ import annotations
 import math
 import threading
 import time
-from typing import List, Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 import pytest
 
 from agv_package.geometry import Pose2D
 from agv_package.grid_frame import GridFrame
-from agv_package.navigator import DONE, NavResult, Navigator
+from agv_package.navigator import DONE, BlockingNavigator
 from agv_package.wire_navigator import BUMPER, NOT_LOCALIZED, WireNavigator
 from fleet_common.lab import node_table
 from fleet_common.wire import (Accepted, CommandExecutor, Completed, DriveToPosition, Failed,
-                               GetStatus, Stop, Turn)
+                               GetStatus, MotionOutcome, Stop, Turn)
 from fleet_common.wire.command_check import CommandCheck
 
 
-class FakeNavigator(Navigator):
+class FakeNavigator(BlockingNavigator):
     """Records the calls in robot metres; a motion lasts until `finish()` or `stop()`."""
 
     def __init__(self) -> None:
         self.calls: List[Tuple[str, Tuple[float, ...]]] = []
+        self.workers: List[threading.Thread] = []
         self.where: Optional[Pose2D] = Pose2D(0.7, 2.1, 0.0)  # base cell (0, 0)
         self._end = threading.Event()
         self._result = DONE
@@ -32,30 +33,40 @@ class FakeNavigator(Navigator):
     def now(self) -> float:
         return self.clock
 
-    def drive_to_position(self, x: float, y: float, arrival: float) -> NavResult:
+    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
         self.calls.append(("drive", (x, y, arrival)))
         return self._wait()
 
-    def turn(self, heading: float) -> NavResult:
+    def turn(self, heading: float) -> MotionOutcome:
         self.calls.append(("turn", (heading,)))
         return self._wait()
 
-    def _wait(self) -> NavResult:
+    def _wait(self) -> MotionOutcome:
+        self.workers.append(threading.current_thread())  # the thread a motion runs in
         self._end.wait(5.0)
         self._end.clear()
         return self._result
 
     def stop(self, reason: str) -> None:
         self.calls.append(("stop", ()))
-        self._result = NavResult(False, reason)
+        self._result = MotionOutcome(False, reason)
         self._end.set()
 
-    def finish(self, result: NavResult = DONE) -> None:
+    def finish(self, result: MotionOutcome = DONE) -> None:
         self._result = result
         self._end.set()
 
     def pose(self) -> Optional[Pose2D]:
         return self.where
+
+
+def wait_until(condition: Callable[[], bool], what: str, timeout: float = 2.0) -> None:
+    """Wait for `condition` (the worker thread's doing), at most `timeout` seconds."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError("timed out waiting for " + what)
+        time.sleep(0.002)
 
 
 def settle(executor: CommandExecutor, timeout: float = 2.0) -> list:
@@ -79,15 +90,15 @@ def test_commands_in_cells_reach_the_navigator_in_metres(robot: tuple) -> None:
     fake, wire, executor = robot
     fake.where = Pose2D(2.1, 3.5, 0.0)  # cell (2, 2)
     assert executor.handle("e", DriveToPosition(1, 2.0, 3.0, 4.5)) == [("e", Accepted(1))]
-    time.sleep(0.05)
+    wait_until(lambda: len(fake.calls) == 1, "the drive to reach the navigator")
     kind, (x, y, arrival) = fake.calls[0]
     assert kind == "drive" and (x, y) == pytest.approx((2.1, 4.2)) and arrival == 104.5
     fake.finish()
     assert settle(executor) == [Completed(1)]
     executor.handle("e", Turn(2, math.pi / 2))
-    time.sleep(0.05)
+    wait_until(lambda: len(fake.calls) == 2, "the turn to reach the navigator")
     assert fake.calls[1] == ("turn", (pytest.approx(math.pi / 2),))
-    fake.finish(NavResult(False, "timed out"))
+    fake.finish(MotionOutcome(False, "timed out"))
     assert settle(executor) == [Failed(2, "timed out")]
     fake.where = Pose2D(2.1, 4.2, math.pi)  # cell (2, 3)
     status = executor.handle("e", GetStatus(3))[0][1]
@@ -123,10 +134,10 @@ def test_targets_off_the_free_grid_are_refused(robot: tuple) -> None:
 def test_stop_abandons_the_motion_and_reports_it_once(robot: tuple) -> None:
     fake, wire, executor = robot
     executor.handle("e", DriveToPosition(1, 1.0, 0.0, 0.0))
-    time.sleep(0.05)
+    wait_until(lambda: fake.calls, "the drive to reach the navigator")
     replies = [reply for _, reply in executor.handle("e", Stop(2))]
     assert replies == [Failed(1, "stopped by command 2"), Accepted(2), Completed(2)]
-    time.sleep(0.05)
+    wait_until(lambda: not any(t.is_alive() for t in fake.workers), "the stopped motion's worker to end")
     assert executor.poll() == [] and wire.poll() is None  # the worker's result is dropped
 
 
@@ -134,7 +145,7 @@ def test_bumper_stops_the_robot_and_holds_a_fault_until_released_and_stopped(
         robot: tuple) -> None:
     fake, wire, executor = robot
     executor.handle("e", DriveToPosition(1, 1.0, 0.0, 0.0))
-    time.sleep(0.05)
+    wait_until(lambda: fake.calls, "the drive to reach the navigator")
     wire.bumper(True)
     assert ("stop", ()) in fake.calls
     assert settle(executor) == [Failed(1, "bumper pressed: stopped on contact")]

@@ -140,7 +140,7 @@ def test_demo_runs_a_given_plan_repairing_its_rotation(tmp_path: Path) -> None:
 def test_the_manager_loads_a_plan_with_its_rotations_repaired(tmp_path: Path) -> None:
     from fleet_common.execution import Engine, PlanError
     from fleet_common.formats import default_map_dirs
-    from fleet_manager.plan_source import load_plan
+    from fleet_common.plan_loading import load_plan
 
     plan = turning(lab_grid(), "lab.map", tmp_path / "lab_plan.txt", steps=2)
     loaded = load_plan(plan, 4, "the fleet", default_map_dirs())

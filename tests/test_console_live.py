@@ -310,9 +310,9 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert len(app.canvas.find_withtag("proposal")) == len(app.proposal.items) > 0
     assert "REPLAN PROPOSAL {}".format(model.proposal.id) in app.header.text()
     assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
-    old_plan = model.scene_message.plan.id
+    old_plan = model.setup.plan.id
     app.admin.buttons["accept"].invoke()
-    assert pump(console, lambda: model.scene_message.plan.id != old_plan and model.proposal is None, 30)
+    assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 30)
     assert pump(console, lambda: not app.canvas.find_withtag("proposal") and app.state is not None, 5)
     assert pump(console, lambda: "disabled" in app.admin.buttons["accept"].state(), 2)
     assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())
@@ -378,6 +378,34 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
         root.destroy()
         gc.collect()
 
+
+
+def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> None:
+    """One table of run controls: each button and each Run menu entry sends its action, one the
+    manager knows (accept and reject only as buttons: they name the proposal shown)."""
+    from console.ui.admin_panel import RUN_CONTROLS
+    from fleet_common.control import ACTIONS
+
+    asked: List[str] = []
+    root = tk.Tk()
+    try:
+        app = LiveApp(root, LiveFeed(), LiveModel("tcp://127.0.0.1:1"),
+                      lambda action, **args: asked.append(action))
+        root.after_cancel(app._after)
+        run = app.menubar.nametowidget(app.menubar.entrycget("Run", "menu"))
+        labels = [run.entrycget(i, "label") for i in range(run.index("end") + 1)]
+        assert labels == [c.menu for c in RUN_CONTROLS if c.menu is not None]
+        for i in range(len(labels)):
+            run.invoke(i)
+        menu_asked, asked[:] = list(asked), []
+        for c in RUN_CONTROLS:
+            app.admin.buttons[c.action].invoke()
+        assert menu_asked == [c.action for c in RUN_CONTROLS if c.menu is not None]
+        assert asked == [c.action for c in RUN_CONTROLS if c.action not in ("accept", "reject")]
+        assert {c.action for c in RUN_CONTROLS} <= set(ACTIONS)
+    finally:
+        root.destroy()
+        gc.collect()
 
 def _pictures(root: tk.Tk) -> set:
     return {name for name in root.image_names() if name.startswith("pyimage")}

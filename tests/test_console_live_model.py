@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from console.live.describe import BEHIND_MARK, blocked_chain, greyed, row
-from console.live.feed import CONNECTED, LOST, Connection, LiveFeed, Reply
+from console.live.feed import CONNECTED, LOST, LinkStatus, LiveFeed, Reply
 from console.live.model import LiveModel, LiveSource
 from console.live.picture import WaitMark, WaitMarks, picture
 from console.live.recorder import FrameSchedule, Recorder
-from fleet_common.control import (Event, PlanData, Proposal, RobotInfo, RobotState, RunInfo, Scene,
+from fleet_common.control import (Notice, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
                                   State, Waiting)
 from fleet_common.errors import FleetError
 from fleet_common.plan import Plan
@@ -26,8 +26,8 @@ ROWS = ("....", "..@.", "....")  # 4 x 3, top row first: cell (2, 1) blocked
 PLAN = Plan.from_paths([[(0, 0), (1, 0), (2, 0), (3, 0)], [(3, 2), (2, 2), (1, 2), (0, 2)]])
 
 
-def scene(plan: Plan = PLAN, robots: Tuple[int, ...] = (7, 9), plan_id: int = 1) -> Scene:
-    return Scene("tiny", ROWS, (RobotInfo(7, "red", "tb7"), RobotInfo(9, "#00ff00", "tb9")),
+def scene(plan: Plan = PLAN, robots: Tuple[int, ...] = (7, 9), plan_id: int = 1) -> RunSetup:
+    return RunSetup("tiny", ROWS, (RobotInfo(7, "red", "tb7"), RobotInfo(9, "#00ff00", "tb9")),
                  PlanData(plan_id, robots, plan.positions, "/somewhere/tiny_plan.txt"), ("adg", "step"), 2.0)
 
 
@@ -49,7 +49,7 @@ def state(seq: int, robots: Sequence[RobotState], run_info: Optional[RunInfo] = 
 
 def connected_model() -> LiveModel:
     model = LiveModel("tcp://127.0.0.1:1")
-    model.apply(Connection(CONNECTED, "connected"), 0.0, 0.0)
+    model.apply(LinkStatus(CONNECTED, "connected"), 0.0, 0.0)
     model.apply(scene(), 0.0, 0.0)
     return model
 
@@ -59,13 +59,13 @@ def connected_model() -> LiveModel:
 def test_a_full_feed_drops_the_oldest_state_and_keeps_everything_else() -> None:
     feed = LiveFeed(limit=4)
     feed.offer(state(1, []), 0.0)
-    feed.offer(Event(1, 0.0, "fault", 7, "robot 7 reports bumper"), 0.1)
+    feed.offer(Notice(1, 0.0, "fault", 7, "robot 7 reports bumper"), 0.1)
     feed.offer(state(2, []), 0.2)
     feed.offer(Reply("start", {}, False, "no"), 0.3)
     feed.offer(state(3, []), 0.4)  # full: state 1 goes
     feed.offer(state(4, []), 0.5)  # full: state 2 goes
     items = [item for item, _ in feed.drain(limit=3)]
-    assert [type(i).__name__ for i in items] == ["Event", "Reply", "State"] and items[2].seq == 3
+    assert [type(i).__name__ for i in items] == ["Notice", "Reply", "State"] and items[2].seq == 3
     assert [item.seq for item, _ in feed.drain()] == [4]
     assert feed.dropped == 2 and len(feed) == 0
 
@@ -92,7 +92,7 @@ def test_fleet_state_has_the_reported_poses_and_plan_starts_where_none_came() ->
     assert fs.time == 1.5 and fs.version == 3
     model.apply(state(2, [robot(9, 0.0, 0.0)]), 1.1, 1.1)  # older: ignored
     assert model.state.seq == 3
-    model.apply(Connection(CONNECTED, "reconnected"), 1.2, 1.2)  # a restarted manager counts from 1
+    model.apply(LinkStatus(CONNECTED, "reconnected"), 1.2, 1.2)  # a restarted manager counts from 1
     model.apply(state(1, [robot(9, 1.0, 2.0)]), 1.3, 1.3)
     assert model.state.seq == 1
 
@@ -101,7 +101,7 @@ def test_answers_refusals_and_a_lost_manager_are_lines_of_the_event_list() -> No
     model = connected_model()
     model.apply(Reply("disable", {"robot": 7}, True, ""), 0.0, 0.0)
     model.apply(Reply("enable", {"robot": 7}, False, "refused: the state changed since you looked"), 0.0, 0.0)
-    model.apply(Connection(LOST, "manager lost: nothing heard for 3.5 s"), 0.0, 0.0)
+    model.apply(LinkStatus(LOST, "manager lost: nothing heard for 3.5 s"), 0.0, 0.0)
     texts = [(line.level, line.robot, line.text) for line in model.lines]
     assert ("info", 7, "disable robot=7: done") in texts
     assert ("error", 7, "enable robot=7: REFUSED: refused: the state changed since you looked") in texts
@@ -122,11 +122,11 @@ def test_a_proposal_is_kept_until_the_state_says_nobody_waits_for_an_answer() ->
 def test_live_source_answers_a_fleet_state_only_when_a_state_came() -> None:
     feed, model = LiveFeed(), LiveModel("e")
     source = LiveSource(feed, model, wall=lambda: 0.0)
-    feed.offer(Connection(CONNECTED, "connected"), 0.0)
+    feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
     feed.offer(scene(), 0.0)
     assert source.poll(0.0) is not None  # the scene: robots on their starts
     assert source.take() >= {"scene", "connection"}
-    feed.offer(Event(1, 0.0, "run", None, "started"), 0.0)
+    feed.offer(Notice(1, 0.0, "run", None, "started"), 0.0)
     assert source.poll(0.1) is None and source.take() == {"events"}
     feed.offer(state(1, [robot(7, 1.0, 0.0), robot(9, 3.0, 2.0)]), 0.2)
     feed.offer(state(2, [robot(7, 2.0, 0.0), robot(9, 3.0, 2.0)]), 0.3)
@@ -161,7 +161,7 @@ def test_picture_ghosts_follow_the_plan_clock_and_waits_point_at_agents() -> Non
     assert pic.behind.tolist() == [True, False]  # a greyed robot is greyed, not late
     assert pic.grey.tolist() == [False, True] and pic.labels[1] == "link down"
     assert pic.waits == [WaitMark(1, (1, 0), (0,))]
-    model.apply(Connection(LOST, "lost"), 0.0, 0.0)
+    model.apply(LinkStatus(LOST, "lost"), 0.0, 0.0)
     lost = picture(model)
     assert lost.grey.all() and lost.waits == []
 
@@ -258,8 +258,8 @@ def test_the_link_decodes_only_the_newest_of_the_states_waiting() -> None:
     from console.live.link import newest_states
     from fleet_common.control import encode
 
-    frames = [encode(state(1, [])), encode(Event(1, 0.0, "run", None, "x")), encode(state(2, [])),
-              encode(Event(2, 0.0, "run", None, "y")), encode(state(3, []))]
+    frames = [encode(state(1, [])), encode(Notice(1, 0.0, "run", None, "x")), encode(state(2, [])),
+              encode(Notice(2, 0.0, "run", None, "y")), encode(state(3, []))]
     kept = newest_states(frames)
     assert kept == [frames[1], frames[3], frames[4]]
     assert newest_states(frames[:2]) == frames[:2] and newest_states([]) == []

@@ -8,13 +8,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fleet_common.control import (Activity, Answer, ControlProtocolError, Event, PlanData, RobotState,
-                                  RunInfo, Scene, State, Waiting, decode, encode)
+from fleet_common.control import (Activity, Answer, ControlProtocolError, Notice, PlanData, RobotState,
+                                  RunInfo, RunSetup, State, Waiting, decode, encode)
 from fleet_common.control import messages as m
 from fleet_common.control.desk import ControlDesk
-from fleet_common.control.requests import check_args
-from fleet_common.control.schema import SchemaError
+from fleet_common.control.requests import ACTIONS, check_args
 from fleet_common.control.session import ConsoleSession
+from fleet_common.schema import SchemaError
 
 
 def wire(desk: ControlDesk, session: ConsoleSession, peer: bytes, frame: bytes, now: float = 0.0):
@@ -110,7 +110,7 @@ def test_garbage_is_answered_with_an_error_and_changes_nothing(frame: bytes) -> 
 def test_any_bytes_from_a_console_give_an_answer_never_an_exception(data: bytes) -> None:
     desk = ControlDesk("s1", 0.0)
     intake = desk.receive(b"A", data, 0.0)
-    assert intake.request is None or intake.request.action in m.ACTIONS
+    assert intake.request is None or intake.request.action in ACTIONS
 
 
 @given(st.binary(max_size=2000))
@@ -127,7 +127,7 @@ _json = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | s
                      max_leaves=20)
 
 
-@given(st.sampled_from(sorted(m.ACTIONS)), _json)
+@given(st.sampled_from(sorted(ACTIONS)), _json)
 def test_request_arguments_are_checked_or_refused_with_a_reason(action: str, args) -> None:
     try:
         checked = check_args(action, args if isinstance(args, dict) else {"x": args})
@@ -161,7 +161,7 @@ def test_states_survive_the_wire_unchanged(robots, version: int) -> None:
 
 def test_a_scene_carries_a_large_plan_compactly() -> None:
     positions = np.random.default_rng(1).integers(0, 500, size=(300, 1500, 2), dtype=np.int32)
-    scene = Scene("brc202d", ("..@",), (m.RobotInfo(1, "red", "tb1"),), PlanData(4, (1,), positions),
+    scene = RunSetup("brc202d", ("..@",), (m.RobotInfo(1, "red", "tb1"),), PlanData(4, (1,), positions),
                   ("adg", "step"), 2.5)
     frame = encode(scene)
     assert len(frame) < positions.nbytes * 1.4  # base64 of the cells, not JSON lists
@@ -175,8 +175,8 @@ def test_events_are_kept_once_each_and_a_new_manager_resets_the_session() -> Non
     session = ConsoleSession("ops", 0.0)
     session.receive(encode(m.Welcome("one", 5)), 0.0)
     for seq in (1, 2, 2, 3):
-        session.receive(encode(Event(seq, 1.0, "fault", 2, "robot 2 reports bumper")), 0.0)
-    assert [e.seq for e in session.events] == [1, 2, 3] and session.version == 5
+        session.receive(encode(Notice(seq, 1.0, "fault", 2, "robot 2 reports bumper")), 0.0)
+    assert [e.seq for e in session.notices] == [1, 2, 3] and session.version == 5
     session.receive(encode(m.Welcome("two", 1)), 1.0)  # the manager restarted
     assert session.session == "two" and session.version == 1 and session.state is None
 

@@ -13,7 +13,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import Dict, Iterator, List, Tuple
+from typing import Callable, Dict, Iterator, List, Tuple
 
 import pytest
 
@@ -372,7 +372,8 @@ def test_net_check_listens_without_disturbing_a_manager_and_hello_takes_the_robo
     from fleet_common.robots import parse_robot_definitions
     from fleet_common.transport.curve_keys import (load_manager_keys, load_robot_keys,
                                                    make_keys)
-    from fleet_common.wire.link_events import LinkDown, LinkUp
+    from fleet_common.wire import Status
+    from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
     from fleet_common.transport.links import LinkSet
     from fleet_common.transport.robot_link import RobotLink
     from virtual_fleet.fleet import FleetThread, VirtualFleet
@@ -391,38 +392,52 @@ def test_net_check_listens_without_disturbing_a_manager_and_hello_takes_the_robo
     # thread of its own while net:check runs
     events: List[object] = []
     done = threading.Event()
+    ask = threading.Event()  # the serving thread asks the robot for its status (the link is its own)
 
     def serve() -> None:
         while not done.is_set():
+            if ask.is_set():
+                ask.clear()
+                links[1].get_status()
             events.extend(links.poll(0.05))
 
     def downs() -> List[LinkDown]:
         return [e for e in list(events) if isinstance(e, LinkDown)]
+
+    def wait_until(condition: Callable[[], bool], what: str, timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                pytest.fail("timed out waiting for " + what)
+            time.sleep(0.05)
+
+    def still_in_charge() -> None:
+        """The manager's link is still the robot's: a status round trip comes back (a robot taken
+        over would have said bye to it first)."""
+        before = len(events)
+        ask.set()
+        wait_until(lambda: any(isinstance(e, RobotReply) and isinstance(e.reply, Status)
+                               for e in list(events)[before:]) or bool(downs()), "a status reply")
+        assert downs() == []
 
     base = ("--keys", str(tmp_path / "keys"), "--wire-timeout", "5", "--feedback-base", str(feedback))
     server = threading.Thread(target=serve)
     try:
         with FleetThread(fleet):
             server.start()
-            for _ in range(100):
-                if any(isinstance(e, LinkUp) for e in list(events)):
-                    break
-                time.sleep(0.05)
-            else:
-                pytest.fail("the manager's link never came up")
+            wait_until(lambda: any(isinstance(e, LinkUp) for e in list(events)), "the manager's link to come up")
             wire = net_check(tmp_path, *base)
             assert wire == "ok: idle at (0.0, 0.0)"
-            time.sleep(1.5)
-            assert downs() == []  # listening left the manager in charge
+            still_in_charge()  # listening left the manager in charge
             wire = net_check(tmp_path, "--keys", str(tmp_path / "other"), "--wire-timeout", "1",
                              "--feedback-base", str(feedback))
             assert wire == "no pose feedback on port {} within 1 s (CurveZMQ keys, or the robot's " \
                 "--no-curve?)".format(feedback)
-            assert downs() == []
+            still_in_charge()
             wire = net_check(tmp_path, *base, "--hello")
             assert wire == "ok: idle at (0.0, 0.0)"
-            time.sleep(1.5)
-            assert downs() and "took over robot 1" in downs()[0].reason  # as its --help warns
+            wait_until(downs, "the manager's link to be taken over")
+            assert "took over robot 1" in downs()[0].reason  # as its --help warns
     finally:
         done.set()
         if server.is_alive():

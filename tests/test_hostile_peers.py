@@ -13,16 +13,19 @@ import logging
 import secrets
 import signal
 import subprocess
+import threading
 import time
 from pathlib import Path
 from typing import Callable, Dict, Iterator, List, Optional
 
 import pytest
 import zmq
+from zmq.utils.monitor import recv_monitor_message
 
 from fleet_common.robots import RobotDefinition
 from fleet_common.transport.curve_keys import load_manager_keys, make_keys
 from fleet_common.transport.links import LinkSet
+from fleet_common.transport.pose_feedback import NotThisRobotsPose, read_pose
 from fleet_common.transport.robot_link import LinkEvent, LinkUp, RobotLink, RobotReply
 from fleet_common.wire import (Accepted, Bye, Completed, Connection, DriveToPosition, Failed,
                                Heartbeat, Hello, PoseFeedback, Pose, RemoteProtocolError, Role,
@@ -167,8 +170,33 @@ def test_commands_off_the_world_are_refused_and_the_robot_stays_free(fleet_proce
     stop(proc)
 
 
+class LogLines:
+    """A process's stderr read line by line as it comes (a thread), to wait for a line in it."""
+
+    def __init__(self, proc: subprocess.Popen) -> None:
+        self.lines: List[str] = []
+        self._reader = threading.Thread(target=lambda: self.lines.extend(proc.stderr), daemon=True)
+        self._reader.start()
+
+    def wait_for(self, test: Callable[[str], bool], what: str, timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not any(test(line) for line in list(self.lines)):
+            assert time.monotonic() < deadline, "no log line {} within {:.0f} s".format(what, timeout)
+            time.sleep(0.02)
+
+    def text(self) -> str:
+        """Everything, once the process has ended."""
+        self._reader.join(10)
+        return "".join(self.lines)
+
+
 def test_clients_without_the_keys_are_logged(fleet_process) -> None:
     proc, robot, keys = fleet_process
+    log_lines = LogLines(proc)
+    on_port = "on tcp://127.0.0.1:{}; nothing from it is executed".format(robot.command_port)
+    # which end notices the missing key first is a race: libzmq reports either
+    plain_refused = ["robot 1: refused a client {} {}".format(why, on_port) for why in (
+        "without a CURVE key", "that broke off the CURVE handshake (as one without a key does)")]
     context = zmq.Context()
     try:
         plain = context.socket(zmq.DEALER)  # no CURVE at all
@@ -180,17 +208,23 @@ def test_clients_without_the_keys_are_logged(fleet_process) -> None:
         public, secret = zmq.curve_keypair()
         stranger.curve_secretkey, stranger.curve_publickey = secret, public
         stranger.curve_serverkey = zmq.curve_keypair()[0]
+        attempts = stranger.get_monitor_socket(zmq.EVENT_CONNECTED)
         stranger.connect("tcp://127.0.0.1:{}".format(robot.command_port))
         stranger.send(b"hello?")
-        time.sleep(1.0)
+        # the stranger is refused and reconnects (libzmq's own retry): let it try a few times
+        for _ in range(5):
+            assert attempts.poll(5000), "the stranger stopped reconnecting"
+            recv_monitor_message(attempts)
+        log_lines.wait_for(lambda line: any(r in line for r in plain_refused), "refusing the client without a key")
+        log_lines.wait_for(lambda line: "refused a client that does not have this robot's public key" in line,
+                           "refusing the client with another key")
         the_manager_still_drives(context, robot, keys)
     finally:
         context.destroy(linger=0)
-    log = stop(proc)
-    # which end notices the missing key first is a race: libzmq reports either
-    on_port = "on tcp://127.0.0.1:{}; nothing from it is executed".format(robot.command_port)
-    assert any("robot 1: refused a client {} {}".format(why, on_port) in log for why in (
-        "without a CURVE key", "that broke off the CURVE handshake (as one without a key does)"))
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=10) == 0
+    log = log_lines.text()
+    assert any(r in log for r in plain_refused)
     assert "robot 1: refused a client that does not have this robot's public key" in log
     # the stranger keeps reconnecting: one line, the rest counted later
     assert log.count("does not have this robot's public key") == 1
@@ -332,6 +366,24 @@ def test_no_frame_from_a_robot_brings_the_manager_side_down(caplog) -> None:
     assert len([m for m in logged if "robot 4: bad pose feedback frame: " in m]) == 1
     assert all(len(m) < 1000 and "\n" not in m for m in logged)
 
+
+
+def test_a_feedback_frame_is_read_or_refused_with_who_sent_it() -> None:
+    """One reader of pose feedback for the manager's links and `deploy`'s net check: a pose of
+    this robot, or a refusal that says whether the frame was garbage, another message or
+    another robot's pose (net:check then names a port two robots share)."""
+    pose = PoseFeedback(4, 7, Pose(1.0, 2.0, 0.5), None)
+    assert read_pose(encode(pose), 4) == pose
+    with pytest.raises(NotThisRobotsPose) as other:
+        read_pose(encode(PoseFeedback(5, 0, Pose(0.0, 0.0, 0.0), None)), 4)
+    assert other.value.sender == 5
+    with pytest.raises(NotThisRobotsPose) as status:
+        read_pose(encode(Completed(3)), 4)
+    assert status.value.sender is None and "feedback port sent Completed(id=3)" in str(status.value)
+    for frame in HOSTILE.values():
+        with pytest.raises(RemoteProtocolError) as bad:
+            read_pose(frame, 4)
+        assert not isinstance(bad.value, NotThisRobotsPose)
 
 def test_a_fleet_whose_robots_would_start_off_its_map_is_refused(tmp_path: Path) -> None:
     command = free_ports(1)[0]

@@ -132,7 +132,7 @@ def test_a_robot_that_bumps_into_something_is_held_until_enabled(lab_run) -> Non
         assert ops.ask("start").ok
         ops.wait_for(lambda c: robot(c, 2).out == "failed" and "bumper" in robot(c, 2).faults,
                      timeout=60, why="robot 2 held with its bumper fault")
-        assert any(e.kind == "fault" and e.robot == 2 and "bumper" in e.text for e in ops.session.events)
+        assert any(e.kind == "fault" and e.robot == 2 and "bumper" in e.text for e in ops.session.notices)
         done = robot(ops, 2).done
         ops.pump(0.5)  # the foot stays on the bumper for 0.25 s (1 fleet second): enable after it left
         assert ops.ask("enable", robot=2).ok  # a stop clears the fault, then it drives on

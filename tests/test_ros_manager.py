@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 import threading
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
@@ -24,7 +23,7 @@ from fleet_common.robots import RobotDefinition, format_robot_definitions
 from fleet_common.transport.curve_keys import make_keys
 from helpers import free_port_block
 from live import Proc, fleetctl_args
-from ros_procs import (ROSLAUNCH, master_up, netns_marker, ros_environment, run_inside_netns,
+from ros_procs import (ROSLAUNCH, leave_ros, master_up, netns_marker, ros_environment, run_inside_netns,
                        set_ros_variables, wait_for)
 
 pytestmark = pytest.mark.slow
@@ -137,9 +136,4 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
         assert len(drives) == 8, executed  # four moves each, none twice
         assert len(set(executed)) == len(executed), "a command ran twice: {}".format(executed)
     finally:
-        if "rospy" in sys.modules and sys.modules["rospy"].core.is_initialized():
-            sys.modules["rospy"].signal_shutdown("integration test done")
-        for process in reversed(started):
-            process.stop()
-        if saved is not None:
-            set_ros_variables(saved)
+        leave_ros(started, saved)

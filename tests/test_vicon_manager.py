@@ -51,7 +51,7 @@ def test_manager_reads_vicon_flags_stale_robots_and_a_lost_one(tmp_path: Path) -
     context = zmq.Context()
     client = ConsoleClient(context, endpoint)
     session = ConsoleSession("vicon-test", time.monotonic())
-    events: List[m.Event] = []
+    events: List[m.Notice] = []
     state = None
     asked = False
     answers = []
@@ -63,7 +63,7 @@ def test_manager_reads_vicon_flags_stale_robots_and_a_lost_one(tmp_path: Path) -
                 client.send(session.hello(now))
             for frame in client.receive():
                 message = session.receive(frame, time.monotonic())
-                if isinstance(message, m.Event):
+                if isinstance(message, m.Notice):
                     events.append(message)
                 elif isinstance(message, tuple):
                     answers.append(message[0])
@@ -102,7 +102,7 @@ def test_manager_reads_vicon_flags_stale_robots_and_a_lost_one(tmp_path: Path) -
     assert "Vicon on UDP 127.0.0.1:{}".format(udp) in outputs[2]
 
 
-def _settled(state: m.State, events: List[m.Event]) -> bool:
+def _settled(state: m.State, events: List[m.Notice]) -> bool:
     robots = {r.id: r for r in state.robots}
     return (all(r.source == "vicon" for r in state.robots)
             and all(not robots[i].stale for i in (1, 3, 5)) and robots[4].stale

@@ -1,6 +1,6 @@
 """A virtual robot's motion: turn in place, then drive straight, at set speeds.
 
-`VirtualNavigator` implements fleet_common.wire's `Navigator` without ROS. A
+`VirtualNavigator` implements fleet_common.wire's `PollingNavigator` without ROS. A
 move is laid out when it starts as a few timed segments (wait, turn, drive,
 stall) and the pose is read off them whenever asked, so a robot costs nothing
 between questions. Time is the fleet's own: wall time since start times
@@ -19,18 +19,13 @@ import time as _time
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Set, Tuple
 
+from fleet_common.angles import wrap_angle
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome
 
 from .delays import FleetDelays, MoveFate
 
-__all__ = ["VirtualNavigator", "wrap_angle"]
-
-
-def wrap_angle(a: float) -> float:
-    """`a` in (-pi, pi]."""
-    a = math.fmod(a + math.pi, 2.0 * math.pi)
-    return a - math.pi if a > 0 else a + math.pi
+__all__ = ["VirtualNavigator"]
 
 
 @dataclass(frozen=True)
@@ -77,7 +72,7 @@ class VirtualNavigator:
         """Fleet seconds since this navigator was made."""
         return (self.clock() - self._t0) * self.time_scale
 
-    # ---- Navigator -------------------------------------------------------------------
+    # ---- PollingNavigator ------------------------------------------------------------
 
     def start_drive(self, x: float, y: float, time: float) -> None:
         start = self.true_pose()

@@ -1,8 +1,8 @@
 """The feed from the console's network thread to its Tk thread, and what travels on it.
 
 The network thread (`console.live.link`) offers every decoded manager message
-(`fleet_common.control` Scene, State, Event, Proposal, ...) and a few items of
-its own: `Connection` (connecting, connected, lost), `Reply` (the manager's
+(`fleet_common.control` RunSetup, State, Notice, Proposal, ...) and a few items
+of its own: `LinkStatus` (connecting, connected, lost), `Reply` (the manager's
 answer to one of our requests, or the link's own refusal when there is no
 manager) and `Trouble` (a frame that was not a valid message). Each item is
 stamped with the monotonic time it arrived.
@@ -21,13 +21,13 @@ from typing import Any, Deque, Dict, List, Tuple
 
 from fleet_common.control import State
 
-__all__ = ["CONNECTING", "CONNECTED", "LOST", "Connection", "Reply", "Trouble", "LiveFeed"]
+__all__ = ["CONNECTING", "CONNECTED", "LOST", "LinkStatus", "Reply", "Trouble", "LiveFeed"]
 
 CONNECTING, CONNECTED, LOST = "connecting", "connected", "lost"
 
 
 @dataclass(frozen=True)
-class Connection:
+class LinkStatus:
     """The link's view of the manager: CONNECTING (never heard it), CONNECTED, or LOST."""
 
     status: str

@@ -36,7 +36,7 @@ from fleet_common.transport.console_channel import ConsoleClient
 from fleet_common.transport.curve_keys import ConsoleKeys
 from fleet_common.wire.liveness import PEER_TIMEOUT
 
-from .feed import CONNECTED, CONNECTING, LOST, Connection, LiveFeed, Reply, Trouble
+from .feed import CONNECTED, CONNECTING, LOST, LinkStatus, LiveFeed, Reply, Trouble
 
 __all__ = ["ManagerLink"]
 
@@ -83,7 +83,7 @@ class ManagerLink:
         try:
             now = self.clock()
             session = ConsoleSession(self.name, now, timeout=self.timeout)
-            self._offer(Connection(CONNECTING, "connecting to the manager at {}".format(self.endpoint)), now)
+            self._offer(LinkStatus(CONNECTING, "connecting to the manager at {}".format(self.endpoint)), now)
             next_hello = now
             was_connected = False
             while not self._stop.is_set():
@@ -107,7 +107,7 @@ class ManagerLink:
                     next_hello = now
         except Exception:  # the thread must say why it ended, not vanish
             log.exception("the manager link failed")
-            self._offer(Connection(LOST, "console network thread failed (see the log)"), self.clock())
+            self._offer(LinkStatus(LOST, "console network thread failed (see the log)"), self.clock())
         finally:
             if client is not None:
                 client.close()
@@ -129,7 +129,7 @@ class ManagerLink:
         if message is None:
             return was_connected
         if isinstance(message, Welcome):
-            self._offer(Connection(CONNECTED, "{} the manager at {} (session {})".format(
+            self._offer(LinkStatus(CONNECTED, "{} the manager at {} (session {})".format(
                 "reconnected to" if was_connected else "connected to", self.endpoint,
                 message.session)), now)
             return True
@@ -162,7 +162,7 @@ class ManagerLink:
         for request in pending:
             self._offer(Reply(request.action, dict(request.args), False,
                               "no answer: the manager was lost"), now)
-        self._offer(Connection(LOST, text), now)
+        self._offer(LinkStatus(LOST, text), now)
 
     def _offer(self, item: Any, now: float) -> None:
         self.feed.offer(item, now)

@@ -8,7 +8,7 @@ changed in `changes` (a set of "scene", "state", "events", "connection",
 window's `poll(now)` with a `FleetState` when a new State arrived, so the
 live console plugs into the player's frame loop like the plan clock does.
 
-The event list holds the manager's events and the console's own lines (the
+The event list holds the manager's notices and the console's own lines (the
 manager's answers, refusals included, connection changes, bad frames), each
 with the local time it arrived.
 """
@@ -22,18 +22,18 @@ from typing import Any, Callable, Deque, Dict, List, Optional, Set
 
 import numpy as np
 
-from fleet_common.control import Bye, Event, Proposal, RobotState, Scene as SceneMessage, State
+from fleet_common.control import Bye, Notice, Proposal, RobotState, RunSetup, State
 from fleet_common.plan import Plan
 
 from ..fleet_state import FleetState
 from ..scene import Scene
-from .feed import CONNECTED, CONNECTING, LOST, Connection, LiveFeed, Reply, Trouble
+from .feed import CONNECTED, CONNECTING, LOST, LinkStatus, LiveFeed, Reply, Trouble
 from .scene import scene_from_manager
 
 __all__ = ["Line", "LiveModel", "LiveSource"]
 
 INFO, WARN, ERROR = "info", "warn", "error"
-#: Manager event kinds shown as warnings (they need an operator's eye).
+#: Kinds of the manager's notices shown as warnings (they need an operator's eye).
 _WARN_KINDS = ("fault", "link", "vicon")
 
 
@@ -51,8 +51,8 @@ class Line:
 class LiveModel:
     def __init__(self, endpoint: str, events: int = 500) -> None:
         self.endpoint = endpoint
-        self.connection = Connection(CONNECTING, "connecting to the manager at {}".format(endpoint))
-        self.scene_message: Optional[SceneMessage] = None
+        self.connection = LinkStatus(CONNECTING, "connecting to the manager at {}".format(endpoint))
+        self.setup: Optional[RunSetup] = None
         self.scene: Optional[Scene] = None
         self.agent_of: Dict[int, int] = {}  # robot id -> agent index in the plan
         self.state: Optional[State] = None
@@ -74,9 +74,9 @@ class LiveModel:
                 if self.proposal is not None and item.run.proposal is None:
                     self.proposal, self.proposal_plan = None, None  # answered (here or elsewhere)
                     self.changes.add("proposal")
-        elif isinstance(item, SceneMessage):
+        elif isinstance(item, RunSetup):
             self._scene(item)
-        elif isinstance(item, Event):
+        elif isinstance(item, Notice):
             level = WARN if item.kind in _WARN_KINDS else INFO
             self._line(wall, item.kind, item.robot, item.text, level)
         elif isinstance(item, Reply):
@@ -90,7 +90,7 @@ class LiveModel:
             self.changes.add("proposal")
             self._line(wall, "plan", None, "replan proposal {}: {} (soc {}, makespan {}); accept or "
                        "reject it".format(item.id, item.message, item.soc, item.makespan))
-        elif isinstance(item, Connection):
+        elif isinstance(item, LinkStatus):
             if item.status == CONNECTED:
                 self.state = None  # a manager counts its states from 1: maybe a restarted one
             if item != self.connection:
@@ -102,8 +102,8 @@ class LiveModel:
         elif isinstance(item, Bye):
             self._line(wall, "console", None, "the manager said goodbye: {}".format(item.reason), WARN)
 
-    def _scene(self, message: SceneMessage) -> None:
-        self.scene_message = message
+    def _scene(self, message: RunSetup) -> None:
+        self.setup = message
         self.scene = scene_from_manager(message, self.endpoint)
         self.agent_of = {rid: i for i, rid in enumerate(message.plan.robots)}
         self.proposal, self.proposal_plan = None, None
@@ -126,7 +126,7 @@ class LiveModel:
         return self.connection.status == CONNECTED
 
     def robot_ids(self) -> List[int]:
-        return [] if self.scene_message is None else list(self.scene_message.plan.robots)
+        return [] if self.setup is None else list(self.setup.plan.robots)
 
     def robot(self, robot_id: int) -> Optional[RobotState]:
         if self.state is None:

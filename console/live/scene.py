@@ -1,8 +1,8 @@
 """The console's `Scene` for what a manager runs, and a placeholder until one answers.
 
-The manager's Scene message carries the map (rows, top first), the fleet
+The manager's `RunSetup` message carries the map (rows, top first), the fleet
 (robot ids and their robot_definitions.txt colours) and the plan in base-grid
-cells; the console's Scene is what the map layers draw. Agent i of the plan is
+cells; the console's `Scene` is what the map layers draw. Agent i of the plan is
 the robot `plan.robots[i]`. The plan comes from the manager, which checked it,
 so it is not validated again here.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import PurePath
 
-from fleet_common.control import Scene as SceneMessage
+from fleet_common.control import RunSetup
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.robots import colour_to_rgb
@@ -21,7 +21,7 @@ from ..scene import Scene
 __all__ = ["scene_from_manager", "placeholder_scene"]
 
 
-def scene_from_manager(message: SceneMessage, endpoint: str) -> Scene:
+def scene_from_manager(message: RunSetup, endpoint: str) -> Scene:
     grid = Grid.from_rows(list(message.rows), blocked="@", name=message.map_name)
     plan = Plan(message.plan.positions)
     ids = list(message.plan.robots)

@@ -2,14 +2,15 @@
 `do_<action>` per entry of `console.keys.KEYS`.
 
 A mixin of `PlayerApp` so that the key table, the menus and the tests reach
-every action by name (`app.actions["step_forward"]()`); the app provides the
-clock, the options, the map view and `select`/`jump_to_conflict`.
+every action by name (`app.actions["step_forward"]()`); the window provides the
+clock, the options, the map view and the lists (`window.PlayerWindow` lists what
+the actions use of it).
 """
 from __future__ import annotations
 
 import math
 from tkinter import filedialog
-from typing import TYPE_CHECKING, Callable, Optional, Tuple
+from typing import Callable, Optional, Tuple
 
 from ..conflicts import next_entry
 from ..sources import PlanClock
@@ -18,9 +19,7 @@ from . import capture
 from .help_window import show_keys
 from .map_view import PAN_STEP, ZOOM_STEP
 from .overlays import MIN_ID_CELL
-
-if TYPE_CHECKING:
-    from .app import PlayerApp
+from .window import PlayerWindow
 
 SPEED_STEP = math.sqrt(2.0)
 
@@ -28,7 +27,7 @@ SPEED_STEP = math.sqrt(2.0)
 class PlayerActions:
     # -- picking: the lists and the mouse ---------------------------------------------
 
-    def select(self: "PlayerApp", agent: Optional[int]) -> None:
+    def select(self: "PlayerWindow", agent: Optional[int]) -> None:
         self.options.selected = agent
         self.agent_list.mark(agent)
         self.relayout()
@@ -37,12 +36,12 @@ class PlayerActions:
             self.status.set("{}: start {}, goal {}".format(
                 s.names[agent], self._place(s.starts[agent]), self._place(s.goals[agent])))
 
-    def _place(self: "PlayerApp", cell: Tuple[int, int]) -> str:
+    def _place(self: "PlayerWindow", cell: Tuple[int, int]) -> str:
         """A cell as the view shows it, with its floor-marker node on the lab map."""
         node = self.scene.node_ids.get((int(cell[0]), int(cell[1])))
         return "{}{}".format(self.shown_cell(cell), "" if node is None else " node {}".format(node))
 
-    def jump_to_conflict(self: "PlayerApp", index: int) -> None:
+    def jump_to_conflict(self: "PlayerWindow", index: int) -> None:
         entry = self.entries[index]
         self.conflict_list.mark(index)
         self.conflicts.pick(entry)
@@ -57,21 +56,21 @@ class PlayerActions:
             self.scene.grid.height, self.options.orientation, self.scene.file_orientation)))
         self._clock_changed()
 
-    def _pick_agent(self: "PlayerApp", index: Optional[int]) -> None:
+    def _pick_agent(self: "PlayerWindow", index: Optional[int]) -> None:
         self.select(index)
 
-    def _pick_conflict(self: "PlayerApp", index: Optional[int]) -> None:
+    def _pick_conflict(self: "PlayerWindow", index: Optional[int]) -> None:
         if index is not None:
             self.jump_to_conflict(index)
 
-    def _clicked(self: "PlayerApp", px: float, py: float) -> None:
+    def _clicked(self: "PlayerWindow", px: float, py: float) -> None:
         agent = self.agents.agent_at(px, py)
         if agent is not None:
             self.select(None if agent == self.options.selected else agent)
         else:
             self._hovered(px, py)
 
-    def _hovered(self: "PlayerApp", px: float, py: float) -> None:
+    def _hovered(self: "PlayerWindow", px: float, py: float) -> None:
         x, y = self.map.view.to_cell(px, py)
         grid = self.scene.grid
         if not grid.in_bounds((x, y)):
@@ -89,54 +88,54 @@ class PlayerActions:
 
     # -- keys and menus ------------------------------------------------------------------
 
-    def _with_clock(self: "PlayerApp", fn: Callable[[PlanClock], None]) -> None:
+    def _with_clock(self: "PlayerWindow", fn: Callable[[PlanClock], None]) -> None:
         if self.clock is not None:
             fn(self.clock)
             self._clock_changed()
 
-    def do_play_pause(self: "PlayerApp") -> None:
+    def do_play_pause(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: c.toggle())
 
-    def do_loop(self: "PlayerApp") -> None:
+    def do_loop(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: setattr(c, "loop", not c.loop))
 
-    def do_reset(self: "PlayerApp") -> None:
+    def do_reset(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: c.reset())
 
-    def do_step_forward(self: "PlayerApp") -> None:
+    def do_step_forward(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: c.step(1))
 
-    def do_step_back(self: "PlayerApp") -> None:
+    def do_step_back(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: c.step(-1))
 
-    def do_first(self: "PlayerApp") -> None:
+    def do_first(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: (c.pause(), c.seek(0)))
 
-    def do_last(self: "PlayerApp") -> None:
+    def do_last(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: (c.pause(), c.seek(c.makespan)))
 
-    def do_faster(self: "PlayerApp") -> None:
+    def do_faster(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: setattr(c, "speed", c.speed * SPEED_STEP))
 
-    def do_slower(self: "PlayerApp") -> None:
+    def do_slower(self: "PlayerWindow") -> None:
         self._with_clock(lambda c: setattr(c, "speed", c.speed / SPEED_STEP))
 
-    def do_goals(self: "PlayerApp") -> None:
+    def do_goals(self: "PlayerWindow") -> None:
         self.options.goals = not self.options.goals
         self.relayout()
 
-    def do_lines(self: "PlayerApp") -> None:
+    def do_lines(self: "PlayerWindow") -> None:
         self.options.cycle_lines()
         self.relayout()
         self.status.set(LINE_LABELS[self.options.lines])
 
-    def do_ids(self: "PlayerApp") -> None:
+    def do_ids(self: "PlayerWindow") -> None:
         self.options.ids = not self.options.ids
         self.relayout()
         if self.options.ids and self.map.view.cell < MIN_ID_CELL:
             self.status.set("cell ids show when cells are {:g} px or more: zoom in (i)".format(MIN_ID_CELL))
 
-    def do_node_ids(self: "PlayerApp") -> None:
+    def do_node_ids(self: "PlayerWindow") -> None:
         if not self.scene.node_ids:
             self.status.set("node ids: only the lab map has floor markers")
             return
@@ -145,11 +144,11 @@ class PlayerActions:
         if self.options.node_ids and self.map.view.cell < MIN_ID_CELL:
             self.status.set("node ids show when cells are {:g} px or more: zoom in (i)".format(MIN_ID_CELL))
 
-    def do_grid(self: "PlayerApp") -> None:
+    def do_grid(self: "PlayerWindow") -> None:
         self.options.grid_lines = not self.options.grid_lines
         self.map.set_grid_lines(self.options.grid_lines)
 
-    def do_orientation(self: "PlayerApp") -> None:
+    def do_orientation(self: "PlayerWindow") -> None:
         self.options.toggle_orientation()
         if self._mirrored() != self.map.view.down:
             self.map.set_mirrored(self._mirrored())  # relayouts through on_view_change
@@ -158,71 +157,71 @@ class PlayerActions:
         self._fill_conflicts()
         self._status_changed()
 
-    def do_zoom_in(self: "PlayerApp") -> None:
+    def do_zoom_in(self: "PlayerWindow") -> None:
         self.map.zoom(ZOOM_STEP)
 
-    def do_zoom_out(self: "PlayerApp") -> None:
+    def do_zoom_out(self: "PlayerWindow") -> None:
         self.map.zoom(1 / ZOOM_STEP)
 
-    def do_fit(self: "PlayerApp") -> None:
+    def do_fit(self: "PlayerWindow") -> None:
         self.map.fit()
 
-    def do_pan_left(self: "PlayerApp") -> None:
+    def do_pan_left(self: "PlayerWindow") -> None:
         self.map.pan(PAN_STEP, 0)
 
-    def do_pan_right(self: "PlayerApp") -> None:
+    def do_pan_right(self: "PlayerWindow") -> None:
         self.map.pan(-PAN_STEP, 0)
 
-    def do_pan_up(self: "PlayerApp") -> None:
+    def do_pan_up(self: "PlayerWindow") -> None:
         self.map.pan(0, PAN_STEP)
 
-    def do_pan_down(self: "PlayerApp") -> None:
+    def do_pan_down(self: "PlayerWindow") -> None:
         self.map.pan(0, -PAN_STEP)
 
-    def do_next_agent(self: "PlayerApp") -> None:
+    def do_next_agent(self: "PlayerWindow") -> None:
         self.options.select_next(self.scene.num_agents, 1)
         self.select(self.options.selected)
 
-    def do_prev_agent(self: "PlayerApp") -> None:
+    def do_prev_agent(self: "PlayerWindow") -> None:
         self.options.select_next(self.scene.num_agents, -1)
         self.select(self.options.selected)
 
-    def do_only_selected(self: "PlayerApp") -> None:
+    def do_only_selected(self: "PlayerWindow") -> None:
         if self.options.selected is None and self.scene.num_agents:
             self.options.selected = 0
         self.options.only_selected = not self.options.only_selected
         self.select(self.options.selected)
 
-    def do_clear_selection(self: "PlayerApp") -> None:
+    def do_clear_selection(self: "PlayerWindow") -> None:
         self.options.only_selected = False
         self.select(None)
 
-    def do_next_conflict(self: "PlayerApp") -> None:
+    def do_next_conflict(self: "PlayerWindow") -> None:
         k = next_entry(self.entries, self._now(), 1)
         if k is not None:
             self.jump_to_conflict(k)
 
-    def do_prev_conflict(self: "PlayerApp") -> None:
+    def do_prev_conflict(self: "PlayerWindow") -> None:
         k = next_entry(self.entries, self._now(), -1)
         if k is not None:
             self.jump_to_conflict(k)
 
-    def _now(self: "PlayerApp") -> float:
+    def _now(self: "PlayerWindow") -> float:
         return self.state.time if self.state is not None else 0.0
 
-    def do_save_png(self: "PlayerApp") -> None:
+    def do_save_png(self: "PlayerWindow") -> None:
         path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
                                             filetypes=[("PNG image", "*.png")], title="Save view as PNG")
         if path:
             # let the dialog's window vanish from the screen before reading the pixels
             self.root.after(200, self._guarded(lambda: self.save_png(path)))
 
-    def save_png(self: "PlayerApp", path: str) -> None:
+    def save_png(self: "PlayerWindow", path: str) -> None:
         capture.grab(self.canvas, path)
         self.status.set("saved {}".format(path))
 
-    def do_help(self: "PlayerApp") -> None:
+    def do_help(self: "PlayerWindow") -> None:
         show_keys(self.root)
 
-    def do_quit(self: "PlayerApp") -> None:
+    def do_quit(self: "PlayerWindow") -> None:
         self.close()

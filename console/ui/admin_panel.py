@@ -14,13 +14,14 @@ changes nothing but the answer line.
 from __future__ import annotations
 
 import tkinter as tk
+from dataclasses import dataclass
 from tkinter import ttk
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 from fleet_common.control import RunInfo
 
 from ..live.describe import RobotRow
-from ..live.feed import CONNECTED, LOST, Connection, Reply
+from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
 from ..live.model import reply_text
 from .table import scrolled_table
 
@@ -31,9 +32,26 @@ FONT = ("DejaVu Sans", -12)
 BOLD = ("DejaVu Sans", -13, "bold")
 COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 118),
            ("waits", "waits for", 74))
-#: Buttons of the run, in rows: (label, action).
-RUN_BUTTONS = ((("Start", "start"), ("Pause", "pause"), ("Step", "step"), ("Stop", "stop")),
-               (("Halt", "halt"), ("Replan", "replan"), ("Accept", "accept"), ("Reject", "reject")))
+
+
+@dataclass(frozen=True)
+class RunControl:
+    """One of the run's controls: a request `action` (of `fleet_common.control.ACTIONS`) without
+    arguments, its button's `label`, and its entry in the Run menu (None: only a button)."""
+
+    action: str
+    label: str
+    menu: Optional[str]
+
+
+#: The run's controls, in the order of the buttons (four a row) and of the Run menu.
+RUN_CONTROLS = (
+    RunControl("start", "Start", "Start"), RunControl("pause", "Pause", "Pause"),
+    RunControl("step", "Step", "Step"), RunControl("stop", "Stop", "Stop"),
+    RunControl("halt", "Halt", "Halt every robot"), RunControl("replan", "Replan", "Replan"),
+    RunControl("accept", "Accept", None), RunControl("reject", "Reject", None),
+)
+BUTTONS_A_ROW = 4
 
 
 class AdminPanel(ttk.Frame):
@@ -46,14 +64,14 @@ class AdminPanel(ttk.Frame):
         self.run = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
         self.run.pack(anchor=tk.W, fill=tk.X, pady=(2, 4))
         self.buttons: Dict[str, ttk.Button] = {}
-        for line in RUN_BUTTONS:
+        for first in range(0, len(RUN_CONTROLS), BUTTONS_A_ROW):
             bar = ttk.Frame(self)
             bar.pack(fill=tk.X)
-            for label, action in line:
-                b = ttk.Button(bar, text=label, width=7, takefocus=0,
-                               command=lambda a=action: self._button(a))
+            for control in RUN_CONTROLS[first:first + BUTTONS_A_ROW]:
+                b = ttk.Button(bar, text=control.label, width=7, takefocus=0,
+                               command=lambda a=control.action: self._button(a))
                 b.pack(side=tk.LEFT, padx=1, pady=1)
-                self.buttons[action] = b
+                self.buttons[control.action] = b
         self._proposal: Optional[int] = None
         for action in ("accept", "reject"):
             self.buttons[action].state(["disabled"])  # until a proposal waits
@@ -117,7 +135,7 @@ class AdminPanel(ttk.Frame):
 
     # -- showing -----------------------------------------------------------------------
 
-    def show_connection(self, connection: Connection) -> None:
+    def show_connection(self, connection: LinkStatus) -> None:
         colour = {CONNECTED: "#1d6b22", LOST: "#c8101a"}.get(connection.status, "#8a5a00")
         text = "MANAGER LOST: " + connection.text if connection.status == LOST else connection.text
         self.connection.configure(text=text, foreground=colour)

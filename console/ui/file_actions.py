@@ -1,6 +1,6 @@
 """The File menu's work: open a plan, an instance or a map; solve the instance shown.
 
-A mixin of `PlayerApp`, like `PlayerActions`. Reading (a big plan is also
+A mixin of `PlayerApp`, like `PlayerActions` (written against `window.PlayerWindow`). Reading (a big plan is also
 validated) and solving (thesis ch. 7: in-app planning with the built-in
 solvers) run as background `Jobs`; the window keeps playing and answering
 keys meanwhile, and the result comes back on the Tk thread, where
@@ -14,15 +14,13 @@ import logging
 import tkinter as tk
 from pathlib import Path
 from tkinter import filedialog
-from typing import TYPE_CHECKING, Any, Callable, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple
 
 from fleet_common.planning import SOLVER_NAMES, SolveResult, solve
 
 from ..scene import INSTANCE, MAP, SOLUTION, Scene, scene_from_instance, scene_from_map, scene_from_plan, \
     scene_from_solution
-
-if TYPE_CHECKING:
-    from .app import PlayerApp
+from .window import PlayerWindow
 
 log = logging.getLogger(__name__)
 
@@ -38,28 +36,28 @@ OPENERS: Dict[str, Tuple[str, str, Callable[[Path], Scene]]] = {
 
 
 class FileActions:
-    def do_open_plan(self: "PlayerApp") -> None:
-        self._ask(SOLUTION)
+    def do_open_plan(self: "PlayerWindow") -> None:
+        self._ask_for_file(SOLUTION)
 
-    def do_open_instance(self: "PlayerApp") -> None:
-        self._ask(INSTANCE)
+    def do_open_instance(self: "PlayerWindow") -> None:
+        self._ask_for_file(INSTANCE)
 
-    def do_open_map(self: "PlayerApp") -> None:
-        self._ask(MAP)
+    def do_open_map(self: "PlayerWindow") -> None:
+        self._ask_for_file(MAP)
 
-    def _ask(self: "PlayerApp", kind: str) -> None:
+    def _ask_for_file(self: "PlayerWindow", kind: str) -> None:
         what, pattern, _ = OPENERS[kind]
         path = filedialog.askopenfilename(parent=self.root, title="Open a " + what,
                                           filetypes=[(what, pattern), ("all files", "*")])
         if path:
             self.open_path(kind, Path(path))
 
-    def open_path(self: "PlayerApp", kind: str, path: Path) -> bool:
+    def open_path(self: "PlayerWindow", kind: str, path: Path) -> bool:
         """Read `path` (a SOLUTION, INSTANCE or MAP) in the background, then show it; False if busy."""
         reader = OPENERS[kind][2]
         return self._background("reading {}".format(path.name), lambda: reader(path))
 
-    def solve(self: "PlayerApp", solver: str) -> bool:
+    def solve(self: "PlayerWindow", solver: str) -> bool:
         """Plan the instance shown with built-in `solver` in the background, then play the plan."""
         scene = self.scene
         if scene.kind != INSTANCE:
@@ -81,14 +79,14 @@ class FileActions:
 
         return self._background("solving {} with {} (up to {:g} s)".format(scene.title, solver, SOLVE_SECONDS), work)
 
-    def _background(self: "PlayerApp", what: str, work: Callable[[], Any]) -> bool:
+    def _background(self: "PlayerWindow", what: str, work: Callable[[], Any]) -> bool:
         if not self.jobs.start(what, work, self._finished):
             self.status.set("busy {}: wait until it is done".format(self.jobs.running))
             return False
         self.status.set(what + " ...")
         return True
 
-    def _finished(self: "PlayerApp", result: Any, error: Optional[BaseException]) -> None:
+    def _finished(self: "PlayerWindow", result: Any, error: Optional[BaseException]) -> None:
         if error is not None:
             log.error("background job failed", exc_info=error)
             self.status.set("error: {}".format(error))
@@ -98,7 +96,7 @@ class FileActions:
             self.open_scene(result)
             self.status.set("opened {}".format(result.title))
 
-    def _add_solve_menu(self: "PlayerApp", menu: tk.Menu) -> None:
+    def _add_solve_menu(self: "PlayerWindow", menu: tk.Menu) -> None:
         """"Solve this instance with" after the Open entries, usable while an instance is shown."""
         sub = tk.Menu(menu, tearoff=False)
         for name in SOLVER_NAMES:

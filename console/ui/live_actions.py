@@ -1,29 +1,25 @@
 """The live console's actions: its menus, picking robots, asking the manager, saving the window.
 
 A mixin of `LiveApp`, as `PlayerActions` is of the player: the menus and the
-panels reach each action by name. `ask` is the one way a control reaches the
+panels reach each action by name (`window.LiveWindow` lists what they use of it). `ask` is the one way a control reaches the
 manager: a request based on the version of the state the window shows.
 """
 from __future__ import annotations
 
 import tkinter as tk
 from tkinter import filedialog
-from typing import TYPE_CHECKING, Any, Optional
+from typing import Any, Optional
 
 from ..keys import AGENTS, KEYS, VIEW
 from ..live.describe import cell_text, greyed
 from . import capture
+from .admin_panel import RUN_CONTROLS
 from .help_window import show_keys
-
-if TYPE_CHECKING:
-    from .live_app import LiveApp
-
-RUN_MENU = (("Start", "start"), ("Pause", "pause"), ("Step", "step"), ("Stop", "stop"),
-            ("Halt every robot", "halt"), ("Replan", "replan"))
+from .window import LiveWindow
 
 
 class LiveActions:
-    def _build_menus(self: "LiveApp") -> None:
+    def _build_menus(self: "LiveWindow") -> None:
         bar = tk.Menu(self.root, tearoff=False)
         file = tk.Menu(bar, tearoff=False)
         file.add_command(label="save the view as PNG", accelerator="Ctrl+S", command=self.actions["save_png"])
@@ -32,8 +28,9 @@ class LiveActions:
         file.add_command(label="quit", accelerator="q, Ctrl+Q", command=self.actions["quit"])
         bar.add_cascade(label="File", menu=file)
         run = tk.Menu(bar, tearoff=False)
-        for label, action in RUN_MENU:
-            run.add_command(label=label, command=lambda a=action: self.ask(a))
+        for control in RUN_CONTROLS:
+            if control.menu is not None:
+                run.add_command(label=control.menu, command=lambda a=control.action: self.ask(a))
         bar.add_cascade(label="Run", menu=run)
         for group in (VIEW, AGENTS):
             menu = tk.Menu(bar, tearoff=False)
@@ -50,12 +47,12 @@ class LiveActions:
 
     # -- picking and asking ------------------------------------------------------------
 
-    def selected_robot(self: "LiveApp") -> Optional[int]:
+    def selected_robot(self: "LiveWindow") -> Optional[int]:
         ids = self.model.robot_ids()
         sel = self.options.selected
         return ids[sel] if sel is not None and 0 <= sel < len(ids) else None
 
-    def select(self: "LiveApp", agent: Optional[int]) -> None:
+    def select(self: "LiveWindow", agent: Optional[int]) -> None:
         self.options.selected = agent
         rid = self.selected_robot()
         self.admin.mark(rid)
@@ -66,13 +63,13 @@ class LiveActions:
             self.status.set("robot {}{}".format(rid, "" if r is None else ": at {}, {}".format(
                 cell_text((r.x, r.y)) if r.x is not None else "unknown position", greyed(r) or "ok")))
 
-    def _pick_robot(self: "LiveApp", robot_id: Optional[int]) -> None:
+    def _pick_robot(self: "LiveWindow", robot_id: Optional[int]) -> None:
         agent = None if robot_id is None else self.model.agent_of.get(robot_id)
         if agent != self.options.selected:
             self.select(agent)
         self.canvas.focus_set()
 
-    def jump_to_robot(self: "LiveApp", robot_id: int) -> None:
+    def jump_to_robot(self: "LiveWindow", robot_id: int) -> None:
         """Select `robot_id` and bring it into view (the event list's double-click)."""
         agent = self.model.agent_of.get(robot_id)
         if agent is None:
@@ -83,7 +80,7 @@ class LiveActions:
             self.map.changed()
         self.select(agent)
 
-    def ask(self: "LiveApp", action: str, **args: Any) -> None:
+    def ask(self: "LiveWindow", action: str, **args: Any) -> None:
         """Send a request based on the state this window shows (thesis 5.1.1: a decision on a
         picture that is no longer true is refused); the answer comes back through the feed."""
         shown = self.model.state
@@ -93,11 +90,11 @@ class LiveActions:
 
     # -- capture -----------------------------------------------------------------------
 
-    def save_window(self: "LiveApp", path: str) -> None:
+    def save_window(self: "LiveWindow", path: str) -> None:
         capture.grab(self.root, path)
         self.status.set("saved {}".format(path))
 
-    def _save_window(self: "LiveApp") -> None:
+    def _save_window(self: "LiveWindow") -> None:
         path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".png",
                                             filetypes=[("PNG image", "*.png")], title="Save window as PNG")
         if path:

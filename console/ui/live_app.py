@@ -150,7 +150,7 @@ class LiveApp(LiveActions, PlayerApp):
         self.options.selected = None
         self._build_map(size)
         self.admin.set_fleet(self.model.robot_ids(), self.scene.colours,
-                             self.model.scene_message.strategies if self.model.scene_message else ())
+                             self.model.setup.strategies if self.model.setup else ())
         self._connection_changed()
         self.relayout()
         if selected is not None and selected in self.model.agent_of:

@@ -21,6 +21,7 @@ import math
 from collections import defaultdict
 from typing import Any, Dict, List, Optional, Tuple
 
+from fleet_common.angles import wrap_angle
 from fleet_common.runlog import RunFolder
 
 from .figures import Chart, new_figure, to_png
@@ -133,7 +134,7 @@ def _still(track: List[Pose], since: float, until: float) -> List[Span]:
         if t < since or t > until:
             continue
         if anchor is None or math.hypot(x - anchor[1], y - anchor[2]) > STALL_CELLS or \
-                abs(math.remainder(heading - anchor[3], math.tau)) > STALL_RAD:
+                abs(wrap_angle(heading - anchor[3])) > STALL_RAD:
             if anchor is not None and last - anchor[0] >= STALL_S:
                 spans.append((anchor[0], last))
             anchor = (t, x, y, heading)

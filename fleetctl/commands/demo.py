@@ -75,8 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from fleet_common.formats.instance import read_instance
     from fleet_common.lab import lab_instance_path, lab_map_path, node_table
-    from fleet_common.planning import solve
-    from fleet_common.planning.deadline import Deadline
+    from fleet_common.plan_loading import solve_instance
     from fleet_common.robots import default_definitions_path, read_robot_definitions
     from fleet_common.validate import validate_plan
 
@@ -96,13 +95,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.plan is not None:
         result = _given_plan(args.plan, grid)
-    else:
-        # a demo should show the best plan: CBS is optimal and quick for a handful of robots
-        for name in [args.solver] if args.solver else ["cbs", "lacam"]:
-            result = solve(name, grid, inst.starts, inst.goals,
-                           deadline=Deadline(args.time_limit), seed=args.seed)
-            if result.solved:
-                break
+    else:  # a demo should show the best plan: CBS, optimal and quick for a handful of robots
+        result = solve_instance(grid, inst.starts, inst.goals, args.solver, args.time_limit, args.seed)
     if not result.solved or result.plan is None:
         print("plan: {} found no plan: {}".format(result.solver, result.message))
         return 3

@@ -12,6 +12,7 @@ from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
+from fleet_common.plan_loading import file_coordinates
 from fleet_common.planning.repair import RepairError
 from fleet_common.robots import read_robot_size
 
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     if sol is None:
         return 1
     name, plan = str(args.solution), sol.plan
-    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
+    show = file_coordinates(sol)
     names = Names.of(sol.grid, plan.num_agents, args.definitions)
     try:
         plan = for_robots(plan, sol.grid, name, args, names)

@@ -5,6 +5,7 @@ import argparse
 from pathlib import Path
 
 from fleet_common.formats.solution import read_solution
+from fleet_common.plan_loading import file_coordinates
 from fleet_common.validate import FOLLOWING, ROTATION, validate_plan
 
 from ..options import add_map_dir, map_dirs
@@ -42,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         print("{}: no plan: solver {} did not solve it (solved={}, makespan={})".format(
             name, sol.solver or "?", int(bool(sol.solved)), sol.makespan))
         return 1
-    show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
+    show = file_coordinates(sol)
     report = validate_plan(sol.plan, sol.grid, starts=sol.starts, goals=sol.goals,
                            soc=sol.soc, makespan=sol.makespan,
                            strict_following=args.strict_following,

@@ -3,20 +3,14 @@
 A `Pose2D` is a rigid transform of the plane: `a.compose(b)` is "b expressed
 in a's frame, seen from a's parent frame", so `world_T_robot =
 world_T_odom.compose(odom_T_robot)`. Headings are radians, counter-clockwise
-from +x, wrapped to (-pi, pi].
+from +x, wrapped to (-pi, pi] (`fleet_common.angles.wrap_angle`).
 """
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
 
-
-def wrap_angle(angle: float) -> float:
-    """`angle` in (-pi, pi]."""
-    wrapped = math.fmod(angle + math.pi, 2.0 * math.pi)
-    if wrapped <= 0.0:
-        wrapped += 2.0 * math.pi
-    return wrapped - math.pi
+from fleet_common.angles import wrap_angle
 
 
 class Pose2D(NamedTuple):

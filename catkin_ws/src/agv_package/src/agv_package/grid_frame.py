@@ -12,10 +12,11 @@ from __future__ import annotations
 import math
 from typing import Optional, Tuple
 
+from fleet_common.angles import wrap_angle
 from fleet_common.lab import base_to_robot
 from fleet_common.transform2d import Transform2D
 
-from .geometry import Pose2D, wrap_angle
+from .geometry import Pose2D
 
 Point = Tuple[float, float]
 

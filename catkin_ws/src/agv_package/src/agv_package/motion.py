@@ -19,7 +19,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Optional, Tuple
 
-from .geometry import Pose2D, wrap_angle
+from fleet_common.angles import wrap_angle
+
+from .geometry import Pose2D
 from .settings import MotionSettings
 
 

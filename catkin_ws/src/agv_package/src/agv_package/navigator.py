@@ -1,9 +1,10 @@
 """The robot's navigation API (thesis 3.6.1), in robot-frame metres and radians.
 
-`Navigator` is what the runner calls: `drive_to_position(x, y, arrival)` and
+`BlockingNavigator` is what the runner calls: `drive_to_position(x, y, arrival)` and
 `turn(heading)` block until the motion is done, stopped or failed (like the
 original `int driveToPosition(double x, double y, double time)`), `stop`
-interrupts them from another thread, `pose` is the current estimate.
+interrupts them from another thread, `pose` is the current estimate. A motion
+ends in a `MotionOutcome`, the type the wire's `PollingNavigator` reports too.
 
 `ControlledNavigator` implements it with the controllers of `motion` run in a
 fixed-rate loop against two callables, where the pose comes from and where
@@ -16,9 +17,12 @@ import abc
 import math
 import threading
 import time
-from typing import Callable, NamedTuple, Optional, Union
+from typing import Callable, Optional, Union
 
-from .geometry import Pose2D, wrap_angle
+from fleet_common.angles import wrap_angle
+from fleet_common.wire.navigator import MotionOutcome
+
+from .geometry import Pose2D
 from .motion import STOP, DriveController, TurnController, Twist, needs_turn
 from .settings import MotionSettings
 
@@ -26,31 +30,24 @@ from .settings import MotionSettings
 TIMEOUT_SLACK = 10.0
 
 
-class NavResult(NamedTuple):
-    """How a motion ended: ok, or why not."""
-
-    ok: bool
-    reason: str = ""
+DONE = MotionOutcome(True)
 
 
-DONE = NavResult(True)
-
-
-class Navigator(abc.ABC):
+class BlockingNavigator(abc.ABC):
     """Moves the robot on the floor; all coordinates in the robot frame (metres, radians)."""
 
     @abc.abstractmethod
-    def drive_to_position(self, x: float, y: float, arrival: float) -> NavResult:
+    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
         """Turn to face (x, y), then drive there, aiming to arrive at time `arrival`
         (seconds on this navigator's `now()` clock)."""
 
     @abc.abstractmethod
-    def turn(self, heading: float) -> NavResult:
+    def turn(self, heading: float) -> MotionOutcome:
         """Turn in place to the absolute `heading`."""
 
     @abc.abstractmethod
     def stop(self, reason: str) -> None:
-        """Halt now; a motion in progress returns NavResult(False, reason)."""
+        """Halt now; a motion in progress returns MotionOutcome(False, reason)."""
 
     @abc.abstractmethod
     def pose(self) -> Optional[Pose2D]:
@@ -67,8 +64,8 @@ Interlock = Callable[[], Optional[str]]
 Controller = Union[TurnController, DriveController]
 
 
-class ControlledNavigator(Navigator):
-    """A `Navigator` running feedback controllers at `settings.control_rate`."""
+class ControlledNavigator(BlockingNavigator):
+    """A `BlockingNavigator` running feedback controllers at `settings.control_rate`."""
 
     def __init__(self, settings: MotionSettings, pose_source: PoseSource, send: TwistSink,
                  clock: Callable[[], float] = time.time,
@@ -96,11 +93,11 @@ class ControlledNavigator(Navigator):
             self._stop_reason = reason
         self._send(STOP)
 
-    def turn(self, heading: float) -> NavResult:
+    def turn(self, heading: float) -> MotionOutcome:
         self._begin()
         return self._run(TurnController(self.settings, heading), self._turn_time(heading))
 
-    def drive_to_position(self, x: float, y: float, arrival: float) -> NavResult:
+    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
         self._begin()
         start = self._pose_source()
         if start is None:
@@ -128,9 +125,9 @@ class ControlledNavigator(Navigator):
             reason = self.interlock()
         return reason
 
-    def _not_localized(self) -> NavResult:
+    def _not_localized(self) -> MotionOutcome:
         self._send(STOP)
-        return NavResult(False, "not localized: no pose estimate (no floor tag seen yet, "
+        return MotionOutcome(False, "not localized: no pose estimate (no floor tag seen yet, "
                                 "or odometry stopped)")
 
     def _turn_time(self, heading: float) -> float:
@@ -138,7 +135,7 @@ class ControlledNavigator(Navigator):
         angle = abs(wrap_angle(heading - pose.theta)) if pose is not None else math.pi
         return angle / self.settings.min_turn_rate
 
-    def _run(self, controller: Controller, expected: float) -> NavResult:
+    def _run(self, controller: Controller, expected: float) -> MotionOutcome:
         period = 1.0 / self.settings.control_rate
         deadline = self._clock() + expected + TIMEOUT_SLACK
         last = self._clock()
@@ -146,14 +143,14 @@ class ControlledNavigator(Navigator):
             reason = self._stopped()
             if reason is not None:
                 self._send(STOP)
-                return NavResult(False, reason)
+                return MotionOutcome(False, reason)
             pose = self._pose_source()
             if pose is None:
                 return self._not_localized()
             now = self._clock()
             if now > deadline:
                 self._send(STOP)
-                return NavResult(False, "timed out: the motion took {:.0f} s longer than "
+                return MotionOutcome(False, "timed out: the motion took {:.0f} s longer than "
                                         "expected".format(TIMEOUT_SLACK))
             command = controller.step(pose, now, max(now - last, 1e-3))
             last = now

@@ -1,4 +1,4 @@
-"""The wire protocol's navigator, on top of the robot's blocking `Navigator`.
+"""The wire protocol's `PollingNavigator`, on top of the robot's `BlockingNavigator`.
 
 `fleet_common.wire`'s executor drives a non-blocking interface in base-grid
 cells (`start_drive`, `start_turn`, `halt`, `poll`, `pose`, `faults`). This
@@ -29,7 +29,7 @@ from fleet_common.wire.navigator import MotionOutcome, MotionRefused
 
 from .geometry import Pose2D
 from .grid_frame import GridFrame
-from .navigator import NavResult, Navigator
+from .navigator import BlockingNavigator
 
 BUMPER = "bumper"
 NOT_LOCALIZED = "not localized"
@@ -38,9 +38,9 @@ WIND_DOWN = 2.0
 
 
 class WireNavigator:
-    """Implements `fleet_common.wire.navigator.Navigator` over an agv `Navigator`."""
+    """Implements `fleet_common.wire.navigator.PollingNavigator` over a `BlockingNavigator`."""
 
-    def __init__(self, navigator: Navigator, frame: GridFrame) -> None:
+    def __init__(self, navigator: BlockingNavigator, frame: GridFrame) -> None:
         self.navigator = navigator
         self.frame = frame
         self._lock = threading.Lock()
@@ -119,7 +119,7 @@ class WireNavigator:
 
     # ---- internals ---------------------------------------------------------------
 
-    def _start(self, motion: Callable[[], NavResult]) -> None:
+    def _start(self, motion: Callable[[], MotionOutcome]) -> None:
         previous = self._worker
         if previous is not None and previous.is_alive():
             previous.join(WIND_DOWN)
@@ -136,10 +136,10 @@ class WireNavigator:
             try:
                 result = motion()
             except Exception as err:  # a crash must still settle the command
-                result = NavResult(False, "navigation failed: {}".format(err))
+                result = MotionOutcome(False, "navigation failed: {}".format(err))
             with self._lock:
                 if generation == self._generation:
-                    self._outcome = MotionOutcome(result.ok, result.reason)
+                    self._outcome = result
 
         self._worker = threading.Thread(target=run, name="agv-motion", daemon=True)
         self._worker.start()

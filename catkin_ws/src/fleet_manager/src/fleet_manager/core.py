@@ -26,8 +26,9 @@ from __future__ import annotations
 
 from typing import Dict, Iterable, List, Optional, Sequence
 
-from fleet_common.control import Bye, Event, Waiting
+from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog.summary import RunSummary
@@ -37,7 +38,6 @@ from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
 from .outbox import Effect, Outbox
-from .plan_source import LoadedPlan
 from .replanning import SAFE_POINT, walled
 from .robot import Fleet, Seen
 from .run import Run
@@ -107,7 +107,7 @@ class RunCore:
         intake = self.desk.receive(peer, data, now)
         self.out.frames(intake.out)
         if intake.joined is not None:
-            self.out.frames(self.desk.to(intake.joined, self.run.scene()))
+            self.out.frames(self.desk.to(intake.joined, self.run.setup()))
             pending = self.run.replanner.pending
             if self.run.replanner.proposal_id is not None and pending is not None:
                 self.out.frames(self.desk.to(intake.joined, proposal(pending, self.fleet, self.run.loaded.name)))
@@ -251,7 +251,7 @@ class RunCore:
         summary = self.summary()
         self.out.record("end", reason=reason, arrived=len(summary.arrived), robots=summary.robots,
                         summary=summary.as_dict())
-        self.out.broadcast(Event(self.out.notices + 1, round(now, 3), "run", None, "manager stopping: " + reason))
+        self.out.broadcast(Notice(self.out.notices + 1, round(now, 3), "run", None, "manager stopping: " + reason))
         # consoles learn at once that this manager is gone (not after 3.5 s of silence)
         self.out.broadcast(Bye("manager stopping: " + reason))
 

@@ -43,7 +43,7 @@ from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Engine,
                                     EventError, RobotFailed)
 from fleet_common.grid import Coord
-from fleet_common.transport.robot_link import OUTCOME_UNKNOWN
+from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.wire import Accepted, Completed, DriveToPosition, Failed, GetStatus, Status, Stop, Turn
 
 from .outbox import Outbox

@@ -119,13 +119,13 @@ def run(args: argparse.Namespace) -> int:
     import logging
 
     from fleet_common.errors import FleetError
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.plan_loading import load_plan, pick_robots
     from fleet_common.robots import default_definitions_path, read_robot_definitions
     from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
-    from fleet_common.formats.mapsearch import default_map_dirs
 
     from .manager import Manager
     from .settings import ManagerSettings
-    from .plan_source import load_plan, pick_robots
 
     dirs = list(args.map_dir) + default_map_dirs()
 

@@ -22,6 +22,7 @@ import time
 from datetime import datetime, timezone
 from typing import Callable, List, Optional, Sequence, Tuple
 
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import RunLog, new_run_folder
@@ -37,7 +38,6 @@ from fleet_common.vicon.base_grid import load_vicon_to_base
 
 from .core import RunCore
 from .outbox import Effect, NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
-from .plan_source import LoadedPlan
 from .settings import ManagerSettings
 from .vicon_provider import ViconProvider
 

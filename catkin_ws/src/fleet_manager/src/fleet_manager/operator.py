@@ -19,10 +19,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Dict, Optional, Tuple
 
+from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
+from fleet_common.plan_loading import load_plan
 
-from .plan_source import load_plan
 from .robot import HALTED, VICON, Robot
 from .run import Run
 from .run_phase import RUNNING, WAITING
@@ -249,3 +250,6 @@ ACTIONS: Dict[str, Callable[[Run, Args, float], Answer]] = {
     "strategy": strategy, "enable": enable, "disable": disable, "source": source,
     "load": load, "replan": replan, "accept": accept, "reject": reject,
 }
+if set(ACTIONS) != set(CONSOLE_ACTIONS):  # the protocol's table is the one list of actions
+    raise ImportError("operator actions {} differ from the console protocol's {}".format(
+        sorted(ACTIONS), sorted(CONSOLE_ACTIONS)))

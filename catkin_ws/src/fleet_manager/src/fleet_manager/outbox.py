@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Set, Union
 
-from fleet_common.control import Event
+from fleet_common.control import Notice
 from fleet_common.control.desk import ControlDesk
 from fleet_common.grid import Coord, Grid
 from fleet_common.runlog.summary import SummaryBuilder
@@ -105,7 +105,7 @@ class Outbox:
     def tell(self, kind: str, robot: Optional[int], text: str) -> None:
         """A notice for the consoles' event lists (and the terminal, for the kinds in SAID)."""
         self._notices += 1
-        self.broadcast(Event(self._notices, round(self.now, 3), kind, robot, text))
+        self.broadcast(Notice(self._notices, round(self.now, 3), kind, robot, text))
         if kind in SAID:
             self.say("[{:7.1f} s] {}".format(self.now, text))
         if kind in BUMPED and robot is not None:

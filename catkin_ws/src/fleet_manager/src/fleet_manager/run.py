@@ -13,21 +13,22 @@ from __future__ import annotations
 import math
 from typing import List, Optional
 
+from fleet_common.control import RunSetup
 from fleet_common.execution import Disabled, Engine, RobotFailed
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
+from fleet_common.plan_loading import LoadedPlan
 from fleet_common.runlog.records import FORMAT_VERSION, plan_file
 from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
 from .outbox import NewRunFolder, Outbox, WriteFile
-from .plan_source import LoadedPlan
 from .replanning import Replanner
 from .robot import Fleet
 from .run_phase import RUNNING, RunPhase
 from .settings import ManagerSettings
-from .state_view import scene
+from .state_view import setup
 
 __all__ = ["Run"]
 
@@ -146,7 +147,7 @@ class Run:
         self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
                         actions=action_counts(plan), starts=[list(c) for c in starts])
         self.out.desk.bump("plan {} ({})".format(self.plan_id, reason))
-        self.out.broadcast(self.scene())
+        self.out.broadcast(self.setup())
 
     def load(self, loaded: LoadedPlan, now: float) -> None:
         """Another plan (the operator's `load`): a new run, in a new run folder, waiting for Start."""
@@ -165,7 +166,7 @@ class Run:
         self._begin()
         self._drive(engine)
         self.move("load", "{} loaded; waiting for Start".format(loaded.name))
-        self.out.broadcast(self.scene())
+        self.out.broadcast(self.setup())
 
     def _drive(self, engine: Engine) -> None:
         """Run `engine` from now on: robots keep their state, not the old plan's queue."""
@@ -175,8 +176,8 @@ class Run:
         self.engine = engine
         self.driver = Driver(engine, self.fleet.robots, self.out, self.settings.preturn)
 
-    def scene(self):
-        return scene(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
+    def setup(self) -> RunSetup:
+        return setup(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
                      self.settings.step_time)
 
 

@@ -1,4 +1,4 @@
-"""What every console is told: the State (many times a second), the Scene and a Proposal.
+"""What every console is told: the State (many times a second), the RunSetup and a Proposal.
 
 Built from the run core's own records (its robots, the engine, the run's
 phase) into the console protocol's messages; nothing here changes anything.
@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Dict, List, Optional, Sequence
 
-from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, RobotState, RunInfo, Scene,
+from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
                                   State, Waiting)
 from fleet_common.execution import STRATEGIES, Engine
 from fleet_common.grid import Grid
@@ -20,7 +20,7 @@ from .replanning import Pending, Replanner
 from .robot import VICON, Fleet
 from .run_phase import RUNNING, RunPhase
 
-__all__ = ["robot_waits", "build_state", "scene", "proposal", "plan_data"]
+__all__ = ["robot_waits", "build_state", "setup", "proposal", "plan_data"]
 
 
 def robot_waits(engine: Engine, fleet: Fleet) -> Dict[int, Waiting]:
@@ -86,11 +86,11 @@ def plan_data(plan_id: int, plan: Plan, fleet: Fleet, name: str = "") -> PlanDat
     return PlanData(plan_id, tuple(fleet.ids), plan.positions, name)
 
 
-def scene(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float) -> Scene:
+def setup(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float) -> RunSetup:
     rows = tuple("".join("." if grid.free[y, x] else "@" for x in range(grid.width))
                  for y in range(grid.height - 1, -1, -1))
     robots = tuple(RobotInfo(r.id, r.colour, r.vicon_name) for r in fleet)
-    return Scene(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
+    return RunSetup(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
                  tuple(STRATEGIES), step_time)
 
 

@@ -18,7 +18,9 @@ from typing import Callable, NamedTuple, Optional
 
 import numpy as np
 
-from ..geometry import Pose2D, wrap_angle
+from fleet_common.angles import wrap_angle
+
+from ..geometry import Pose2D
 from ..motion import STOP, Twist
 
 

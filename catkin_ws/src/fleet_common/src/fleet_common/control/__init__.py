@@ -1,9 +1,9 @@
 """The manager <-> console protocol, sans-I/O (thesis 5.1.1, 5.4).
 
-    messages   what a console sees (Scene, State, Event, Proposal) and asks (Request)
-    schema     composable checkers that make decoding total
-    codec      messages <-> JSON frames, with size and depth limits
-    requests   the actions and their arguments, checked (what `Request.args` may hold)
+    messages   what a console sees (RunSetup, State, Notice, Proposal) and asks (Request)
+    codec      messages <-> JSON frames, with size and depth limits, checked by the schema
+               (`fleet_common.schema`, the checkers the robot protocol's codec uses too)
+    requests   the actions (`ACTIONS`) and their arguments, checked (what `Request.args` may hold)
     desk       the manager's end: consoles, versions (the Lamport clock), answers
     session    the console's end: what it has seen, what it asked, what came back
 
@@ -13,10 +13,12 @@ console and a manager can be wired together in memory in tests.
 from __future__ import annotations
 
 from .codec import ControlProtocolError, decode, encode
-from .messages import (ACTIONS, PROTOCOL_VERSION, Activity, Answer, Bye, Event, Heartbeat, Hello,
-                       PlanData, Proposal, Request, RobotInfo, RobotState, RunInfo, Scene, State,
-                       Waiting, Welcome)
+from .messages import (PROTOCOL_VERSION, Activity, Answer, Bye, Heartbeat, Hello, Notice, PlanData,
+                       Proposal, Request, RobotInfo, RobotState, RunInfo, RunSetup, State, Waiting,
+                       Welcome)
+from .requests import ACTIONS
 
 __all__ = ["ControlProtocolError", "decode", "encode", "ACTIONS", "PROTOCOL_VERSION", "Activity",
-           "Answer", "Bye", "Event", "Heartbeat", "Hello", "PlanData", "Proposal", "Request",
-           "RobotInfo", "RobotState", "RunInfo", "Scene", "State", "Waiting", "Welcome"]
+           "Answer", "Bye", "Heartbeat", "Hello", "Notice", "PlanData", "Proposal", "Request",
+           "RobotInfo", "RobotState", "RunInfo", "RunSetup", "State", "Waiting", "Welcome"]
+

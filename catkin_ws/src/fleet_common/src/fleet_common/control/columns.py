@@ -14,7 +14,7 @@ import math
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from .messages import LINK_STATES, SOURCES, Activity, RobotState, Waiting
-from .schema import SchemaError, short
+from ..schema import SchemaError, short
 
 __all__ = ["robots_to_columns", "robots_from_columns", "MAX_ROBOTS"]
 
@@ -73,8 +73,8 @@ def _check(name: str, column: List[Any], ok: Callable[[Any], bool], what: str,
            optional: bool = False) -> List[Any]:
     for i, v in enumerate(column):
         if not (ok(v) or (optional and v is None)):
-            raise SchemaError("robots.{}[{}] must be {}{}, got {}".format(
-                name, i, what, " or null" if optional else "", short(v)))
+            raise SchemaError("must be {}{}, got {}".format(what, " or null" if optional else "", short(v)),
+                              "robots.{}[{}]".format(name, i))
     return column
 
 
@@ -143,16 +143,16 @@ def robots_from_columns(value: Any, path: str = "robots") -> Tuple[RobotState, .
     """The robots of a State, checked (SchemaError naming the column and row otherwise)."""
     if type(value) is not dict or set(value) != set(_COLUMNS):
         missing = sorted(set(_COLUMNS) - set(value)) if type(value) is dict else []
-        raise SchemaError("{} must be an object of the columns {}{}".format(
-            path, ", ".join(_COLUMNS), "; missing: " + ", ".join(missing) if missing else ""))
+        raise SchemaError("must be an object of the columns {}{}".format(
+            ", ".join(_COLUMNS), "; missing: " + ", ".join(missing) if missing else ""), path)
     n = len(value["id"]) if type(value["id"]) is list else -1
     if not 0 <= n <= MAX_ROBOTS:
-        raise SchemaError("{}.id must be a list of at most {} robot ids".format(path, MAX_ROBOTS))
+        raise SchemaError("must be a list of at most {} robot ids".format(MAX_ROBOTS), path + ".id")
     cols = {}
     for name, (ok, what, optional) in _COLUMNS.items():
         column = value[name]
         if type(column) is not list or len(column) != n:
-            raise SchemaError("{}.{} must be a list of {} values, one per robot".format(path, name, n))
+            raise SchemaError("must be a list of {} values, one per robot".format(n), "{}.{}".format(path, name))
         cols[name] = _check(name, column, ok, what, optional)
     waits = [None if on is None else Waiting(tuple(on), None if cell is None else (cell[0], cell[1]),
                                              reason or "")

@@ -34,7 +34,7 @@ from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from . import messages as m
 from .codec import ControlProtocolError, decode, encode
 from .requests import check_args
-from .schema import SchemaError
+from ..schema import SchemaError
 
 __all__ = ["ControlDesk", "Refusal", "Console"]
 

@@ -3,9 +3,9 @@
     console                                   manager
     Hello(name)                         ->
                                         <-    Welcome(session, version)
-                                        <-    Scene(map, robots, plan)      (and on every plan change)
+                                        <-    RunSetup(map, robots, plan)   (and on every plan change)
                                         <-    State(...)                    10+ times a second
-                                        <-    Event(...)                    faults, links, operators, ...
+                                        <-    Notice(...)                   faults, links, operators, ...
     Request(id, action, args, based_on) ->
                                         <-    Answer(id, ok, reason, version)
                                         <-    Proposal(...)                 a replan to accept or reject
@@ -36,10 +36,6 @@ PROTOCOL_VERSION = 1
 
 #: Where a manager listens by default, and where a console looks for it.
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:7100"
-
-#: What a console may ask, and the arguments each action takes (see `requests.py`).
-ACTIONS = ("start", "pause", "stop", "step", "halt", "strategy", "enable", "disable", "source",
-           "load", "replan", "accept", "reject")
 
 #: How a refusal to a console the manager does not know begins: the console says hello again.
 HELLO_FIRST = "say hello first"
@@ -115,8 +111,9 @@ class PlanData:
 
 
 @dataclass(frozen=True)
-class Scene:
-    """The map, the fleet and the plan: sent after Welcome and whenever the plan changes."""
+class RunSetup:
+    """The run's setup: the map, the fleet and the plan; sent after Welcome and whenever the plan
+    changes. (The console draws it as its `console.scene.Scene`; the tag stays "scene".)"""
 
     TYPE: ClassVar[str] = "scene"
     map_name: str
@@ -210,8 +207,9 @@ class Answer:
 
 
 @dataclass(frozen=True)
-class Event:
-    """Something an operator should see in the event list (seq counts from 1 per manager)."""
+class Notice:
+    """Something an operator should see: a line of the console's event list (seq counts from 1
+    per manager). Not an engine event, not a run-log record; the tag stays "event"."""
 
     TYPE: ClassVar[str] = "event"
     seq: int
@@ -235,4 +233,4 @@ class Proposal:
 
 
 CONSOLE_MESSAGES = (Hello, Request, Heartbeat, Bye)
-MANAGER_MESSAGES = (Welcome, Scene, State, Answer, Event, Proposal, Heartbeat, Bye)
+MANAGER_MESSAGES = (Welcome, RunSetup, State, Answer, Notice, Proposal, Heartbeat, Bye)

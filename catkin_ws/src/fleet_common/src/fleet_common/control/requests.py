@@ -15,15 +15,16 @@ from __future__ import annotations
 
 from typing import Any, Dict
 
-from .codec import MAX_REQUEST_BYTES
-from .messages import ACTIONS, SOURCES
-from .schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
+from ..limits import MAX_REQUEST_BYTES
+from .messages import SOURCES
+from ..schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
 
-__all__ = ["ARGS", "check_args"]
+__all__ = ["ACTIONS", "ARGS", "check_args"]
 
 _ROBOT = Int(0, 2 ** 31)
 _NONE: Obj = Obj({})
 
+#: The console's actions (the one list: a `Request` names one of them) and what each takes.
 ARGS: Dict[str, Checker] = {
     "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
     "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
@@ -37,7 +38,8 @@ ARGS: Dict[str, Checker] = {
     "accept": Obj({"proposal": Int(0, 2 ** 53)}),
     "reject": Obj({"proposal": Int(0, 2 ** 53)}),
 }
-assert set(ARGS) == set(ACTIONS)  # one table per action, checked at import (not input)
+#: What a console may ask.
+ACTIONS = tuple(ARGS)
 
 
 def check_args(action: str, args: Dict[str, Any]) -> Dict[str, Any]:

@@ -2,8 +2,8 @@
 
 Pure: the console's network thread feeds it the manager's frames and sends
 what it returns; the Tk thread reads the outcome from a queue. It keeps the
-newest scene, state and proposal, the last events (by sequence number, once
-each), and the requests still waiting for an answer. A request is based on
+newest run setup, state and proposal, the last notices (by sequence number,
+once each), and the requests still waiting for an answer. A request is based on
 the newest version seen in any Welcome, State or Answer, so a console that
 acts on an old picture is refused by the manager and says so.
 
@@ -21,17 +21,18 @@ from typing import Any, Deque, Dict, Optional, Tuple
 
 from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from . import messages as m
-from .codec import MAX_MANAGER_BYTES, decode, encode
+from ..limits import MAX_MANAGER_BYTES
+from .codec import decode, encode
 
 __all__ = ["ConsoleSession"]
 
 
 class ConsoleSession:
     def __init__(self, name: str, now: float, timeout: float = PEER_TIMEOUT,
-                 interval: float = HEARTBEAT_INTERVAL, events: int = 500) -> None:
+                 interval: float = HEARTBEAT_INTERVAL, notices: int = 500) -> None:
         self.name = name
         self.timeout, self.interval = timeout, interval
-        self.events: Deque[m.Event] = deque(maxlen=events)
+        self.notices: Deque[m.Notice] = deque(maxlen=notices)
         self._ids = itertools.count(1)
         self.reset(now)
 
@@ -39,12 +40,12 @@ class ConsoleSession:
         """Forget the manager (it went away): start over with a hello."""
         self.session: Optional[str] = None
         self.version = 0
-        self.scene: Optional[m.Scene] = None
+        self.setup: Optional[m.RunSetup] = None
         self.state: Optional[m.State] = None
         self.proposal: Optional[m.Proposal] = None
         self.pending: Dict[int, m.Request] = {}
         self.live = Liveness(now, self.interval, self.timeout)
-        self._last_event = 0
+        self._last_notice = 0
 
     @property
     def connected(self) -> bool:
@@ -76,8 +77,8 @@ class ConsoleSession:
                 self.live.heard(now)
             self.session = message.session
             self.version = max(self.version, message.version)
-        elif isinstance(message, m.Scene):
-            self.scene = message
+        elif isinstance(message, m.RunSetup):
+            self.setup = message
             self.proposal = None
         elif isinstance(message, m.State):
             if self.state is None or message.seq > self.state.seq:
@@ -91,11 +92,11 @@ class ConsoleSession:
             if not message.ok and message.reason.startswith(m.HELLO_FIRST):
                 self.session = None  # the manager forgot us: `connected` is False, say hello again
             return message, asked
-        elif isinstance(message, m.Event):
-            if message.seq <= self._last_event:
+        elif isinstance(message, m.Notice):
+            if message.seq <= self._last_notice:
                 return None  # seen already
-            self._last_event = message.seq
-            self.events.append(message)
+            self._last_notice = message.seq
+            self.notices.append(message)
         elif isinstance(message, m.Proposal):
             self.proposal = message
         elif isinstance(message, m.Bye):

@@ -45,7 +45,7 @@ from ..wire.executor import CommandExecutor, Routed
 from ..wire.liveness import Liveness
 from ..wire.messages import (COMMAND_TYPES, Bye, Command, Heartbeat, Hello, Message, PoseFeedback,
                              Welcome)
-from ..wire.navigator import Navigator
+from ..wire.navigator import PollingNavigator
 from ..wire.states import Role, State
 from .curve_keys import RobotKeys
 from .peers import HandshakeMonitor, peer_of
@@ -60,7 +60,7 @@ _RUNNING_POLL = 0.02    # how often a running motion is polled when the navigato
 class RobotEndpoint:
     """One robot's command and feedback sockets, speaking the protocol."""
 
-    def __init__(self, context: zmq.Context, robot_id: int, navigator: Navigator,
+    def __init__(self, context: zmq.Context, robot_id: int, navigator: PollingNavigator,
                  command_port: int, feedback_port: int, *, bind: str = "*",
                  keys: Optional[RobotKeys] = None, zap: Optional[ZapHandler] = None,
                  clock: Callable[[], float] = time.monotonic,

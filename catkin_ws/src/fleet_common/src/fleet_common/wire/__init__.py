@@ -28,10 +28,11 @@ messages out; an illegal message raises `LocalProtocolError` or
 command id seen before is acknowledged again, never executed twice; one
 command at a time; stop preempts), `command_check` (what the robot's world
 forbids: off the map, into obstacles, more than a step, too long), `navigator`
-(the `Navigator` interface it drives), `liveness` (heartbeat timing), `ports`.
-Decoding is total (`fleet_common.limits`): any bytes are a message or a
-`MalformedFrameError`. The sockets, robot side and
-manager side, live in `fleet_common.transport`.
+(the `PollingNavigator` interface it drives), `liveness` (heartbeat timing), `ports`.
+Decoding is total (`fleet_common.limits`, and the message schemas of
+`fleet_common.schema`, as in the console protocol): any bytes are a message or a
+`MalformedFrameError`. The sockets, robot side and manager side, live in
+`fleet_common.transport`.
 """
 from __future__ import annotations
 
@@ -43,7 +44,7 @@ from .liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from .messages import (COMMAND_TYPES, MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Command,
                        Completed, DriveToPosition, Failed, GetStatus, Heartbeat, Hello, Message,
                        Pose, PoseFeedback, Reply, Status, Stop, Turn, Welcome)
-from .navigator import MotionOutcome, MotionRefused, Navigator
+from .navigator import MotionOutcome, MotionRefused, PollingNavigator
 from .ports import FEEDBACK_PORT, feedback_ports, on_localhost
 from .states import Phase, Role, State
 
@@ -53,6 +54,6 @@ __all__ = [
     "COMMAND_TYPES", "MESSAGE_TYPES", "PROTOCOL_VERSION", "Accepted", "Bye", "Command",
     "Completed", "DriveToPosition", "Failed", "GetStatus", "Heartbeat", "Hello", "Message", "Pose",
     "PoseFeedback", "Reply", "Status", "Stop", "Turn", "Welcome", "MotionOutcome",
-    "MotionRefused", "Navigator", "FEEDBACK_PORT", "feedback_ports", "on_localhost", "Phase",
+    "MotionRefused", "PollingNavigator", "FEEDBACK_PORT", "feedback_ports", "on_localhost", "Phase",
     "Role", "State",
 ]

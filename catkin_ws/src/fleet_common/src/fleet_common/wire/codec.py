@@ -7,13 +7,14 @@ needs no extra package, unlike msgpack), a frame can be read in a packet dump
 or typed by hand while debugging, and the messages are a few dozen bytes sent
 tens of times a second per robot, where encoding cost does not matter.
 `t` is the message type, `v` the protocol version, the rest are the record's
-fields (a `Pose` is `[x, y, theta]`). Decoding is strict and total: any bytes
-give a message or `MalformedFrameError` (a `RemoteProtocolError`: the bytes
-come from the peer), or `VersionMismatchError` for a hello of another version:
-frames
-beyond the limits of `fleet_common.limits` (size, nesting, number length,
-text length, list length), unknown types or fields, missing fields, wrong
-types and non-finite numbers. Whether a number makes sense (a drive off the
+fields (a `Pose` is `[x, y, theta]`), declared in `SCHEMAS` with the checkers of
+`fleet_common.schema`, as the console protocol declares its own. Decoding is
+strict and total: any bytes give a message or `MalformedFrameError` (a
+`RemoteProtocolError`: the bytes come from the peer), or `VersionMismatchError`
+for a hello of another version: frames beyond the limits of
+`fleet_common.limits` (size, nesting, number length, text length, list
+length), unknown types or fields, missing fields, wrong types and non-finite
+numbers. Whether a number makes sense (a drive off the
 map, a time of 1e300) is the robot's to judge (`command_check`), so that it can
 answer `Failed` instead of dropping the connection. Encoding cuts our own text
 fields to the limit, so that the peer never refuses a frame of ours. A `Bye` of any version
@@ -22,44 +23,69 @@ raises `VersionMismatchError`, so both ends can say clearly what is wrong.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, Optional
 
 from ..limits import MAX_WIRE_LIST, MAX_WIRE_TEXT, DecodeError, excerpt, loads_frame
+from ..schema import Bool, Checker, Int, ListOf, Num, Opt, Record, SchemaError, Str
 from .errors import MalformedFrameError, VersionMismatchError
-from .messages import MESSAGE_TYPES, PROTOCOL_VERSION, Message, Pose, PoseFeedback
+from .messages import (MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Completed, DriveToPosition, Failed,
+                       GetStatus, Heartbeat, Hello, Message, Pose, PoseFeedback, Status, Stop, Turn, Welcome)
 
-__all__ = ["encode", "decode"]
+__all__ = ["encode", "decode", "SCHEMAS"]
 
 _MAX_ID = 2 ** 63 - 1
 
 
-def _field_kinds(cls: type) -> List[Tuple[str, str]]:
-    """(name, kind) of a record's fields; kinds are the few the protocol uses."""
-    kinds = {"int": "int", "float": "float", "str": "str", "bool": "bool", "Pose": "pose",
-             "Optional[int]": "opt_int", "Tuple[str, ...]": "strs"}
-    # annotations are strings (postponed); the spelling in messages.py is the schema
-    return [(f.name, kinds[str(f.type)]) for f in dataclasses.fields(cls)
-            if f.name != "version"]
+class _Pose(Checker):
+    """A `Pose` as [x, y, theta]."""
+
+    what = "[x, y, theta] (three finite numbers)"
+    plain = False
+
+    def __call__(self, value: Any, path: str) -> Pose:
+        if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
+            return Pose(float(value[0]), float(value[1]), float(value[2]))
+        raise self.fail(value, path)
+
+    def dump(self, value: Pose) -> Any:
+        return [value.x, value.y, value.theta]
 
 
-_SCHEMA: Dict[str, List[Tuple[str, str]]] = {t: _field_kinds(c) for t, c in MESSAGE_TYPES.items()}
+_ID = Int(0, _MAX_ID, what="a non-negative integer")
+_NUM = Num(-math.inf, math.inf, what="a finite number")
+_TEXT = Str(MAX_WIRE_TEXT)
+_TEXTS = ListOf(_TEXT, MAX_WIRE_LIST, what="a list of at most {} strings of at most {} characters".format(
+    MAX_WIRE_LIST, MAX_WIRE_TEXT))
+_POSE = _Pose()
+
+#: Fields of each message type (the frame's "t" and "v" aside; a hello's and a welcome's
+#: `version` is the frame's "v").
+SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, extra=("version",)) for cls, fields in (
+    (Hello, {"robot_id": _ID, "epoch": _TEXT}),
+    (Welcome, {"robot_id": _ID, "session": _TEXT, "feedback_port": _ID}),
+    (Bye, {"reason": _TEXT, "code": _TEXT}),
+    (Heartbeat, {}),
+    (DriveToPosition, {"id": _ID, "x": _NUM, "y": _NUM, "time": _NUM}),
+    (Turn, {"id": _ID, "angle": _NUM}),
+    (Stop, {"id": _ID}),
+    (GetStatus, {"id": _ID}),
+    (Accepted, {"id": _ID, "duplicate": Bool()}),
+    (Completed, {"id": _ID}),
+    (Failed, {"id": _ID, "reason": _TEXT}),
+    (Status, {"id": _ID, "pose": _POSE, "current": Opt(_ID), "faults": _TEXTS}),
+    (PoseFeedback, {"robot_id": _ID, "seq": _ID, "pose": _POSE, "current": Opt(_ID), "faults": _TEXTS}),
+)}
+assert set(SCHEMAS) == set(MESSAGE_TYPES)  # every message declared (checked at import, not input)
 
 
 def encode(message: Message, version: int = PROTOCOL_VERSION) -> bytes:
     """The frame for `message` (our own records, so only values are checked)."""
     frame: Dict[str, Any] = {"t": message.TYPE, "v": version}
-    for name, kind in _SCHEMA[message.TYPE]:
+    for name, dump in SCHEMAS[message.TYPE].dumps:
         value = getattr(message, name)
-        if kind == "pose":
-            value = [value.x, value.y, value.theta]
-        elif kind == "strs":
-            value = [v[:MAX_WIRE_TEXT] for v in value[:MAX_WIRE_LIST]]
-        elif kind == "str":
-            value = value[:MAX_WIRE_TEXT]
-        frame[name] = value
+        frame[name] = value if dump is None else dump(value)
     # allow_nan=False: a NaN would be sent as a token the peer must refuse
     return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")
 
@@ -90,17 +116,12 @@ def decode(data: bytes, version: int = PROTOCOL_VERSION) -> Message:
             raise VersionMismatchError(
                 "peer speaks wire protocol version {}, this end speaks {} ({} message)".format(
                     their, version, kind), ours=version, theirs=their)
-    values = {}
-    for name, field_kind in _SCHEMA[kind]:
-        if name not in frame:
-            raise MalformedFrameError("{} message lacks field {!r}".format(kind, name))
-        values[name] = _check(kind, name, field_kind, frame.pop(name))
-    if frame:
-        raise MalformedFrameError("{} message has unknown field(s) {}".format(
-            kind, excerpt(", ".join(sorted(frame)), 80)))
-    if kind in ("hello", "welcome"):
-        values["version"] = their
-    return MESSAGE_TYPES[kind](**values)
+    try:
+        if kind in ("hello", "welcome"):
+            return SCHEMAS[kind](frame, "", version=their)
+        return SCHEMAS[kind](frame, "")
+    except SchemaError as err:
+        raise MalformedFrameError(err.in_message(kind)) from None
 
 
 #: A pose feedback frame this small is read by the fast path below: every robot sends ten a
@@ -149,37 +170,3 @@ def _is_int(value: Any) -> bool:
 def _is_number(value: Any) -> bool:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value))
-
-
-def _check(kind: str, name: str, field_kind: str, value: Any) -> Any:
-    """`value` as the record wants it, or MalformedFrameError naming what was expected."""
-    if field_kind == "int" or (field_kind == "opt_int" and value is not None):
-        if _is_int(value) and 0 <= value <= _MAX_ID:
-            return value
-        expected = "a non-negative integer" + (" or null" if field_kind == "opt_int" else "")
-    elif field_kind == "opt_int":
-        return None
-    elif field_kind == "float":
-        if _is_number(value):
-            return float(value)
-        expected = "a finite number"
-    elif field_kind == "str":
-        if isinstance(value, str) and len(value) <= MAX_WIRE_TEXT:
-            return value
-        expected = "a string of at most {} characters".format(MAX_WIRE_TEXT)
-    elif field_kind == "bool":
-        if isinstance(value, bool):
-            return value
-        expected = "true or false"
-    elif field_kind == "strs":
-        if (isinstance(value, list) and len(value) <= MAX_WIRE_LIST
-                and all(isinstance(v, str) and len(v) <= MAX_WIRE_TEXT for v in value)):
-            return tuple(value)
-        expected = "a list of at most {} strings of at most {} characters".format(
-            MAX_WIRE_LIST, MAX_WIRE_TEXT)
-    else:  # pose
-        if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
-            return Pose(float(value[0]), float(value[1]), float(value[2]))
-        expected = "[x, y, theta] (three finite numbers)"
-    raise MalformedFrameError("field {!r} of a {} message must be {}, got {}".format(
-        name, kind, expected, excerpt(value)))

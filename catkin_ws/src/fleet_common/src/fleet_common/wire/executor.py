@@ -1,6 +1,6 @@
 """The robot's command executor: each command id runs at most once, one at a time.
 
-Pure: it drives a `Navigator` and returns replies; the transport sends them.
+Pure: it drives a `PollingNavigator` and returns replies; the transport sends them.
 Every reply comes out as `(epoch, reply)`, the epoch being the manager's
 (from its Hello), so the transport can route it to that manager's newest
 connection: a command may finish after the connection that sent it was
@@ -33,7 +33,7 @@ from ..limits import one_line
 from .command_check import CommandCheck
 from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Reply,
                        Status, Stop, Turn)
-from .navigator import MotionRefused, Navigator
+from .navigator import MotionRefused, PollingNavigator
 
 __all__ = ["CommandExecutor", "Routed"]
 
@@ -45,7 +45,7 @@ class CommandExecutor:
     """Runs commands through `navigator`; remembers the last `memory` outcomes. `check`
     says what the robot's world forbids (default: no map, the default limits)."""
 
-    def __init__(self, navigator: Navigator, memory: int = 4096,
+    def __init__(self, navigator: PollingNavigator, memory: int = 4096,
                  check: Optional[CommandCheck] = None,
                  on_execute: Optional[Callable[[str, Command], None]] = None) -> None:
         if memory < 1:

@@ -1,11 +1,13 @@
-"""What the robot-side executor drives: a non-blocking navigation interface.
+"""What the robot-side executor drives: `PollingNavigator`, non-blocking, in base-grid cells.
 
 The thesis's navigation API is two blocking calls, `driveToPosition(x, y,
 time)` and `turn(angle)` (3.6.1). The executor must stay responsive while a
 robot moves (to answer status, heartbeats and a preempting stop), so it uses
 them split in two: `start_*` begins a motion and returns at once, `poll()`
-says whether it has ended. The ROS navigator (agv_package) and the virtual
-robot (virtual_fleet) implement this; neither needs to know about messages.
+says whether it has ended. The robot (agv_package's `WireNavigator`, over its
+`BlockingNavigator` in metres) and the virtual robot (virtual_fleet) implement
+this; neither needs to know about messages. Both kinds of navigator report how a
+motion ended with the one `MotionOutcome`.
 
 All coordinates are base-grid cells and radians; a navigator that works in
 its own frame (metres, the robot frame) converts inside itself.
@@ -22,7 +24,7 @@ except ImportError:  # pragma: no cover
 
 from .messages import Pose
 
-__all__ = ["Navigator", "MotionOutcome", "MotionRefused"]
+__all__ = ["PollingNavigator", "MotionOutcome", "MotionRefused"]
 
 
 @dataclass(frozen=True)
@@ -38,7 +40,9 @@ class MotionRefused(Exception):
     grid, a fault); the message is the reason the manager is told."""
 
 
-class Navigator(Protocol):
+class PollingNavigator(Protocol):
+    """Starts a motion and returns at once; `poll` says when and how it ended."""
+
     def start_drive(self, x: float, y: float, time: float) -> None:
         """Begin: turn to face (x, y), then drive there, arriving `time` s from now
         (0: at the configured speed). Returns at once; MotionRefused if it cannot."""

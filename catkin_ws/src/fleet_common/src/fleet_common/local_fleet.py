@@ -1,7 +1,7 @@
 """A fleet on this machine: free loopback ports and a robot definitions copy that uses them.
 
 The lab's robot_definitions.txt names the robots' own addresses; a virtual
-run (the demo, tests, benchmarks) needs the same robots on 127.0.0.1. One
+run (the demo, sweeps' wire cells, tests, benchmarks) needs the same robots on 127.0.0.1. One
 block of consecutive free ports serves it: the robots' command ports, then
 their pose feedback ports (`fleet_common.wire.ports`: base, base + 1, ...),
 then the manager's console port. The block lies below the kernel's ephemeral

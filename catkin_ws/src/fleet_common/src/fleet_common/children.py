@@ -1,5 +1,7 @@
 """Processes a command starts and must stop: each in its own process group, stopped by pid.
 
+Used by the demo (`fleetctl demo`) and by sweeps' wire cells (`evaluation`), which both
+start `fleetctl virtual-fleet` and `fleetctl manager`, so it sits below both of them.
 `Child.start` runs `fleetctl ARGS` (this Python, `-m fleetctl`) in a new
 session, so the terminal's Ctrl-C reaches only the parent, which then stops
 its children in the order it chooses; `stop()` sends SIGINT to the child's
