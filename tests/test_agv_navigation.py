@@ -185,3 +185,32 @@ def test_navigator_refuses_to_move_without_a_pose_and_stops_when_told() -> None:
     result = navigator.drive_to_position(goal[0], goal[1], 0.0)
     assert result == MotionOutcome(False, "bumper pressed") and world.command == STOP
     assert world.now < 1.2
+
+
+def test_a_drive_with_a_hold_point_waits_there_and_goes_on_when_released() -> None:
+    # the simulated robot (base, camera, tags) drives 2 cells east; it may go 0.5 m only
+    world = World((0, 2), BaseNoise(), seed=2)
+    navigator = world.navigator()
+    goal = world.frame.point_to_robot(2, 2)
+    start = world.base.truth
+    hold = (start.x + 0.5, start.y)
+    result: List[MotionOutcome] = []
+    releases = {12.0: (start.x + 1.0, start.y), 25.0: goal}  # long after it reached the hold point
+
+    def sleep(seconds: float) -> None:  # the manager releases it while it waits
+        World.sleep(world, seconds)
+        for at in sorted(releases):
+            if world.now >= at:
+                navigator.release(*releases.pop(at))
+        positions.append((world.now, world.base.truth.x - start.x))
+
+    positions: List[Tuple[float, float]] = []
+    navigator._sleep = sleep
+    result.append(navigator.drive_to_position(goal[0], goal[1], 0.0, hold))
+    assert result == [MotionOutcome(True)]  # no time-out while it waited (25 s)
+    before_release = [x for t, x in positions if t < 12.0]
+    assert max(before_release) <= 0.5 + MOTION.position_tolerance  # never past its hold point
+    assert before_release[-1] == pytest.approx(0.5, abs=MOTION.position_tolerance)  # stopped there
+    second = [x for t, x in positions if 12.0 <= t < 25.0]
+    assert max(second) <= 1.0 + MOTION.position_tolerance and second[-1] == pytest.approx(1.0, abs=0.02)
+    assert world.base.truth.x - start.x == pytest.approx(1.4, abs=0.02)

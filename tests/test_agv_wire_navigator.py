@@ -33,9 +33,12 @@ class FakeNavigator(BlockingNavigator):
     def now(self) -> float:
         return self.clock
 
-    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
-        self.calls.append(("drive", (x, y, arrival)))
+    def drive_to_position(self, x: float, y: float, arrival: float, hold=None) -> MotionOutcome:
+        self.calls.append(("drive", (x, y, arrival) if hold is None else (x, y, arrival) + tuple(hold)))
         return self._wait()
+
+    def release(self, x: float, y: float) -> None:
+        self.calls.append(("release", (x, y)))
 
     def turn(self, heading: float) -> MotionOutcome:
         self.calls.append(("turn", (heading,)))

@@ -36,17 +36,17 @@ from helpers import fleetctl, free_port_block, free_ports, virtual_fleet_process
 
 REPO = Path(__file__).resolve().parents[1]
 
-BIG_X = b'{"t":"drive","v":1,"id":5,"x":' + b"1" * 400 + b',"y":0,"time":0}'
+BIG_X = b'{"t":"drive","v":2,"id":5,"x":' + b"1" * 400 + b',"y":0,"time":0}'
 HOSTILE: Dict[str, bytes] = {
     "a 400-digit x": BIG_X,
     "30,000 nested [": b"[" * 30000,
-    "an id beyond int64": b'{"t":"stop","v":1,"id":' + b"9" * 30 + b"}",
-    "x = 1e400": b'{"t":"drive","v":1,"id":5,"x":1e400,"y":0,"time":0}',
-    "NaN": b'{"t":"turn","v":1,"id":5,"angle":NaN}',
+    "an id beyond int64": b'{"t":"stop","v":2,"id":' + b"9" * 30 + b"}",
+    "x = 1e400": b'{"t":"drive","v":2,"id":5,"x":1e400,"y":0,"time":0}',
+    "NaN": b'{"t":"turn","v":2,"id":5,"angle":NaN}',
     "not UTF-8": b"\xff\xfe\xfd",
     "an empty frame": b"",
-    "a key twice": b'{"t":"stop","v":1,"id":5,"id":6}',
-    "a 60 KB reason": b'{"t":"bye","v":1,"reason":"' + b"r" * 60000 + b'","code":"x"}',
+    "a key twice": b'{"t":"stop","v":2,"id":5,"id":6}',
+    "a 60 KB reason": b'{"t":"bye","v":2,"reason":"' + b"r" * 60000 + b'","code":"x"}',
     "80 KB, beyond the frame limit": b"[" + b"1," * 40000 + b"1]",
 }
 

@@ -77,7 +77,7 @@ def test_nesting_beyond_the_limit_is_refused_and_within_it_accepted(depth: int, 
 
 
 def test_the_frames_that_killed_the_virtual_fleet_are_refused() -> None:
-    big_x = b'{"t":"drive","v":1,"id":1,"x":' + b"1" * 400 + b',"y":0,"time":0}'
+    big_x = b'{"t":"drive","v":2,"id":1,"x":' + b"1" * 400 + b',"y":0,"time":0}'
     with pytest.raises(DecodeError, match="400 characters"):
         loads_frame(big_x)
     with pytest.raises(DecodeError, match="nested 30,000 deep"):

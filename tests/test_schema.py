@@ -61,7 +61,7 @@ def test_a_declaration_out_of_step_with_its_dataclass_is_refused_at_once() -> No
 
 def test_both_protocols_word_a_bad_field_alike() -> None:
     with pytest.raises(MalformedFrameError) as robot:
-        decode_wire(b'{"t":"turn","v":1,"id":1,"angle":"north"}')
+        decode_wire(b'{"t":"turn","v":2,"id":1,"angle":"north"}')
     assert str(robot.value) == "field 'angle' of a turn message must be a finite number, got 'north'"
     run = RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, 0, None, 0, None)
     frame = json.loads(encode_console(State(7, 1, run, ())))

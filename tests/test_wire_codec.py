@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fleet_common.wire import (PROTOCOL_VERSION, Accepted, Bye, Completed, DriveToPosition,
+from fleet_common.wire import (PROTOCOL_VERSION, Accepted, Bye, Completed, DriveToPosition, Release,
                                Failed, GetStatus, Heartbeat, Hello, Pose, PoseFeedback,
                                RemoteProtocolError, Status, Stop, Turn, VersionMismatchError,
                                Welcome)
@@ -27,7 +27,8 @@ BY_TYPE = {
     "welcome": st.builds(Welcome, small, texts, st.integers(1, 65535)),
     "bye": st.builds(Bye, texts, texts),
     "heartbeat": st.just(Heartbeat()),
-    "drive": st.builds(DriveToPosition, ids, reals, reals, reals),
+    "drive": st.builds(DriveToPosition, ids, reals, reals, reals, st.none() | st.tuples(reals, reals)),
+    "release": st.builds(Release, ids, ids, reals, reals),
     "turn": st.builds(Turn, ids, reals),
     "stop": st.builds(Stop, ids),
     "get_status": st.builds(GetStatus, ids),
@@ -64,9 +65,12 @@ def test_frames_are_compact_json_naming_type_and_version(message: object) -> Non
 
 def test_a_drive_frame_reads_as_documented() -> None:
     assert encode(DriveToPosition(7, 3.0, 4.0, 2.5)) == (
-        b'{"t":"drive","v":1,"id":7,"x":3.0,"y":4.0,"time":2.5}')
-    # integers are fine where numbers are expected
-    assert decode(b'{"t":"drive","v":1,"id":7,"x":3,"y":4,"time":0}') == DriveToPosition(7, 3, 4, 0)
+        b'{"t":"drive","v":2,"id":7,"x":3.0,"y":4.0,"time":2.5,"hold":null}')
+    # integers are fine where numbers are expected; a drive without a hold point may leave it out
+    assert decode(b'{"t":"drive","v":2,"id":7,"x":3,"y":4,"time":0}') == DriveToPosition(7, 3, 4, 0)
+    assert decode(b'{"t":"drive","v":2,"id":7,"x":3,"y":4,"time":0,"hold":[3,3.5]}') == \
+        DriveToPosition(7, 3, 4, 0, (3.0, 3.5))
+    assert encode(Release(8, 7, 3.0, 3.7)) == b'{"t":"release","v":2,"id":8,"drive":7,"x":3.0,"y":3.7}'
 
 
 @pytest.mark.parametrize("data, message", [
@@ -75,18 +79,18 @@ def test_a_drive_frame_reads_as_documented() -> None:
     (b"[1, 2]", "not a JSON object"),
     (b'{"t":"teleport","v":1}', "unknown message type 'teleport'; known: accepted, bye"),
     (b'{"t":"stop"}', "stop message without an integer protocol version"),
-    (b'{"t":"drive","v":1,"id":7,"x":3,"y":4}', "drive message lacks field 'time'"),
-    (b'{"t":"stop","v":1,"id":7,"urgent":true}', "stop message has unknown field(s) 'urgent'"),
-    (b'{"t":"stop","v":1,"id":-1}', "field 'id' of a stop message must be a non-negative integer, got -1"),
-    (b'{"t":"stop","v":1,"id":true}', "must be a non-negative integer, got True"),
-    (b'{"t":"turn","v":1,"id":1,"angle":"north"}', "field 'angle' of a turn message must be a finite number"),
-    (b'{"t":"turn","v":1,"id":1,"angle":NaN}', "NaN is not a number JSON allows"),
-    (b'{"t":"turn","v":1,"id":1,"angle":1e999}', "number 1e999 is out of range"),
-    (b'{"t":"status","v":1,"id":1,"pose":[1,2],"current":null,"faults":[]}',
+    (b'{"t":"drive","v":2,"id":7,"x":3,"y":4}', "drive message lacks field 'time'"),
+    (b'{"t":"stop","v":2,"id":7,"urgent":true}', "stop message has unknown field(s) 'urgent'"),
+    (b'{"t":"stop","v":2,"id":-1}', "field 'id' of a stop message must be a non-negative integer, got -1"),
+    (b'{"t":"stop","v":2,"id":true}', "must be a non-negative integer, got True"),
+    (b'{"t":"turn","v":2,"id":1,"angle":"north"}', "field 'angle' of a turn message must be a finite number"),
+    (b'{"t":"turn","v":2,"id":1,"angle":NaN}', "NaN is not a number JSON allows"),
+    (b'{"t":"turn","v":2,"id":1,"angle":1e999}', "number 1e999 is out of range"),
+    (b'{"t":"status","v":2,"id":1,"pose":[1,2],"current":null,"faults":[]}',
      "field 'pose' of a status message must be [x, y, theta]"),
-    (b'{"t":"status","v":1,"id":1,"pose":[1,2,3],"current":null,"faults":"bumper"}',
+    (b'{"t":"status","v":2,"id":1,"pose":[1,2,3],"current":null,"faults":"bumper"}',
      "field 'faults' of a status message must be a list of at most 32 strings"),
-    (b'{"t":"accepted","v":1,"id":1,"duplicate":0}', "must be true or false, got 0"),
+    (b'{"t":"accepted","v":2,"id":1,"duplicate":0}', "must be true or false, got 0"),
 ])
 def test_malformed_frames_say_what_is_wrong(data: bytes, message: str) -> None:
     with pytest.raises(RemoteProtocolError) as err:
@@ -95,11 +99,12 @@ def test_malformed_frames_say_what_is_wrong(data: bytes, message: str) -> None:
 
 
 def test_other_version_hello_is_a_version_mismatch() -> None:
-    data = encode(Hello(3, "e", version=2), version=2)
+    # a robot of version 1 (before hold points) meets a manager of version 2
+    data = encode(Hello(3, "e", version=1), version=1)
     with pytest.raises(VersionMismatchError) as err:
         decode(data)
-    assert (err.value.ours, err.value.theirs) == (1, 2)
-    assert "peer speaks wire protocol version 2, this end speaks 1" in str(err.value)
+    assert (err.value.ours, err.value.theirs) == (2, 1)
+    assert "peer speaks wire protocol version 1, this end speaks 2" in str(err.value)
 
 
 def test_a_bye_of_any_version_is_readable() -> None:
@@ -137,13 +142,13 @@ def test_mutated_frames_decode_to_a_message_or_a_protocol_error(message: object,
 
 
 @pytest.mark.parametrize("data, message", [
-    (b'{"t":"drive","v":1,"id":1,"x":' + b"1" * 400 + b',"y":0,"time":0}', "400 characters"),
+    (b'{"t":"drive","v":2,"id":1,"x":' + b"1" * 400 + b',"y":0,"time":0}', "400 characters"),
     (b"[" * 30000, "nested 30,000 deep"),
-    (b'{"t":"stop","v":1,"id":' + b"9" * 30 + b"}", "must be a non-negative integer"),
-    (b'{"t":"failed","v":1,"id":1,"reason":"' + b"x" * 2000 + b'"}', "at most 1000 characters"),
-    (b'{"t":"status","v":1,"id":1,"pose":[0,0,0],"current":null,"faults":['
+    (b'{"t":"stop","v":2,"id":' + b"9" * 30 + b"}", "must be a non-negative integer"),
+    (b'{"t":"failed","v":2,"id":1,"reason":"' + b"x" * 2000 + b'"}', "at most 1000 characters"),
+    (b'{"t":"status","v":2,"id":1,"pose":[0,0,0],"current":null,"faults":['
      + b",".join([b'"f"'] * 40) + b"]}", "at most 32 strings"),
-    (b'{"t":"stop","v":1,"id":1,"id":2}', "'id' appears twice"),
+    (b'{"t":"stop","v":2,"id":1,"id":2}', "'id' appears twice"),
     (b'{"t":"' + b"q" * 5000 + b'","v":1}', "(5,000 characters)"),
 ])
 def test_the_hostile_frames_are_refused_with_a_short_reason(data: bytes, message: str) -> None:
@@ -172,7 +177,7 @@ _any_json = st.recursive(st.none() | st.booleans() | st.integers() | st.floats()
 def test_the_fast_path_for_poses_agrees_with_the_general_one(fields) -> None:
     """Pose frames take a quicker road (3,000 a second for 300 robots); it must lead to the same
     message, or to the same refusal, as the general decoder, whatever the fields hold."""
-    frame = json.dumps(dict({"t": "pose", "v": 1}, **fields), separators=(",", ":")).encode()
+    frame = json.dumps(dict({"t": "pose", "v": PROTOCOL_VERSION}, **fields), separators=(",", ":")).encode()
     general = b"{ " + frame[1:]  # a space after the brace: not the fast path's shape
 
     def outcome(data: bytes):
@@ -185,6 +190,6 @@ def test_the_fast_path_for_poses_agrees_with_the_general_one(fields) -> None:
 
 
 def test_a_pose_frame_with_a_key_twice_is_refused_on_the_fast_path_too() -> None:
-    frame = b'{"t":"pose","v":1,"robot_id":1,"robot_id":2,"seq":1,"pose":[1,1,1],"current":null,"faults":[]}'
+    frame = b'{"t":"pose","v":2,"robot_id":1,"robot_id":2,"seq":1,"pose":[1,1,1],"current":null,"faults":[]}'
     with pytest.raises(MalformedFrameError, match="twice"):
         decode(frame)

@@ -125,11 +125,11 @@ def test_a_hello_for_another_robot_is_refused_with_a_hint() -> None:
 
 
 def test_version_mismatch_is_a_clear_error_on_both_ends() -> None:
-    manager = Connection(Role.MANAGER, ROBOT, version=2)
+    manager = Connection(Role.MANAGER, ROBOT, version=3)
     robot = Connection(Role.ROBOT, ROBOT)
     with pytest.raises(VersionMismatchError) as robot_side:
-        robot.receive(manager.send(Hello(ROBOT, "e", version=2)))
-    text = "the manager speaks version 2, robot 3 speaks version 1; update the older side"
+        robot.receive(manager.send(Hello(ROBOT, "e", version=3)))
+    text = "the manager speaks version 3, robot 3 speaks version 2; update the older side"
     assert text in str(robot_side.value)
     assert robot.state is State.START
     # what the transport does with it: a bye, which the older or newer manager can read
@@ -144,14 +144,14 @@ def test_version_mismatch_is_a_clear_error_on_both_ends() -> None:
 def test_a_manager_refuses_a_welcome_of_another_version() -> None:
     manager = Connection(Role.MANAGER, ROBOT)
     manager.send(Hello(ROBOT, "e"))
-    with pytest.raises(VersionMismatchError, match="the manager speaks version 1, robot 3 speaks version 5"):
+    with pytest.raises(VersionMismatchError, match="the manager speaks version 2, robot 3 speaks version 5"):
         manager.receive(encode(Welcome(ROBOT, "s", 9980, version=5), version=5))
     assert manager.state is State.HANDSHAKE
 
 
 def test_an_end_cannot_send_a_handshake_of_another_version() -> None:
-    with pytest.raises(LocalProtocolError, match="this end speaks version 1"):
-        Connection(Role.MANAGER, ROBOT).send(Hello(ROBOT, "e", version=2))
+    with pytest.raises(LocalProtocolError, match="this end speaks version 2"):
+        Connection(Role.MANAGER, ROBOT).send(Hello(ROBOT, "e", version=1))
 
 
 # ---- property: both ends always agree ------------------------------------------------

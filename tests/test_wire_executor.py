@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from fleet_common.wire import (Accepted, CommandExecutor, Completed, Connection, DriveToPosition,
                                Failed, GetStatus, Hello, MotionOutcome, MotionRefused, Pose, Role,
-                               Status, Stop, Turn, Welcome)
+                               Release, Status, Stop, Turn, Welcome)
 
 
 class FakeNavigator:
@@ -22,10 +22,13 @@ class FakeNavigator:
         self.fault_list: List[str] = []
         self.refuse: Optional[str] = None
 
-    def start_drive(self, x: float, y: float, time: float) -> None:
+    def start_drive(self, x: float, y: float, time: float, hold=None) -> None:
         if self.refuse:
             raise MotionRefused(self.refuse)
-        self.started.append(("drive", x, y, time))
+        self.started.append(("drive", x, y, time) if hold is None else ("drive", x, y, time, hold))
+
+    def release(self, x: float, y: float) -> None:
+        self.started.append(("release", x, y))
 
     def start_turn(self, angle: float) -> None:
         self.started.append(("turn", angle))
@@ -174,3 +177,20 @@ def test_a_command_resent_over_a_new_connection_runs_once(nav: FakeNavigator) ->
     [(epoch, done)] = ex.poll()
     assert manager.receive(robot.send(done)) == Completed(10)
     assert len(nav.started) == 1 and manager.in_flight == {}
+
+
+def test_a_release_moves_the_running_drives_hold_point_and_is_done_at_once(nav: FakeNavigator) -> None:
+    ex = CommandExecutor(nav)
+    assert replies(ex.handle("e", DriveToPosition(1, 2, 3, 0, (2.0, 2.4)))) == [Accepted(1)]
+    assert nav.started == [("drive", 2, 3, 0, (2.0, 2.4))]
+    # it never waits behind the drive it releases, and the drive goes on running
+    assert replies(ex.handle("e", Release(2, 1, 2.0, 2.8))) == [Accepted(2), Completed(2)]
+    assert nav.started[-1] == ("release", 2.0, 2.8) and ex.current == 1
+    # a release sent again is acknowledged, not applied twice; one for another drive does nothing
+    assert replies(ex.handle("e", Release(2, 1, 2.0, 2.8))) == [Accepted(2, duplicate=True), Completed(2)]
+    assert replies(ex.handle("e", Release(3, 9, 2.0, 3.0))) == [Accepted(3), Completed(3)]
+    assert [c for c in nav.started if c[0] == "release"] == [("release", 2.0, 2.8)]
+    nav.outcome = MotionOutcome(True)
+    assert ex.poll() == [("e", Completed(1))]
+    assert replies(ex.handle("e", Release(4, 1, 2.0, 3.0))) == [Accepted(4), Completed(4)]  # too late: nothing
+    assert len([c for c in nav.started if c[0] == "release"]) == 1

@@ -154,12 +154,12 @@ def test_a_manager_of_another_protocol_version_is_told_why(fleet, robot, keys, c
     sock.linger = 0
     sock.curve_secretkey, sock.curve_publickey, sock.curve_serverkey = mk.secret, mk.public, mk.robot_public
     sock.connect("tcp://127.0.0.1:{}".format(robot.command_port))
-    newer = Connection(Role.MANAGER, 7, version=2)
-    sock.send(newer.send(Hello(7, "epoch", version=2)))
+    newer = Connection(Role.MANAGER, 7, version=3)
+    sock.send(newer.send(Hello(7, "epoch", version=3)))
     assert sock.poll(5000)
     with pytest.raises(VersionMismatchError) as err:
         newer.receive(sock.recv())
-    text = "the manager speaks version 2, robot 7 speaks version 1"
+    text = "the manager speaks version 3, robot 7 speaks version 2"
     assert text in str(err.value)
     assert any(text in r.getMessage() for r in caplog.records)  # the robot's log says it too
 

@@ -9,6 +9,11 @@ between questions. Time is the fleet's own: wall time since start times
 drive_to_position(x, y, time) takes max(time, turn + distance/speed) seconds,
 and longer if the delay model slows or stalls the move; turn(angle) goes the
 short way round to an absolute heading.
+
+A drive with a hold point stops there, short of the robot it follows, and
+stays until `release` moves the hold point on: the laid-out segments from that
+moment are put off by as long as it waited (`_put_off`), so a stall the fate
+drew further on still happens where it was drawn.
 """
 from __future__ import annotations
 
@@ -67,6 +72,11 @@ class VirtualNavigator:
         self._bump_at: Optional[float] = None       # fleet second the bumper is hit in this drive
         self._pressed_until: Optional[float] = None  # fleet second the foot goes away
         self._fault = False
+        #: the drive's line: its start point, unit direction and the distance it may go along
+        #: it (None: no hold point), and the fleet second it gets there (None: never)
+        self._line: Optional[Tuple[float, float, float, float]] = None
+        self._hold: Optional[float] = None
+        self._held_at: Optional[float] = None
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -74,7 +84,8 @@ class VirtualNavigator:
 
     # ---- PollingNavigator ------------------------------------------------------------
 
-    def start_drive(self, x: float, y: float, time: float) -> None:
+    def start_drive(self, x: float, y: float, time: float,
+                    hold: Optional[Tuple[float, float]] = None) -> None:
         start = self.true_pose()
         dx, dy = x - start.x, y - start.y
         dist = math.hypot(dx, dy)
@@ -86,8 +97,67 @@ class VirtualNavigator:
         if self._drives in self.bumps and self._segments:
             first, last = self._segments[0].start, self._segments[-1].end
             self._bump_at = first + 0.5 * (last - first)
+        self._line = (start.x, start.y, math.cos(heading), math.sin(heading)) if dist > 1e-9 else None
+        self._hold = self._held_at = None
+        if hold is not None:
+            self._set_hold(hold, dist)
+
+    def release(self, x: float, y: float) -> None:
+        if self._hold is None or self._line is None or not self._segments:
+            return
+        now = self.now()
+        if self._held_at is not None and now > self._held_at:
+            self._put_off(self._held_at, now - self._held_at)  # it waited there until now
+        goal = self._segments[-1].b
+        self._set_hold((x, y), self._along(goal.x, goal.y))
+
+    def _along(self, x: float, y: float) -> float:
+        x0, y0, ux, uy = self._line  # type: ignore[misc]
+        return (x - x0) * ux + (y - y0) * uy
+
+    def _set_hold(self, point: Tuple[float, float], length: float) -> None:
+        """Stop at `point` (projected on the drive's line; only ever further on)."""
+        if self._line is None:
+            return
+        hold = max(self._along(point[0], point[1]), self._hold if self._hold is not None else -math.inf)
+        if hold >= length - 1e-9:
+            self._hold = self._held_at = None  # nothing left to hold it
+            return
+        self._hold = max(hold, 0.0)
+        self._held_at = self._reaches(self._hold)
+
+    def _reaches(self, distance: float) -> Optional[float]:
+        """The fleet second the laid-out drive gets `distance` along its line."""
+        for seg in self._segments:
+            a, b = self._along(seg.a.x, seg.a.y), self._along(seg.b.x, seg.b.y)
+            if b >= distance - 1e-12 and b > a:
+                f = max(0.0, (distance - a) / (b - a))
+                return seg.start + f * (seg.end - seg.start)
+            if a >= distance - 1e-12:
+                return seg.start
+        return None
+
+    def _put_off(self, at: float, delay: float) -> None:
+        """Everything laid out from fleet second `at` on happens `delay` later (the robot
+        stands where it is meanwhile)."""
+        out: List[_Segment] = []
+        for seg in self._segments:
+            if seg.end <= at:
+                out.append(seg)
+            elif seg.start >= at:
+                out.append(_Segment(seg.start + delay, seg.end + delay, seg.a, seg.b))
+            else:
+                mid = self._pose_on(seg, at)
+                out += [_Segment(seg.start, at, seg.a, mid), _Segment(at, at + delay, mid, mid),
+                        _Segment(at + delay, seg.end + delay, mid, seg.b)]
+        self._segments = out
+        if self.dropout_time is not None and self.dropout_time >= at:
+            self.dropout_time += delay
+        if self._bump_at is not None and self._bump_at >= at:
+            self._bump_at += delay
 
     def start_turn(self, angle: float) -> None:
+        self._hold = self._held_at = None
         start = self.true_pose()
         turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
         # the delay model is per move (a plan step, as the engine draws it); a turn on its own
@@ -97,6 +167,7 @@ class VirtualNavigator:
     def halt(self) -> None:
         self._rest = self.true_pose()
         self._segments = []
+        self._hold = self._held_at = None
         self.dropout_time = None
         self._bump_at = None
         if not self._pressed():
@@ -111,8 +182,8 @@ class VirtualNavigator:
             self._fault = True
             self._pressed_until = self.now() + self.bump_seconds
             return MotionOutcome(False, "bumper pressed")
-        if not self._segments or self.now() < self._segments[-1].end:
-            return None
+        if not self._segments or self.now() < self._segments[-1].end or self._held_at is not None:
+            return None  # under way, or waiting at its hold point
         self._rest = self._segments[-1].b
         self._segments = []
         self.dropout_time = None
@@ -135,14 +206,20 @@ class VirtualNavigator:
         if not self._segments:
             return self._rest
         t = self.now()
+        if self._held_at is not None:
+            t = min(t, self._held_at)  # it stands at its hold point
         for seg in self._segments:
             if t < seg.end:
-                if t <= seg.start:
-                    return seg.a
-                f = (t - seg.start) / (seg.end - seg.start)
-                return Pose(seg.a.x + (seg.b.x - seg.a.x) * f, seg.a.y + (seg.b.y - seg.a.y) * f,
-                            wrap_angle(seg.a.theta + wrap_angle(seg.b.theta - seg.a.theta) * f))
+                return self._pose_on(seg, t)
         return self._segments[-1].b
+
+    @staticmethod
+    def _pose_on(seg: _Segment, t: float) -> Pose:
+        if t <= seg.start:
+            return seg.a
+        f = (t - seg.start) / (seg.end - seg.start)
+        return Pose(seg.a.x + (seg.b.x - seg.a.x) * f, seg.a.y + (seg.b.y - seg.a.y) * f,
+                    wrap_angle(seg.a.theta + wrap_angle(seg.b.theta - seg.a.theta) * f))
 
     @property
     def moving(self) -> bool:
@@ -158,7 +235,7 @@ class VirtualNavigator:
         """Wall seconds until poll() or the dropout may change (the loop sleeps that long)."""
         if not self._segments:
             return 1.0
-        due = self._segments[-1].end
+        due = self._segments[-1].end if self._held_at is None else self.now() + 1.0
         if self.dropout_time is not None:
             due = min(due, self.dropout_time)
         if self._bump_at is not None:

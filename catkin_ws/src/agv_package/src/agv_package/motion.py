@@ -12,7 +12,9 @@ frame) and returns the velocity to command, or None when the motion is done.
   distance over remaining time), within [min_speed, max_speed], limited in
   acceleration and braking. It is done when the goal is no more than
   `position_tolerance` ahead along the line, so it never turns back to fix an
-  overshoot.
+  overshoot. With a hold point (`hold`, moved on by `release`) it brakes for
+  that point instead and waits there, at rest, until the hold point moves on:
+  a follower keeps its distance from the robot ahead of it.
 """
 from __future__ import annotations
 
@@ -69,17 +71,35 @@ class DriveController:
     """Drives from `start` along the line to `goal` (world metres), arriving at `arrival`."""
 
     def __init__(self, settings: MotionSettings, start: Pose2D, goal: Tuple[float, float],
-                 arrival: float) -> None:
+                 arrival: float, hold: Optional[Tuple[float, float]] = None) -> None:
         self.settings = settings
         self.start = (start.x, start.y)
         self.goal = (float(goal[0]), float(goal[1]))
         self.arrival = arrival
         dx, dy = self.goal[0] - start.x, self.goal[1] - start.y
-        length = math.hypot(dx, dy)
+        self.length = math.hypot(dx, dy)
         # A zero-length drive keeps the current heading as its line.
-        self.line_heading = math.atan2(dy, dx) if length > 1e-9 else start.theta
+        self.line_heading = math.atan2(dy, dx) if self.length > 1e-9 else start.theta
         self._unit = (math.cos(self.line_heading), math.sin(self.line_heading))
         self._speed = 0.0
+        #: how far along the line it may go (inf: to the goal); True while it waits there
+        self.hold = math.inf
+        self.holding = False
+        if hold is not None:
+            along = self._along(hold)
+            self.hold = math.inf if along >= self.length - 1e-9 else along
+
+    def _along(self, point: Tuple[float, float]) -> float:
+        return (point[0] - self.start[0]) * self._unit[0] + (point[1] - self.start[1]) * self._unit[1]
+
+    def release(self, point: Tuple[float, float]) -> None:
+        """It may go as far as `point` (projected on the line); a hold point only moves on."""
+        along = self._along(point)
+        self.hold = math.inf if along >= self.length - 1e-9 else max(self.hold, along)
+
+    def room(self, pose: Pose2D) -> float:
+        """Distance it may still go before its hold point (inf without one)."""
+        return self.hold - self._along((pose.x, pose.y))
 
     def remaining(self, pose: Pose2D) -> float:
         """Distance still to go along the line (negative once past the goal)."""
@@ -96,9 +116,15 @@ class DriveController:
         if remaining <= s.position_tolerance:
             self._speed = 0.0
             return None
+        room = self.room(pose)
+        self.holding = room <= s.position_tolerance
+        if self.holding:  # at its hold point: stand still until released
+            self._speed = 0.0
+            return STOP
+        stop_at = min(remaining, room)
         time_left = self.arrival - now
         on_time = remaining / time_left if time_left > 1e-3 else s.max_speed
-        braking = math.sqrt(2.0 * s.max_accel * remaining)
+        braking = math.sqrt(2.0 * s.max_accel * stop_at)
         wanted = _clamp(min(on_time, braking), s.min_speed, s.max_speed)
         heading_error = wrap_angle(pose.theta - self.line_heading)
         wanted *= max(0.0, math.cos(heading_error))  # slow down while pointing off the line

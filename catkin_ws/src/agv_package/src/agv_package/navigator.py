@@ -17,7 +17,7 @@ import abc
 import math
 import threading
 import time
-from typing import Callable, Optional, Union
+from typing import Callable, Optional, Tuple, Union
 
 from fleet_common.angles import wrap_angle
 from fleet_common.wire.navigator import MotionOutcome
@@ -37,9 +37,15 @@ class BlockingNavigator(abc.ABC):
     """Moves the robot on the floor; all coordinates in the robot frame (metres, radians)."""
 
     @abc.abstractmethod
-    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
+    def drive_to_position(self, x: float, y: float, arrival: float,
+                          hold: Optional[Tuple[float, float]] = None) -> MotionOutcome:
         """Turn to face (x, y), then drive there, aiming to arrive at time `arrival`
-        (seconds on this navigator's `now()` clock)."""
+        (seconds on this navigator's `now()` clock); with `hold`, wait at that point on
+        the way until `release` moves it on."""
+
+    @abc.abstractmethod
+    def release(self, x: float, y: float) -> None:
+        """The drive under way may go on as far as (x, y) (from another thread)."""
 
     @abc.abstractmethod
     def turn(self, heading: float) -> MotionOutcome:
@@ -81,6 +87,8 @@ class ControlledNavigator(BlockingNavigator):
         self._sleep = sleep
         self._lock = threading.Lock()
         self._stop_reason: Optional[str] = None
+        self._drive: Optional[DriveController] = None  # the drive under way, for release
+        self._released: Optional[Tuple[float, float]] = None  # a release before the drive began
 
     def now(self) -> float:
         return self._clock()
@@ -97,12 +105,24 @@ class ControlledNavigator(BlockingNavigator):
         self._begin()
         return self._run(TurnController(self.settings, heading), self._turn_time(heading))
 
-    def drive_to_position(self, x: float, y: float, arrival: float) -> MotionOutcome:
+    def release(self, x: float, y: float) -> None:
+        with self._lock:
+            if self._drive is not None:
+                self._drive.release((x, y))
+            else:
+                self._released = (x, y)
+
+    def drive_to_position(self, x: float, y: float, arrival: float,
+                          hold: Optional[Tuple[float, float]] = None) -> MotionOutcome:
         self._begin()
         start = self._pose_source()
         if start is None:
             return self._not_localized()
-        drive = DriveController(self.settings, start, (x, y), arrival)
+        drive = DriveController(self.settings, start, (x, y), arrival, hold)
+        with self._lock:
+            if self._released is not None:  # a release that came while it turned to start
+                drive.release(self._released)
+            self._drive, self._released = drive, None
         if needs_turn(start, drive.line_heading, self.settings):
             result = self._run(TurnController(self.settings, drive.line_heading),
                                self._turn_time(drive.line_heading))
@@ -110,13 +130,18 @@ class ControlledNavigator(BlockingNavigator):
                 return result
         distance = math.hypot(x - start.x, y - start.y)
         limit = max(arrival - self._clock(), 0.0) + distance / self.settings.min_speed
-        return self._run(drive, limit)
+        try:
+            return self._run(drive, limit)
+        finally:
+            with self._lock:
+                self._drive = None
 
     # ---- the loop ----------------------------------------------------------------
 
     def _begin(self) -> None:
         with self._lock:
             self._stop_reason = None
+            self._drive = self._released = None
 
     def _stopped(self) -> Optional[str]:
         with self._lock:
@@ -153,6 +178,8 @@ class ControlledNavigator(BlockingNavigator):
                 return MotionOutcome(False, "timed out: the motion took {:.0f} s longer than "
                                         "expected".format(TIMEOUT_SLACK))
             command = controller.step(pose, now, max(now - last, 1e-3))
+            if getattr(controller, "holding", False):
+                deadline += now - last  # waiting at a hold point is not slowness
             last = now
             if command is None:
                 self._send(STOP)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Callable, List, Optional
+from typing import Callable, List, Optional, Tuple
 
 from fleet_common.wire.messages import Pose
 from fleet_common.wire.navigator import MotionOutcome, MotionRefused
@@ -53,12 +53,19 @@ class WireNavigator:
 
     # ---- the wire navigator interface --------------------------------------------
 
-    def start_drive(self, x: float, y: float, time: float) -> None:
+    def start_drive(self, x: float, y: float, time: float,
+                    hold: Optional[Tuple[float, float]] = None) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MotionRefused("target ({}, {}) is not a point".format(x, y))
         goal = self.frame.point_to_robot(x, y)
+        stop = None if hold is None else self.frame.point_to_robot(hold[0], hold[1])
         arrival = self.navigator.now() + time
-        self._start(lambda: self.navigator.drive_to_position(goal[0], goal[1], arrival))
+        self._start(lambda: self.navigator.drive_to_position(goal[0], goal[1], arrival, stop))
+
+    def release(self, x: float, y: float) -> None:
+        if math.isfinite(x) and math.isfinite(y):
+            point = self.frame.point_to_robot(x, y)
+            self.navigator.release(point[0], point[1])
 
     def start_turn(self, angle: float) -> None:
         if not math.isfinite(angle):

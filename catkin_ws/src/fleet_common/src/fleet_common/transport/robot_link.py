@@ -40,7 +40,7 @@ from ..limits import excerpt
 from ..ratelimit import RateLimitedLog
 from ..robots import RobotDefinition
 from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed, GetStatus,
-                    Heartbeat, Hello, Liveness, RemoteProtocolError, Role, Status, Stop, Turn,
+                    Heartbeat, Hello, Liveness, Release, RemoteProtocolError, Role, Status, Stop, Turn,
                     VersionMismatchError, Welcome)
 from .curve_keys import ManagerKeys
 from ..wire.link_events import OUTCOME_UNKNOWN, LinkDown, LinkEvent, LinkUp, RobotReply
@@ -89,8 +89,12 @@ class RobotLink:
 
     # ---- commands (the thesis's navigation API, remote) ---------------------------
 
-    def drive_to_position(self, x: float, y: float, time: float) -> int:
-        return self._issue(lambda i: DriveToPosition(i, float(x), float(y), float(time)))
+    def drive_to_position(self, x: float, y: float, time: float,
+                          hold: Optional[Tuple[float, float]] = None) -> int:
+        return self._issue(lambda i: DriveToPosition(i, float(x), float(y), float(time), hold))
+
+    def release(self, drive: int, x: float, y: float) -> int:
+        return self._issue(lambda i: Release(i, drive, float(x), float(y)))
 
     def turn(self, angle: float) -> int:
         return self._issue(lambda i: Turn(i, float(angle)))

@@ -43,7 +43,7 @@ from .executor import CommandExecutor
 from .liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from .messages import (COMMAND_TYPES, MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Command,
                        Completed, DriveToPosition, Failed, GetStatus, Heartbeat, Hello, Message,
-                       Pose, PoseFeedback, Reply, Status, Stop, Turn, Welcome)
+                       Pose, PoseFeedback, Release, Reply, Status, Stop, Turn, Welcome)
 from .navigator import MotionOutcome, MotionRefused, PollingNavigator
 from .ports import FEEDBACK_PORT, feedback_ports, on_localhost
 from .states import Phase, Role, State
@@ -53,7 +53,7 @@ __all__ = [
     "VersionMismatchError", "CommandExecutor", "HEARTBEAT_INTERVAL", "PEER_TIMEOUT", "Liveness",
     "COMMAND_TYPES", "MESSAGE_TYPES", "PROTOCOL_VERSION", "Accepted", "Bye", "Command",
     "Completed", "DriveToPosition", "Failed", "GetStatus", "Heartbeat", "Hello", "Message", "Pose",
-    "PoseFeedback", "Reply", "Status", "Stop", "Turn", "Welcome", "MotionOutcome",
+    "PoseFeedback", "Release", "Reply", "Status", "Stop", "Turn", "Welcome", "MotionOutcome",
     "MotionRefused", "PollingNavigator", "FEEDBACK_PORT", "feedback_ports", "on_localhost", "Phase",
     "Role", "State",
 ]

@@ -25,13 +25,14 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 from ..limits import MAX_WIRE_LIST, MAX_WIRE_TEXT, DecodeError, excerpt, loads_frame
 from ..schema import Bool, Checker, Int, ListOf, Num, Opt, Record, SchemaError, Str
 from .errors import MalformedFrameError, VersionMismatchError
 from .messages import (MESSAGE_TYPES, PROTOCOL_VERSION, Accepted, Bye, Completed, DriveToPosition, Failed,
-                       GetStatus, Heartbeat, Hello, Message, Pose, PoseFeedback, Status, Stop, Turn, Welcome)
+                       GetStatus, Heartbeat, Hello, Message, Pose, PoseFeedback, Release, Status, Stop, Turn,
+                       Welcome)
 
 __all__ = ["encode", "decode", "SCHEMAS"]
 
@@ -60,16 +61,35 @@ _TEXTS = ListOf(_TEXT, MAX_WIRE_LIST, what="a list of at most {} strings of at m
     MAX_WIRE_LIST, MAX_WIRE_TEXT))
 _POSE = _Pose()
 
+
+class _Point(Checker):
+    """A point as [x, y]."""
+
+    what = "[x, y] (two finite numbers)"
+    plain = False
+
+    def __call__(self, value: Any, path: str) -> Tuple[float, float]:
+        if isinstance(value, list) and len(value) == 2 and all(map(_is_number, value)):
+            return float(value[0]), float(value[1])
+        raise self.fail(value, path)
+
+    def dump(self, value: Tuple[float, float]) -> Any:
+        return [value[0], value[1]]
+
+#: Fields a frame may leave out, and what they then are.
+OPTIONAL: Dict[str, Dict[str, Any]] = {"drive": {"hold": None}}
 #: Fields of each message type (the frame's "t" and "v" aside; a hello's and a welcome's
 #: `version` is the frame's "v").
-SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, extra=("version",)) for cls, fields in (
+SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, extra=("version",), optional=OPTIONAL.get(cls.TYPE))
+                              for cls, fields in (
     (Hello, {"robot_id": _ID, "epoch": _TEXT}),
     (Welcome, {"robot_id": _ID, "session": _TEXT, "feedback_port": _ID}),
     (Bye, {"reason": _TEXT, "code": _TEXT}),
     (Heartbeat, {}),
-    (DriveToPosition, {"id": _ID, "x": _NUM, "y": _NUM, "time": _NUM}),
+    (DriveToPosition, {"id": _ID, "x": _NUM, "y": _NUM, "time": _NUM, "hold": Opt(_Point())}),
     (Turn, {"id": _ID, "angle": _NUM}),
     (Stop, {"id": _ID}),
+    (Release, {"id": _ID, "drive": _ID, "x": _NUM, "y": _NUM}),
     (GetStatus, {"id": _ID}),
     (Accepted, {"id": _ID, "duplicate": Bool()}),
     (Completed, {"id": _ID}),

@@ -16,6 +16,9 @@ Rules, in the order they are applied to a command:
 - `GetStatus` is answered at once (reading has no effect to repeat);
 - a drive or turn the robot's world forbids is refused (`command_check`: off
   the map, into an obstacle, more than a step, an unreasonable time);
+- `Release` moves the running drive's hold point on (if it names the drive that
+  runs; otherwise there is nothing to release) and is accepted and completed at
+  once: it never waits behind the drive it releases;
 - `Stop` preempts: the navigator halts, the running command fails with
   "stopped by command N", the stop is accepted and completed at once;
 - a drive or turn is refused while the robot has faults or another command
@@ -31,8 +34,8 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 from ..limits import one_line
 from .command_check import CommandCheck
-from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Reply,
-                       Status, Stop, Turn)
+from .messages import (Accepted, Command, Completed, DriveToPosition, Failed, GetStatus, Release,
+                       Reply, Status, Stop, Turn)
 from .navigator import MotionRefused, PollingNavigator
 
 __all__ = ["CommandExecutor", "Routed"]
@@ -88,6 +91,8 @@ class CommandExecutor:
         self._highest[epoch] = command.id
         if isinstance(command, Stop):
             return self._stop(key, command)
+        if isinstance(command, Release):
+            return self._release(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
@@ -123,7 +128,7 @@ class CommandExecutor:
             return "busy with command {}; send stop first or wait for it".format(self._running[1])
         try:
             if isinstance(command, DriveToPosition):
-                self.navigator.start_drive(command.x, command.y, command.time)
+                self.navigator.start_drive(command.x, command.y, command.time, command.hold)
             elif isinstance(command, Turn):
                 self.navigator.start_turn(command.angle)
         except MotionRefused as err:
@@ -146,6 +151,12 @@ class CommandExecutor:
         out.append((key[0], Accepted(key[1])))
         out.append(self._settle(key, Completed(key[1]), accepted=True))
         return out
+
+    def _release(self, key: _Key, command: Release) -> List[Routed]:
+        if self._running == (key[0], command.drive):
+            self.navigator.release(command.x, command.y)
+        self._remember(key, True, None)
+        return [(key[0], Accepted(key[1])), self._settle(key, Completed(key[1]), accepted=True)]
 
     def _settle(self, key: _Key, reply: Reply, accepted: bool) -> Routed:
         self._remember(key, accepted, reply)

@@ -17,8 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Dict, Optional, Tuple, Type, Union
 
-#: The version this code speaks; bump it on any incompatible change.
-PROTOCOL_VERSION = 1
+#: The version this code speaks; bump it on any incompatible change (2: hold points, `Release`:
+#: a robot that ignored them could drive into the robot it follows).
+PROTOCOL_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -75,13 +76,17 @@ class Heartbeat:
 @dataclass(frozen=True)
 class DriveToPosition:
     """driveToPosition(x, y, time): turn to face (x, y), then drive there, arriving
-    `time` seconds after the robot received the command (0: as fast as allowed)."""
+    `time` seconds after the robot received the command (0: as fast as allowed).
+
+    `hold`: a point on the way the robot must not drive past (it stops there, short of
+    the robot it follows) until a `Release` lets it on; None: no hold point."""
 
     TYPE: ClassVar[str] = "drive"
     id: int
     x: float
     y: float
     time: float
+    hold: Optional[Tuple[float, float]] = None
 
 
 @dataclass(frozen=True)
@@ -99,6 +104,19 @@ class Stop:
 
     TYPE: ClassVar[str] = "stop"
     id: int
+
+
+@dataclass(frozen=True)
+class Release:
+    """The drive `drive` may go on as far as (x, y) (its target: no hold point left). A
+    hold point only ever moves on along the drive; for a drive that is not running it
+    does nothing. Accepted and completed at once."""
+
+    TYPE: ClassVar[str] = "release"
+    id: int
+    drive: int
+    x: float
+    y: float
 
 
 @dataclass(frozen=True)
@@ -162,22 +180,22 @@ class PoseFeedback:
     faults: Tuple[str, ...] = ()
 
 
-Command = Union[DriveToPosition, Turn, Stop, GetStatus]
+Command = Union[DriveToPosition, Turn, Stop, Release, GetStatus]
 Reply = Union[Accepted, Completed, Failed, Status]
-Message = Union[Hello, Welcome, Bye, Heartbeat, DriveToPosition, Turn, Stop, GetStatus,
+Message = Union[Hello, Welcome, Bye, Heartbeat, DriveToPosition, Turn, Stop, Release, GetStatus,
                 Accepted, Completed, Failed, Status, PoseFeedback]
 
 MESSAGE_TYPES: Dict[str, Type] = {
     cls.TYPE: cls
-    for cls in (Hello, Welcome, Bye, Heartbeat, DriveToPosition, Turn, Stop, GetStatus,
+    for cls in (Hello, Welcome, Bye, Heartbeat, DriveToPosition, Turn, Stop, Release, GetStatus,
                 Accepted, Completed, Failed, Status, PoseFeedback)
 }
-COMMAND_TYPES = ("drive", "turn", "stop", "get_status")
+COMMAND_TYPES = ("drive", "turn", "stop", "release", "get_status")
 #: Messages whose layout never changes, so a peer of another version can read them.
 VERSIONLESS_TYPES = ("hello", "welcome", "bye")
 
 __all__ = [
     "PROTOCOL_VERSION", "Pose", "Hello", "Welcome", "Bye", "Heartbeat", "DriveToPosition",
-    "Turn", "Stop", "GetStatus", "Accepted", "Completed", "Failed", "Status", "PoseFeedback",
+    "Turn", "Stop", "Release", "GetStatus", "Accepted", "Completed", "Failed", "Status", "PoseFeedback",
     "Command", "Reply", "Message", "MESSAGE_TYPES", "COMMAND_TYPES", "VERSIONLESS_TYPES",
 ]

@@ -15,7 +15,7 @@ its own frame (metres, the robot frame) converts inside itself.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Tuple
 
 try:  # typing.Protocol is 3.8+; only annotations use it
     from typing import Protocol
@@ -43,9 +43,15 @@ class MotionRefused(Exception):
 class PollingNavigator(Protocol):
     """Starts a motion and returns at once; `poll` says when and how it ended."""
 
-    def start_drive(self, x: float, y: float, time: float) -> None:
+    def start_drive(self, x: float, y: float, time: float,
+                    hold: Optional[Tuple[float, float]] = None) -> None:
         """Begin: turn to face (x, y), then drive there, arriving `time` s from now
-        (0: at the configured speed). Returns at once; MotionRefused if it cannot."""
+        (0: at the configured speed), but not past the point `hold` on the way until
+        `release` lets it on. Returns at once; MotionRefused if it cannot."""
+
+    def release(self, x: float, y: float) -> None:
+        """The drive under way may go as far as (x, y) now (its target: no hold left); a
+        hold point never moves back. Nothing happens when no drive is under way."""
 
     def start_turn(self, angle: float) -> None:
         """Begin turning in place to heading `angle` (radians, base frame)."""

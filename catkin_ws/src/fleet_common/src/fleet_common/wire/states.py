@@ -32,7 +32,7 @@ class Phase(enum.Enum):
 
 M, R = Role.MANAGER, Role.ROBOT
 
-_OPEN_BY_MANAGER = ("drive", "turn", "stop", "get_status", "heartbeat")
+_OPEN_BY_MANAGER = ("drive", "turn", "stop", "release", "get_status", "heartbeat")
 _OPEN_BY_ROBOT = ("accepted", "completed", "failed", "status", "heartbeat")
 
 #: (state, sender, message type) -> next state.
@@ -48,7 +48,7 @@ CONNECTION_TRANSITIONS.update({
     for s in (State.START, State.HANDSHAKE, State.OPEN) for role in (M, R)
 })
 
-_ACTIONS = ("drive", "turn", "stop")
+_ACTIONS = ("drive", "turn", "stop", "release")
 
 #: (command type, phase, reply type) -> next phase; None = settled.
 COMMAND_TRANSITIONS: Dict[Tuple[str, Phase, str], Optional[Phase]] = {
