@@ -54,6 +54,32 @@ def test_a_drive_turns_first_then_drives_at_the_set_speed() -> None:
     assert nav.poll() is None           # reported once
 
 
+def test_a_drive_waits_at_its_hold_point_and_a_stall_drawn_later_still_happens_there() -> None:
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(0, 0, 0), speed=1.0, turn_speed=1.5, clock=clock)
+    nav.stalls = {1: 2.0}               # the first drive halts 2 s halfway (at x = 1)
+    nav.start_drive(2.0, 0.0, 0.0, hold=(0.5, 0.0))
+    clock.t += 10.0                     # long after it got to its hold point
+    assert near(nav.pose(), 0.5, 0, 0) and nav.poll() is None
+    nav.release(1.5, 0.0)
+    clock.t += 0.5
+    assert near(nav.pose(), 1.0, 0, 0)  # on again, up to its stall, drawn at x = 1
+    clock.t += 2.0
+    assert near(nav.pose(), 1.0, 0, 0)
+    clock.t += 0.5
+    assert near(nav.pose(), 1.5, 0, 0)  # the new hold point: it waits again
+    clock.t += 5.0
+    assert near(nav.pose(), 1.5, 0, 0) and nav.poll() is None
+    nav.release(0.2, 0.0)               # a hold point never moves back
+    clock.t += 1.0
+    assert near(nav.pose(), 1.5, 0, 0)
+    nav.release(2.0, 0.0)               # the target: nothing holds it
+    clock.t += 0.25
+    assert near(nav.pose(), 1.75, 0, 0) and nav.poll() is None
+    clock.t += 0.3
+    assert nav.poll().ok and near(nav.pose(), 2.0, 0, 0)
+
+
 def test_a_drive_arrives_at_the_asked_time_and_time_scale_speeds_it_up() -> None:
     clock = FakeClock()
     nav = VirtualNavigator(Pose(0, 0, 0), clock=clock, time_scale=10.0)
