@@ -127,14 +127,16 @@ class VirtualNavigator:
         self._held_at = self._reaches(self._hold)
 
     def _reaches(self, distance: float) -> Optional[float]:
-        """The fleet second the laid-out drive gets `distance` along its line."""
+        """The fleet second, from now on, the laid-out drive gets `distance` along its line."""
+        now = self.now()
         for seg in self._segments:
+            if seg.end < now:
+                continue
             a, b = self._along(seg.a.x, seg.a.y), self._along(seg.b.x, seg.b.y)
-            if b >= distance - 1e-12 and b > a:
-                f = max(0.0, (distance - a) / (b - a))
-                return seg.start + f * (seg.end - seg.start)
             if a >= distance - 1e-12:
-                return seg.start
+                return max(seg.start, now)  # there already
+            if b >= distance - 1e-12 and b > a:
+                return max(now, seg.start + (distance - a) / (b - a) * (seg.end - seg.start))
         return None
 
     def _put_off(self, at: float, delay: float) -> None:
