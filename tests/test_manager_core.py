@@ -6,6 +6,7 @@ stand) and what the consoles were told; refused requests change nothing.
 """
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from typing import List
@@ -15,10 +16,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fleet_common.lab import lab_instance_path
+from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_common.wire import Pose
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_manager.run_phase import TRANSITIONS
+from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
 
 _LAB: List[LoadedPlan] = []
@@ -327,3 +330,71 @@ def test_requests_that_need_a_run_under_way_are_refused_while_waiting(action):
     answer = f.ask(ops, action)
     assert not answer.ok and "waiting" in answer.reason
     assert f.phase == "waiting" and not f.kinds("state")
+
+
+# ---- robots of their real size follow one another on the wire -------------------------------
+
+def train(moves: int = 6) -> LoadedPlan:
+    """Three robots in a row on the lab's free row y = 5, all driving east `moves` cells."""
+    from fleet_common.formats.solution import make_solution
+    from fleet_common.lab.fleet import lab_grid
+    from fleet_common.plan import Plan
+
+    paths = [[(x0 + t, 5) for t in range(moves + 1)] for x0 in (2, 1, 0)]
+    plan = Plan.from_paths(paths)
+    grid = lab_grid()
+    sol = make_solution(grid, "lab.map", plan, plan.starts, plan.goals, "hand", True, 0)
+    return LoadedPlan(plan, grid, list(plan.starts), list(plan.goals), "train", sol, lambda c: c)
+
+
+def closest_truth(f: MemoryFleet, record: List[float]) -> None:
+    """Each tick: the smallest distance between two robots' true centres (cells)."""
+    poses = [r.navigator.true_pose() for r in f.robots.values()]
+    record.append(min(math.hypot(a.x - b.x, a.y - b.y) for i, a in enumerate(poses) for b in poses[i + 1:]))
+
+
+def run_recording(f: MemoryFleet, limit: float = 60.0) -> List[float]:
+    seen: List[float] = []
+    end = f.now + limit
+    while f.phase != "done" and f.now < end:
+        f.advance(0.05, step=0.05)
+        closest_truth(f, seen)
+    return seen
+
+
+def test_a_train_of_real_size_robots_moves_as_one_and_keeps_its_distance():
+    size = TURTLEBOT2
+    f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=size), speed=1.0)
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    seen = run_recording(f)
+    assert f.phase == "done" and f.at_goals()
+    assert min(seen) >= size.safe_cells - 0.01  # the robots' own braking tolerance aside
+    # as one: a robot as large as a cell would take 3 x 6 moves one after another
+    assert f.core.summary().makespan < 6 * 1.0 + 2.0
+    assert any("hold" in c for c in f.kinds("command"))  # followers were held on the wire
+
+
+def test_a_follower_stops_short_of_a_leader_that_stalls_and_goes_on_after_it():
+    size = TURTLEBOT2
+    f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=size), speed=1.0)
+    f.robots[1].navigator.stalls = {2: 6.0}  # the leader halts 6 s in the middle of its second move
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    seen = run_recording(f)
+    assert f.phase == "done" and f.at_goals()
+    assert min(seen) >= size.safe_cells - 0.01
+    assert min(seen) < size.safe_cells + 0.1  # it came up close, and stopped there
+    assert sum(1 for c in f.robots[2].commands if getattr(c, "TYPE", "") == "release") > 3
+
+
+def test_robots_as_large_as_a_cell_wait_for_the_whole_move_as_before():
+    f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=cell_sized()), speed=1.0)
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    seen = run_recording(f)
+    assert f.phase == "done" and min(seen) >= 1.0 - 1e-6
+    assert not any("hold" in c for c in f.kinds("command"))

@@ -6,7 +6,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["closest_pair"]
+__all__ = ["closest_pair", "pairs_within"]
 
 
 def closest_pair(points: Dict[int, Tuple[float, float]]) -> Optional[Tuple[float, int, int]]:
@@ -39,3 +39,19 @@ def closest_pair(points: Dict[int, Tuple[float, float]]) -> Optional[Tuple[float
     np.fill_diagonal(d2, np.inf)
     i, j = divmod(int(np.argmin(d2)), len(ids))
     return (math.sqrt(float(d2[i, j])), ids[min(i, j)], ids[max(i, j)])
+
+
+def pairs_within(points: Dict[int, Tuple[float, float]], distance: float) -> List[Tuple[int, int]]:
+    """Every pair (smaller id first) closer than `distance` (at most one cell)."""
+    buckets: Dict[Tuple[int, int], List[int]] = {}
+    for r, (x, y) in points.items():
+        buckets.setdefault((math.floor(x), math.floor(y)), []).append(r)
+    found = []
+    for (bx, by), members in buckets.items():
+        near = [q for dx in (-1, 0, 1) for dy in (-1, 0, 1) for q in buckets.get((bx + dx, by + dy), ())]
+        for r in members:
+            x, y = points[r]
+            for q in near:
+                if q > r and math.hypot(points[q][0] - x, points[q][1] - y) < distance:
+                    found.append((r, q))
+    return sorted(found)

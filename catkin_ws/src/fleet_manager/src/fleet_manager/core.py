@@ -85,6 +85,7 @@ class RunCore:
             robot.facing = None
             if tuple(event.faults) != robot.faults:
                 driver.faults(robot, event.faults)
+            driver.release_followers(robot)
         elif isinstance(event, RobotReply):
             driver.reply(robot, event.reply, now)
         elif isinstance(event, LinkUp):

@@ -29,6 +29,10 @@ at a time):
   same action is sent again (a new command id). No move is run twice or
   skipped.
 
+Followers (robots smaller than a cell, `following.py`): a drive into a cell
+another robot is still leaving carries a hold point, moved on by a `Release` at
+each pose of the leader and lifted when the leader's move completes.
+
 The driver owns no socket and reads no clock: `now` comes with each call, and
 commands go out as values through the `Outbox` (the manager's loop hands them
 to the robots' links), with the run log's records and the consoles' lines.
@@ -44,8 +48,10 @@ from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Eng
                                     EventError, RobotFailed)
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
-from fleet_common.wire import Accepted, Completed, DriveToPosition, Failed, GetStatus, Status, Stop, Turn
+from fleet_common.wire import (Accepted, Completed, DriveToPosition, Failed, GetStatus, Release, Status, Stop,
+                               Turn)
 
+from .following import Following
 from .outbox import Outbox
 from .robot import FAULT, HALTED, RECOVER, InFlight, Robot, Seen
 
@@ -63,13 +69,14 @@ MADE_IT = 0.05
 class Driver:
     """Drives `engine`'s plan through `robots` (one per plan agent, in order)."""
 
-    def __init__(self, engine: Engine, robots: Sequence[Robot], out: Outbox,
+    def __init__(self, engine: Engine, robots: Sequence[Robot], out: Outbox, following: Following,
                  preturn: bool = True) -> None:
         if len(robots) != engine.run.num_agents:
             raise ValueError("{} robots for a plan of {} agents".format(len(robots), engine.run.num_agents))
         self.engine = engine
         self.robots = list(robots)
         self.out = out
+        self.following = following
         self.preturn = preturn
 
     # ---- the engine's side ---------------------------------------------------------------
@@ -132,9 +139,12 @@ class Driver:
             self.out.send(robot.id, Turn(cid, float(target[0])))
             self.out.record("command", robot=robot.id, id=cid, type="turn", angle=target[0], action=index)
         elif kind == "drive":
-            self.out.send(robot.id, DriveToPosition(cid, float(target[0]), float(target[1]), 0.0))
+            d = robot.queue[0]
+            hold = self.following.hold_for(d)
+            self.out.send(robot.id, DriveToPosition(cid, float(target[0]), float(target[1]), 0.0, hold))
+            self.following.sent(d, hold)
             self.out.record("command", robot=robot.id, id=cid, type="drive", x=target[0], y=target[1],
-                            time=0.0, action=index)
+                            time=0.0, action=index, **({} if hold is None else {"hold": list(hold)}))
         else:
             self.out.send(robot.id, Stop(cid))
             self.out.record("command", robot=robot.id, id=cid, type="stop", action=None)
@@ -162,7 +172,23 @@ class Driver:
         self.out.tell("fault", robot.id, "robot {} {}".format(
             robot.id, "reports " + ", ".join(faults) if faults else "fault cleared"))
 
+    def release_followers(self, leader: Robot) -> None:
+        """`leader` moved on (a pose) or completed a move: move its followers' hold points on."""
+        for agent, point in self.following.moved(leader.agent).items():
+            robot = self.robots[agent]
+            flight, d = robot.flight, robot.queue[0] if robot.queue else None
+            if flight is None or flight.kind != "drive" or d is None or flight.index != d.index:
+                continue
+            x, y = point if point is not None else (float(d.dst[0]), float(d.dst[1]))
+            cid = robot.take_id()
+            robot.releases.add(cid)
+            self.out.send(robot.id, Release(cid, flight.id, float(x), float(y)))
+
     def reply(self, robot: Robot, reply: object, now: float) -> None:
+        if reply.id in robot.releases:  # type: ignore[attr-defined]
+            if not isinstance(reply, Accepted):
+                robot.releases.discard(reply.id)  # type: ignore[attr-defined]
+            return  # a release is done at once: nothing to record, nothing follows from it
         self.out.record("reply", robot=robot.id, id=reply.id, type=reply.TYPE,  # type: ignore[attr-defined]
                         **({"reason": reply.reason} if isinstance(reply, Failed) else {}),
                         **({"duplicate": reply.duplicate} if isinstance(reply, Accepted) else {}))
@@ -205,6 +231,7 @@ class Driver:
                 self.out.record("action", robot=robot.id, index=d.index, phase="completed",
                                 src=d.src, dst=d.dst)
                 self._progress(robot, ActionCompleted(robot.agent, d.index, now), now)
+                self.release_followers(robot)
                 return
         elif flight.kind == "stop" and robot.clear_fault:
             robot.clear_fault = False

@@ -17,7 +17,7 @@ import signal
 from pathlib import Path
 from typing import List, Optional
 
-from fleet_common.arg_types import Parser, count, port, positive, seed
+from fleet_common.arg_types import ROBOT_SIZE_HELP, Parser, count, port, positive, robot_size, seed
 
 DESCRIPTION = (
     "Execute PLAN (a mapf-IR solution, or an instance planned first with a built-in solver) on "
@@ -91,6 +91,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="local address for --vicon (default 0.0.0.0, every interface)")
     parser.add_argument("--frames", type=Path, default=None, metavar="FILE",
                         help="frames file holding vicon_to_base (default: the lab's frames.yaml)")
+    parser.add_argument("--robot-size", type=robot_size, default=None, metavar="D:M|cell",
+                        help=ROBOT_SIZE_HELP)
     parser.add_argument("--map-dir", metavar="D", action="append", default=[], type=Path,
                         help="folder to search for map_file= (repeatable), before the defaults")
     parser.add_argument("--log-level", default="warning",
@@ -121,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError
     from fleet_common.formats.mapsearch import default_map_dirs
     from fleet_common.plan_loading import load_plan, pick_robots
-    from fleet_common.robots import default_definitions_path, read_robot_definitions
+    from fleet_common.robots import default_definitions_path, read_robot_definitions, read_robot_size
     from fleet_common.transport.curve_keys import default_keys_dir, load_manager_keys
 
     from .manager import Manager
@@ -145,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
         step_time=args.step_time, state_rate=args.state_rate,
         state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
-        vicon_bind=args.vicon_bind, frames=args.frames)
+        vicon_bind=args.vicon_bind, frames=args.frames,
+        size=args.robot_size or read_robot_size(definitions))
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):

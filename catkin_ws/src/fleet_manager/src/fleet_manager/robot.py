@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Deque, Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Deque, Dict, Iterator, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.execution import Dispatch
 from fleet_common.robots import RobotDefinition
@@ -84,6 +84,7 @@ class Robot:
     moving_since: Optional[float] = None  # when the drive it is making was sent
     facing: Optional[float] = None    # heading its last completed turn or drive left it at
     next_id: int = 1                  # its next command id (they increase per manager epoch)
+    releases: Set[int] = field(default_factory=set)  # ids of releases not yet settled
 
     @property
     def link_up(self) -> bool:

@@ -19,10 +19,11 @@ from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
-from fleet_common.runlog.records import FORMAT_VERSION, plan_file
+from fleet_common.runlog.records import FORMAT_VERSION, plan_file, size_fields
 from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
+from .following import Following
 from .outbox import NewRunFolder, Outbox, WriteFile
 from .replanning import Replanner
 from .robot import Fleet
@@ -50,7 +51,7 @@ class Run:
         self.plan_id = 1
         self.started_at: Optional[float] = None
         self.engine = self._engine(self.plan)
-        self.driver = Driver(self.engine, fleet.robots, out, settings.preturn)
+        self.driver = self._driver(self.engine)
         self._begin()
 
     @property
@@ -114,7 +115,13 @@ class Run:
 
     def _engine(self, plan: Plan) -> Engine:
         settings = {"lookahead": self.settings.lookahead} if self.settings.strategy == "adg" else {}
-        return Engine(plan, self.settings.strategy, show=self.loaded.show, **settings)
+        return Engine(plan, self.settings.strategy, show=self.loaded.show,
+                      follow=not self.settings.size.cell_sized, **settings)
+
+    def _driver(self, engine: Engine) -> Driver:
+        size = self.settings.size
+        following = Following(engine, self.fleet, None if size.cell_sized else size.safe_cells)
+        return Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn)
 
     def _begin(self) -> None:
         """The first records of a run (and of each run after a `load`)."""
@@ -125,7 +132,8 @@ class Run:
                         strategy=self.settings.strategy, settings={"lookahead": self.settings.lookahead},
                         plan_name=loaded.name, actions=action_counts(loaded.plan),
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
-                        map=self.grid.name, step_time=self.settings.step_time)
+                        map=self.grid.name, step_time=self.settings.step_time,
+                        size=size_fields(self.settings.size))
 
     def switch_plan(self, plan: Plan, reason: str, now: float) -> None:
         """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out."""
@@ -174,7 +182,7 @@ class Run:
             robot.queue.clear()
             robot.flight = None
         self.engine = engine
-        self.driver = Driver(engine, self.fleet.robots, self.out, self.settings.preturn)
+        self.driver = self._driver(engine)
 
     def setup(self) -> RunSetup:
         return setup(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,

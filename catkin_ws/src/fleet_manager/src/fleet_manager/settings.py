@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import List, Optional
 
 from fleet_common.control.messages import DEFAULT_ENDPOINT
+from fleet_common.robot_size import TURTLEBOT2, RobotSize
 
 __all__ = ["ManagerSettings"]
 
@@ -27,3 +28,4 @@ class ManagerSettings:
     vicon_port: Optional[int] = None  # Vicon Tracker's UDP stream (None: no Vicon)
     vicon_bind: str = "0.0.0.0"
     frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)
+    size: RobotSize = TURTLEBOT2      # the robots' size (the definitions' size line)

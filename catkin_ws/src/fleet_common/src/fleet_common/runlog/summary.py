@@ -13,20 +13,25 @@ later are the same numbers.
   arrived, as mapf-IR counts them for plans;
 - total wait adds the `waited` of every dispatch: the time robots were ready
   to move but not allowed to;
-- collisions are judged from the executed moves (drive sent until completed:
-  a robot holds both cells meanwhile) by `fleet_common.execution.trace`, the
-  checker `fleetctl simulate` uses, counted move by move so that reading the
-  summary mid-run costs nothing;
+- for robots as large as a cell (a `run` record without a size, or with a
+  cell-sized one), collisions are judged from the executed moves (drive sent
+  until completed: a robot holds both cells meanwhile) by
+  `fleet_common.execution.trace`, the checker `fleetctl simulate` uses,
+  counted move by move so that reading the summary mid-run costs nothing;
+- for robots of their real size, a collision is a pair of robots whose
+  reported centres were ever closer than the safe distance (diameter +
+  margin) in a `poses` record: the live count from poses;
 - the smallest distance between two robots is taken over every `poses`
-  record (the positions the run used: robot feedback or Vicon).
+  record (the positions the run used: robot feedback or Vicon), in cells and,
+  with the robots' size, metres.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Set, Tuple
 
 from ..execution.trace import CollisionCount
-from ..spacing import closest_pair
+from ..spacing import closest_pair, pairs_within
 
 __all__ = ["RunSummary", "SummaryBuilder"]
 
@@ -48,6 +53,8 @@ class RunSummary:
     closest: Optional[Tuple[int, int, float]]  # robots and the time
     disabled: List[int] = field(default_factory=list)
     failed: List[int] = field(default_factory=list)
+    cell_m: Optional[float] = None   # metres a cell; None: a run of old, robots as large as a cell
+    safe_m: Optional[float] = None   # the safe distance between centres, metres
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
@@ -56,13 +63,16 @@ class RunSummary:
                "executed makespan: {:.2f} {}".format(self.makespan, unit),
                "sum of costs: {:.2f} {}".format(self.soc, unit),
                "total wait: {:.2f} {}".format(self.wait, unit),
-               "collisions: {}{}".format(self.collisions, " ({} swaps)".format(self.swaps) if self.swaps else "")]
+               "collisions: {}{}{}".format(self.collisions, " ({} swaps)".format(self.swaps) if self.swaps else "",
+                                          "" if self.safe_m is None else
+                                          " (pairs closer than {:.3f} m)".format(self.safe_m))]
         if self.min_distance is None:
             out.append("min distance: - (fewer than two robots seen)")
         else:
             a, b, t = self.closest or (0, 0, 0.0)
-            out.append("min distance: {:.2f} cells (robots {} and {} at {:.1f} {})".format(
-                self.min_distance, a, b, t, unit))
+            metres = "" if self.cell_m is None else "{:.3f} m, ".format(self.min_distance * self.cell_m)
+            out.append("min distance: {}{:.2f} cells (robots {} and {} at {:.1f} {})".format(
+                metres, self.min_distance, a, b, t, unit))
         if self.disabled:
             out.append("disabled: robots {}".format(", ".join(map(str, self.disabled))))
         if self.failed:
@@ -74,6 +84,9 @@ class RunSummary:
                 "makespan": round(self.makespan, 3), "soc": round(self.soc, 3),
                 "wait": round(self.wait, 3), "collisions": self.collisions,
                 "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
+                "min_distance_m": None if self.min_distance is None or self.cell_m is None
+                else round(self.min_distance * self.cell_m, 4),
+                "safe_m": self.safe_m,
                 "unit": self.unit, "lines": self.lines()}  # as printed, for reports
 
 
@@ -96,12 +109,16 @@ class SummaryBuilder:
         self.started: Dict[int, Tuple[float, Tuple[int, int], Tuple[int, int]]] = {}
         self.min_distance: Optional[float] = None
         self.closest: Optional[Tuple[int, int, float]] = None
+        self.cell_m: Optional[float] = None
+        self.safe: Optional[float] = None         # cells; None: robots as large as a cell
+        self.too_close: Set[Tuple[int, int]] = set()  # pairs of robot ids seen closer than safe
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
         t = float(record.get("t", 0.0))
         if kind == "run":
             self.unit = str(record.get("time_unit", "s"))
+            self._size(record.get("size"))
             self._plan(record, t, first=True)
         elif kind == "plan" and record.get("reason") != "loaded":
             self._plan(record, t, first=False)
@@ -121,6 +138,15 @@ class SummaryBuilder:
                 self.out[record["robot"]] = why
         elif kind == "poses":
             self._poses(record, t)
+
+    def _size(self, size: Any) -> None:
+        try:
+            cell, safe = float(size["cell_m"]), float(size["safe_m"])
+        except (TypeError, KeyError, ValueError):
+            return  # a run of old: robots as large as a cell
+        if cell > 0 and 0 < safe:
+            self.cell_m = cell
+            self.safe = None if safe >= cell else safe / cell
 
     def _plan(self, record: Record, t: float, first: bool) -> None:
         robots = list(record.get("robots") or [])
@@ -168,10 +194,15 @@ class SummaryBuilder:
         if found is not None and (self.min_distance is None or found[0] < self.min_distance):
             self.min_distance = found[0]
             self.closest = (found[1], found[2], t)
+        if self.safe is not None and found is not None and found[0] < self.safe:
+            self.too_close.update(pairs_within(points, self.safe))
 
     @property
     def collisions(self) -> int:
-        """Collisions among the moves fed so far (cheap: counted as they come)."""
+        """Collisions so far (cheap: counted as they come): pairs seen closer than the safe
+        distance, or for robots as large as a cell, among the executed moves."""
+        if self.safe is not None:
+            return len(self.too_close)
         return self.counted.collisions if self.counted is not None else 0
 
     def summary(self) -> RunSummary:
@@ -188,4 +219,6 @@ class SummaryBuilder:
             closest=None if self.closest is None else (
                 self.closest[0], self.closest[1], max(0.0, self.closest[2] - begin)),
             disabled=sorted(r for r, why in self.out.items() if why == "disabled"),
-            failed=sorted(r for r, why in self.out.items() if why == "failed"))
+            failed=sorted(r for r, why in self.out.items() if why == "failed"),
+            cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
+            else round(self.safe * self.cell_m, 6))

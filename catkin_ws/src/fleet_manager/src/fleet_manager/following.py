@@ -1,0 +1,130 @@
+"""Followers on the wire: the hold point a follower's drive carries, moved on as its leader goes.
+
+Theory of operation. Robots smaller than a cell follow one another
+(`fleet_common.execution.engine`): a robot may be sent into a cell that another
+robot is still leaving. Its drive then carries a hold point, and it stops
+there unless the manager lets it on. The hold point is the farthest point of
+the follower's move from which it stays at least the safe distance (diameter
++ margin) from every point of the leader's path still ahead of the leader
+(`fleet_common.execution.following.hold_fraction`). Where the leader is comes
+from its last reported pose, read along the move the engine knows it is
+making (not before its start: it completed the move before; not past its end:
+it has not completed this one). Each new pose of a leader moves its followers'
+hold points on (a `Release`, sent when the point moved on by `STEP` or more),
+and its completion of the move out of the cell lets them drive to the end.
+
+Why it is safe, whatever the delays and latencies. A leader only ever moves
+on along its path (a halted or restarted robot resumes the same move; a replan
+starts from a safe point). So a reported position is never ahead of the
+truth but for the localization error the margin covers, and a hold point
+computed from it is never too far: the truth is at least as far from the
+follower. A late pose, a lost pose or a lost link only keeps the hold point
+where it was; the follower then stops short and waits, and so does the robot
+behind it. A follower's own stop at the hold point is its own controller's
+(the robot holds the point even if it loses the manager). Without a pose of
+the leader the hold point is computed from the start of the leader's move,
+which is behind it.
+"""
+from __future__ import annotations
+
+import math
+from typing import Dict, Optional, Set, Tuple
+
+from fleet_common.execution import Dispatch, Engine
+from fleet_common.execution.following import hold_fraction, point_at
+
+from .robot import Fleet, Robot
+
+__all__ = ["Following", "STEP"]
+
+#: A hold point moved on by less than this (cells) is not worth a message.
+STEP = 0.05
+
+Point = Tuple[float, float]
+
+
+class Following:
+    """Who follows whom on the wire, and the hold point each follower's drive last had."""
+
+    def __init__(self, engine: Engine, fleet: Fleet, safe: Optional[float]) -> None:
+        self.engine = engine
+        self.fleet = fleet
+        self.safe = safe  # cells; None: robots as large as a cell, nobody follows
+        #: follower agent -> its drive's hold point (None: released to the end)
+        self.holds: Dict[int, Optional[Point]] = {}
+        #: leader agent -> follower agents whose drives it holds
+        self.followers: Dict[int, Set[int]] = {}
+
+    def hold_for(self, d: Dispatch) -> Optional[Point]:
+        """The hold point of a drive for dispatch `d` (None: nothing holds it)."""
+        if d.follows is None or self.safe is None:
+            return None
+        leader, index = d.follows
+        run = self.engine.run
+        lead = run.first[leader] + index
+        if run.done[lead]:
+            return None
+        path = self._leader_path(leader, lead)
+        follower = self.fleet[d.agent]
+        progress = _progress(follower, d)
+        f = hold_fraction(d.src, d.dst, path, self.safe, progress)
+        return None if f >= 1.0 else point_at(d.src, d.dst, f)
+
+    def sent(self, d: Dispatch, hold: Optional[Point]) -> None:
+        """A drive for `d` went out with `hold`."""
+        self._forget(d.agent)
+        if hold is not None and d.follows is not None:
+            self.holds[d.agent] = hold
+            self.followers.setdefault(d.follows[0], set()).add(d.agent)
+
+    def moved(self, leader: int) -> Dict[int, Optional[Point]]:
+        """Leader `leader` reported a pose or completed a move: its followers whose hold point
+        moved on enough to say so, and the new point (None: to the end of the move)."""
+        out: Dict[int, Optional[Point]] = {}
+        for agent in list(self.followers.get(leader, ())):
+            robot = self.fleet[agent]
+            d = robot.queue[0] if robot.queue else None
+            if d is None or d.follows is None or d.follows[0] != leader:
+                self._forget(agent)
+                continue
+            new = self.hold_for(d)
+            old = self.holds.get(agent)
+            if new is None:
+                self._forget(agent)
+                out[agent] = None
+            elif old is None or math.hypot(new[0] - old[0], new[1] - old[1]) >= STEP:
+                self.holds[agent] = new
+                out[agent] = new
+        return out
+
+    def leader_of(self, agent: int) -> Optional[int]:
+        for leader, agents in self.followers.items():
+            if agent in agents:
+                return leader
+        return None
+
+    def _forget(self, agent: int) -> None:
+        self.holds.pop(agent, None)
+        for agents in self.followers.values():
+            agents.discard(agent)
+
+    def _leader_path(self, leader: int, lead: int):
+        """From where leader is known to be along the move it is making, to the end of `lead`."""
+        run, table = self.engine.run, self.engine.table
+        a0 = min(run.first[leader] + run.completed[leader], lead)
+        src, dst = table.coord(run.src[a0]), table.coord(run.dst[a0])
+        pose = self.fleet[leader].pose
+        f = 0.0
+        if pose is not None:
+            dx, dy = dst[0] - src[0], dst[1] - src[1]
+            f = min(1.0, max(0.0, (pose.x - src[0]) * dx + (pose.y - src[1]) * dy))
+        return [point_at(src, dst, f)] + [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
+
+
+def _progress(robot: Robot, d: Dispatch) -> float:
+    """How far along its move `d` the robot is by its own pose (0 without one)."""
+    pose = robot.pose
+    if pose is None:
+        return 0.0
+    dx, dy = d.dst[0] - d.src[0], d.dst[1] - d.src[1]
+    return min(1.0, max(0.0, (pose.x - d.src[0]) * dx + (pose.y - d.src[1]) * dy))
