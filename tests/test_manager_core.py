@@ -398,3 +398,15 @@ def test_robots_as_large_as_a_cell_wait_for_the_whole_move_as_before():
     seen = run_recording(f)
     assert f.phase == "done" and min(seen) >= 1.0 - 1e-6
     assert not any("hold" in c for c in f.kinds("command"))
+
+
+def test_an_unattended_run_whose_follower_waits_behind_a_disabled_robot_says_why():
+    f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=TURTLEBOT2), speed=1.0)
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(1.5)
+    assert f.ask(ops, "disable", robot=1).ok  # the front robot's battery dies (it finishes its move)
+    assert f.run_until(lambda: f.core.cannot_go_on(f.now) is not None, 30)
+    reason = f.core.cannot_go_on(f.now)
+    assert "robot 1 is disabled; robots 2, 3 wait for it" in reason, reason

@@ -167,13 +167,14 @@ class RunCore:
             operator.resume(self.run, now, "resume")
 
     def waits(self) -> Dict[int, Waiting]:
-        return robot_waits(self.run.engine, self.fleet)
+        return robot_waits(self.run.engine, self.fleet, self.run.driver.following)
 
     def state(self, now: float, waits: Dict[int, Waiting]):
         self._states += 1
         return build_state(self._states, self.desk.version, now, self.run.clock(now),
                            self.settings.step_time, self.run.engine, self.fleet, self.run.phase,
-                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits)
+                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits,
+                           self.run.driver.following)
 
     def publish(self, now: float) -> bool:
         """Who waits for whom to the run log when it changed; the State to the consoles.

@@ -11,7 +11,7 @@ does goes out through the `Outbox` as values.
 from __future__ import annotations
 
 import math
-from typing import List, Optional
+from typing import List, Optional, Set
 
 from fleet_common.control import RunSetup
 from fleet_common.execution import Disabled, Engine, RobotFailed
@@ -81,10 +81,20 @@ class Run:
         return all(run.out[a] == "disabled" or run.finished_agent(a) for a in range(run.num_agents))
 
     def stuck(self) -> bool:
-        """Running, not everyone arrived, and nothing can happen without an operator."""
-        return (self.phase.phase == RUNNING and not self.engine.paused and not self.all_arrived()
-                and not self.engine.run.moving and not self.driver.moving and not self.replanner.busy
-                and not any(r.hold == "recover" or not r.link_up for r in self.fleet))
+        """Running, not everyone arrived, and nothing can happen without an operator (robots
+        standing at their hold point behind a robot that is out count as not moving)."""
+        if self.phase.phase != RUNNING or self.engine.paused or self.all_arrived() or self.replanner.busy:
+            return False
+        held = self.held_behind_out()
+        run = self.engine.run
+        return not any(r.hold == "recover" or not r.link_up or (r.agent not in held and (
+            r.flight is not None or run.dispatched[r.agent] > run.completed[r.agent])) for r in self.fleet)
+
+    def held_behind_out(self) -> Set[int]:
+        """Followers whose leader is out: they wait at their hold point until it is back."""
+        following, out = self.driver.following, self.engine.run.out
+        leaders = {agent: following.leader_of(agent) for agent in following.holds}
+        return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
 
     def not_ready(self) -> str:
         """Why the run cannot start now ("" if it can): robots not connected or not on their starts."""
@@ -186,7 +196,7 @@ class Run:
 
     def setup(self) -> RunSetup:
         return setup(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
-                     self.settings.step_time)
+                     self.settings.step_time, self.settings.size)
 
 
 def _ids(ids: List[int]) -> str:

@@ -13,9 +13,12 @@ from typing import Dict, List, Optional, Sequence
 from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
                                   State, Waiting)
 from fleet_common.execution import STRATEGIES, Engine
+from fleet_common.execution.events import FOLLOW
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
+from fleet_common.robot_size import RobotSize
 
+from .following import Following
 from .replanning import Pending, Replanner
 from .robot import VICON, Fleet
 from .run_phase import RUNNING, RunPhase
@@ -23,11 +26,22 @@ from .run_phase import RUNNING, RunPhase
 __all__ = ["robot_waits", "build_state", "setup", "proposal", "plan_data"]
 
 
-def robot_waits(engine: Engine, fleet: Fleet) -> Dict[int, Waiting]:
-    """Who waits for whom, by robot id (engine waits, and robots held by their link or a restart)."""
+#: A follower this close (cells) to its hold point stands there, waiting for its leader.
+AT_HOLD = 0.08
+
+
+def robot_waits(engine: Engine, fleet: Fleet, following: Following) -> Dict[int, Waiting]:
+    """Who waits for whom, by robot id (engine waits, followers standing at their hold point, and
+    robots held by their link or a restart)."""
     out: Dict[int, Waiting] = {}
     for w in engine.waiting():
         out[fleet[w.agent].id] = Waiting(tuple(fleet[a].id for a in w.on), w.cell, w.reason)
+    for agent, hold in following.holds.items():
+        robot = fleet[agent]
+        pose, leader = robot.pose, following.leader_of(agent)
+        if hold is not None and pose is not None and leader is not None and robot.queue \
+                and math.hypot(pose.x - hold[0], pose.y - hold[1]) <= AT_HOLD:
+            out[robot.id] = Waiting((fleet[leader].id,), robot.queue[0].dst, FOLLOW)
     run = engine.run
     for robot in fleet:
         if run.finished_agent(robot.agent) or run.out[robot.agent] is not None:
@@ -42,11 +56,12 @@ def robot_waits(engine: Engine, fleet: Fleet) -> Dict[int, Waiting]:
 def build_state(seq: int, version: int, now: float, clock: float, step_time: float, engine: Engine,
                 fleet: Fleet, phase: RunPhase, plan_id: int, replanner: Replanner,
                 min_distance: Optional[float], collisions: int,
-                waits: Dict[int, Waiting]) -> State:
+                waits: Dict[int, Waiting], following: Following) -> State:
     """The State at `now`; `clock` is the seconds since the run started (0 before)."""
     run = engine.run
     plan_time = clock / step_time if step_time > 0 else 0.0
     running = phase.phase == RUNNING
+    leaders = {agent: following.leader_of(agent) for agent in following.holds}
     robots: List[RobotState] = []
     arrived = 0
     for robot in fleet:
@@ -72,7 +87,8 @@ def build_state(seq: int, version: int, now: float, clock: float, step_time: flo
             source=source, age=robot.age(now, source), stale=fleet.stale(robot, now),
             faults=robot.faults, out=run.out[agent], activity=activity, done=done, total=total,
             step=step, waiting=waits.get(robot.id), behind=round(behind, 2),
-            vicon_age=robot.age(now, VICON), disagree=robot.disagreeing))
+            vicon_age=robot.age(now, VICON), disagree=robot.disagreeing,
+            follows=None if leaders.get(agent) is None else fleet[leaders[agent]].id))
     info = RunInfo(
         state=phase.phase, reason=phase.reason, strategy=engine.strategy.name,
         lookahead=int(getattr(engine.strategy, "lookahead", 1)), clock=round(clock, 3),
@@ -86,12 +102,13 @@ def plan_data(plan_id: int, plan: Plan, fleet: Fleet, name: str = "") -> PlanDat
     return PlanData(plan_id, tuple(fleet.ids), plan.positions, name)
 
 
-def setup(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float) -> RunSetup:
+def setup(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float,
+          size: RobotSize) -> RunSetup:
     rows = tuple("".join("." if grid.free[y, x] else "@" for x in range(grid.width))
                  for y in range(grid.height - 1, -1, -1))
     robots = tuple(RobotInfo(r.id, r.colour, r.vicon_name) for r in fleet)
     return RunSetup(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
-                 tuple(STRATEGIES), step_time)
+                    tuple(STRATEGIES), step_time, (size.diameter, size.margin, size.cell))
 
 
 def proposal(pending: Pending, fleet: Fleet, name: str) -> Proposal:

@@ -17,7 +17,7 @@ import base64
 import binascii
 import dataclasses
 import json
-from typing import Any, Dict, Sequence, Type
+from typing import Any, Dict, Sequence, Tuple, Type
 
 import numpy as np
 
@@ -93,6 +93,24 @@ class PlanCells(Checker):
         return {"shape": list(arr.shape), "b64": base64.b64encode(arr.tobytes()).decode("ascii")}
 
 
+class _Size(Checker):
+    """The robots' size: [diameter, margin, cell], metres."""
+
+    what = "[diameter, margin, cell] in metres (three numbers, the first and last above 0)"
+    plain = False
+
+    def __call__(self, value: Any, path: str) -> Tuple[float, float, float]:
+        if (isinstance(value, list) and len(value) == 3
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < 1000
+                        for v in value) and value[0] > 0 and value[2] > 0):
+            return float(value[0]), float(value[1]), float(value[2])
+        raise self.fail(value, path)
+
+    def dump(self, value: Tuple[float, float, float]) -> Any:
+        return list(value)
+
+
+_SIZE = _Size()
 _PLAN = Record(m.PlanData, {"id": _ID, "robots": ListOf(_ROBOT), "positions": PlanCells(),
                             "name": _NAME}, optional={"name": ""})
 _RUN = Record(m.RunInfo, {
@@ -111,7 +129,8 @@ SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, f
     (m.RunSetup, {"map_name": _NAME, "rows": ListOf(Str(100000), 100000),
                "robots": ListOf(Record(m.RobotInfo, {"id": _ROBOT, "colour": _NAME, "vicon_name": _NAME}),
                                 100000),
-               "plan": _PLAN, "strategies": ListOf(_NAME, 50), "step_time": Num(0.001, 1e6)}, None),
+               "plan": _PLAN, "strategies": ListOf(_NAME, 50), "step_time": Num(0.001, 1e6),
+               "robot_size": _SIZE}, {"robot_size": (0.7, 0.0, 0.7)}),
     (m.State, {"seq": _ID, "version": _ID, "run": _RUN, "robots": _RobotColumns()}, None),
     (m.Answer, {"id": _ID, "ok": Bool(), "reason": _TEXT, "version": _ID}, None),
     (m.Notice, {"seq": _ID, "time": _TIME, "kind": Str(40), "robot": Opt(_ROBOT), "text": _TEXT}, None),

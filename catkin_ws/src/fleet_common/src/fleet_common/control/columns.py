@@ -53,6 +53,7 @@ def robots_to_columns(robots: Sequence[RobotState]) -> Dict[str, list]:
         "activity_x": [None if x is None else x.x for x in a],
         "activity_y": [None if x is None else x.y for x in a],
         "activity_angle": [None if x is None else x.angle for x in a],
+        "follows": [r.follows for r in robots],
     }
 
 
@@ -136,11 +137,19 @@ _COLUMNS: Dict[str, Tuple[Callable[[Any], bool], str, bool]] = {
     "activity_x": (_nums(-_COORD, _COORD), "a finite coordinate", True),
     "activity_y": (_nums(-_COORD, _COORD), "a finite coordinate", True),
     "activity_angle": (_nums(-10.0, 10.0), "an angle in radians", True),
+    "follows": (_ints(0, 2 ** 31), "a robot id", True),
 }
+#: Columns a manager of old does not send, and what they then are.
+_LATER = {"follows": None}
 
 
 def robots_from_columns(value: Any, path: str = "robots") -> Tuple[RobotState, ...]:
     """The robots of a State, checked (SchemaError naming the column and row otherwise)."""
+    if type(value) is dict and not set(_LATER) <= set(value):
+        value = dict(value)
+        n_rows = len(value.get("id") or [])
+        for name, default in _LATER.items():
+            value.setdefault(name, [default] * n_rows)
     if type(value) is not dict or set(value) != set(_COLUMNS):
         missing = sorted(set(_COLUMNS) - set(value)) if type(value) is dict else []
         raise SchemaError("must be an object of the columns {}{}".format(
@@ -165,4 +174,4 @@ def robots_from_columns(value: Any, path: str = "robots") -> Tuple[RobotState, .
         cols["id"], cols["link"], cols["link_reason"], cols["x"], cols["y"], cols["theta"],
         cols["source"], cols["age"], cols["stale"], map(tuple, cols["faults"]), cols["out"],
         acts, cols["done"], cols["total"], cols["step"], waits, cols["behind"],
-        cols["vicon_age"], cols["disagree"]))
+        cols["vicon_age"], cols["disagree"], cols["follows"]))

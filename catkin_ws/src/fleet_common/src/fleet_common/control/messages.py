@@ -122,6 +122,8 @@ class RunSetup:
     plan: PlanData
     strategies: Tuple[str, ...]
     step_time: float  # seconds a plan step is expected to take, for the planned-position ghost
+    #: the robots' diameter, safety margin and the cell, metres (a manager of old: as large as a cell)
+    robot_size: Tuple[float, float, float] = (0.7, 0.0, 0.7)
 
 
 @dataclass(frozen=True)
@@ -167,6 +169,7 @@ class RobotState:
     behind: float         # plan steps behind the plan's clock (0 if on time or ahead)
     vicon_age: Optional[float] = None  # None: Vicon does not see it (or there is no Vicon)
     disagree: bool = False  # its own pose and Vicon's differ by more than the threshold
+    follows: Optional[int] = None  # the robot it follows into a cell, at the safe distance
 
 
 @dataclass(frozen=True)
