@@ -54,6 +54,8 @@ class Scene:
     kind: str = SOLUTION
     #: the lab's floor-marker node id of each cell, on the lab map only
     node_ids: Dict[Coord, int] = field(default_factory=dict)
+    #: a robot's diameter in cells, as its disc is drawn (None: the player's size for agents)
+    robot_diameter: Optional[float] = None
 
     @property
     def num_agents(self) -> int:

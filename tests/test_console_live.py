@@ -237,7 +237,7 @@ def test_a_stalled_robot_makes_its_dependent_show_the_red_frame_and_arrow(lab: L
     u = (b - a) / d
     r = app.agents.radius
     # along the arrow, from inside the waiting robot's disc to the staller's rim
-    along = [is_red(*(a + u * (0.45 * r + f * (d - 1.45 * r)))) for f in (0.1, 0.5, 0.9)]
+    along = [is_red(*(a + u * (0.45 * r + f * (d - 1.45 * r)))) for f in (0.1, 0.4, 0.7)]
     assert all(along), along
     # and far from any frame or arrow, no red: a plain free cell
     assert not is_red(*canvas_xy(app, np.array([[0.0, 2.0]]))[0])

@@ -166,6 +166,24 @@ def test_picture_ghosts_follow_the_plan_clock_and_waits_point_at_agents() -> Non
     assert lost.grey.all() and lost.waits == []
 
 
+def test_a_follower_is_drawn_following_while_it_moves_and_waiting_once_it_stands_behind() -> None:
+    model = connected_model()
+    model.apply(state(1, [robot(7, 1.5, 0.0), robot(9, 0.8, 0.0, follows=7)]), 0.0, 0.0)
+    pic = picture(model)
+    assert pic.follows == [(1, 0)] and pic.waits == []  # robot 9 follows robot 7: a thin line
+    held = Waiting((7,), (1, 0), "follow")
+    model.apply(state(2, [robot(7, 1.5, 0.0), robot(9, 0.85, 0.0, follows=7, waiting=held)]), 0.0, 0.0)
+    pic = picture(model)
+    assert pic.follows == [] and pic.waits == [WaitMark(1, (1, 0), (0,))]  # it waits for it: red
+
+
+def test_the_robots_real_size_sets_their_discs() -> None:
+    from console.live.scene import scene_from_manager
+    sized = dataclasses.replace(scene(), robot_size=(0.354, 0.1, 0.7))
+    assert scene_from_manager(sized, "x").robot_diameter == pytest.approx(0.354 / 0.7)
+    assert scene_from_manager(scene(), "x").robot_diameter == 1.0  # a manager of old: a cell
+
+
 def test_a_wait_is_shown_once_it_has_lasted() -> None:
     marks = WaitMarks(after=0.3)
     w = WaitMark(1, (1, 0), (0,))

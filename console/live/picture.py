@@ -5,7 +5,7 @@ reported poses and headings, the planned position (the plan at the run's
 plan clock: the faint ghost), which robots are greyed and why, which are
 behind the plan, where each one's remaining plan starts, and the waits to
 draw (a red frame on the cell a robot waits to enter, arrows to the robots it
-waits for).
+waits for), and who follows whom into a cell at the safe distance.
 
 Waits flicker: under ADG a robot often waits a few milliseconds for a cell
 that is being left. `WaitMarks` shows a wait only once it has lasted
@@ -45,6 +45,9 @@ class Picture:
     behind: np.ndarray        # (N,) bool
     steps: np.ndarray         # (N,) plan step of each robot's next action
     waits: List[WaitMark] = field(default_factory=list)
+    #: (follower agent, leader agent): it drives into a cell its leader is leaving, at the safe
+    #: distance (drawn as a thin line; a follower standing at its hold point waits, in red)
+    follows: List[Tuple[int, int]] = field(default_factory=list)
 
     @property
     def num_agents(self) -> int:
@@ -61,6 +64,7 @@ def picture(model: LiveModel) -> Picture:
     steps = np.zeros(n, dtype=np.int64)
     labels = [""] * n
     waits: List[WaitMark] = []
+    follows: List[Tuple[int, int]] = []
     for agent, r in enumerate(model.robots_by_agent()):
         why = greyed(r, model.connected)
         if why is not None:
@@ -73,11 +77,13 @@ def picture(model: LiveModel) -> Picture:
         if w is not None and w.cell is not None and model.connected:
             on = tuple(model.agent_of[o] for o in w.on if o in model.agent_of)
             waits.append(WaitMark(agent, (int(w.cell[0]), int(w.cell[1])), on))
+        elif r.follows is not None and r.follows in model.agent_of and model.connected:
+            follows.append((agent, model.agent_of[r.follows]))
     ghost = None
     run = None if model.state is None else model.state.run
     if scene is not None and scene.plan is not None and run is not None and run.clock > 0:
         ghost = state_at(scene.plan, run.plan_time).positions
-    return Picture(fleet.positions, theta, ghost, grey, labels, behind, steps, waits)
+    return Picture(fleet.positions, theta, ghost, grey, labels, behind, steps, waits, follows)
 
 
 class WaitMarks:

@@ -33,14 +33,16 @@ def scene_from_manager(message: RunSetup, endpoint: str) -> Scene:
         except ValueError:
             pass  # a colour this machine's Tk does not know: a distinct one instead
     name = PurePath(message.plan.name).name if message.plan.name else "plan {}".format(message.plan.id)
+    diameter, margin, cell = message.robot_size
     info = [name, "{} robots".format(len(ids)),
             "soc {}".format(int(plan.soc)), "makespan {}".format(plan.makespan),
-            message.map_name, "manager {}".format(endpoint)]
+            message.map_name, "robots {:g} m on {:g} m cells".format(diameter, cell),
+            "manager {}".format(endpoint)]
     return Scene(grid, [tuple(int(v) for v in c) for c in plan.positions[0]],
                  [tuple(int(v) for v in c) for c in plan.positions[-1]], plan,
                  colours=[by_id.get(rid, spare[i]) for i, rid in enumerate(ids)],
                  names=["robot {}".format(rid) for rid in ids], info=info,
-                 title="{} on {}".format(name, endpoint))
+                 title="{} on {}".format(name, endpoint), robot_diameter=min(1.0, diameter / cell))
 
 
 def placeholder_scene(endpoint: str) -> Scene:

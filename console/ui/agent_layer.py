@@ -30,9 +30,10 @@ RING = "#ffffff"
 MAX_TAIL_CORNERS = 64
 
 
-def disc_radius(cell: float) -> float:
-    """Disc radius for a cell size: about mapf-IR's (cell / 2 / sqrt 2), never invisible."""
-    return max(0.38 * cell, 2.5)
+def disc_radius(cell: float, diameter: Optional[float] = None) -> float:
+    """Disc radius for a cell size: a robot's real size (`diameter`, in cells), or about
+    mapf-IR's (cell / 2 / sqrt 2) for an agent of a plan; never invisible."""
+    return max((0.38 if diameter is None else 0.5 * diameter) * cell, 2.5)
 
 
 class AgentLayer:

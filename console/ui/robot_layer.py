@@ -93,7 +93,7 @@ class RobotLayer:
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
         self.view, self.options = view, options
         c = self.canvas
-        r = self.radius = disc_radius(view.cell)
+        r = self.radius = disc_radius(view.cell, self.scene.robot_diameter)
         g = max(0.16 * view.cell, 1.5)
         script = []
         for i, (x, y) in enumerate(view.to_canvas_array(self.goals).tolist()):
