@@ -90,7 +90,7 @@ class MemoryConsole:
 class MemoryFleet:
     def __init__(self, loaded: LoadedPlan, definitions: Sequence[RobotDefinition],
                  settings: Optional[ManagerSettings] = None, poses: Optional[Dict[int, Pose]] = None,
-                 speed: float = 2.0, turn_speed: float = 6.0) -> None:
+                 speed: float = 2.0, turn_speed: float = 6.0, pose_lag: float = 0.0) -> None:
         self.clock = FakeClock()
         self.settings = settings or ManagerSettings(step_time=0.5)
         self.core = RunCore(loaded, definitions, self.settings, "session-1", 0.0)
@@ -109,6 +109,9 @@ class MemoryFleet:
             job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method)
         self.hold_plans = False  # keep planning jobs until `finish_plans` (a replan under way)
         self.jobs: List[PlanJob] = []
+        #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
+        self.pose_lag = pose_lag
+        self._poses: List[Tuple[float, PoseFeedback]] = []
         self.pump()
 
     @property
@@ -172,12 +175,16 @@ class MemoryFleet:
         self.pump()
 
     def feedback(self) -> None:
-        """Every robot whose link is up reports its pose."""
+        """Every robot whose link is up reports its pose (heard `pose_lag` later)."""
         for robot in self.robots.values():
             if robot.up:
                 robot.seq += 1
-                self.core.link_event(PoseFeedback(robot.id, robot.seq, robot.navigator.pose(),
-                                                  robot.executor.current, robot.navigator.faults()), self.now)
+                self._poses.append((self.now, PoseFeedback(robot.id, robot.seq, robot.navigator.pose(),
+                                                           robot.executor.current, robot.navigator.faults())))
+        due = [p for t, p in self._poses if t <= self.now - self.pose_lag + 1e-9]
+        self._poses = [(t, p) for t, p in self._poses if t > self.now - self.pose_lag + 1e-9]
+        for pose in due:
+            self.core.link_event(pose, self.now)
 
     def _chosen(self, robot_id: Optional[int]) -> List[MemoryRobot]:
         return list(self.robots.values()) if robot_id is None else [self.robots[robot_id]]

@@ -390,6 +390,29 @@ def test_a_follower_stops_short_of_a_leader_that_stalls_and_goes_on_after_it():
     assert sum(1 for c in f.robots[2].commands if getattr(c, "TYPE", "") == "release") > 3
 
 
+def test_a_late_pose_of_a_leader_that_turns_back_never_lets_its_follower_closer():
+    # robot 1 drives east into (4, 5) and straight back west; robot 2 enters (4, 5) from the south
+    # as robot 1 leaves it. Poses reach the manager 0.3 s late: the last one heard when robot 1
+    # turns back shows it still coming east, 0.3 cells before (4, 5), which along its way back
+    # reads as 0.3 cells gone. Only a pose taken on its way back may say how far it has gone.
+    from fleet_common.formats.solution import make_solution
+    from fleet_common.lab.fleet import lab_grid
+    from fleet_common.plan import Plan
+
+    plan = Plan.from_paths([[(3, 5), (4, 5), (3, 5), (3, 5)], [(4, 4), (4, 4), (4, 5), (4, 6)]])
+    sol = make_solution(lab_grid(), "lab.map", plan, plan.starts, plan.goals, "hand", True, 0)
+    loaded = LoadedPlan(plan, lab_grid(), list(plan.starts), list(plan.goals), "back", sol, lambda c: c)
+    f = MemoryFleet(loaded, lab_fleet(2), ManagerSettings(step_time=0.5, size=TURTLEBOT2), speed=1.0,
+                    turn_speed=1.0, pose_lag=0.3, poses={2: Pose(4.0, 4.0, math.pi / 2)})  # facing north
+    ops = f.console()
+    f.link_up()
+    f.advance(0.5)
+    f.ask(ops, "start")
+    seen = run_recording(f)
+    assert f.phase == "done" and f.at_goals()
+    assert min(seen) >= TURTLEBOT2.safe_cells - 0.01, min(seen)
+
+
 def test_robots_as_large_as_a_cell_wait_for_the_whole_move_as_before():
     f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=cell_sized()), speed=1.0)
     ops = f.console()

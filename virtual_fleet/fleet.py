@@ -146,7 +146,7 @@ class VirtualFleet:
         self.loop.run_once(max_wait)
         now = self.clock()
         if self.recorder.active and now >= self._next_truth:
-            self._next_truth = self.recorder.tick(self.true_poses, now)
+            self._next_truth = self.recorder.tick(self.true_poses, now, self.knots)
         if now >= self._next_check:
             self._next_check = now + _DROPOUT_CHECK
             try:
@@ -171,6 +171,14 @@ class VirtualFleet:
 
     def true_poses(self) -> Dict[int, Pose]:
         return {r: n.true_pose() for r, n in self.navigators.items()}
+
+    def knots(self, wall: float) -> Dict[int, List[Tuple[float, float, float]]]:
+        """Each robot's exact path since the last call, its times on the wall clock `wall`."""
+        out = {}
+        for r, n in self.navigators.items():
+            now = n.now()
+            out[r] = [(wall - (now - t) / n.time_scale, x, y) for t, x, y in n.drain_knots()]
+        return out
 
     def close(self) -> None:
         for endpoint in self.endpoints.values():

@@ -77,6 +77,9 @@ class VirtualNavigator:
         self._line: Optional[Tuple[float, float, float, float]] = None
         self._hold: Optional[float] = None
         self._held_at: Optional[float] = None
+        #: the exact path, for the ground truth: (fleet second, x, y) wherever the motion changed
+        self._knots: List[Tuple[float, float, float]] = [(self.now(), pose.x, pose.y)]
+        self._knotted = self.now()  # fleet second up to which knots are written
 
     def now(self) -> float:
         """Fleet seconds since this navigator was made."""
@@ -86,6 +89,7 @@ class VirtualNavigator:
 
     def start_drive(self, x: float, y: float, time: float,
                     hold: Optional[Tuple[float, float]] = None) -> None:
+        self._mark()
         start = self.true_pose()
         dx, dy = x - start.x, y - start.y
         dist = math.hypot(dx, dy)
@@ -105,6 +109,7 @@ class VirtualNavigator:
     def release(self, x: float, y: float) -> None:
         if self._hold is None or self._line is None or not self._segments:
             return
+        self._mark()
         now = self.now()
         if self._held_at is not None and now > self._held_at:
             self._put_off(self._held_at, now - self._held_at)  # it waited there until now
@@ -159,6 +164,7 @@ class VirtualNavigator:
             self._bump_at += delay
 
     def start_turn(self, angle: float) -> None:
+        self._mark()
         self._hold = self._held_at = None
         start = self.true_pose()
         turn = abs(wrap_angle(angle - start.theta)) / self.turn_speed
@@ -167,6 +173,7 @@ class VirtualNavigator:
         self._lay_out(start, wrap_angle(angle), turn, None, 0.0, fate=MoveFate())
 
     def halt(self) -> None:
+        self._mark()
         self._rest = self.true_pose()
         self._segments = []
         self._hold = self._held_at = None
@@ -177,7 +184,8 @@ class VirtualNavigator:
 
     def poll(self) -> Optional[MotionOutcome]:
         if self._bump_at is not None and self._segments and self.now() >= self._bump_at:
-            self._rest = self.true_pose()  # stops where the foot hit it, mid-move
+            self._mark(self._bump_at)
+            self._rest = self._pose_at(self._bump_at)  # stops where the foot hit it, mid-move
             self._segments = []
             self._bump_at = None
             self.dropout_time = None
@@ -186,10 +194,31 @@ class VirtualNavigator:
             return MotionOutcome(False, "bumper pressed")
         if not self._segments or self.now() < self._segments[-1].end or self._held_at is not None:
             return None  # under way, or waiting at its hold point
+        self._mark()
         self._rest = self._segments[-1].b
         self._segments = []
         self.dropout_time = None
         return MotionOutcome(True)
+
+    def drain_knots(self) -> List[Tuple[float, float, float]]:
+        """The path since the last call, exactly: (fleet second, x, y) at every change of its
+        motion, and now (for the ground truth)."""
+        self._mark()
+        knots, self._knots = self._knots, []
+        return knots
+
+    def _mark(self, at: Optional[float] = None) -> None:
+        """Knots for every segment boundary passed up to `at` (default now), and `at` itself."""
+        t = self.now() if at is None else at
+        stop = t if self._held_at is None else min(t, self._held_at)
+        for seg in self._segments:
+            for b, p in ((seg.start, seg.a), (seg.end, seg.b)):
+                if self._knotted < b <= stop:
+                    self._knots.append((b, p.x, p.y))
+        if t > self._knotted:
+            truth = self._pose_at(t)
+            self._knots.append((t, truth.x, truth.y))
+            self._knotted = t
 
     def pose(self) -> Pose:
         """Where the robot believes it is: the truth, unless its localization drifts."""
@@ -205,9 +234,11 @@ class VirtualNavigator:
 
     def true_pose(self) -> Pose:
         """Where the robot really is."""
+        return self._pose_at(self.now())
+
+    def _pose_at(self, t: float) -> Pose:
         if not self._segments:
             return self._rest
-        t = self.now()
         if self._held_at is not None:
             t = min(t, self._held_at)  # it stands at its hold point
         for seg in self._segments:

@@ -4,10 +4,12 @@ Tests and benchmarks judge a run by it, not by what the manager believed:
 
 - `--truth FILE` (JSON lines, wall-clock `t` = time.time()): a `start` line
   (each robot's pose at start, and whether it was resumed), a `poses` line
-  every 1/20 s with every robot's true pose `[id, x, y, theta]`, and an
-  `exec` line each time a robot starts a command (`robot`, the manager's
-  `epoch`, command `id`, `type`): a command run twice shows as two lines with
-  the same (robot, epoch, id);
+  every 1/20 s with every robot's true pose `[id, x, y, theta]`, a `knots`
+  line as often with every robot's exact path since the last one (`[id, t,
+  x, y]` wherever its motion changed: straight between knots, whatever the
+  time scale), and an `exec` line each time a robot starts a command
+  (`robot`, the manager's `epoch`, command `id`, `type`): a command run twice
+  shows as two lines with the same (robot, epoch, id);
 - `--truth-port PORT`: the same poses, live (`fleet_common.transport.truth_stream`);
 - `--state FILE`: each robot's pose, rewritten atomically five times a
   second; a fleet started with an existing state file puts its robots where
@@ -20,13 +22,13 @@ import math
 import os
 import time
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, TextIO
+from typing import Callable, Dict, List, Optional, TextIO, Tuple
 
 from fleet_common.errors import FleetError
 from fleet_common.limits import loads_frame, one_line
 from fleet_common.wire.messages import Command, Pose
 
-__all__ = ["TruthRecorder", "load_state"]
+__all__ = ["TruthRecorder", "load_state", "truth_paths", "exec_lines"]
 
 POSE_PERIOD = 0.05   # s between truth poses
 MAX_STATE_BYTES = 16 * 1024 * 1024  # a state file of 100,000 robots is 6 MB
@@ -78,7 +80,8 @@ class TruthRecorder:
                 line[name] = getattr(command, name)
         self._write(line)
 
-    def tick(self, poses: Callable[[], Dict[int, Pose]], now: float) -> float:
+    def tick(self, poses: Callable[[], Dict[int, Pose]], now: float,
+             knots: Optional[Callable[[float], Dict[int, List[Tuple[float, float, float]]]]] = None) -> float:
         """Record what is due at monotonic `now`; the next time something is due."""
         if not self.active:
             return now + 1.0
@@ -89,6 +92,10 @@ class TruthRecorder:
             if self._file is not None:
                 self._write({"k": "poses", "p": [[r, round(p.x, 4), round(p.y, 4), round(p.theta, 4)]
                                                  for r, p in sorted(current.items())]}, wall)
+                if knots is not None:
+                    self._write({"k": "knots", "p": [[r, round(t, 5), round(x, 5), round(y, 5)]
+                                                     for r, path in sorted(knots(wall).items())
+                                                     for t, x, y in path]}, wall)
             if self.publish is not None:
                 for r, p in current.items():
                     self.publish(r, wall, p.x, p.y, p.theta)
@@ -117,6 +124,23 @@ class TruthRecorder:
         line = dict({"t": round(self.wall() if wall is None else wall, 4)}, **line)
         self._file.write(json.dumps(line, separators=(",", ":")) + "\n")
         self._file.flush()  # the fleet may be killed at any moment: what is written stays
+
+
+def truth_paths(path: Path) -> Dict[int, List[Tuple[float, float, float]]]:
+    """Each robot's exact path in a truth file, knots (wall t, x, y) from its `knots` lines (a
+    robot drives straight between two), for `fleet_common.execution.approach.judge`."""
+    paths: Dict[int, List[Tuple[float, float, float]]] = {}
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        try:
+            record = json.loads(line)
+        except ValueError:
+            continue  # the last line of a killed fleet may be cut
+        if record.get("k") == "knots":
+            for r, t, x, y in record["p"]:
+                knots = paths.setdefault(int(r), [])
+                if not knots or t > knots[-1][0]:
+                    knots.append((float(t), float(x), float(y)))
+    return paths
 
 
 def exec_lines(path: Path) -> List[dict]:

@@ -82,6 +82,7 @@ class RunCore:
         driver = self.run.driver
         if isinstance(event, PoseFeedback):
             robot.own = Seen(event.pose, now)
+            robot.own_current = event.current
             robot.facing = None
             if tuple(event.faults) != robot.faults:
                 driver.faults(robot, event.faults)

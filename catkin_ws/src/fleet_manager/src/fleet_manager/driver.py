@@ -196,6 +196,7 @@ class Driver:
             if reply.id == robot.status_id:
                 robot.status_id = None
                 robot.own = Seen(reply.pose, now)
+                robot.own_current = reply.current
                 robot.facing = None
                 if tuple(reply.faults) != robot.faults:
                     self.faults(robot, reply.faults)

@@ -18,12 +18,18 @@ on along its path (a halted or restarted robot resumes the same move; a replan
 starts from a safe point). So a reported position is never ahead of the
 truth but for the localization error the margin covers, and a hold point
 computed from it is never too far: the truth is at least as far from the
-follower. A late pose, a lost pose or a lost link only keeps the hold point
-where it was; the follower then stops short and waits, and so does the robot
-behind it. A follower's own stop at the hold point is its own controller's
-(the robot holds the point even if it loses the manager). Without a pose of
-the leader the hold point is computed from the start of the leader's move,
-which is behind it.
+follower. A pose counts only when the robot took it while running the drive
+of the very move the engine says it is making (the pose's `current`
+command): a pose taken earlier, even one that arrives after the move's
+predecessor completed, may lie anywhere on the robot's way here, also ahead
+on a line it now drives back along. Otherwise, and without a pose, the
+leader is taken to stand at the start of its move, which is behind it. A
+late pose, a lost pose or a lost link only keeps the hold point where it
+was; the follower then stops short and waits, and so does the robot behind
+it. A follower's own stop at the hold point is its own controller's (the
+robot holds the point even if it loses the manager). The hold point is
+computed from the follower's move start: a follower already closer than
+that (it cannot be, but for localization error) is held where it stands.
 """
 from __future__ import annotations
 
@@ -33,7 +39,7 @@ from typing import Dict, Optional, Set, Tuple
 from fleet_common.execution import Dispatch, Engine
 from fleet_common.execution.following import hold_fraction, point_at
 
-from .robot import Fleet, Robot
+from .robot import Fleet
 
 __all__ = ["Following", "STEP"]
 
@@ -65,9 +71,7 @@ class Following:
         if run.done[lead]:
             return None
         path = self._leader_path(leader, lead)
-        follower = self.fleet[d.agent]
-        progress = _progress(follower, d)
-        f = hold_fraction(d.src, d.dst, path, self.safe, progress)
+        f = hold_fraction(d.src, d.dst, path, self.safe)
         return None if f >= 1.0 else point_at(d.src, d.dst, f)
 
     def sent(self, d: Dispatch, hold: Optional[Point]) -> None:
@@ -113,18 +117,11 @@ class Following:
         run, table = self.engine.run, self.engine.table
         a0 = min(run.first[leader] + run.completed[leader], lead)
         src, dst = table.coord(run.src[a0]), table.coord(run.dst[a0])
-        pose = self.fleet[leader].pose
+        robot = self.fleet[leader]
         f = 0.0
-        if pose is not None:
+        pose, flight = robot.own, robot.flight
+        if (pose is not None and flight is not None and flight.kind == "drive"
+                and flight.index == a0 - run.first[leader] and robot.own_current == flight.id):
             dx, dy = dst[0] - src[0], dst[1] - src[1]
-            f = min(1.0, max(0.0, (pose.x - src[0]) * dx + (pose.y - src[1]) * dy))
+            f = min(1.0, max(0.0, (pose.pose.x - src[0]) * dx + (pose.pose.y - src[1]) * dy))
         return [point_at(src, dst, f)] + [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
-
-
-def _progress(robot: Robot, d: Dispatch) -> float:
-    """How far along its move `d` the robot is by its own pose (0 without one)."""
-    pose = robot.pose
-    if pose is None:
-        return 0.0
-    dx, dy = d.dst[0] - d.src[0], d.dst[1] - d.src[1]
-    return min(1.0, max(0.0, (pose.x - d.src[0]) * dx + (pose.y - d.src[1]) * dy))

@@ -69,6 +69,7 @@ class Robot:
     link_reason: str = ""
     # what it reported
     own: Optional[Seen] = None        # its own pose feedback (or a status reply)
+    own_current: Optional[int] = None  # the command it was running when it took that pose
     vicon: Optional[Seen] = None      # Vicon's view of it
     source: str = ROBOT               # the pose the run uses
     disagreeing: bool = False         # its own pose and Vicon's differ (is it lost?)

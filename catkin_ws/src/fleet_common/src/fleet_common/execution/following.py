@@ -26,6 +26,9 @@ __all__ = ["hold_fraction", "point_at"]
 
 Point = Tuple[float, float]
 _EPS = 1e-9
+#: A hold point is this much (cells, 1.4 mm in the lab) short of the boundary, so that a robot
+#: standing at it is never measured on both sides of the safe distance.
+SLACK = 0.002
 
 
 def point_at(src: Sequence[float], dst: Sequence[float], fraction: float) -> Point:
@@ -53,7 +56,7 @@ def hold_fraction(src: Sequence[float], dst: Sequence[float], path: Sequence[Seq
         if lo <= now:
             return now
         hold = min(hold, lo)
-    return max(now, hold - _EPS) if hold < 1.0 else 1.0
+    return max(now, hold - SLACK) if hold < 1.0 else 1.0
 
 
 def _capsule_cut(ax: float, ay: float, dx: float, dy: float, q0: Point, q1: Point,

@@ -6,7 +6,10 @@ state) to its end: each robot is on the target of its last move completed by
 the sample time (its start before any). The result is a `Plan` that the
 player and mapf-IR's visualizer play like any solver's output, so a run can
 be watched again beside its plan. With `dt` no longer than the quickest move,
-no robot moves more than one cell from row to row. (Where robots were between
+no robot moves more than one cell from row to row. A robot of real size may
+complete its move into a cell before the robot it follows has completed its
+move out of it; in such a row the follower is shown where it came from, so
+that each cell holds one robot, as in any plan. (Where robots were between
 cells, the `poses` records say; the run report plots them.)
 """
 from __future__ import annotations
@@ -55,10 +58,31 @@ def executed_plan(run: RunFolder, dt: float, starts: Sequence[Tuple[int, int]]) 
     # rows at begin, begin + dt, ... and a last one at the end (moves finish between rows)
     steps = int(np.ceil(max(0.0, end - begin) / dt - 1e-9)) + 1
     positions = np.empty((steps, len(robots), 2), dtype=np.int32)
-    for i in range(len(robots)):
-        first = tuple(starts[i])
-        for k in range(steps):
-            j = bisect.bisect_right(times[i], min(begin + k * dt, end)) - 1
-            positions[k, i] = cells[i][j] if j >= 0 else first
+    for k in range(steps):
+        now = min(begin + k * dt, end)
+        done = [bisect.bisect_right(times[i], now) for i in range(len(robots))]  # moves completed
+        for _ in range(len(robots) + 1):  # a follower back in its cell may put back the one behind it
+            held: dict = {}
+            late = []
+            for i, j in enumerate(done):
+                cell = cells[i][j - 1] if j > 0 else tuple(starts[i])
+                other = held.get(cell)
+                if other is None:
+                    held[cell] = i
+                    continue
+                # two in one cell: the one that arrived later is still on its way in
+                first_in = times[other][done[other] - 1] if done[other] > 0 else -np.inf
+                arrived = times[i][j - 1] if j > 0 else -np.inf
+                late.append(i if arrived >= first_in else other)
+                held[cell] = other if arrived >= first_in else i
+            if not late:
+                break
+            late = [i for i in late if done[i] > 0]  # two at their starts: nothing to undo
+            if not late:
+                break
+            for i in late:
+                done[i] -= 1
+        for i, j in enumerate(done):
+            positions[k, i] = cells[i][j - 1] if j > 0 else tuple(starts[i])
     return Plan(positions)
 

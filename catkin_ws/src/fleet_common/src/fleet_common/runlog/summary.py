@@ -20,13 +20,17 @@ later are the same numbers.
   counted move by move so that reading the summary mid-run costs nothing;
 - for robots of their real size, a collision is a pair of robots whose
   reported centres were ever closer than the safe distance (diameter +
-  margin) in a `poses` record: the live count from poses;
+  margin) in a `poses` record: the live count from poses. Two poses of one
+  record were reported at different moments (each record gives their age):
+  a pair counts only when closer than the safe distance less what either
+  robot covers in between, at the speed its own last poses show;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
   with the robots' size, metres.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Set, Tuple
 
@@ -112,6 +116,7 @@ class SummaryBuilder:
         self.cell_m: Optional[float] = None
         self.safe: Optional[float] = None         # cells; None: robots as large as a cell
         self.too_close: Set[Tuple[int, int]] = set()  # pairs of robot ids seen closer than safe
+        self._reported: Dict[int, Tuple[float, float, float, float]] = {}  # robot -> t, x, y, speed
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
@@ -187,15 +192,36 @@ class SummaryBuilder:
 
     def _poses(self, record: Record, t: float) -> None:
         points = {}
+        taken: Dict[int, float] = {}
         for entry in record.get("p") or []:
             if isinstance(entry, list) and len(entry) >= 3 and entry[1] is not None and entry[2] is not None:
                 points[entry[0]] = (float(entry[1]), float(entry[2]))
+                age = entry[5] if len(entry) >= 6 and isinstance(entry[5], (int, float)) else 0.0
+                taken[entry[0]] = t - float(age)
         found = closest_pair(points)
         if found is not None and (self.min_distance is None or found[0] < self.min_distance):
             self.min_distance = found[0]
             self.closest = (found[1], found[2], t)
-        if self.safe is not None and found is not None and found[0] < self.safe:
-            self.too_close.update(pairs_within(points, self.safe))
+        if self.safe is not None:
+            speed = self._speeds(points, taken)
+            if found is not None and found[0] < self.safe:
+                for a, b in pairs_within(points, self.safe):
+                    moved = max(speed.get(a, 0.0), speed.get(b, 0.0)) * abs(taken[a] - taken[b])
+                    d = math.hypot(points[a][0] - points[b][0], points[a][1] - points[b][1])
+                    if d < self.safe - moved:
+                        self.too_close.add((a, b))
+
+    def _speeds(self, points: Dict[int, Tuple[float, float]], taken: Dict[int, float]) -> Dict[int, float]:
+        """Each robot's speed (cells a time unit) between its last two reported poses."""
+        out = {}
+        for r, (x, y) in points.items():
+            last = self._reported.get(r)
+            when = taken[r]
+            if last is None or when > last[0] + 1e-6:
+                speed = 0.0 if last is None else math.hypot(x - last[1], y - last[2]) / (when - last[0])
+                self._reported[r] = (when, x, y, speed)
+            out[r] = self._reported[r][3]
+        return out
 
     @property
     def collisions(self) -> int:
