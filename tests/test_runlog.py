@@ -191,7 +191,7 @@ def test_a_runs_folder_that_is_a_file_is_named_as_such(tmp_path: Path) -> None:
         new_run_folder(taken)
 
 
-def test_the_executed_plan_shows_a_follower_in_its_cell_until_its_leader_has_left(tmp_path: Path) -> None:
+def test_the_executed_plan_shows_a_leader_leaving_once_its_follower_is_in(tmp_path: Path) -> None:
     # robots of real size: robot 9 follows robot 7 east along y = 0 and reaches (1, 0) at 2.8,
     # while robot 7 completes its move out of (1, 0) only at 3.0
     from fleet_common.runlog.executed import executed_plan
@@ -201,6 +201,8 @@ def test_the_executed_plan_shows_a_follower_in_its_cell_until_its_leader_has_lef
     log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[7, 9],
                     strategy="adg", actions=[1, 1], starts=[[1, 0], [0, 0]])
     for t, kind, fields in [(1.0, "state", dict(run="running")),
+                            (1.2, "action", dict(robot=7, index=0, phase="started", src=[1, 0], dst=[2, 0])),
+                            (1.2, "action", dict(robot=9, index=0, phase="started", src=[0, 0], dst=[1, 0])),
                             (2.8, "action", dict(robot=9, index=0, phase="completed", src=[0, 0], dst=[1, 0])),
                             (3.0, "action", dict(robot=7, index=0, phase="completed", src=[1, 0], dst=[2, 0])),
                             (4.0, "state", dict(run="done"))]:
@@ -210,4 +212,5 @@ def test_the_executed_plan_shows_a_follower_in_its_cell_until_its_leader_has_lef
     plan = executed_plan(read_run(tmp_path), 0.1, [(1, 0), (0, 0)])
     rows = [[tuple(c) for c in row] for row in plan.positions.tolist()]
     assert all(len(set(row)) == 2 for row in rows)  # never two robots in one cell
-    assert rows[19] == [(1, 0), (0, 0)] and rows[20] == [(2, 0), (1, 0)]  # at 2.9: still out; at 3.0: in
+    assert rows[17] == [(1, 0), (0, 0)]  # at 2.7 neither has arrived
+    assert rows[18] == rows[20] == [(2, 0), (1, 0)]  # at 2.8 the follower is in: its leader on its way out
