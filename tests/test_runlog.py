@@ -214,3 +214,31 @@ def test_the_executed_plan_shows_a_leader_leaving_once_its_follower_is_in(tmp_pa
     assert all(len(set(row)) == 2 for row in rows)  # never two robots in one cell
     assert rows[17] == [(1, 0), (0, 0)]  # at 2.7 neither has arrived
     assert rows[18] == rows[20] == [(2, 0), (1, 0)]  # at 2.8 the follower is in: its leader on its way out
+
+
+def test_the_live_count_counts_robots_reported_too_close_and_allows_for_the_time_between_reports() -> None:
+    from fleet_common.robot_size import TURTLEBOT2
+    from fleet_common.runlog.records import size_fields
+    from fleet_common.runlog.summary import SummaryBuilder
+
+    def builder() -> SummaryBuilder:
+        b = SummaryBuilder()
+        b.feed({"k": "run", "t": 0.0, "robots": [1, 2], "actions": [1, 1], "starts": [[0, 0], [5, 0]],
+                "size": size_fields(TURTLEBOT2)})
+        return b
+
+    # reported at the same moment, 0.4 cells (0.28 m) apart: too close
+    b = builder()
+    b.feed({"k": "poses", "t": 1.0, "p": [[1, 3.0, 0.0, 0, "robot", 0.0], [2, 3.4, 0.0, 0, "robot", 0.0]]})
+    assert b.collisions == 1 and b.summary().lines()[4] == "collisions: 1 (pairs closer than 0.454 m)"
+    # robot 2 was seen driving 5 cells a second; its pose is 0.1 s older than robot 1's: it may be
+    # 0.5 cells further on, so the pair is not counted (a sampled monitor cannot tell)
+    b = builder()
+    b.feed({"k": "poses", "t": 0.5, "p": [[1, 0.0, 0.0, 0, "robot", 0.0], [2, 1.0, 0.0, 0, "robot", 0.0]]})
+    b.feed({"k": "poses", "t": 1.0, "p": [[1, 3.0, 0.0, 0, "robot", 0.0], [2, 3.4, 0.0, 0, "robot", 0.1]]})
+    assert b.collisions == 0 and b.summary().min_distance == pytest.approx(0.4)
+    # robots as large as a cell: the cell rule counts, not the distance
+    cell = SummaryBuilder()
+    cell.feed({"k": "run", "t": 0.0, "robots": [1, 2], "actions": [1, 1], "starts": [[0, 0], [5, 0]]})
+    cell.feed({"k": "poses", "t": 1.0, "p": [[1, 3.0, 0.0, 0, "robot", 0.0], [2, 3.4, 0.0, 0, "robot", 0.0]]})
+    assert cell.collisions == 0

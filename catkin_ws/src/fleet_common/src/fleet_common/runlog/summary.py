@@ -23,7 +23,7 @@ later are the same numbers.
   margin) in a `poses` record: the live count from poses. Two poses of one
   record were reported at different moments (each record gives their age):
   a pair counts only when closer than the safe distance less what either
-  robot covers in between, at the speed its own last poses show;
+  robot could cover in between, at the fastest its own poses showed it go;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
   with the robots' size, metres.
@@ -212,14 +212,14 @@ class SummaryBuilder:
                         self.too_close.add((a, b))
 
     def _speeds(self, points: Dict[int, Tuple[float, float]], taken: Dict[int, float]) -> Dict[int, float]:
-        """Each robot's speed (cells a time unit) between its last two reported poses."""
+        """Each robot's top speed so far (cells a time unit), from its consecutive poses."""
         out = {}
         for r, (x, y) in points.items():
             last = self._reported.get(r)
             when = taken[r]
             if last is None or when > last[0] + 1e-6:
                 speed = 0.0 if last is None else math.hypot(x - last[1], y - last[2]) / (when - last[0])
-                self._reported[r] = (when, x, y, speed)
+                self._reported[r] = (when, x, y, max(speed, last[3] if last is not None else 0.0))
             out[r] = self._reported[r][3]
         return out
 
