@@ -1,10 +1,11 @@
-"""The real robot path once: `fleetctl manager` drives two simulated TurtleBots (sim_robot.launch,
-agv_runner over sim_turtlebot, each in its own ROS namespace under one real roscore) through a
-short lab plan with ADG, over CurveZMQ.
+"""The real robot path: `fleetctl manager` drives two simulated TurtleBots (sim_robot.launch,
+agv_runner over sim_turtlebot, each in its own ROS namespace under one real roscore) through
+short lab plans with ADG, over CurveZMQ.
 
-The two robots' paths cross at one cell, so the Action Dependency Graph has to order them.
-Judged by the simulator's ground truth (each robot ends within 5 cm of its goal cell) and by the
-runners' own logs (each command id carried out once). About a minute and a half; runs in its own
+Here the two robots' paths cross at one cell, so the Action Dependency Graph has to order them
+(tests/test_ros_train.py: two robots as a train, the leader held mid-move). Judged by the
+simulator's ground truth (each robot ends within 5 cm of its goal cell) and by the runners'
+own logs (each command id carried out once). About a minute and a half; runs in its own
 network namespace (tests/ros_procs.py).
 """
 from __future__ import annotations
@@ -29,17 +30,19 @@ from ros_procs import (ROSLAUNCH, leave_ros, master_up, netns_marker, ros_enviro
 pytestmark = pytest.mark.slow
 inside_netns = netns_marker(__file__)
 
+Robots = Dict[int, Tuple[Tuple[int, int], Tuple[int, int]]]
 #: robot id -> (start, goal), base cells of lab nodes; the paths cross at (2, 2)
-ROBOTS: Dict[int, Tuple[Tuple[int, int], Tuple[int, int]]] = {1: ((0, 2), (4, 2)), 2: ((2, 4), (2, 0))}
+ROBOTS: Robots = {1: ((0, 2), (4, 2)), 2: ((2, 4), (2, 0))}
 
 
 def test_ros_manager_in_own_network_namespace() -> None:
     run_inside_netns(__file__, min_passed=1)
 
 
-def launch_file(home: Path, definitions: Path, keys: Path, feedback: Dict[int, int]) -> Path:
+def launch_file(home: Path, definitions: Path, keys: Path, feedback: Dict[int, int],
+                robots: Robots = ROBOTS) -> Path:
     groups = []
-    for rid, (start, _) in ROBOTS.items():
+    for rid, (start, _) in robots.items():
         groups.append(
             '  <group ns="robot{rid}">\n'
             '    <include file="$(find agv_package)/launch/sim_robot.launch">\n'
@@ -61,15 +64,16 @@ def launch_file(home: Path, definitions: Path, keys: Path, feedback: Dict[int, i
 class Truth:
     """The simulator's ground truth of each robot, in base cells (a rospy node of the test's)."""
 
-    def __init__(self) -> None:
+    def __init__(self, robots: Robots = ROBOTS) -> None:
         import rospy
         from nav_msgs.msg import Odometry
 
         self.frame = GridFrame()
         self.latest: Dict[int, Pose2D] = {}
+        self.closest = math.inf  # metres between the two robots' centres, the least seen
         self._lock = threading.Lock()
         self._subs = [rospy.Subscriber("/robot{}/sim/ground_truth".format(rid), Odometry,
-                                       self._on(rid), queue_size=10) for rid in ROBOTS]
+                                       self._on(rid), queue_size=10) for rid in robots]
 
     def _on(self, rid: int):
         def callback(msg: object) -> None:
@@ -77,6 +81,9 @@ class Truth:
             theta = 2.0 * math.atan2(p.orientation.z, p.orientation.w)
             with self._lock:
                 self.latest[rid] = self.frame.pose_to_base(Pose2D(p.position.x, p.position.y, theta))
+                if len(self.latest) == 2:
+                    a, b = self.latest.values()
+                    self.closest = min(self.closest, math.hypot(a.x - b.x, a.y - b.y) * self.frame.cell_size())
         return callback
 
     def where(self, rid: int) -> Pose2D:
@@ -137,3 +144,4 @@ def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Pa
         assert len(set(executed)) == len(executed), "a command ran twice: {}".format(executed)
     finally:
         leave_ros(started, saved)
+

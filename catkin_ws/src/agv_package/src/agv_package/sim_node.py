@@ -11,7 +11,10 @@ Topics (relative, so a launch file can namespace or remap them):
   Kobuki's bumper bits, 1 right, 2 centre, 4 left, 0 released; sent on every
   change and once a second; kobuki_msgs is not in Debian) and
   `sim/ground_truth` (nav_msgs/Odometry, frame `world`: where the base really is,
-  for tests and demos).
+  for tests and demos);
+- subscribes `sim/hold` (std_msgs/Float64, seconds): the base is held where it
+  is that long whatever it is commanded (a stall: a visitor's hand, a wheel
+  caught), then obeys again; for tests and demos.
 
 The walls are the lab grid's blocked cells and its edge. The physics is in
 `sim.base_model`, the camera in `sim.floor_camera`, the bumper in `sim.walls`.
@@ -26,7 +29,7 @@ import rospy
 from geometry_msgs.msg import Twist as TwistMsg
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, Image
-from std_msgs.msg import UInt8
+from std_msgs.msg import Float64, UInt8
 
 from fleet_common.errors import FleetError
 from fleet_common.lab import node_table
@@ -89,14 +92,21 @@ def main() -> None:
     bumper_pub = rospy.Publisher("mobile_base/sensors/bumper", UInt8, queue_size=10, latch=True)
 
     lock = threading.Lock()
-    latest = {"twist": STOP, "at": 0.0}
+    latest = {"twist": STOP, "at": 0.0, "held_until": 0.0}
 
     def on_velocity(msg: TwistMsg) -> None:
         with lock:
             latest["twist"] = twist_from_msg(msg)
             latest["at"] = time.monotonic()
 
+    def on_hold(msg: Float64) -> None:
+        seconds = msg.data if 0.0 <= msg.data <= 3600.0 else 0.0  # a hold is a stall, not a shutdown
+        rospy.logwarn("sim_turtlebot: held where it is for %.1f s", seconds)
+        with lock:
+            latest["held_until"] = time.monotonic() + seconds
+
     rospy.Subscriber("mobile_base/commands/velocity", TwistMsg, on_velocity, queue_size=1)
+    rospy.Subscriber("sim/hold", Float64, on_hold, queue_size=1)
 
     rate = rospy.Rate(settings.physics_rate)
     last = time.monotonic()
@@ -106,6 +116,8 @@ def main() -> None:
         now = time.monotonic()
         with lock:
             command = latest["twist"] if now - latest["at"] < COMMAND_TIMEOUT else STOP
+            if now < latest["held_until"]:
+                command = STOP
         base.step(command, min(now - last, MAX_STEP), walls.touching)
         last = now
         stamp = rospy.Time.now()
