@@ -40,14 +40,15 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
     if cell.disable != "none":
         robot, step = cell.disable.split("@")
         disable[int(robot) % p.num_agents] = int(step)
-    first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, **settings)
+    size = cell.robot_size
+    first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, size=size, **settings)
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():
         current = first.trace.final_cells()
         result = replan(plan.grid, current, plan.goals, set(first.disabled_at), deadline=30.0,
                         seed=cell.seed)
         if result.plan is not None:
-            second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, **settings)
+            second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, size=size, **settings)
     row = _row(cell, plan, p, first, second)
     row["wall_s"] = round(time.perf_counter() - began, 4)
     return row
@@ -82,6 +83,9 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
         count += m2.total_waits
         moves += sum(r.moves for r in m2.agents)
     reached = [a for a in arrival if a is not None]
+    closest = [r.closest.distance for r in (first, second) if r is not None and r.closest is not None]
+    cell_m = cell.robot_size.cell
     return make_row(cell, plan, p, makespan=makespan, soc=float(sum(reached)), waits=waits,
                     count=count, held=held, blocked=blocked, collisions=collisions,
-                    reached=len(reached), replanned=second is not None, moves=moves)
+                    reached=len(reached), replanned=second is not None, moves=moves,
+                    closest_m=min(closest) * cell_m if closest else None)

@@ -6,7 +6,7 @@ two kinds of run fill the same columns the same way.
 from __future__ import annotations
 
 import json
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Optional
 
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
@@ -14,30 +14,31 @@ from fleet_common.plan_loading import LoadedPlan
 from .spec import Cell
 
 #: Columns of the results table, in order.
-COLUMNS = ("key", "plan", "solver", "agents", "strategy", "delay", "p", "seed", "disable", "recover",
+COLUMNS = ("key", "plan", "solver", "agents", "strategy", "size", "delay", "p", "seed", "disable", "recover",
            "plan_makespan", "plan_soc", "makespan", "soc", "makespan_ratio", "soc_ratio",
            "wait_total", "wait_mean", "wait_max", "waits", "held_time", "wait_by_robot", "blocked_by",
-           "collisions", "reached", "finished", "replanned", "moves", "wall_s")
+           "collisions", "closest_m", "reached", "finished", "replanned", "moves", "wall_s")
 
 Row = Dict[str, Any]
 
 
 def strategy_label(cell: Cell) -> str:
-    """The strategy column: its name and settings, and " (wire)" for a run through the manager,
-    so reports show the two kinds of run side by side."""
+    """The strategy column: its name and settings, " (wire)" for a run through the manager and
+    " [cell]" (or " [D:M]") for robots not of the lab's size, so reports show them side by side."""
     return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings) + (
-        " (wire)" if cell.chain == "wire" else "")
+        " (wire)" if cell.chain == "wire" else "") + ("" if cell.size == "turtlebot" else " [{}]".format(cell.size))
 
 
 def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: float,
              waits: List[float], count: int, held: float, blocked: Dict[int, float],
-             collisions: int, reached: int, replanned: bool, moves: int) -> Row:
+             collisions: int, reached: int, replanned: bool, moves: int,
+             closest_m: Optional[float] = None) -> Row:
     """A results row (all but `wall_s`) from a run's figures, times in plan steps; `waits` per
     agent. Engine and wire cells both make their rows here."""
     n = p.num_agents
     return {
         "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
-        "strategy": strategy_label(cell), "delay": cell.delay, "p": cell.p, "seed": cell.seed,
+        "strategy": strategy_label(cell), "size": cell.size, "delay": cell.delay, "p": cell.p, "seed": cell.seed,
         "disable": cell.disable, "recover": cell.recover,
         "plan_makespan": p.makespan, "plan_soc": p.soc,
         "makespan": round(makespan, 6), "soc": round(soc, 6),
@@ -47,6 +48,7 @@ def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: flo
         "wait_max": round(max(waits), 6) if n else 0.0, "waits": count, "held_time": round(held, 6),
         "wait_by_robot": json.dumps([round(w, 4) for w in waits]),
         "blocked_by": json.dumps({str(q): round(t, 4) for q, t in sorted(blocked.items())}),
-        "collisions": collisions, "reached": reached, "finished": reached == n,
+        "collisions": collisions, "closest_m": None if closest_m is None else round(closest_m, 4),
+        "reached": reached, "finished": reached == n,
         "replanned": replanned, "moves": moves,
     }

@@ -32,10 +32,14 @@ from fleet_common.delays import DelayModelError, parse_delay_model
 from fleet_common.errors import FormatError
 from fleet_common.execution import STRATEGIES
 from fleet_common.planning import SOLVER_NAMES
+from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
-        "time_scale")
+        "time_scale", "sizes")
+#: Robot sizes a sweep names: "turtlebot" (the lab's robots, 354 mm on 700 mm cells, 0.1 m margin),
+#: "cell" (as large as a cell: the cell rule of robots before they had a size), or D:M (metres).
+SIZES = ("turtlebot", "cell")
 RECOVER = ("none", "replan")
 CHAINS = ("engine", "wire")
 
@@ -68,6 +72,11 @@ class Cell:
     recover: str
     chain: str = "engine"     # or "wire": virtual robots and the manager (wire_cell.py)
     time_scale: float = 10.0  # wire cells: the virtual fleet's
+    size: str = "turtlebot"   # the robots' size (SIZES, or D:M in metres)
+
+    @property
+    def robot_size(self) -> RobotSize:
+        return robot_size_named(self.size)
 
     @property
     def key(self) -> str:
@@ -76,6 +85,8 @@ class Cell:
                  self.recover]
         if self.chain != "engine":  # engine keys stay as they were: older tables resume
             parts.append("{}:x{:g}".format(self.chain, self.time_scale))
+        if self.size != "cell":  # tables from before robots had a size were of cell-sized robots
+            parts.append("size={}".format(self.size))
         return "|".join(parts)
 
 
@@ -122,12 +133,32 @@ def read_experiment(path: Path) -> Experiment:
     scale = data.get("time_scale", 10.0)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale <= 100:
         raise _error(path, data, "time_scale", "expected a number over 0 and at most 100, got {!r}".format(scale))
+    sizes = [str(z) for z in _list(path, data, "sizes", ["turtlebot"])]
+    for z in sizes:
+        try:
+            robot_size_named(z)
+        except ValueError:
+            raise _error(path, data, "sizes", "expected turtlebot, cell or DIAMETER:MARGIN in metres "
+                         "(e.g. 0.354:0.1), got {!r}".format(z)) from None
     cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec,
-                  chain, float(scale))
-             for plan, (s, settings), (d, p), seed, dis, rec, chain in itertools.product(
-                 plans, strategies, delays, seeds, disable, recover, chains)
+                  chain, float(scale), size)
+             for plan, (s, settings), (d, p), seed, dis, rec, chain, size in itertools.product(
+                 plans, strategies, delays, seeds, disable, recover, chains, sizes)
              if not (dis == "none" and rec != "none")]
     return Experiment(str(data.get("name") or path.stem), path, plans, cells)
+
+
+def robot_size_named(name: str) -> RobotSize:
+    """The size a sweep names (SIZES, or D:M in metres); ValueError if none."""
+    if name == "turtlebot":
+        return TURTLEBOT2
+    if name == "cell":
+        return cell_sized()
+    try:
+        diameter, margin = (float(v) for v in name.split(":"))
+        return RobotSize(diameter, margin)
+    except (ValueError, TypeError):
+        raise ValueError("not a robot size: {!r}".format(name)) from None
 
 
 def _p(p: float) -> str:

@@ -69,7 +69,7 @@ def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, 
             manager = Child.start("manager", [
                 "manager", str(work / "plan.txt"), "--definitions", str(definitions), "--no-curve",
                 "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(port), "--strategy",
-                cell.strategy, *_settings(cell), "--start", "--until-done", "--time-limit",
+                cell.strategy, *_settings(cell), "--robot-size", _size(cell), "--start", "--until-done", "--time-limit",
                 "{:g}".format(limit), "--connect-timeout", "{:g}".format(_START_S), "--log",
                 str(work / "runs"), "--step-time", "{:.4f}".format(move_s)], log=work / "manager.log")
             if manager.wait(limit + _START_S) is None:
@@ -90,6 +90,11 @@ def _settings(cell: Cell) -> List[str]:
     for key, value in cell.settings:
         out += ["--{}".format(key.replace("_", "-")), str(value)]
     return out
+
+
+def _size(cell: Cell) -> str:
+    size = cell.robot_size
+    return "cell" if size.cell_sized else "{!r}:{!r}".format(size.diameter, size.margin)
 
 
 def _tail(log: Path) -> str:
@@ -118,4 +123,5 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, run, time_scale: float) -> Dict[
     return make_row(cell, plan, p, makespan=s.makespan * steps, soc=s.soc * steps,
                     waits=[waits.get(r, 0.0) for r in robots], count=count,
                     held=0.0, blocked={},  # the engine's held and blocked-by figures: engine cells only
-                    collisions=s.collisions, reached=len(s.arrived), replanned=False, moves=moves)
+                    collisions=s.collisions, reached=len(s.arrived), replanned=False, moves=moves,
+                    closest_m=None if s.min_distance is None or s.cell_m is None else s.min_distance * s.cell_m)

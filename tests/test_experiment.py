@@ -140,10 +140,29 @@ def test_a_wire_cell_runs_the_plan_on_virtual_robots_through_the_manager(tmp_pat
     assert proc.returncode == 0, proc.stderr
     engine, wire = read_table(tmp_path / "out")
     assert (engine["strategy"], wire["strategy"]) == ("adg", "adg (wire)")
-    assert wire["key"] == engine["key"] + "|wire:x10"
+    assert wire["key"] == engine["key"].replace("|size=turtlebot", "|wire:x10|size=turtlebot")
+    assert engine["size"] == wire["size"] == "turtlebot" and wire["closest_m"] >= 0.454 - 1e-6
     assert wire["finished"] and wire["reached"] == 5 and wire["collisions"] == 0
     assert wire["moves"] == engine["moves"]  # every planned move ran once, over the wire too
     # the robots turn and the commands cross sockets: slower than the engine, not wildly so
     assert engine["makespan_ratio"] <= wire["makespan_ratio"] < 3 * engine["makespan_ratio"]
     again = fleetctl("experiment", path, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
     assert "0 run now, 2 already done" in again.stdout  # wire cells resume like the others
+
+
+def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tmp_path, shared_data):
+    spec = tmp_path / "sizes.yaml"
+    spec.write_text("plans: [{{solution: {}}}]\nstrategies: [adg, step]\ndelays: [none]\nseeds: [0]\n"
+                    "sizes: [turtlebot, cell]\n".format(shared_data / "solutions" / "pibt_sample.txt"))
+    proc = fleetctl("experiment", spec, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = {(r["strategy"], r["size"]): r for r in read_table(tmp_path / "out")}
+    assert set(rows) == {("adg", "turtlebot"), ("step", "turtlebot"), ("adg [cell]", "cell"), ("step [cell]", "cell")}
+    for strategy in ("adg", "step"):
+        real, cell = rows[(strategy, "turtlebot")], rows[(strategy + " [cell]", "cell")]
+        assert real["makespan_ratio"] <= 1.02 < cell["makespan_ratio"]  # a train moves as one
+        assert real["collisions"] == cell["collisions"] == 0 and real["closest_m"] >= 0.454 - 1e-6
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: [0]\nsizes: [huge]\n")
+    refused = fleetctl("experiment", bad, "-o", tmp_path / "o2")
+    assert refused.returncode == 2 and "expected turtlebot, cell or DIAMETER:MARGIN" in refused.stderr
