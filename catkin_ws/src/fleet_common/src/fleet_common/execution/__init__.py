@@ -10,6 +10,7 @@ decisions out (`Dispatch`: robot r may start its action k now).
     adg           Action Dependency Graph: the safety rule every strategy keeps
     strategy      the strategy interface and registry (`make_strategy`)
     step, adg_strategy   the discrete time step and the ADG strategy
+    reorder       the ADG whose order at a cell changes when a robot is late
     run, engine   progress of a run; the engine
     blocking      robots blocked by out robots, transitively
     metrics       executed makespan, sum of costs, waits, who blocked whom
@@ -28,6 +29,7 @@ from .events import (
     StepRound, SwitchStrategy, Wait,
 )
 from .metrics import Metrics, RobotMetrics
+from .reorder import Pass, ReorderStrategy
 from .step import DiscreteTimeStep
 from .strategy import STRATEGIES, Strategy, make_strategy, register
 
@@ -36,6 +38,6 @@ __all__ = [
     "EventError", "PlanError", "UnknownStrategyError", "ActionCompleted", "ActionStarted",
     "Disabled", "Dispatch", "Enabled", "Pause", "Resume", "RobotFailed", "StepRound",
     "SwitchStrategy", "Wait",
-    "Metrics", "RobotMetrics", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
+    "Metrics", "RobotMetrics", "Pass", "ReorderStrategy", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
     "register",
 ]

@@ -35,9 +35,11 @@ and costs nothing to keep.
 
 Built without comparing pairs of robots: every visit of a robot to a cell is
 one record (its start cell, and the cell each action enters), the records are
-sorted by (cell, arrival step), and each consecutive pair at a cell by two
-different robots gives one type-2 edge, from the earlier visit's leaving action
-to the later one's entering action. Edges to non-consecutive visits follow by
+sorted by (cell, arrival step), and each consecutive pair at a cell gives one
+type-2 edge, from the earlier visit's leaving action to the later one's
+entering action (between two visits of one robot the edge repeats what type 1
+says; it is kept so that each cell's visits form one chain, which `reorder`
+edits, and the engine ignores it). Edges to non-consecutive visits follow by
 transitivity, so each action has at most one type-2 predecessor (`dep`) and one
 successor (`succ`): O(A log A) for A actions, a few numpy calls.
 
@@ -86,7 +88,8 @@ class ActionDependencyGraph:
 
     def type2_edges(self) -> np.ndarray:
         """(E, 2) array of (leaving action, entering action) pairs between robots."""
-        after = np.nonzero(self.dep >= 0)[0]
+        agent = self.table.agent
+        after = np.nonzero((self.dep >= 0) & (agent[np.maximum(self.dep, 0)] != agent))[0]
         return np.stack([self.dep[after], after], axis=1)
 
     def predecessors(self, a: int) -> List[int]:
@@ -101,7 +104,7 @@ class ActionDependencyGraph:
     @property
     def num_following(self) -> int:
         """Type-2 edges within one plan step: following moves."""
-        has = self.dep >= 0
+        has = self.dep >= 0  # a robot's own visits are never in one step
         return int(np.count_nonzero(self.table.step[self.dep[has]] == self.table.step[has]))
 
 
@@ -127,7 +130,9 @@ def build_adg(table: ActionTable, show: Callable[[Coord], Coord] = _identity) ->
     v_leave = np.concatenate([np.where(has_moves, first[:-1], -1), np.where(acts < last_of_agent, acts + 1, -1)])
     order = np.argsort(v_cell * (table.makespan + 2) + v_begin, kind="stable")
     cell_o, agent_o = v_cell[order], v_agent[order]
-    pair = np.nonzero((cell_o[1:] == cell_o[:-1]) & (agent_o[1:] != agent_o[:-1]))[0]
+    # consecutive visits by one robot are linked too (a type-1 path already orders them): each
+    # cell's visits then form one chain through dep/succ, which a re-ordering strategy edits
+    pair = np.nonzero(cell_o[1:] == cell_o[:-1])[0]
     p, q = order[pair], order[pair + 1]  # p's visit, then q's visit to the same cell
     leave, enter = v_leave[p], v_enter[q]
     # q arrives (at v_begin[q]) while p is still there: p never leaves, or leaves later

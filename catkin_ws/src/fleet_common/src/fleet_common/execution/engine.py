@@ -59,7 +59,7 @@ from .events import (
     RobotFailed, StepRound, SwitchStrategy, Wait,
 )
 from .metrics import Metrics
-from .run import DISABLED, FAILED, RunState
+from .run import DISABLED, FAILED, PlanClock, RunState
 from .strategy import Strategy, make_strategy
 
 Recheck = Tuple[Sequence[int], Optional[int]]  # robots to look at, robot whose event freed them
@@ -74,18 +74,29 @@ class Engine:
 
     def __init__(self, plan: Plan, strategy: Union[str, Strategy] = "adg",
                  show: Callable[[Coord], Coord] = _identity, follow: bool = False,
+                 take_back: Optional[Callable[[int, int], bool]] = None, step_time: float = 1.0,
                  **settings: object) -> None:
         """Build actions and ADG (raising `PlanError` for plans robots cannot run).
 
         `strategy` is a registered name (with its `settings`, e.g. `lookahead=2`)
         or a `Strategy`; `show` turns base cells into the frame messages use;
-        `follow`: robots smaller than a cell, which may follow one another.
+        `follow`: robots smaller than a cell, which may follow one another; `take_back(r, k)`:
+        the caller takes back robot r's dispatched actions from index k on, which it has not
+        handed over or the robot has not begun, and answers True (they will never start), or
+        answers False (a re-ordering strategy then leaves that robot's order alone);
+        `step_time`: one plan step in the unit of the events' times (a strategy that compares
+        robots with the plan's clock reads it).
         """
         self.follow = follow
         #: follower action -> leader action, for actions dispatched before their leader completed
         self.early: Dict[int, int] = {}
         table = ActionTable.from_plan(plan, show)
         self.run = RunState(build_adg(table, show))
+        self.run.follow = follow
+        self.run.clock = PlanClock(step_time)
+        self._give_back: Optional[Callable[[int, int], bool]] = None
+        self._out: List[Dispatch] = []  # the decisions being made (take-backs remove from it)
+        self.allow_take_back(take_back)
         self.table = table
         if not isinstance(strategy, str) and settings:
             raise UnknownStrategyError("settings ({}) go with a strategy name, not a Strategy object".format(
@@ -105,6 +116,7 @@ class Engine:
         handler = self._handlers.get(type(event))
         if handler is None:
             raise EventError("not an engine event: {!r}".format(event))
+        self.run.now = event.time  # type: ignore[attr-defined]
         agents, released_by = handler(event)
         self.run.version += 1
         self.metrics.record(event)
@@ -139,7 +151,7 @@ class Engine:
             d = run.dep[a]
             if cap is not None and run.dispatched[r] >= cap[r]:
                 out.append(Wait(r, (), None, PAUSED))
-            elif d >= 0 and not run.done[d]:
+            elif d >= 0 and not run.done[d] and run.agent[d] != r:
                 out.append(Wait(r, (run.agent[d],), self.table.coord(run.dst[a]), CELL))
             elif self.strategy.holds(a):
                 reason, on = self.strategy.hold_reason(a)
@@ -219,6 +231,29 @@ class Engine:
             for a in range(run.first[r] + run.dispatched[r], run.first[r + 1]):
                 self.early.pop(a, None)
 
+    def allow_take_back(self, take_back: Optional[Callable[[int, int], bool]]) -> None:
+        """Set (or, with None, clear) the caller's `take_back` (see `__init__`)."""
+        self._give_back = take_back
+        self.run.take_back = self._take_back
+
+    def _take_back(self, r: int, k: int) -> bool:
+        """Robot r's unstarted actions from index k on no longer count as sent, if the caller
+        takes them back (for a strategy that re-orders: `reorder`)."""
+        run = self.run
+        if self._give_back is None or not run.started[r] <= k < run.dispatched[r] or run.out[r] is not None:
+            return False
+        first, succ, agent, dispatched = run.first, run.succ, run.agent, run.dispatched
+        for a in range(first[r] + k, first[r] + dispatched[r]):
+            s = succ[a]
+            if s >= 0 and agent[s] != r and dispatched[agent[s]] > s - first[agent[s]]:
+                return False  # a robot already follows it out of its cell: it must go
+        if not self._give_back(r, k):
+            return False
+        run.dispatched[r] = run.sent[r] = k
+        self._forget_early(r)
+        self._out[:] = [d for d in self._out if d.agent != r or d.index < k]  # decided a moment ago
+        return True
+
     def _enabled(self, e: Enabled) -> Recheck:
         run, r = self.run, self._agent(e.agent, e)
         if run.out[r] is None:
@@ -228,13 +263,16 @@ class Engine:
 
     def _resume(self, e: Resume) -> Recheck:
         self._cap = None
+        self.run.clock.run(e.time)
         return range(self.run.num_agents), None
 
     def _pause(self, e: Pause) -> Recheck:
         self._cap = list(self.run.dispatched)
+        self.run.clock.stop(e.time)
         return (), None
 
     def _step_round(self, e: StepRound) -> Recheck:
+        self.run.clock.stop(e.time)
         limits = self.strategy.round()
         self._cap = [max(c, d) for c, d in zip(limits, self.run.dispatched)]
         return range(self.run.num_agents), None
@@ -249,10 +287,12 @@ class Engine:
 
     # ---- decisions ----------------------------------------------------------------------
     def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
-        run, strategy, cap, out = self.run, self.strategy, self._cap, []
+        run, strategy, cap = self.run, self.strategy, self._cap
+        out: List[Dispatch] = []
+        self._out = out
         first, dep, done, step, agent = run.first, run.dep, run.done, run.step, run.agent
         dispatched, succ, follow, early = run.dispatched, run.succ, self.follow, self.early
-        window = strategy.window
+        window, reorders = strategy.window, strategy.reorders
         coord = self.table.coord
         todo = deque(robots)
         while todo:
@@ -267,14 +307,19 @@ class Engine:
             while a < limit:
                 d = dep[a]
                 leader = None
-                if d >= 0 and not done[d]:
+                if d >= 0 and not done[d] and agent[d] != r:
                     # the leader's move out of the cell: complete, or (following) dispatched
                     if not follow or dispatched[agent[d]] <= d - first[agent[d]]:
-                        break
-                    leader = (agent[d], d - first[agent[d]])
+                        if not (reorders and strategy.overtake(a)):
+                            break
+                        d = dep[a]  # passed the late robots ahead: a new leader, if any
+                    if d >= 0 and not done[d] and agent[d] != r:
+                        leader = (agent[d], d - first[agent[d]])
                 if strategy.holds(a):
                     break
                 k = a - base
+                if dispatched[r] == run.completed[r]:
+                    run.dispatched_at[r] = time
                 dispatched[r] = k + 1
                 if k >= run.sent[r]:
                     run.sent[r] = k + 1
@@ -285,4 +330,5 @@ class Engine:
                 if follow and succ[a] >= 0 and not done[a]:
                     todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1
+        self._out = []
         return out

@@ -16,7 +16,7 @@ entries per event, and a list index is several times faster than a numpy one.
 """
 from __future__ import annotations
 
-from typing import List, Optional
+from typing import Callable, List, Optional
 
 import numpy as np
 
@@ -25,6 +25,36 @@ from .adg import ActionDependencyGraph
 
 DISABLED = "disabled"
 FAILED = "failed"
+
+
+class PlanClock:
+    """The plan's clock in a run: plan steps of running time (paused and stepped time does not
+    count), for strategies that ask whether a robot is behind the plan."""
+
+    def __init__(self, step_time: float = 1.0) -> None:
+        if not step_time > 0:
+            raise ValueError("a plan step must take some time, got {!r}".format(step_time))
+        self.step_time = step_time
+        self._ran = 0.0
+        self._since: Optional[float] = None
+
+    def run(self, now: float) -> None:
+        if self._since is None:
+            self._since = now
+
+    def stop(self, now: float) -> None:
+        if self._since is not None:
+            self._ran += max(0.0, now - self._since)
+            self._since = None
+
+    def steps(self, now: float) -> float:
+        """Plan steps of running time at `now`."""
+        ran = self._ran + (max(0.0, now - self._since) if self._since is not None else 0.0)
+        return ran / self.step_time
+
+
+def _never(agent: int, index: int) -> bool:
+    return False
 
 
 class RunState:
@@ -48,8 +78,22 @@ class RunState:
         self.started = [0] * n
         self.dispatched = [0] * n
         self.sent = [0] * n
+        #: When each robot was last dispatched an action while it had none in hand.
+        self.dispatched_at = [0.0] * n
         #: None while the robot takes part; DISABLED or FAILED while it is out.
         self.out: List[Optional[str]] = [None] * n
+        #: Robots smaller than a cell: a move out of a cell releases the next visitor once it is
+        #: dispatched (the follower is held at the safe distance), not only once it completed.
+        self.follow = False
+        #: Changes of a cell's order of robots made by a re-ordering strategy (`reorder.Pass`),
+        #: in the order they were made; `dep` and `succ` already include them.
+        self.passes: List[object] = []
+        #: `take_back(r, k)`: ask the caller to take back robot r's dispatched, unstarted actions
+        #: from index k on; True when it did (they will never start). Set by the engine.
+        self.take_back: Callable[[int, int], bool] = _never
+        #: The time of the event being handled, and the plan's clock (set by the engine).
+        self.now = 0.0
+        self.clock = PlanClock()
         #: Events handled so far; strategies key their caches on it.
         self.version = 0
         self._by_step: Optional[List[List[int]]] = None
@@ -62,6 +106,13 @@ class RunState:
 
     def finished_agent(self, r: int) -> bool:
         return self.completed[r] == self.first[r + 1] - self.first[r]
+
+    def released(self, d: int) -> bool:
+        """Is dependency `d` (a move out of a cell, or -1) met for the next visitor to start?"""
+        if d < 0 or self.done[d]:
+            return True
+        r = self.agent[d]
+        return self.follow and self.dispatched[r] > d - self.first[r]
 
     def next_undispatched(self, r: int) -> int:
         """Flat index of the next action robot r has not been sent, or -1."""

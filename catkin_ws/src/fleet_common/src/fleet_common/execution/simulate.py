@@ -118,6 +118,7 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
         zero = np.zeros(n)
         fates = MoveFates(np.zeros(n) if waits is None else waits, durations / nominal, zero, zero, zero, zero)
     sim = _Simulation(engine, fates, nominal, disable or {}, journal, size, feedback or Feedback())
+    engine.allow_take_back(sim.take_back)
     sim.run(controls)
     total = nominal * fates.slowdown + fates.stall + fates.dropout
     paths = [m.knots for m in sim.paths]
@@ -210,6 +211,24 @@ class _Simulation:
             self._schedule(r, _WAKE, self.now + self.wait[a])
             return
         self._begin(r, d, self.now)
+
+    def take_back(self, r: int, k: int) -> bool:
+        """The engine takes back robot r's actions from index k on: only if it has not begun
+        moving in any of them (it then keeps standing still for what is left of its wait)."""
+        busy = self.busy[r]
+        if busy is not None and busy[0].index >= k:
+            path = self.paths[r]
+            if path.moving:
+                return False
+            a = self.engine.run.first[r] + busy[0].index
+            self.wait[a] = max(0.0, path.began - self.now)
+            self.busy[r] = None
+            path.forget()
+        queue = self.queue[r]
+        while queue and queue[-1].index >= k:
+            queue.pop()
+        self._note("taken back", robot=r, index=k)
+        return True
 
     def _begin(self, r: int, d: Dispatch, began: float) -> None:
         """Robot r starts its move d (it occupies both cells from `began`)."""

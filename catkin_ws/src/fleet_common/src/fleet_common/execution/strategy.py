@@ -13,6 +13,8 @@ questions from the shared `RunState`:
   `hold_reason(a)`: why, for the console;
 - `on_completed`, `on_out`, `on_back`: which robots may now start something
   besides those the dependency graph names (the robot itself, the waiter);
+- `overtake(a)`: only for strategies that re-order (`reorders`): may action
+  `a`'s robot go before the robot it waits for at a cell (`reorder`);
 - `round()`: how far each robot may go in one "step" of a paused run;
 - `finished()`: is the run over (by default: every robot that is not out
   has completed its actions).
@@ -44,6 +46,8 @@ class Strategy:
     summary: ClassVar[str] = ""
     #: Keyword settings `make_strategy` accepts for this strategy.
     SETTINGS: ClassVar[Tuple[str, ...]] = ()
+    #: True when the strategy may change a cell's order of robots (the engine asks `overtake`).
+    reorders: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self.run: Optional[RunState] = None
@@ -56,6 +60,12 @@ class Strategy:
 
     def holds(self, a: int) -> bool:
         """True while this strategy keeps action `a` back (dependencies aside)."""
+        return False
+
+    def overtake(self, a: int) -> bool:
+        """Action `a`'s robot is ready and `a` waits for a move out of its cell that is not
+        released: change the cell's order so that it need not (see `reorder`)? True when
+        `a`'s dependency is met now."""
         return False
 
     def hold_reason(self, a: int) -> Tuple[str, Tuple[int, ...]]:
