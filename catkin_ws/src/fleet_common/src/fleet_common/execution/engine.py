@@ -36,6 +36,11 @@ new deadlock: a follower waits only for its leader's move, as before, and
 every chain of leaders ends at a robot whose move depends on nobody
 unfinished (the ADG has no cycles). `following()` lists who follows whom.
 
+A run may be handed over to a new plan from where its robots are (`adopt`, for `reroute`):
+the new engine takes the old one's progress, translated to the new plan, and checks the one
+thing that keeps the hand-over safe: no move already sent waits in the new plan for a move
+that is not.
+
 Switching strategies keeps the progress and attaches the new strategy to it;
 actions already sent stay sent. Because rule 4 holds under every strategy,
 any mix of strategies, pauses, disabled and failed robots is collision-free:
@@ -46,7 +51,7 @@ nobody may enter a cell before its previous occupant's move out is complete
 from __future__ import annotations
 
 from collections import deque
-from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 from ..grid import Coord
 from ..plan import Plan
@@ -284,6 +289,66 @@ class Engine:
         new.attach(self.run)
         self.strategy = new
         return range(self.run.num_agents), None
+
+    # ---- a run handed over to a new plan -------------------------------------------------
+    def adopt(self, old: "Engine", progress: Sequence[Tuple[int, int, bool]], time: float,
+              released_by: Optional[Mapping[int, int]] = None) -> List[Dispatch]:
+        """Go on with `old`'s run on this engine's plan, a plan from where its robots are (see
+        `handover`). `progress[r]`: robot r's moves of this plan completed, its moves sent and not
+        completed, and whether it began the first of those. The robots out, the pause, the caller's
+        `take_back` and the metrics (one object for the whole run) carry over; the plan's clock
+        starts at `time`. The decisions now; a wait one ends is charged to `released_by[robot]`.
+
+        Raises `EventError`, changing neither engine, when a move sent would wait in this plan for
+        a move that is not (the plan does not fit the run: the rule's one condition)."""
+        run = self.run
+        n = run.num_agents
+        if n != old.run.num_agents or len(progress) != n or run.passes or self.metrics.begin is not None:
+            raise EventError("adopt: a fresh engine for the same {} robots is needed".format(old.run.num_agents))
+        first, agent, dep = run.first, run.agent, run.dep
+        for r, (done, sent, _) in enumerate(progress):
+            if done < 0 or sent < 0 or done + sent > run.count(r):
+                raise EventError("adopt: robot {} has {} moves in the new plan, not {} done and {} sent".format(
+                    r, run.count(r), done, sent), r)
+        for r, (done, sent, _) in enumerate(progress):
+            for a in range(first[r] + done, first[r] + done + sent):
+                d = dep[a]
+                if d < 0 or agent[d] == r:
+                    continue
+                q = agent[d]
+                k = d - first[q]
+                if not (k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1])):
+                    raise EventError("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot "
+                                     "{}'s move {}, which was not".format(r, a - first[r], q, k), r)
+        for r, (done, sent, began) in enumerate(progress):
+            for a in range(first[r], first[r] + done):
+                run.done[a] = 1
+            run.completed[r] = done
+            run.dispatched[r] = run.sent[r] = done + sent
+            run.started[r] = done + (1 if began and sent else 0)
+            run.dispatched_at[r] = old.run.dispatched_at[r]
+            run.out[r] = old.run.out[r]
+            for a in range(first[r] + done, first[r] + done + sent):
+                d = dep[a]
+                if d >= 0 and agent[d] != r and not run.done[d]:
+                    self.early[a] = d
+        run.version = old.run.version + 1
+        run.clock = PlanClock(old.run.clock.step_time)
+        if not old.paused:
+            run.clock.run(time)
+            self._cap = None
+        else:
+            self._cap = list(run.dispatched)
+        self._give_back = old._give_back
+        old.metrics.rebase([old.metrics.offset[r] + old.run.completed[r] - progress[r][0] for r in range(n)],
+                           [run.count(r) for r in range(n)])
+        self.metrics = old.metrics
+        self.strategy.attach(run)
+        out: List[Dispatch] = []
+        charged = released_by or {}
+        for r in range(n):
+            out += self._dispatch([r], charged.get(r), time)
+        return out
 
     # ---- decisions ----------------------------------------------------------------------
     def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:

@@ -43,6 +43,10 @@ class Metrics:
         #: per robot, the wait its latest waiting dispatch ended (a caller logging each dispatch
         #: clears it before an event and takes what the event's dispatches left)
         self.last_wait: Dict[int, float] = {}
+        #: per robot, its moves in the run before the first move of the plan the engine runs now
+        #: (a run handed over to a new plan: `rebase`); action indices count from there
+        self.offset = [0] * len(self.counts)
+        self._last: List[Optional[float]] = [None] * len(self.counts)
 
     def record(self, event: object) -> None:
         if isinstance(event, ActionCompleted):
@@ -55,7 +59,20 @@ class Metrics:
         elif isinstance(event, (Disabled, RobotFailed)):
             self._ready[event.agent] = None
 
+    def rebase(self, offsets: List[int], counts: List[int]) -> None:
+        """The run goes on with a new plan: robot r made `offsets[r]` moves before its first one,
+        and has `counts[r]` moves in it (one Metrics object for the whole run)."""
+        self.offset = list(offsets)
+        self.counts = [o + c for o, c in zip(offsets, counts)]
+        for r, m in enumerate(self.agents):
+            if self._done[r] == self.counts[r]:
+                if m.arrival is None:  # arrived with its last move of the old plan
+                    m.arrival = (self._last[r] or 0.0) - (self.begin or 0.0)
+            else:
+                m.arrival = None
+
     def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int]) -> None:
+        index += self.offset[agent]
         ready = self._ready[agent]
         if index != self._done[agent] or ready is None:
             return  # sent ahead (lookahead) or not ready: no wait
@@ -77,6 +94,7 @@ class Metrics:
         m = self.agents[agent]
         m.moves += 1
         self._ready[agent] = time
+        self._last[agent] = time
         self.last_completion = time
         if self._done[agent] == self.counts[agent]:
             m.arrival = time - (self.begin or 0.0)

@@ -22,7 +22,14 @@ at each new report; the leader's completion is known the same way.
 
 `disable={robot: step}` models a battery dying: the robot stops where the
 plan has it at that step (before its first action of that step or later) and
-is disabled there; its in-flight moves are never cut short. A robot that
+is disabled there; its in-flight moves are never cut short.
+
+With `reroute` (and the map, `grid`) the run may change plans as it goes
+(`reroute`: new paths for robots a late one holds up, when that pays): the
+engine is handed over to the new plan (`handover`) between two events, robots
+drive on with the moves they were sent, and a robot's k-th move of the run
+keeps its fate whatever plan it belongs to (moves beyond the plan's draw
+their own, from the same model and seed). A robot that
 `RobotFailed` stops mid-move where it is: when it is enabled again it is sent
 the same action and drives on from there. With `journal=True` the run also
 keeps what a run log records (`SimResult.journal`: dispatches, starts,
@@ -35,19 +42,23 @@ import heapq
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import Deque, Dict, List, Mapping, Optional, Sequence, Set, Tuple
+from typing import Callable, Deque, Dict, List, Mapping, Optional, Sequence, Set, Tuple, Union
 
 import numpy as np
 
-from ..delays import DelayModel, MoveFates, simulator_fates
+from ..delays import DelayModel, MoveFates, robot_profile, simulator_fates
+from ..delays.draw import COLUMNS, draw_fates
+from ..grid import Coord, Grid
 from ..plan import Plan
 from ..robot_size import RobotSize
 from .approach import Approach, Safety, judge
 from .engine import Engine
 from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed
 from .following import hold_fraction
+from .handover import hand_over
 from .metrics import Metrics
 from .motion import Feedback, Motion
+from .reroute import Reroute, RerouteRule, Rerouter
 from .trace import Collision, Trace, find_collisions
 
 _WAKE, _CONTROL, _RECHECK = 0, 1, 2
@@ -67,6 +78,9 @@ class SimResult:
     paths: Optional[List[List[Tuple[float, float, float]]]] = None
     safety: Optional[Safety] = None
     size: Optional[RobotSize] = None
+    #: (time, reroute) for each change of plan, in order; the engine runs the last plan
+    reroutes: Tuple[Tuple[float, Reroute], ...] = ()
+    rerouter: Optional[Rerouter] = None
 
     @property
     def metrics(self) -> Metrics:
@@ -91,35 +105,71 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
              controls: Sequence[object] = (), nominal: float = 1.0, waits: Optional[np.ndarray] = None,
              journal: bool = False, size: Optional[RobotSize] = None,
              feedback: Optional[Feedback] = None, fates: Optional[MoveFates] = None,
+             reroute: Union[None, str, RerouteRule, Rerouter] = None, grid: Optional[Grid] = None,
              **settings: object) -> SimResult:
     """Run `plan` under `strategy` with robots of `size` (None: as large as a cell); each move's
     fate drawn from `delays` with `seed`, or given as `fates`, or as plain `durations` (and
-    `waits`); no delays by default."""
+    `waits`); no delays by default. `reroute` ("auto", a rule or a `Rerouter`; None or "off":
+    never) replans robots held up by late ones on `grid` (see `reroute`)."""
     follow = size is not None and not size.cell_sized
     engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
+    more = None
     if fates is None and durations is None:
-        fates = simulator_fates(delays or DelayModel(), engine.table.agent, engine.run.num_agents, seed,
-                                nominal)
+        model = delays or DelayModel()
+        fates = simulator_fates(model, engine.table.agent, engine.run.num_agents, seed, nominal)
+        more = _more_fates(model, seed, engine.run.num_agents, nominal)
     return simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
-                           feedback=feedback, fates=fates, nominal=nominal)
+                           feedback=feedback, fates=fates, nominal=nominal,
+                           rerouter=_rerouter(reroute, grid), more=more)
+
+
+def _rerouter(reroute: Union[None, str, RerouteRule, Rerouter], grid: Optional[Grid]) -> Optional[Rerouter]:
+    if reroute is None or reroute == "off" or isinstance(reroute, Rerouter):
+        return reroute  # type: ignore[return-value]
+    if reroute != "auto" and not isinstance(reroute, RerouteRule):
+        raise ValueError("reroute: expected off, auto or a RerouteRule, got {!r}".format(reroute))
+    if grid is None:
+        raise ValueError("rerouting needs the map (grid=)")
+    return Rerouter(grid, reroute if isinstance(reroute, RerouteRule) else None, timed=False)
+
+
+Fate = Tuple[float, float, float, float, float, float]  # wait, drive, stall, stall at, dropout, dropout at
+
+
+def _more_fates(model: DelayModel, seed: int, n: int, nominal: float) -> Callable[[int, int], Fate]:
+    """Fates of moves beyond a robot's moves in the plan (a longer path after a reroute): drawn
+    from the same model, by (seed, robot, move), with the robot's own profile."""
+    factor, prone = robot_profile(model, seed, n)
+
+    def more(r: int, k: int) -> Fate:
+        u = np.random.default_rng([seed, 1 + r, k]).random((1, COLUMNS))
+        f = draw_fates(model, u, factor[[r]], prone[[r]])
+        return (nominal * float(f.wait[0]), nominal * float(f.slowdown[0]), nominal * float(f.stall[0]),
+                float(f.stall_at[0]), nominal * float(f.dropout[0]), float(f.dropout_at[0]))
+    return more
 
 
 def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
                     disable: Optional[Mapping[int, int]] = None, controls: Sequence[object] = (),
                     waits: Optional[np.ndarray] = None, journal: bool = False,
                     size: Optional[RobotSize] = None, feedback: Optional[Feedback] = None,
-                    fates: Optional[MoveFates] = None, nominal: float = 1.0) -> SimResult:
+                    fates: Optional[MoveFates] = None, nominal: float = 1.0,
+                    rerouter: Optional[Rerouter] = None,
+                    more: Optional[Callable[[int, int], Fate]] = None) -> SimResult:
     """Run a fresh `engine` (not yet resumed): each move as `fates` say, or taking `durations`
-    after `waits` (a constant speed)."""
+    after `waits` (a constant speed); `more(robot, k)`: the fate of a robot's k-th move beyond
+    its moves in the plan (default: its own fates again, in turn)."""
     if fates is None:
         if durations is None:
             raise ValueError("simulate_engine needs fates or durations")
         n = durations.shape[0]
         zero = np.zeros(n)
         fates = MoveFates(np.zeros(n) if waits is None else waits, durations / nominal, zero, zero, zero, zero)
-    sim = _Simulation(engine, fates, nominal, disable or {}, journal, size, feedback or Feedback())
+    sim = _Simulation(engine, fates, nominal, disable or {}, journal, size, feedback or Feedback(), more)
     engine.allow_take_back(sim.take_back)
+    sim.rerouter = rerouter
     sim.run(controls)
+    engine = sim.engine
     total = nominal * fates.slowdown + fates.stall + fates.dropout
     paths = [m.knots for m in sim.paths]
     if size is None or size.cell_sized:
@@ -130,14 +180,24 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
         collisions = [Collision("too-close", a.agents, (a.place,), a.time, (True, True))  # type: ignore[arg-type]
                       for a in safety.violations]
     return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
-                     sim.journal, paths, safety, size)
+                     sim.journal, paths, safety, size, tuple(sim.reroutes), rerouter)
 
 
 class _Simulation:
     def __init__(self, engine: Engine, fates: MoveFates, nominal: float, disable: Mapping[int, int],
-                 journal: bool, size: Optional[RobotSize], feedback: Feedback) -> None:
+                 journal: bool, size: Optional[RobotSize], feedback: Feedback,
+                 more: Optional[Callable[[int, int], Fate]] = None) -> None:
         n = engine.run.num_agents
         self.engine = engine
+        # a robot's moves are counted over the whole run (its k-th move: ordinal k); plan actions
+        # are ordinal - offset[r] of the plan the engine runs; fates and completions go by ordinal
+        self.offset = [0] * n
+        self.first0: List[int] = list(engine.run.first)
+        self.nominal = nominal
+        self.more = more
+        self._extra: Dict[Tuple[int, int], int] = {}
+        self.rerouter: Optional[Rerouter] = None
+        self.reroutes: List[Tuple[float, Reroute]] = []
         self.wait: List[float] = fates.wait.tolist()
         self.drive: List[float] = (nominal * fates.slowdown).tolist()
         self.stall: List[float] = fates.stall.tolist()
@@ -149,13 +209,15 @@ class _Simulation:
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
         self._charged: Dict[int, Tuple[float, Dict[int, float]]] = {}
-        self.disable = dict(disable)
+        # the ordinal of the move before which each robot to disable stops (its first of that step)
+        self.disable = {r: k for r, k in ((r, self._first_at(engine, r, step)) for r, step in disable.items())
+                        if k is not None}
         table = engine.table
         self.trace = Trace([table.start(r) for r in range(n)])
         self.paths = [Motion.at_rest(table.start(r)) for r in range(n)]
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
         self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, token
-        self.completed_at: Dict[int, float] = {}  # flat action -> when it completed
+        self.completed_at: Dict[int, float] = {}  # fate id (a robot's ordinal) -> when it completed
         self.held_by: Dict[int, Set[int]] = {}  # leader -> followers held until it moves
         self.heap: List[tuple] = []
         self.seq = 0
@@ -180,8 +242,78 @@ class _Simulation:
                     self._wake(r)
                 else:
                     self._drive_on(r)
+            if self.rerouter is not None:
+                self._reroute()
             if self.journal is not None:
                 self._note_waits()
+
+    @staticmethod
+    def _first_at(engine: Engine, r: int, step: int) -> Optional[int]:
+        run = engine.run
+        for a in range(run.first[r], run.first[r + 1]):
+            if run.step[a] >= step:
+                return a - run.first[r]
+        return None
+
+    def _fid(self, r: int, k: int) -> int:
+        """The fate id of robot r's move k of the run (ordinal)."""
+        if k < self.first0[r + 1] - self.first0[r]:
+            return self.first0[r] + k
+        fid = self._extra.get((r, k))
+        if fid is None:
+            fid = self._extra[(r, k)] = len(self.wait)
+            fate = self.more(r, k) if self.more is not None else self._again(r, k)
+            for column, value in zip((self.wait, self.drive, self.stall, self.stall_at, self.drop, self.drop_at),
+                                     fate):
+                column.append(value)
+        return fid
+
+    def _again(self, r: int, k: int) -> Fate:
+        """A robot's own fates again, in turn (fates given without a model to draw more from)."""
+        count = self.first0[r + 1] - self.first0[r]
+        if count == 0:
+            return (0.0, self.nominal, 0.0, 0.0, 0.0, 0.0)
+        a = self.first0[r] + k % count
+        return (self.wait[a], self.drive[a], self.stall[a], self.stall_at[a], self.drop[a], self.drop_at[a])
+
+    def _dst(self, r: int, k: int) -> Coord:
+        """The target of robot r's move k of the run (ordinal)."""
+        if k < self.offset[r]:
+            return self.trace.moves[r][k].dst
+        run = self.engine.run
+        return self.engine.table.coord(run.dst[run.first[r] + k - self.offset[r]])
+
+    # ---- a new plan ----------------------------------------------------------------------
+
+    def _reroute(self) -> None:
+        assert self.rerouter is not None
+        found = self.rerouter.consider(self.engine, self.now)
+        if found is None:
+            return
+        old = self.engine
+        new, dispatches = hand_over(old, found, self.now)
+        shift = found.cut.base  # the hand-over is at the cut: a robot's moves from its base on
+        for r in range(old.run.num_agents):
+            self.offset[r] += shift[r]
+        self.engine = new
+        self.rerouter.restart()
+        self.reroutes.append((self.now, found))
+        run = new.run
+
+        def moved(d: Dispatch) -> Dispatch:
+            k = d.index - shift[d.agent]
+            a = run.first[d.agent] + k
+            lead = new.early.get(a)
+            return d._replace(index=k, step=run.step[a], follows=None if lead is None else (
+                run.agent[lead], lead - run.first[run.agent[lead]]))
+        for r in range(run.num_agents):
+            busy = self.busy[r]
+            if busy is not None:
+                self.busy[r] = (moved(busy[0]), busy[1], busy[2])
+            self.queue[r] = deque(moved(d) for d in self.queue[r])
+        self._note("reroute", robots=list(found.agents), around=found.around, late=found.late, gain=found.gain,
+                   text=found.describe())
+        self._deliver(dispatches)
 
     # ---- robots --------------------------------------------------------------------------
 
@@ -190,7 +322,7 @@ class _Simulation:
             return
         d = self.queue[r][0]
         stop = self.disable.get(r)
-        if stop is not None and d.step >= stop:
+        if stop is not None and self.offset[r] + d.index >= stop:
             del self.disable[r]
             self.queue[r].clear()
             self.disabled_at[r] = self.now
@@ -198,7 +330,7 @@ class _Simulation:
             self._deliver(self.engine.handle(Disabled(r, self.now)))
             return
         self.queue[r].popleft()
-        a = self.engine.run.first[r] + d.index
+        a = self._fid(r, self.offset[r] + d.index)
         path = self.paths[r]
         if path.action == a:  # the move it stopped in (a fault): it drives on from where it is
             path.resume(self.now)
@@ -220,7 +352,7 @@ class _Simulation:
             path = self.paths[r]
             if path.moving:
                 return False
-            a = self.engine.run.first[r] + busy[0].index
+            a = self._fid(r, self.offset[r] + busy[0].index)
             self.wait[a] = max(0.0, path.began - self.now)
             self.busy[r] = None
             path.forget()
@@ -286,19 +418,17 @@ class _Simulation:
     def _hold(self, r: int, d: Dispatch, progress: float) -> float:
         """How far robot r may go in its move d, following d.follows, by the newest report."""
         leader, index = d.follows  # type: ignore[misc]
-        run = self.engine.run
-        lead = run.first[leader] + index
+        lead = self.offset[leader] + index  # the leader's move out of the cell (ordinal)
         seen = self.feedback.seen_at(self.now)
-        done = self.completed_at.get(lead)
+        done = self.completed_at.get(self._fid(leader, lead))
         if done is not None and done <= seen:
             return 1.0
         lpath = self.paths[leader]
         x, y = lpath.position(seen)
         first = lead
-        while first > run.first[leader] and self.completed_at.get(first - 1, math.inf) > seen:
+        while first > 0 and self.completed_at.get(self._fid(leader, first - 1), math.inf) > seen:
             first -= 1
-        table = self.engine.table
-        points = [(x, y)] + [table.coord(run.dst[b]) for b in range(first, lead + 1)]
+        points = [(x, y)] + [self._dst(leader, b) for b in range(first, lead + 1)]
         return hold_fraction(d.src, d.dst, points, self.safe, progress)  # type: ignore[arg-type]
 
     def _complete(self, r: int) -> None:
@@ -306,7 +436,7 @@ class _Simulation:
         assert busy is not None
         d, began, _ = busy
         self.busy[r] = None
-        a = self.engine.run.first[r] + d.index
+        a = self._fid(r, self.offset[r] + d.index)
         self.paths[r].arrive(self.now)
         self.completed_at[a] = self.now
         self.trace.add(r, began, self.now, d.src, d.dst)

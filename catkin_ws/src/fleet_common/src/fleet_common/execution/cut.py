@@ -1,0 +1,82 @@
+"""The cut of a running engine: where every robot is, and what it is committed to, at one moment.
+
+A new plan for a run that goes on (`reroute`) starts from a cut. Per robot:
+the moves of the run's plan it has completed, the moves it was sent and has
+not completed (`committed`: they cannot be taken back, it may be driving one
+already), whether it began the first of them, and whether it is out. Its
+cell is where its last completed move took it; while it makes a move (or was
+stopped in one by a fault) it holds that move's target cell too.
+
+A plan has one robot in a cell at a step, a run of robots of real size not
+always: a follower may complete its move into a cell before the robot it
+follows has completed its move out. Such a follower counts as still making
+that move (`base`: the move a new plan starts a robot with; the robot that
+followed it into the cell it left, likewise): in a new plan it is that
+robot's first move, done already, made in the step its leader leaves.
+
+Two cuts of one run compare equal exactly when no robot's progress differs,
+so a caller that planned from one cut can tell, at hand-over time, whether
+the robots it planned for have moved since (`moved`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+from .engine import Engine
+
+
+@dataclass(frozen=True)
+class Cut:
+    """Per robot: the move a new plan starts it with, moves completed, moves sent and not completed,
+    the first of them begun, out."""
+
+    time: float
+    base: Tuple[int, ...]
+    completed: Tuple[int, ...]
+    committed: Tuple[int, ...]
+    started: Tuple[bool, ...]
+    out: Tuple[Optional[str], ...]
+
+    @property
+    def num_agents(self) -> int:
+        return len(self.completed)
+
+    def moved(self, other: "Cut", robots: Sequence[int]) -> List[int]:
+        """Robots among `robots` whose progress differs between this cut and `other`."""
+        return [r for r in robots if (self.completed[r], self.committed[r], self.started[r], self.out[r])
+                != (other.completed[r], other.committed[r], other.started[r], other.out[r])]
+
+
+def cut_of(engine: Engine, time: float) -> Cut:
+    """The cut of `engine`'s run now."""
+    run = engine.run
+    n = run.num_agents
+    return Cut(time, tuple(_bases(engine)), tuple(run.completed),
+               tuple(run.dispatched[r] - run.completed[r] for r in range(n)),
+               tuple(run.started[r] > run.completed[r] for r in range(n)), tuple(run.out))
+
+
+def _bases(engine: Engine) -> List[int]:
+    """Per robot, the first of its moves a new plan starts it with: its first move not completed,
+    or an earlier one when that move went into a cell before the robot leaving it had completed
+    leaving (following it), or behind such a robot; bases only go down, to a fixed point."""
+    run = engine.run
+    first, agent, succ = run.first, run.agent, run.succ
+    base = list(run.completed)
+    # (robot, from, to): its moves not done in the new plan whose cells' next visitors to check;
+    # first the moves sent, and the next move of each robot (a fault takes back a move begun)
+    todo = [(q, run.completed[q], min(max(run.dispatched[q], run.completed[q] + 1), run.count(q)))
+            for q in range(run.num_agents)]
+    while todo:
+        q, lo, hi = todo.pop()
+        for x in range(first[q] + lo, first[q] + hi):
+            s = succ[x]  # the next visitor of the cell x leaves: did it come in before x was done?
+            if s < 0:
+                continue
+            g = agent[s]
+            k = s - first[g]
+            if g != q and k < base[g]:
+                todo.append((g, k, base[g]))
+                base[g] = k
+    return base

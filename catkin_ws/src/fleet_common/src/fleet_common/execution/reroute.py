@@ -1,0 +1,257 @@
+"""Replanning when it pays: new paths for robots a late robot holds up, while the others go on.
+
+No re-ordering helps a robot that waits outside its goal for a late robot
+that must still pass through it, nor one queued behind a late robot in a
+corridor: one of them needs a new path. This module decides when one pays,
+and makes it; `handover` gives the run over to the new plan without stopping
+anyone. Pure: values in (an engine, its grid, the time), a plan out.
+
+Who. A robot waits for the cell it enters (`Engine.waiting`, reason CELL) for
+the robot that must leave it first; that one may wait for another, or follow
+one. A robot is *held up* when that chain reaches a *late* robot: one that is
+out, or behind the plan's clock (`RunState.clock`) by `gap` steps or more.
+
+The rule, for each late robot L and the robots H it holds up, tried in turn:
+reroute L alone (the robot waiting outside its goal goes in, L goes round),
+H alone, or both:
+
+1. predict the rest of the run as it stands (`forecast`: every move as soon
+   as the dependency graph allows, each cell's order kept, L standing still
+   as long again as it has stood with its move sent);
+2. plan the chosen robots anew around the others (`reroute_plan`), and
+   predict the run on that plan the same way;
+3. the gain is the predicted arrival steps saved, summed over all robots
+   (kept robots only gain: they lose nobody in front of them); it *pays*
+   when gain - `cost` x (robots rerouted) >= `margin` steps and the predicted
+   makespan is not longer. The best variant that pays is taken.
+
+A plan is only a prediction: what keeps the run safe is unchanged. The new
+plan goes to the engine as a plan like any other; its dependency graph keeps
+each cell's order of robots, and the robots' moves already sent are the
+first moves of the new plan, with every cell they enter kept free for them
+(`reroute_plan`), so the engine's one rule (nobody enters a cell before the
+previous visitor's move out of it is released) holds across the hand-over.
+
+Cost: two predictions (a pass over the incomplete moves each) and one
+space-time A* per robot rerouted, per variant tried, within `budget` seconds
+(`Deadline`); the driver asks at most once every `every` plan steps.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+from ..errors import FleetError
+from ..grid import Grid
+from ..plan import Plan
+from ..planning.deadline import Deadline
+from ..planning.st_astar import DeadlineReached
+from ..validate import validate_plan
+from .cut import Cut, cut_of
+from .engine import Engine
+from .errors import UnknownStrategyError
+from .events import CELL
+from .forecast import earliest_starts, ready_steps, unplaced
+from .reroute_plan import Maps, Proposal, new_start, plan_around
+
+#: What `--reroute` accepts: never, ask the operator (the manager), or reroute at once.
+MODES = ("off", "propose", "auto")
+
+
+class RerouteError(FleetError):
+    """A reroute's plan that is not valid: a defect of this module, never the run's fault."""
+
+
+@dataclass(frozen=True)
+class RerouteRule:
+    """The rule's settings (steps are plan steps, one nominal move each)."""
+
+    gap: int = 2            # late: this many steps behind the plan's clock, or more
+    margin: float = 2.0     # reroute when the gain, less the cost, reaches this many steps
+    cost: float = 1.0       # charged per robot given a new path
+    every: float = 1.0      # a driver looks at most once per this many steps
+    budget: float = 0.25    # seconds of search per look
+    tries: int = 3          # late robots looked at per look, the most robots held up first
+    later: float = 0.0      # no robot's predicted arrival may be later by more than this
+    per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
+
+    def __post_init__(self) -> None:
+        for key in ("gap", "tries"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
+        for key in ("margin", "cost", "every", "budget", "later", "per_move"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+                raise UnknownStrategyError("reroute {} must be a number >= 0, got {!r}".format(key, value))
+
+
+@dataclass(frozen=True)
+class Reroute:
+    """A new plan from `cut` for every robot, `agents` on new paths because `around`, late by `late`
+    steps (None: out), held up `held`; predicted `gain` steps sooner in all (arrivals summed),
+    makespans (steps from the cut) `before` and `after`."""
+
+    plan: Plan
+    cut: Cut
+    agents: Tuple[int, ...]
+    around: int
+    late: Optional[int]
+    gain: int
+    before: int
+    after: int
+    held: Tuple[int, ...]
+
+    def describe(self, name: Callable[[int], object] = str) -> str:
+        """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
+        steps sooner"."""
+        def robots(rs: Sequence[int]) -> str:
+            return "robot{} {}".format("s" if len(rs) > 1 else "", ", ".join(str(name(r)) for r in rs))
+        late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
+        sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
+        if self.around not in self.agents:
+            return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
+        return "{} rerouted: robot {}, {}, held up {}; {}".format(
+            robots(self.agents), name(self.around), late, robots(self.held), sooner)
+
+
+def behind(engine: Engine, r: int, now: float) -> Optional[int]:
+    """Whole steps robot r is behind the plan's clock (its next move should have started that long
+    ago; 0 when it is not), or None when it is out (late for good)."""
+    run = engine.run
+    if run.out[r] is not None:
+        return None
+    a = run.next_incomplete(r)
+    if a < 0:
+        return 0
+    return max(0, int(run.clock.steps(now) - run.step[a]))
+
+
+def held_up(engine: Engine, now: float, gap: int) -> Dict[int, List[int]]:
+    """Late robot -> the robots it holds up (waiting for a cell, directly or down a chain), those
+    waiting for it directly first."""
+    on: Dict[int, int] = {}
+    waiters: List[int] = []
+    for w in engine.waiting():
+        if w.reason == CELL and w.on:
+            on[w.agent] = w.on[0]
+            waiters.append(w.agent)
+    for w in engine.following():
+        on.setdefault(w.agent, w.on[0])
+    late: Dict[int, bool] = {}
+    out: Dict[int, List[Tuple[int, int]]] = {}
+    for h in waiters:
+        q, depth, seen = on[h], 0, {h}
+        while q not in seen:
+            if q not in late:
+                lag = behind(engine, q, now)
+                late[q] = lag is None or lag >= gap
+            if late[q]:
+                out.setdefault(q, []).append((depth, h))
+                break
+            seen.add(q)
+            depth += 1
+            if q not in on:
+                break
+            q = on[q]
+    return {q: [h for _, h in sorted(hs)] for q, hs in out.items()}
+
+
+def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
+           deadline: Optional[Deadline] = None) -> Optional[Reroute]:
+    """A reroute that pays now, by `rule`, or None (see the module docstring)."""
+    groups = held_up(engine, now, rule.gap)
+    if not groups:
+        return None
+    deadline = deadline or Deadline(rule.budget)
+    run, follow = engine.run, engine.follow
+    cut = cut_of(engine, now)
+    base = cut.base
+    ready = ready_steps(run, now)
+    before = earliest_starts(run, ready, follow, base)
+    if unplaced(run, before, base, range(run.num_agents)):
+        return None  # a prediction that cannot be made (nothing to compare with): no change
+    grid = maps.grid
+    table = run.table
+
+    def potential(h: int) -> int:
+        goal = grid.index(table.goal(h))
+        here = grid.index(table.coord(run.dst[run.first[h] + run.dispatched[h] - 1]
+                                      if run.dispatched[h] > base[h] else run.src[run.first[h] + base[h]]))
+        return before.arrival[h] - new_start(run, before, base, h) - maps.distances(goal)[here]
+
+    ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
+                                                        for h in g[1]), g[0]))
+    best: Optional[Tuple[float, Proposal, int]] = None
+    try:
+        for late, held in ranked[:rule.tries]:
+            gaining = [h for h in held if potential(h) > rule.margin]
+            variants: List[List[int]] = []
+            if run.out[late] is None and run.dispatched[late] < run.count(late):
+                variants.append([late])
+            if gaining:
+                variants.append(gaining)
+                if variants[0] == [late]:
+                    variants.append(gaining + [late])
+            for chosen in variants:
+                proposal = plan_around(run, grid, maps, before, ready, follow, base, chosen, deadline)
+                if proposal is None:
+                    continue
+                # a move more is a step more, and its expected delay
+                gain = sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
+                net = gain - rule.cost * len(chosen)
+                worse = max(new - old + rule.per_move * proposal.more.get(r, 0)
+                            for r, (new, old) in enumerate(zip(proposal.arrival, before.arrival)))
+                if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
+                    best = (net, proposal, late)
+    except DeadlineReached:
+        pass  # what was found so far
+    if best is None:
+        return None
+    _, proposal, late = best
+    report = validate_plan(proposal.plan, grid, strict_rotations=True, max_findings_per_kind=1)
+    if not report.ok:  # never, by construction (reroute_plan); refused all the same
+        raise RerouteError("a reroute's plan is not valid: {}".format(report.errors[0]))
+    lag = behind(engine, late, now)
+    return Reroute(proposal.plan, cut, proposal.agents, late, lag,
+                   sum(before.arrival) - sum(proposal.arrival), before.makespan, max(proposal.arrival),
+                   tuple(groups[late]))
+
+
+class Rerouter:
+    """The rule applied as a run goes on: looks at most once per `rule.every` plan steps (and
+    only while some robot is held up), and keeps what it costs."""
+
+    def __init__(self, grid: Grid, rule: Optional[RerouteRule] = None, timed: bool = True,
+                 clock: Callable[[], float] = time.perf_counter) -> None:
+        """`timed`: searches stop after `rule.budget` seconds of `clock` (a live run); without,
+        they run to the end, so that a simulation gives the same run every time."""
+        self.maps = Maps(grid)
+        self.rule = rule or RerouteRule()
+        self.timed = timed
+        self._clock = clock
+        self._next = -1.0
+        #: looks taken, their total seconds, and reroutes found
+        self.looks = 0
+        self.seconds = 0.0
+        self.found = 0
+
+    def consider(self, engine: Engine, now: float) -> Optional[Reroute]:
+        """A reroute that pays now, if it is time to look and one does."""
+        steps = engine.run.clock.steps(now)
+        if steps < self._next or engine.paused:
+            return None
+        self._next = steps + self.rule.every
+        began = self._clock()
+        found = decide(engine, self.maps, now, self.rule,
+                       Deadline(self.rule.budget if self.timed else None, self._clock))
+        self.looks += 1
+        self.seconds += self._clock() - began
+        self.found += found is not None
+        return found
+
+    def restart(self) -> None:
+        """A new plan's clock starts at 0: look again a while after its start."""
+        self._next = self.rule.every
+
