@@ -230,7 +230,8 @@ def test_the_live_count_counts_robots_reported_too_close_and_allows_for_the_time
     # reported at the same moment, 0.4 cells (0.28 m) apart: too close
     b = builder()
     b.feed({"k": "poses", "t": 1.0, "p": [[1, 3.0, 0.0, 0, "robot", 0.0], [2, 3.4, 0.0, 0, "robot", 0.0]]})
-    assert b.collisions == 1 and b.summary().lines()[4] == "collisions: 1 (pairs closer than 0.454 m)"
+    assert b.collisions == 1
+    assert "collisions: 1 (pairs closer than 0.454 m)" in b.summary().lines()
     # robot 2 was seen driving 5 cells a second; its pose is 0.1 s older than robot 1's: it may be
     # 0.5 cells further on, so the pair is not counted (a sampled monitor cannot tell)
     b = builder()

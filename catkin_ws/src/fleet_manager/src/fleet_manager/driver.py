@@ -45,7 +45,7 @@ from typing import Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Engine,
-                                    EventError, RobotFailed)
+                                    EventError, Pass, RobotFailed)
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.wire import (Accepted, Completed, DriveToPosition, Failed, GetStatus, Release, Status, Stop,
@@ -84,16 +84,20 @@ class Driver:
     def handle(self, event: object, now: float) -> None:
         """Give the engine `event` (a control or progress event) and act on what it decides."""
         run = self.engine.run
-        waits = self.engine.metrics.last_wait
+        waits, forced = self.engine.metrics.last_wait, self.engine.metrics.last_forced
         waits.clear()
+        forced.clear()
+        passes = len(run.passes)
         dispatches = self.engine.handle(event)
+        if len(run.passes) > passes:
+            self._passed(run.passes[passes:])
         released = getattr(event, "agent", None) if isinstance(event, (ActionCompleted, Enabled)) else None
         for d in dispatches:
             robot = self.robots[d.agent]
             robot.queue.append(d)
             waited = waits.pop(d.agent, 0.0)  # a robot sent two actions at once waited once
             self.out.record("dispatch", robot=robot.id, index=d.index, step=d.step, src=d.src,
-                            dst=d.dst, waited=round(waited, 3),
+                            dst=d.dst, waited=round(waited, 3), forced=round(forced.pop(d.agent, 0.0), 3),
                             released_by=None if released is None else self.robots[released].id)
         if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed)):
             # progress frees only the robots dispatched now (and the robot itself, for its next turn)
@@ -103,6 +107,16 @@ class Driver:
             targets = range(run.num_agents)
         for agent in targets:
             self.pump(self.robots[agent], now)
+
+    def _passed(self, passes: Sequence[Pass]) -> None:
+        """A re-ordering strategy changed who goes first at cells: record it, tell the operator."""
+        table = self.engine.table
+        for p in passes:
+            robot, other = self.robots[p.agent], self.robots[p.passed]
+            cell = table.coord(p.cell)
+            self.out.record("pass", robot=robot.id, passed=other.id, cell=list(cell), taken_back=p.taken_back)
+            self.out.tell("pass", robot.id, "robot {} goes before robot {} at {}{}".format(
+                robot.id, other.id, cell, " (robot {} gave its move back)".format(other.id) if p.taken_back else ""))
 
     def pump(self, robot: Robot, now: float) -> None:
         """Send `robot` its next command if it is free to take one."""
@@ -318,6 +332,18 @@ class Driver:
             robot.hold = None
             robot.hold_reason = ""
         self.handle(Enabled(robot.agent, now), now)
+
+    def take_back(self, agent: int, index: int) -> bool:
+        """The engine takes back the robot's actions from `index` on (a re-ordering strategy lets
+        another robot pass it): only those not handed to the robot as a drive yet. A turn in
+        flight towards the cell is harmless (the robot turns in its own cell)."""
+        robot = self.robots[agent]
+        flight = robot.flight
+        if robot.hold is not None or (flight is not None and flight.kind == "drive" and
+                                      flight.index is not None and flight.index >= index):
+            return False
+        robot.queue = deque(d for d in robot.queue if d.index < index)
+        return True
 
     def drop_pending(self, robot: Robot) -> None:
         """The engine took `robot`'s unsent actions back (disabled): forget them here too."""

@@ -126,12 +126,15 @@ class Run:
     def _engine(self, plan: Plan) -> Engine:
         settings = {"lookahead": self.settings.lookahead} if self.settings.strategy == "adg" else {}
         return Engine(plan, self.settings.strategy, show=self.loaded.show,
-                      follow=not self.settings.size.cell_sized, **settings)
+                      follow=not self.settings.size.cell_sized, step_time=self.settings.step_time,
+                      **settings)
 
     def _driver(self, engine: Engine) -> Driver:
         size = self.settings.size
         following = Following(engine, self.fleet, None if size.cell_sized else size.safe_cells)
-        return Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn)
+        driver = Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn)
+        engine.allow_take_back(driver.take_back)
+        return driver
 
     def _begin(self) -> None:
         """The first records of a run (and of each run after a `load`)."""

@@ -217,7 +217,7 @@ class Notice:
     TYPE: ClassVar[str] = "event"
     seq: int
     time: float
-    kind: str             # "fault", "link", "operator", "strategy", "run", "plan", "vicon", ...
+    kind: str             # "fault", "link", "operator", "strategy", "run", "plan", "vicon", "pass", ...
     robot: Optional[int]
     text: str
 

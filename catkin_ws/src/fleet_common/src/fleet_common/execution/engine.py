@@ -45,6 +45,7 @@ nobody may enter a cell before its previous occupant's move out is complete
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -104,6 +105,10 @@ class Engine:
         self.strategy = make_strategy(strategy, **settings) if isinstance(strategy, str) else strategy
         self.strategy.attach(self.run)
         self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_agents)])
+        # per action, when it was last dispatched, and when the cell it leaves was freed for the
+        # next visitor (completed, or dispatched when robots follow): what makes a wait forced
+        self._sent_at = [math.inf] * table.num_actions
+        self._freed_at = [math.inf] * table.num_actions
         self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
         self._handlers: Dict[type, Callable[..., Recheck]] = {
             ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
@@ -193,6 +198,8 @@ class Engine:
                              "is {} and it was sent {}".format(r, k, run.completed[r], run.sent[r]), r)
         a = run.first[r] + k
         run.done[a] = 1
+        if self._freed_at[a] > e.time:
+            self._freed_at[a] = e.time
         run.completed[r] = k + 1
         run.started[r] = max(run.started[r], k + 1)
         run.dispatched[r] = max(run.dispatched[r], k + 1)
@@ -249,7 +256,10 @@ class Engine:
                 return False  # a robot already follows it out of its cell: it must go
         if not self._give_back(r, k):
             return False
+        for a in range(first[r] + k, first[r] + dispatched[r]):
+            self._sent_at[a] = self._freed_at[a] = math.inf
         run.dispatched[r] = run.sent[r] = k
+        self.metrics.taken_back(r, k, run.now)
         self._forget_early(r)
         self._out[:] = [d for d in self._out if d.agent != r or d.index < k]  # decided a moment ago
         return True
@@ -285,6 +295,31 @@ class Engine:
         self.strategy = new
         return range(self.run.num_agents), None
 
+    def _forced(self, r: int, a: int, now: float) -> float:
+        """Of robot r's wait for action `a`, ending now, the time the cell was taken in a way no
+        change of order could undo: the robot before it there was in it or had been sent its
+        move in, or the cell is r's goal (`metrics`)."""
+        ready = self.metrics.ready_at(r)
+        if ready is None or now <= ready:
+            return 0.0
+        run = self.run
+        d = run.dep[a]
+        if d < 0 or run.agent[d] == r:
+            return 0.0  # it waited for no cell: the strategy held it
+        end = min(now, self._freed_at[d])
+        if end <= ready:
+            return 0.0
+        p = run.agent[d]
+        ep = d - 1
+        if ep < run.first[p] or a == run.first[r + 1] - 1:
+            return end - ready  # p started in the cell, or the cell is r's goal
+        lo = run.dep[ep]
+        there = self._freed_at[lo] if lo >= 0 and run.agent[lo] != p else -math.inf
+        sent = self._sent_at[ep]
+        if sent <= there:
+            return end - ready
+        return max(0.0, min(end, there) - ready) + max(0.0, end - max(ready, sent))
+
     # ---- decisions ----------------------------------------------------------------------
     def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
         run, strategy, cap = self.run, self.strategy, self._cap
@@ -318,15 +353,20 @@ class Engine:
                 if strategy.holds(a):
                     break
                 k = a - base
+                forced = 0.0
                 if dispatched[r] == run.completed[r]:
                     run.dispatched_at[r] = time
+                    forced = self._forced(r, a, time)
+                self._sent_at[a] = time
+                if follow:
+                    self._freed_at[a] = time
                 dispatched[r] = k + 1
                 if k >= run.sent[r]:
                     run.sent[r] = k + 1
                 if leader is not None:
                     early[a] = d
                 out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a]), leader))
-                self.metrics.record_dispatch(r, k, time, released_by)
+                self.metrics.record_dispatch(r, k, time, released_by, forced)
                 if follow and succ[a] >= 0 and not done[a]:
                     todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1

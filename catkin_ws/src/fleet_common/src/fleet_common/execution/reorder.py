@@ -57,14 +57,16 @@ from .strategy import Strategy, register
 
 
 class Pass(NamedTuple):
-    """Robot `agent` went into cell `cell` (base cell index) before robot `passed`; `action` is the
-    passing robot's move into the cell, `passed_action` the other's."""
+    """Robot `agent` goes into cell `cell` (a cell index of the action table) before robot
+    `passed`; `action` is the passing robot's move into the cell, `passed_action` the other's."""
 
     agent: int
     passed: int
     cell: int
     action: int
     passed_action: int
+    #: The passed robot had been sent its move into the cell and gave it back (it stood still).
+    taken_back: bool = False
 
 
 @register
@@ -140,8 +142,8 @@ class ReorderStrategy(Strategy):
         if standing >= 0 and not run.take_back(swaps[standing][2], swaps[standing][3]):
             self._undo(undo)
             return False
-        for e, ep, p, _ in swaps:
-            run.passes.append(Pass(q, p, run.dst[e], e, ep))
+        for j, (e, ep, p, _) in enumerate(swaps):
+            run.passes.append(Pass(q, p, run.dst[e], e, ep, j == standing))
         return True
 
     def on_completed(self, a: int) -> Sequence[int]:

@@ -67,6 +67,15 @@ class SimResult:
     paths: Optional[List[List[Tuple[float, float, float]]]] = None
     safety: Optional[Safety] = None
     size: Optional[RobotSize] = None
+    #: Per robot, the time its moves take with its own delays and no waiting (from the fates).
+    alone: Optional[np.ndarray] = None
+
+    @property
+    def lower_bound(self) -> float:
+        """The makespan had every robot been alone: its moves with its own delays, no waits."""
+        if self.alone is None or not len(self.alone):
+            return self.metrics.lower_bound
+        return float(self.alone.max())
 
     @property
     def metrics(self) -> Metrics:
@@ -129,8 +138,9 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
         safety = judge(paths, size.safe_cells, sim.now)
         collisions = [Collision("too-close", a.agents, (a.place,), a.time, (True, True))  # type: ignore[arg-type]
                       for a in safety.violations]
+    alone = np.bincount(engine.table.agent, weights=fates.wait + total, minlength=engine.run.num_agents)
     return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
-                     sim.journal, paths, safety, size)
+                     sim.journal, paths, safety, size, alone)
 
 
 class _Simulation:
@@ -148,7 +158,8 @@ class _Simulation:
         self.feedback = feedback
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
-        self._charged: Dict[int, Tuple[float, Dict[int, float]]] = {}
+        self._passes_seen = 0
+        self._charged: Dict[int, Tuple[float, float, Dict[int, float]]] = {}
         self.disable = dict(disable)
         table = engine.table
         self.trace = Trace([table.start(r) for r in range(n)])
@@ -227,7 +238,6 @@ class _Simulation:
         queue = self.queue[r]
         while queue and queue[-1].index >= k:
             queue.pop()
-        self._note("taken back", robot=r, index=k)
         return True
 
     def _begin(self, r: int, d: Dispatch, began: float) -> None:
@@ -349,12 +359,19 @@ class _Simulation:
             self._try_start(agent)  # type: ignore[arg-type]
 
     def _deliver(self, dispatches: List[Dispatch]) -> None:
+        passes = self.engine.run.passes
+        if self.journal is not None and len(passes) > self._passes_seen:
+            table = self.engine.table
+            for p in passes[self._passes_seen:]:
+                self._note("pass", robot=p.agent, passed=p.passed, cell=table.coord(p.cell),  # type: ignore[attr-defined]
+                           taken_back=p.taken_back)  # type: ignore[attr-defined]
+            self._passes_seen = len(passes)
         for d in dispatches:
             self.queue[d.agent].append(d)
             if self.journal is not None:
-                waited, by = self._waited(d.agent)
+                waited, forced, by = self._waited(d.agent)
                 self._note("dispatch", robot=d.agent, index=d.index, step=d.step, src=d.src, dst=d.dst,
-                           waited=waited, released_by=by)
+                           waited=waited, forced=forced, released_by=by)
         for d in dispatches:
             self._try_start(d.agent)
 
@@ -364,14 +381,16 @@ class _Simulation:
         if self.journal is not None:
             self.journal.append((self.now, kind, fields))
 
-    def _waited(self, r: int) -> Tuple[float, Optional[int]]:
-        """What the metrics charged robot r since its last dispatch: time waited, and to whom."""
+    def _waited(self, r: int) -> Tuple[float, float, Optional[int]]:
+        """What the metrics charged robot r since its last dispatch: time waited, of it forced,
+        and to whom."""
         m = self.engine.metrics.agents[r]
-        seen = self._charged.get(r, (0.0, {}))
+        seen = self._charged.get(r, (0.0, 0.0, {}))
         waited = m.wait_time - seen[0]
-        by = next((q for q, t in m.blocked_by.items() if t > seen[1].get(q, 0.0)), None)
-        self._charged[r] = (m.wait_time, dict(m.blocked_by))
-        return round(waited, 6), by
+        forced = m.forced_time - seen[1]
+        by = next((q for q, t in m.blocked_by.items() if t > seen[2].get(q, 0.0)), None)
+        self._charged[r] = (m.wait_time, m.forced_time, dict(m.blocked_by))
+        return round(waited, 6), round(forced, 6), by
 
     def _note_waits(self) -> None:
         waits = tuple((w.agent, w.on, w.cell, w.reason) for w in self.engine.waiting())

@@ -27,6 +27,9 @@ ignore what they do not know), so later versions can add detail.
                before it), released_by (robot id or null)
     action     robot, index, phase ("started" | "completed"), src, dst
     out        robot, why ("disabled" | "failed" | null = back in), reason
+    pass       robot, passed (robot ids), cell [x, y], taken_back (bool): a re-ordering
+               strategy lets `robot` into `cell` before `passed`, which was due first
+               (taken_back: `passed` had been sent that move, stood still, and gave it back)
     link       robot, state ("up" | "down" | "failed"), reason, restarted
     fault      robot, faults [strings] (a change of the robot's fault list)
     poses      p [[robot, x, y, theta, source ("robot" | "vicon"), age_s], ...]
@@ -57,6 +60,7 @@ KINDS: Dict[str, Tuple[str, ...]] = {
     "dispatch": ("robot", "index", "step", "src", "dst"),
     "action": ("robot", "index", "phase"),
     "out": ("robot", "why"),
+    "pass": ("robot", "passed", "cell"),
     "link": ("robot", "state"),
     "fault": ("robot", "faults"),
     "poses": ("p",),

@@ -12,7 +12,16 @@ later are the same numbers.
   latest arrival, the sum of costs adds the arrivals of the robots that
   arrived, as mapf-IR counts them for plans;
 - total wait adds the `waited` of every dispatch: the time robots were ready
-  to move but not allowed to;
+  to move but not allowed to; of it, *held* when the operator released the
+  robot (`released_by` null), *forced* as each dispatch's `forced` says (the
+  robot ahead in the cell, or on its way into it, or the cell the robot's
+  goal: no change of order could have helped), *avoidable* the rest;
+- each robot's *own time* adds, move by move, the time from its dispatch (or
+  its previous completion, if it had the move already) to its completion; the
+  *lower bound* is the largest own time: the makespan had every robot run
+  alone with its own delays, and the executed makespan is compared with it;
+- *passes* count the `pass` records: a re-ordering strategy let a robot into
+  a cell before one that was due first and was late;
 - for robots as large as a cell (a `run` record without a size, or with a
   cell-sized one), collisions are judged from the executed moves (drive sent
   until completed: a robot holds both cells meanwhile) by
@@ -59,14 +68,28 @@ class RunSummary:
     failed: List[int] = field(default_factory=list)
     cell_m: Optional[float] = None   # metres a cell; None: a run of old, robots as large as a cell
     safe_m: Optional[float] = None   # the safe distance between centres, metres
+    forced: Optional[float] = None   # of the wait: forced (None: a log of old, not split)
+    held: float = 0.0                # of the wait: held by the operator
+    lower_bound: float = 0.0         # the largest own time (every robot alone)
+    passes: int = 0
+
+    @property
+    def avoidable(self) -> Optional[float]:
+        return None if self.forced is None else max(0.0, self.wait - self.forced - self.held)
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
         out = ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
                                          else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
                "executed makespan: {:.2f} {}".format(self.makespan, unit),
+               "lower bound: {:.2f} {} (every robot alone, with its own delays){}".format(
+                   self.lower_bound, unit, "" if self.lower_bound <= 0 else
+                   "; executed makespan {:.2f}x it".format(self.makespan / self.lower_bound)),
                "sum of costs: {:.2f} {}".format(self.soc, unit),
-               "total wait: {:.2f} {}".format(self.wait, unit),
+               "total wait: {:.2f} {}{}".format(self.wait, unit, "" if self.forced is None else
+                                                 " (forced {:.2f}: the robot ahead was in or on its way into the "
+                                                 "cell, or it was the robot's goal; avoidable {:.2f}; held by the "
+                                                 "operator {:.2f})".format(self.forced, self.avoidable, self.held)),
                "collisions: {}{}{}".format(self.collisions, " ({} swaps)".format(self.swaps) if self.swaps else "",
                                           "" if self.safe_m is None else
                                           " (pairs closer than {:.3f} m)".format(self.safe_m))]
@@ -77,6 +100,9 @@ class RunSummary:
             metres = "" if self.cell_m is None else "{:.3f} m, ".format(self.min_distance * self.cell_m)
             out.append("min distance: {}{:.2f} cells (robots {} and {} at {:.1f} {})".format(
                 metres, self.min_distance, a, b, t, unit))
+        if self.passes:
+            out.append("passes: {} (a robot went into a cell before a late one that was due first)".format(
+                self.passes))
         if self.disabled:
             out.append("disabled: robots {}".format(", ".join(map(str, self.disabled))))
         if self.failed:
@@ -87,6 +113,10 @@ class RunSummary:
         return {"arrived": len(self.arrived), "enabled": self.enabled, "robots": self.robots,
                 "makespan": round(self.makespan, 3), "soc": round(self.soc, 3),
                 "wait": round(self.wait, 3), "collisions": self.collisions,
+                "forced": None if self.forced is None else round(self.forced, 3),
+                "avoidable": None if self.avoidable is None else round(self.avoidable, 3),
+                "held": round(self.held, 3), "lower_bound": round(self.lower_bound, 3),
+                "passes": self.passes,
                 "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
                 "min_distance_m": None if self.min_distance is None or self.cell_m is None
                 else round(self.min_distance * self.cell_m, 4),
@@ -108,6 +138,12 @@ class SummaryBuilder:
         self.last_completion: Dict[int, float] = {}
         self.out: Dict[int, str] = {}         # robot id -> "disabled" | "failed"
         self.wait = 0.0
+        self.forced: Optional[float] = 0.0  # None once a dispatch without the split was seen
+        self.held = 0.0
+        self.passes = 0
+        self.own: Dict[int, float] = {}              # agent -> own time so far
+        self.busy: Dict[int, float] = {}             # agent -> since when on its current move
+        self.ahead: Dict[int, int] = {}              # agent -> actions dispatched (current plan)
         self.counted: Optional[CollisionCount] = None  # the executed moves' collisions
         self.sent: Dict[Tuple[int, int], float] = {}  # (robot, action) -> drive sent
         self.started: Dict[int, Tuple[float, Tuple[int, int], Tuple[int, int]]] = {}
@@ -130,7 +166,13 @@ class SummaryBuilder:
         elif kind == "state" and record.get("run") == "running" and self.begin is None:
             self.begin = t
         elif kind == "dispatch":
-            self.wait += float(record.get("waited") or 0.0)
+            self._dispatch(record, t)
+        elif kind == "pass":
+            self.passes += 1
+            i = self.agent.get(record.get("passed"))  # type: ignore[arg-type]
+            since = self.busy.pop(i, None) if record.get("taken_back") and i is not None else None
+            if since is not None:  # it gave its move back: its own time stops until sent again
+                self.own[i] = self.own.get(i, 0.0) + max(0.0, t - since)  # type: ignore[index]
         elif kind == "command" and record.get("type") == "drive" and record.get("action") is not None:
             self.sent.setdefault((record["robot"], record["action"]), t)
         elif kind == "action":
@@ -143,6 +185,23 @@ class SummaryBuilder:
                 self.out[record["robot"]] = why
         elif kind == "poses":
             self._poses(record, t)
+
+    def _dispatch(self, record: Record, t: float) -> None:
+        waited = float(record.get("waited") or 0.0)
+        self.wait += waited
+        if record.get("released_by") is None:
+            self.held += waited
+        elif "forced" not in record:
+            self.forced = None
+        elif self.forced is not None:
+            self.forced += min(float(record.get("forced") or 0.0), waited)
+        i = self.agent.get(record.get("robot"))  # type: ignore[arg-type]
+        index = record.get("index")
+        if i is None or not isinstance(index, int) or i >= len(self.done):
+            return
+        self.ahead[i] = max(self.ahead.get(i, 0), index + 1)
+        if index == self.done[i] and i not in self.busy:
+            self.busy[i] = t
 
     def _size(self, size: Any) -> None:
         try:
@@ -160,6 +219,8 @@ class SummaryBuilder:
         self.actions = list(record.get("actions") or [0] * len(robots))
         self.done = [0] * len(robots)
         self.sent.clear()
+        self.busy.clear()
+        self.ahead.clear()
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
             self.counted = CollisionCount(starts)
@@ -186,6 +247,11 @@ class SummaryBuilder:
                 except ValueError:
                     pass  # a hole in the log (a crash): the count skips the move, not the run
             self.done[i] = min(self.done[i] + 1, self.actions[i] if i < len(self.actions) else 0)
+            since = self.busy.pop(i, None)
+            if since is not None:
+                self.own[i] = self.own.get(i, 0.0) + max(0.0, t - since)
+            if self.ahead.get(i, 0) > self.done[i]:
+                self.busy[i] = t
             self.last_completion[i] = t
             if i < len(self.actions) and self.done[i] >= self.actions[i]:
                 self.arrival[i] = t
@@ -247,4 +313,6 @@ class SummaryBuilder:
             disabled=sorted(r for r, why in self.out.items() if why == "disabled"),
             failed=sorted(r for r, why in self.out.items() if why == "failed"),
             cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
-            else round(self.safe * self.cell_m, 6))
+            else round(self.safe * self.cell_m, 6),
+            forced=self.forced, held=self.held, lower_bound=max(self.own.values(), default=0.0),
+            passes=self.passes)
