@@ -16,6 +16,11 @@ dispatched when
    dispatched: the safety rule, the same for every strategy,
 5. the strategy does not hold it (the discrete time step's barrier).
 
+A strategy that re-orders (`reorder`) may, when rule 4 stops a ready robot,
+change the cell's order so that the robot goes first (`Strategy.overtake`);
+the move it passes, if dispatched and not begun, is first taken back from the
+caller (`take_back`). Rule 4 itself never changes.
+
 So a completion costs O(1) plus the dispatches it causes, whatever the
 fleet's size. No sockets, threads or clocks: time is a number in each event,
 used only for the metrics. An event that contradicts the progress raises
@@ -57,7 +62,7 @@ from .blocking import blocked_by
 from .errors import EventError, UnknownStrategyError
 from .events import (
     CELL, FOLLOW, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
-    RobotFailed, StepRound, SwitchStrategy, Wait,
+    RobotFailed, StepRound, SwitchStrategy, Tick, Wait,
 )
 from .metrics import Metrics
 from .run import DISABLED, FAILED, PlanClock, RunState
@@ -114,6 +119,7 @@ class Engine:
             ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
             Disabled: self._disabled, Enabled: self._enabled, Resume: self._resume,
             Pause: self._pause, StepRound: self._step_round, SwitchStrategy: self._switch,
+            Tick: self._tick,
         }
 
     def handle(self, event: object) -> List[Dispatch]:
@@ -287,6 +293,14 @@ class Engine:
         self._cap = [max(c, d) for c, d in zip(limits, self.run.dispatched)]
         return range(self.run.num_agents), None
 
+    def _tick(self, e: Tick) -> Recheck:
+        return self.strategy.on_tick(), None
+
+    @property
+    def tick_every(self) -> float:
+        """How often (plan steps) the strategy wants a `Tick` while the run runs (0: never)."""
+        return 0.0 if self.paused else self.strategy.tick_every
+
     def _switch(self, e: SwitchStrategy) -> Recheck:
         new = e.strategy
         if not isinstance(new, Strategy) or (new.run is not None and new.run is not self.run):
@@ -342,14 +356,19 @@ class Engine:
             while a < limit:
                 d = dep[a]
                 leader = None
+                by = released_by
                 if d >= 0 and not done[d] and agent[d] != r:
                     # the leader's move out of the cell: complete, or (following) dispatched
                     if not follow or dispatched[agent[d]] <= d - first[agent[d]]:
                         if not (reorders and strategy.overtake(a)):
                             break
+                        by = agent[d]  # it waited for the robot it passed
                         d = dep[a]  # passed the late robots ahead: a new leader, if any
+                        if not run.released(d) and agent[d] != r:
+                            break  # rule 4 holds whatever a strategy says
                     if d >= 0 and not done[d] and agent[d] != r:
                         leader = (agent[d], d - first[agent[d]])
+                        by = agent[d]  # it waited for the robot it follows
                 if strategy.holds(a):
                     break
                 k = a - base
@@ -366,7 +385,7 @@ class Engine:
                 if leader is not None:
                     early[a] = d
                 out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a]), leader))
-                self.metrics.record_dispatch(r, k, time, released_by, forced)
+                self.metrics.record_dispatch(r, k, time, by, forced)
                 if follow and succ[a] >= 0 and not done[a]:
                     todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1

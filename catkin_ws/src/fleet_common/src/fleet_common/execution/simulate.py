@@ -44,13 +44,13 @@ from ..plan import Plan
 from ..robot_size import RobotSize
 from .approach import Approach, Safety, judge
 from .engine import Engine
-from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed
+from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed, Tick
 from .following import hold_fraction
 from .metrics import Metrics
 from .motion import Feedback, Motion
 from .trace import Collision, Trace, find_collisions
 
-_WAKE, _CONTROL, _RECHECK = 0, 1, 2
+_WAKE, _CONTROL, _RECHECK, _TICK = 0, 1, 2, 3
 _EPS = 1e-9
 
 
@@ -159,6 +159,7 @@ class _Simulation:
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
         self._passes_seen = 0
+        self._ticking = False  # a Tick is on the heap
         self._charged: Dict[int, Tuple[float, float, Dict[int, float]]] = {}
         self.disable = dict(disable)
         table = engine.table
@@ -167,6 +168,7 @@ class _Simulation:
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
         self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, token
         self.completed_at: Dict[int, float] = {}  # flat action -> when it completed
+        self.stand_until: Dict[int, float] = {}  # flat action taken back -> its wait's end
         self.held_by: Dict[int, Set[int]] = {}  # leader -> followers held until it moves
         self.heap: List[tuple] = []
         self.seq = 0
@@ -177,10 +179,14 @@ class _Simulation:
         for event in controls:
             self._push(event.time, _CONTROL, event)  # type: ignore[attr-defined]
         self._deliver(self.engine.handle(Resume(0.0)))
+        self._tick_later()
         while self.heap:
             time, _, kind, payload = heapq.heappop(self.heap)
             self.now = time
-            if kind == _CONTROL:
+            if kind == _TICK:
+                self._ticking = False
+                self._deliver(self.engine.handle(Tick(time)))
+            elif kind == _CONTROL:
                 self._control(payload)
             else:
                 r, token = payload
@@ -191,8 +197,17 @@ class _Simulation:
                     self._wake(r)
                 else:
                     self._drive_on(r)
+            if not self._ticking:
+                self._tick_later()
             if self.journal is not None:
                 self._note_waits()
+
+    def _tick_later(self) -> None:
+        """The strategy's next `Tick`, while something else is still to happen."""
+        every = self.engine.tick_every
+        if every > 0 and self.heap:
+            self._ticking = True
+            self._push(self.now + every, _TICK, None)
 
     # ---- robots --------------------------------------------------------------------------
 
@@ -215,11 +230,12 @@ class _Simulation:
             path.resume(self.now)
             self._begin(r, d, path.began)
             return
-        path.start(a, d.src, d.dst, self.now, self.wait[a], self.drive[a],
+        wait = self.wait[a] if a not in self.stand_until else max(0.0, self.stand_until.pop(a) - self.now)
+        path.start(a, d.src, d.dst, self.now, wait, self.drive[a],
                    (self.stall_at[a], self.stall[a]), (self.drop_at[a], self.drop[a]))
-        if self.wait[a] > 0:  # it stays in its cell for the wait, then starts moving
+        if wait > 0:  # it stays in its cell for the wait, then starts moving
             self._set_busy(r, d, self.now)
-            self._schedule(r, _WAKE, self.now + self.wait[a])
+            self._schedule(r, _WAKE, self.now + wait)
             return
         self._begin(r, d, self.now)
 
@@ -232,7 +248,7 @@ class _Simulation:
             if path.moving:
                 return False
             a = self.engine.run.first[r] + busy[0].index
-            self.wait[a] = max(0.0, path.began - self.now)
+            self.stand_until[a] = path.began  # it stands still till then, sent the move or not
             self.busy[r] = None
             path.forget()
         queue = self.queue[r]
