@@ -75,8 +75,12 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
     f.link_up()
     answer = f.ask(ops, "start")
-    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])  # the file's own coordinates
-    assert not answer.ok and "robot 3 is at (0.0, 0.0), its start is {}".format(start) in answer.reason
+    loaded = f.core.run.loaded
+    start = loaded.show(loaded.starts[2])  # the file's own coordinates, both of them
+    here = loaded.show((0, 0))
+    assert not answer.ok and "robot 3 stands at ({:.1f}, {:.1f}), its start is {}".format(
+        here[0], here[1], start) in answer.reason
+    assert "(cells as lab_instance.txt counts them)" in answer.reason and "go to starts" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
 
 

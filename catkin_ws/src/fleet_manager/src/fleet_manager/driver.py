@@ -78,6 +78,8 @@ class Driver:
         self.out = out
         self.following = following
         self.preturn = preturn
+        #: followers' hold points move on (False while a resumed run checks its robots)
+        self.releasing = True
 
     # ---- the engine's side ---------------------------------------------------------------
 
@@ -174,6 +176,8 @@ class Driver:
 
     def release_followers(self, leader: Robot) -> None:
         """`leader` moved on (a pose) or completed a move: move its followers' hold points on."""
+        if not self.releasing:
+            return
         for agent, point in self.following.moved(leader.agent).items():
             robot = self.robots[agent]
             flight, d = robot.flight, robot.queue[0] if robot.queue else None
@@ -254,6 +258,11 @@ class Driver:
             return
         self._robot_out(robot, reason, now, hold=FAULT)
 
+    def hold_out(self, robot: Robot, reason: str, now: float) -> None:
+        """Take `robot` out of the run and hold it, as a fault would, until an operator enables
+        it (a robot a resumed run found between cells)."""
+        self._robot_out(robot, reason, now, hold=FAULT)
+
     def _robot_out(self, robot: Robot, reason: str, now: float, hold: str) -> None:
         robot.queue.clear()
         robot.moving_since = None
@@ -299,9 +308,10 @@ class Driver:
 
     # ---- operator actions that need commands ---------------------------------------------
 
-    def halt(self) -> None:
-        """Stop every robot where it is, now (the run is paused by the caller)."""
-        for robot in self.robots:
+    def halt(self, only: Optional[Sequence[Robot]] = None) -> None:
+        """Stop every robot (or those of `only`) where it is, now (the run is paused by the
+        caller)."""
+        for robot in self.robots if only is None else only:
             if robot.flight is not None and robot.flight.kind in ("drive", "turn"):
                 robot.hold = HALTED
                 cid = robot.take_id()

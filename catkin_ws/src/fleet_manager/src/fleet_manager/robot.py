@@ -31,9 +31,9 @@ ROBOT = "robot"
 VICON = "vicon"
 
 #: Why the manager holds a robot (sends it nothing new): it asked where a restarted robot is;
-#: it reported a fault; an operator halted it.
-RECOVER, FAULT, HALTED = "recover", "fault", "halted"
-HOLDS = (RECOVER, FAULT, HALTED)
+#: it reported a fault; an operator halted it; a resumed run has not checked it yet.
+RECOVER, FAULT, HALTED, RESUMING = "recover", "fault", "halted", "resuming"
+HOLDS = (RECOVER, FAULT, HALTED, RESUMING)
 
 
 @dataclass(frozen=True)

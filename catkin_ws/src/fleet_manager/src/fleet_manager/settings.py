@@ -25,7 +25,9 @@ class ManagerSettings:
     preturn: bool = True         # robots turn towards their next cell while they wait
     definitions: Optional[Path] = None
     map_dirs: List[Path] = field(default_factory=list)  # where `load` looks for map files
+    plan_dirs: List[Path] = field(default_factory=list)  # folders whose plans consoles may load by name
     vicon_port: Optional[int] = None  # Vicon Tracker's UDP stream (None: no Vicon)
     vicon_bind: str = "0.0.0.0"
     frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)
     size: RobotSize = TURTLEBOT2      # the robots' size (the definitions' size line)
+    accept: bool = False              # take every replan proposal at once (--accept, for scripts)

@@ -55,6 +55,15 @@ class Metrics:
         elif isinstance(event, (Disabled, RobotFailed)):
             self._ready[event.agent] = None
 
+    def restored(self, completed: List[int], time: float) -> None:
+        """The run goes on from progress known from elsewhere (`Engine.restore`): robots are
+        ready for their next action from `time`."""
+        self._done = list(completed)
+        self._ready = [time] * len(self.counts)
+        for r, done in enumerate(completed):
+            if done and done == self.counts[r]:
+                self.agents[r].arrival = time - (self.begin or 0.0)
+
     def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int]) -> None:
         ready = self._ready[agent]
         if index != self._done[agent] or ready is None:

@@ -23,7 +23,10 @@ later are the same numbers.
   margin) in a `poses` record: the live count from poses;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
-  with the robots' size, metres.
+  with the robots' size, metres;
+- a run its manager did not live to finish and another resumed (`resume`
+  records) is one run: its times include the time it stood still, and the
+  summary says how often and how long.
 """
 from __future__ import annotations
 
@@ -55,6 +58,8 @@ class RunSummary:
     failed: List[int] = field(default_factory=list)
     cell_m: Optional[float] = None   # metres a cell; None: a run of old, robots as large as a cell
     safe_m: Optional[float] = None   # the safe distance between centres, metres
+    resumes: int = 0                 # managers started again on the run's folder
+    downtime: float = 0.0            # time without a manager, in all
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
@@ -73,6 +78,9 @@ class RunSummary:
             metres = "" if self.cell_m is None else "{:.3f} m, ".format(self.min_distance * self.cell_m)
             out.append("min distance: {}{:.2f} cells (robots {} and {} at {:.1f} {})".format(
                 metres, self.min_distance, a, b, t, unit))
+        if self.resumes:
+            out.append("resumed: {} time{} after its manager stopped ({:.1f} {} without one)".format(
+                self.resumes, "s" if self.resumes > 1 else "", self.downtime, unit))
         if self.disabled:
             out.append("disabled: robots {}".format(", ".join(map(str, self.disabled))))
         if self.failed:
@@ -86,7 +94,7 @@ class RunSummary:
                 "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
                 "min_distance_m": None if self.min_distance is None or self.cell_m is None
                 else round(self.min_distance * self.cell_m, 4),
-                "safe_m": self.safe_m,
+                "safe_m": self.safe_m, "resumes": self.resumes, "downtime": round(self.downtime, 3),
                 "unit": self.unit, "lines": self.lines()}  # as printed, for reports
 
 
@@ -112,6 +120,8 @@ class SummaryBuilder:
         self.cell_m: Optional[float] = None
         self.safe: Optional[float] = None         # cells; None: robots as large as a cell
         self.too_close: Set[Tuple[int, int]] = set()  # pairs of robot ids seen closer than safe
+        self.resumes = 0
+        self.downtime = 0.0
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
@@ -138,6 +148,9 @@ class SummaryBuilder:
                 self.out[record["robot"]] = why
         elif kind == "poses":
             self._poses(record, t)
+        elif kind == "resume":
+            self.resumes += 1
+            self.downtime += float(record.get("downtime") or 0.0)
 
     def _size(self, size: Any) -> None:
         try:
@@ -221,4 +234,4 @@ class SummaryBuilder:
             disabled=sorted(r for r, why in self.out.items() if why == "disabled"),
             failed=sorted(r for r, why in self.out.items() if why == "failed"),
             cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
-            else round(self.safe * self.cell_m, 6))
+            else round(self.safe * self.cell_m, 6), resumes=self.resumes, downtime=self.downtime)
