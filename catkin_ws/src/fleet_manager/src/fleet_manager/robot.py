@@ -24,6 +24,8 @@ from fleet_common.execution import Dispatch
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Pose
 
+from .settings import STALE_AFTER
+
 __all__ = ["Robot", "Fleet", "Seen", "InFlight", "ROBOT", "VICON", "HOLDS"]
 
 #: Pose sources.
@@ -119,7 +121,7 @@ class Robot:
 class Fleet:
     """The robots of a run, in plan order (agent i is `fleet[i]`), and their pose sources."""
 
-    def __init__(self, definitions: Sequence[RobotDefinition], stale_after: float = 1.0) -> None:
+    def __init__(self, definitions: Sequence[RobotDefinition], stale_after: float = STALE_AFTER) -> None:
         self.robots: List[Robot] = [Robot(d.id, i, d.colour, d.vicon_name)
                                     for i, d in enumerate(definitions)]
         self.by_id: Dict[int, Robot] = {r.id: r for r in self.robots}
