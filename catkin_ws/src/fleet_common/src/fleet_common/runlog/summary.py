@@ -20,7 +20,9 @@ later are the same numbers.
   counted move by move so that reading the summary mid-run costs nothing;
 - for robots of their real size, a collision is a pair of robots whose
   reported centres were ever closer than the safe distance (diameter +
-  margin) in a `poses` record: the live count from poses;
+  margin) in a `poses` record: the live count from poses; closer by more than
+  the record's rounding (`POSE_ROUNDING`), so that a follower standing at its
+  hold point, exactly the safe distance away, is not counted;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
   with the robots' size, metres;
@@ -30,13 +32,18 @@ later are the same numbers.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Set, Tuple
 
 from ..execution.trace import CollisionCount
 from ..spacing import closest_pair, pairs_within
 
-__all__ = ["RunSummary", "SummaryBuilder"]
+__all__ = ["RunSummary", "SummaryBuilder", "POSE_ROUNDING"]
+
+#: How much a distance between two centres of a `poses` record may be off (cells): each
+#: coordinate is written to 3 decimals (the manager's `log_poses`), off by 0.0005 at most.
+POSE_ROUNDING = 2 * math.sqrt(2) * 0.0005
 
 Record = Dict[str, Any]
 
@@ -207,8 +214,8 @@ class SummaryBuilder:
         if found is not None and (self.min_distance is None or found[0] < self.min_distance):
             self.min_distance = found[0]
             self.closest = (found[1], found[2], t)
-        if self.safe is not None and found is not None and found[0] < self.safe:
-            self.too_close.update(pairs_within(points, self.safe))
+        if self.safe is not None and found is not None and found[0] < self.safe - POSE_ROUNDING:
+            self.too_close.update(pairs_within(points, self.safe - POSE_ROUNDING))
 
     @property
     def collisions(self) -> int:
