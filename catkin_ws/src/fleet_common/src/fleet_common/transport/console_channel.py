@@ -104,6 +104,17 @@ class ConsoleServer:
         self.socket.close(linger=100)
 
 
+_HANDSHAKES: List[RateLimitedLog] = []
+
+
+def _handshakes() -> RateLimitedLog:
+    """One limiter for every client of this process: a console that makes a new client for each
+    attempt still logs a failing handshake once a minute per manager."""
+    if not _HANDSHAKES:
+        _HANDSHAKES.append(RateLimitedLog(logging.getLogger("fleet_console")))
+    return _HANDSHAKES[0]
+
+
 class ConsoleClient:
     """A console's end: DEALER connected to the manager (reconnects by itself, as ZeroMQ does)."""
 
@@ -119,7 +130,7 @@ class ConsoleClient:
             self.socket.curve_publickey = keys.public
             self.socket.curve_serverkey = keys.manager_public
         self.handshake = ClientHandshake(
-            self.socket, RateLimitedLog(log or logging.getLogger("fleet_console")),
+            self.socket, _handshakes() if log is None else RateLimitedLog(log),
             "the manager at {}".format(endpoint), keys is not None, "console.key_secret", "manager.key")
         try:
             self.socket.connect(endpoint)

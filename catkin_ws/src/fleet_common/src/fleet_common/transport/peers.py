@@ -66,8 +66,9 @@ class HandshakeMonitor:
                 continue
             self.refused += 1
             if event["event"] == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL:
-                # the client gave up first: one without a key does when it sees the robot's
-                why = "that broke off the CURVE handshake (as one without a key does)"
+                # the client gave up first: one without a key does when it sees the server's (which
+                # end notices first is a race: one cause, one line)
+                why = self._why[zmq.PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH]
             else:
                 why = self._why.get(event["value"], "that failed the CURVE handshake")
             self.refusals.event(
@@ -117,18 +118,20 @@ class ClientHandshake:
                 continue
             self.failures += 1
             self.problem = self._describe(event["event"], event["value"])
-            self.refusals.event(logging.WARNING, "handshake with " + self.server, "failed handshakes",
-                                "%s", self.problem)
+            self.refusals.event(logging.WARNING, "{} ({})".format(self.server, self.problem),  # each cause
+                                "failed handshakes", "%s", self.problem)
 
     def _describe(self, kind: int, value: int) -> str:
         if kind == zmq.EVENT_HANDSHAKE_FAILED_AUTH:
             return "{} refused our key (status {}): {} is not a key it was given".format(
                 self.server, value, self.key)
-        if kind == zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL and value == zmq.PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH:
+        mismatch = kind == zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL and value == zmq.PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH
+        if mismatch or (kind == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL and not self.curve):
+            # (without keys, which end notices first is a race: the server may just hang up)
             return ("{} {}: both sides need CURVE keys, or both --no-curve".format(
                 self.server, "runs without CURVE keys and we have them" if self.curve
                 else "wants CURVE keys and we run without (--no-curve)"))
-        if kind == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL and self.curve:
+        if kind == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL:
             return ("the CURVE handshake with {} failed: {} is probably not its public key (or "
                     "it holds another key pair)".format(self.server, self.server_key))
         return "the handshake with {} failed (libzmq event {}, {})".format(self.server, kind, value)

@@ -221,7 +221,7 @@ class RobotLink:
 
     def close(self) -> None:
         self._unwatch()
-        if self.command is not None and self.conn.can_send(Bye("manager closing")):
+        if self.command is not None and self.state == "up" and self.conn.can_send(Bye("manager closing")):
             self._send(Bye("manager closing", "shutdown"), self.clock())
         for sock in self.sockets():
             sock.close(linger=100)
