@@ -84,6 +84,18 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
 
 
+def test_a_robot_whose_poses_stop_is_stale_after_half_a_second_as_the_readme_says():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.advance(0.3)
+    f.robots[2].up = False  # its pose stream stops (its link is not known to be down yet)
+    f.advance(0.4)
+    assert not ops.state.robots[1].stale
+    f.advance(0.2)
+    assert ops.state.robots[1].stale and not ops.state.robots[0].stale
+
+
 def test_pause_sends_nothing_new_and_start_drives_on():
     f = fleet()
     ops = f.console()

@@ -17,6 +17,7 @@ import pytest
 from fleet_common.lab import lab_instance_path
 from fleet_common.robot_size import TURTLEBOT2
 from fleet_common.runlog import read_run
+from helpers import fleetctl
 from live import ScriptedConsole, fleet_definitions, start_fleet, start_manager
 from test_manager_run import check_trace, check_truth, goals_of, summary_value
 
@@ -69,3 +70,6 @@ def test_a_manager_killed_mid_run_is_started_again_on_its_folder_and_the_run_com
     nearest = check_truth(truth, goals_of(folder))  # every robot home, nothing ran twice
     assert nearest >= TURTLEBOT2.safe_cells - 0.01, "two robots came {:.2f} cells close".format(nearest)
     check_trace(folder, out)
+    report = fleetctl("report", folder, "-o", tmp_path / "report.html")
+    assert report.returncode == 0, report.stderr
+    assert "resumed at " in (tmp_path / "report.html").read_text()

@@ -211,7 +211,8 @@ class Driver:
             return  # an outcome of something we stopped caring about (a take-back)
         if isinstance(reply, Accepted):
             flight.accepted = True
-            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index:
+            begun = reply.duplicate and self.engine.run.started[robot.agent] > (flight.index or 0)
+            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index and not begun:
                 d = robot.queue[0]
                 robot.moving_since = flight.sent
                 self.out.record("action", robot=robot.id, index=d.index, phase="started",
