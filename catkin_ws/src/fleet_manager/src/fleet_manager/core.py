@@ -19,9 +19,11 @@ lines for the terminal, planning to run in a thread, a new run folder. The
 manager's loop (`manager.py`) owns the sockets and the run log and carries
 the effects out; tests drive the core directly with a fake clock and
 in-memory robots. A core may take over the run of a manager that died
-(`resume`: the folder's records), checking its robots before anything moves. Nothing a peer sends can raise out of an input: a console
-frame that does not decode is refused by the desk, a reply the engine cannot
-place is reported and ignored (`driver`).
+(`resume`: the folder's records), checking its robots before anything
+moves. Nothing a peer sends can raise out of an input: a console frame that
+does not decode is refused by the desk, a reply the engine cannot place is
+reported and ignored (`driver`); a refused request costs its answer and no
+State, and is recorded once a minute per console (`refusals`).
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
+from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
@@ -36,7 +39,6 @@ from fleet_common.robots import RobotDefinition
 from fleet_common.runlog.summary import RunSummary
 from fleet_common.wire.link_events import LinkDown, LinkEvent, LinkUp, RobotReply
 from fleet_common.vicon.base_grid import ViconFix
-from fleet_common.grid import Grid
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
@@ -170,6 +172,7 @@ class RunCore:
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
             run.move("arrived", "every robot taking part is at its goal")
             self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            self.news = True  # consoles must see the end (the loop waits for it: `news`)
             self.publish(now)
         for held in self._refused.due(now):
             self.out.record("refused", console=held.console, requests=held.requests, seconds=held.seconds)
@@ -270,6 +273,9 @@ class RunCore:
 
     def _state_to(self, now: float, peer: Optional[bytes], waits: Optional[Dict[int, Waiting]] = None) -> bool:
         """A State to `peer` (None: every console) if its rate allows; True if one went out."""
+        if not self.desk.consoles:
+            self.news = False  # nobody to tell
+            return False
         interval = 1.0 / self.settings.state_max_rate
         if not self.desk.state_due(now, interval, peer):
             return False

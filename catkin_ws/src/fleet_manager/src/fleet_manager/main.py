@@ -157,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if args.resume is not None:
         from .resume_folder import load_resume
 
-        fleet, loaded, resume = load_resume(args, definitions, dirs, log_dir)
+        fleet, loaded, resume = load_resume(args, definitions, dirs, log_dir, args.resume == LAST)
     else:
         fleet = pick_robots(read_robot_definitions(definitions), args.robots, str(definitions))
         loaded = load_plan(args.plan, len(fleet), str(definitions) if args.robots is None
@@ -233,9 +233,11 @@ def _start_when_ready(manager, timeout: float, should_stop) -> Optional[str]:
         manager.run(lambda: should_stop() or manager.now() >= until)
         problem = manager.core.run.not_ready()
         if not problem:
+            resumed = manager.core.run.phase.phase != "waiting"
             ok, problem = manager.start()
             if ok:
-                print("started: every robot connected and on its start cell", flush=True)
+                print("started: {}".format("the resumed run drives on" if resumed
+                                           else "every robot connected and on its start cell"), flush=True)
                 return None
         if manager.now() >= deadline:
             return "cannot start after {:g} s: {}".format(timeout, problem)

@@ -129,7 +129,7 @@ class Manager:
             self._chore(now)
             self._timers(now)
             if until_done:
-                if self.core.run.phase.phase == "done":
+                if self.core.run.phase.phase == "done" and not self.core.news:  # the consoles saw it
                     return None
                 failure = self.core.cannot_go_on(now)
                 if failure is not None:
@@ -164,6 +164,8 @@ class Manager:
             self.core.plan_ready(job, result, error, now)  # type: ignore[arg-type]
         self.core.tick(now)
         self._apply(self.core.take())
+        if self.core.news:  # a change the consoles have not been sent yet
+            self._fresh = True
         if now >= self._next_flush:  # the counts of refusals held back, once their minute is over
             self._next_flush = now + 1.0
             self.console_refusals.flush()

@@ -31,12 +31,11 @@ Resumed = Tuple[List[RobotDefinition], LoadedPlan, Tuple[ResumePoint, Plan]]
 
 
 def load_resume(args: argparse.Namespace, definitions: Path, map_dirs: Sequence[Path],
-                log_dir: Optional[Path]) -> Resumed:
-    """The fleet, the run's first plan and where the run stood, for `fleetctl manager --resume`."""
-    from .main import LAST
-
+                log_dir: Optional[Path], last: bool) -> Resumed:
+    """The fleet, the run's first plan and where the run stood, for `fleetctl manager --resume`
+    (`last`: the newest run of args.plan in `log_dir`, else the folder args.resume)."""
     robots = read_robot_definitions(definitions)
-    if args.resume == LAST:
+    if last:
         if log_dir is None:
             raise FleetError("--resume without a folder looks in the --log folder; --no-log has none")
         fleet = pick_robots(robots, args.robots, str(definitions))
@@ -52,7 +51,7 @@ def load_resume(args: argparse.Namespace, definitions: Path, map_dirs: Sequence[
         raise FleetError("{}: that run is done (every robot reached its goal): nothing to resume; "
                          "start a new run without --resume".format(folder))
     name = str(run.run.get("plan_name") or run.run.get("plan"))
-    if args.plan is not None and args.resume != LAST and not _same(args.plan, name):
+    if args.plan is not None and not last and not _same(args.plan, name):
         raise FleetError("{} ran {}, not {}: leave PLAN out to resume it".format(folder, name, args.plan))
     if args.robots is not None and list(args.robots) != point.robots:
         raise FleetError("{} ran on robots {}, not {}: leave --robots out to resume it".format(

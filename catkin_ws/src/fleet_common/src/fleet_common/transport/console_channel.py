@@ -64,7 +64,7 @@ class ConsoleServer:
             self.socket.curve_secretkey = keys.secret
             self.socket.curve_publickey = keys.public
             self.socket.curve_server = True
-            self.monitor = HandshakeMonitor(self.socket, self.refusals, "this manager")
+        self.monitor = HandshakeMonitor(self.socket, self.refusals, "this manager", keys is not None)
         try:
             self.socket.bind(endpoint)
         except zmq.ZMQError as err:

@@ -43,13 +43,15 @@ class HandshakeMonitor:
     """Logs, through `refusals`, each client the handshake on `sock` refused (`server` names
     whose public key a client lacked: "this robot", "this manager")."""
 
-    def __init__(self, sock: zmq.Socket, refusals: RateLimitedLog, server: str = "this robot") -> None:
+    def __init__(self, sock: zmq.Socket, refusals: RateLimitedLog, server: str = "this robot",
+                 curve: bool = True) -> None:
         self._watched: Optional[zmq.Socket] = sock
         self.socket = sock.get_monitor_socket(_EVENTS)
         self.refusals = refusals
         self.refused = 0  # for tests and status
         self._why = {
-            zmq.PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH: "without a CURVE key",
+            zmq.PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH: "without a CURVE key" if curve else
+            "with CURVE keys ({} runs without: --no-curve)".format(server),
             zmq.PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC: "that does not have {}'s public key".format(server),
         }
 
