@@ -14,7 +14,7 @@ they answer is lost) and another take over from the records it left
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.control import codec
 from fleet_common.limits import MAX_MANAGER_BYTES
@@ -55,6 +55,11 @@ class MemoryRobot:
         self.up = False
         self.seq = 0
         self.commands: List[object] = []  # everything it was sent while up, in order
+        #: ids its manager's connection sent: a reply to anything else would be refused on the
+        #: wire ("not in flight"), so it is not delivered (a new manager sends again what it needs)
+        self.sent_ids: Set[int] = set()
+        #: sent while its link was down: they go out when it is up again (as a robot link's do)
+        self.queued: List[object] = []
 
     def restart(self) -> None:
         """A new process where the robot stands: an empty command memory, a new session."""
@@ -136,18 +141,22 @@ class MemoryFleet:
             robot.up = False
         self.consoles.clear()
 
-    def resume_manager(self, settings: Optional[ManagerSettings] = None) -> None:
+    def resume_manager(self, settings: Optional[ManagerSettings] = None,
+                       up: Optional[Sequence[int]] = None) -> None:
         """A new manager on the records the dead one left (its run folder), at the same time;
-        robots connect at once."""
+        robots connect at once (those of `up`, if given: the others later, `link_up`)."""
         records = [dict(fields, k=kind, t=t) for kind, t, fields in self.records]
         records[0].setdefault("started", None)
         point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
         plan = self.loaded.plan if point.plan == "plan-1.txt" else self.replans[point.plan]
         self.core = RunCore(self.loaded, self.definitions, settings or self.settings, "session-2",
                             self.now, resume=(point, plan))
-        for robot in self.robots.values():  # the links come up; the commands sent again reach them
-            robot.up = True
-            self.core.link_event(LinkUp(robot.id, robot.session, False), self.now)
+        for robot in self.robots.values():  # new links come up; the commands sent again reach them
+            robot.sent_ids.clear()
+            robot.queued.clear()  # the dead manager's
+            if up is None or robot.id in up:
+                robot.up = True
+                self.core.link_event(LinkUp(robot.id, robot.session, False), self.now)
         self.pump()
         self.feedback()
         self.pump()
@@ -170,9 +179,9 @@ class MemoryFleet:
         if isinstance(effect, Send):
             robot = self.robots[effect.robot]
             if robot.up:
-                robot.commands.append(effect.command)
-                for _, reply in robot.executor.handle(EPOCH, effect.command):
-                    self._replies.append(RobotReply(robot.id, reply))
+                self._deliver(robot, effect.command)
+            else:
+                robot.queued.append(effect.command)
         elif isinstance(effect, Record):
             self.records.append((effect.kind, effect.t, effect.fields))
         elif isinstance(effect, ToConsole):
@@ -192,6 +201,12 @@ class MemoryFleet:
             self.files[effect.name] = effect.text
             self.replans[effect.name] = self.core.run.plan
 
+    def _deliver(self, robot: MemoryRobot, command: object) -> None:
+        robot.commands.append(command)
+        robot.sent_ids.add(command.id)  # type: ignore[attr-defined]
+        for _, reply in robot.executor.handle(EPOCH, command):  # type: ignore[arg-type]
+            self._replies.append(RobotReply(robot.id, reply))
+
     def finish_plans(self) -> None:
         jobs, self.jobs = self.jobs, []
         for job in jobs:
@@ -200,6 +215,9 @@ class MemoryFleet:
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
         for robot in self._chosen(robot_id):
             robot.up = True
+            queued, robot.queued = robot.queued, []
+            for command in queued:
+                self._deliver(robot, command)
             self.core.link_event(LinkUp(robot.id, robot.session, restarted), self.now)
         self.feedback()
         self.pump()
@@ -230,7 +248,8 @@ class MemoryFleet:
             for robot in self.robots.values():  # (a robot's motion goes on unpolled: it keeps time)
                 if robot.up:
                     for _, reply in robot.executor.poll():
-                        self._replies.append(RobotReply(robot.id, reply))
+                        if reply.id in robot.sent_ids:
+                            self._replies.append(RobotReply(robot.id, reply))
             if self.core is None:
                 continue
             self.pump()

@@ -28,7 +28,8 @@ def test_refused_requests_send_no_state_and_are_recorded_once_a_minute_then_coun
     f.advance(0.5)
     states = (len(flooder.states), len(watcher.states))
     records = len(f.records)
-    for _ in range(1000):  # all at one instant: nothing else could send a State meanwhile
+    for _ in range(1000):  # 10 ms apart, nothing else running: a State would be due each time
+        f.clock.t += 0.01
         assert not f.ask(flooder, "disable", robot=99999).ok
     assert (len(flooder.states), len(watcher.states)) == states
     operator = [r for r in f.kinds("operator")]
@@ -58,6 +59,20 @@ def test_no_console_gets_states_faster_than_the_rate_however_it_asks():
     # and the run's setup (a whole plan) went to the hello-sayer at most once a second
     setups = sum(1 for x in ops.received if isinstance(x, m.RunSetup))
     assert setups <= seconds + 2
+
+
+def test_each_console_is_paced_on_its_own():
+    from fleet_common.control.desk import ControlDesk
+
+    desk = ControlDesk("s", 0.0)
+    for peer, name in ((b"a", "a"), (b"b", "b")):
+        desk.receive(peer, codec.encode(m.Hello(name)), 0.0)
+    state = m.Heartbeat()  # any message: the desk paces what it is given
+    assert [p for p, _ in desk.states(state, 0.00, 0.1, only=b"a")] == [b"a"]
+    assert [p for p, _ in desk.states(state, 0.05, 0.1)] == [b"b"]  # a had one 50 ms ago
+    assert [p for p, _ in desk.states(state, 0.10, 0.1)] == [b"a"]
+    assert desk.states(state, 0.12, 0.1) == [] and not desk.state_due(0.12, 0.1)
+    assert [p for p, _ in desk.states(state, 0.15, 0.1)] == [b"b"]
 
 
 def test_refusal_counts_per_console_and_window():

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import random
 from pathlib import Path
-from typing import Dict, List, Tuple
+from typing import List, Tuple
 
 import pytest
 from hypothesis import given, settings
@@ -109,15 +109,28 @@ def test_a_follower_at_its_hold_point_waits_for_the_new_manager_and_keeps_its_di
     f = started_run(train(), 3, settings=ManagerSettings(step_time=0.5, size=size), speed=1.0)
     f.robots[1].navigator.stalls = {2: 4.0}  # the leader halts 4 s in the middle of its second move
     seen: List[float] = []
+
+    def released_since_logged() -> bool:
+        """Robot 2 got a release (not logged) after its last logged command: a new manager must not
+        give its ids again."""
+        logged = max([fields["id"] for kind, _, fields in f.records
+                      if kind in ("command", "reply") and fields["robot"] == 2] + [0])
+        return any(getattr(c, "TYPE", "") == "release" and c.id > logged for c in f.robots[2].commands)
+
     assert f.run_until(lambda: bool(f.core.run.driver.following.holds) and f.robots[1].navigator.moving
-                       and f.core.run.engine.run.completed[0] >= 1, 30)
+                       and f.core.run.engine.run.completed[0] >= 1 and released_since_logged(), 30)
     f.kill_manager()
     for _ in range(100):  # 5 s without a manager: the leader's stall ends, its followers wait
         f.advance(0.05)
         closest_truth(f, seen)
     follower = f.robots[2].navigator
     assert follower.moving and follower._held_at is not None, "the follower should stand at its hold point"
-    f.resume_manager()
+    sent = len(f.robots[2].commands)
+    f.resume_manager(up=[1, 2])  # robot 3 answers later: nothing may move on before it has
+    f.advance(1.0)
+    assert "robot 3 (not connected)" in f.core.run.not_ready()
+    assert not any(getattr(c, "TYPE", "") == "release" for c in f.robots[2].commands[sent:])
+    f.link_up(3)
     f.advance(0.2)
     assert f.ask(f.console(), "start").ok
     end = f.now + 60
@@ -154,22 +167,40 @@ def test_a_robot_left_between_cells_is_held_and_planned_around():
     size = TURTLEBOT2
     settings_ = ManagerSettings(step_time=0.5, size=size, accept=True)
     f = started_run(lab(), settings=settings_)
+    grids = []
+    solve = f.solve
+    f.solve = lambda job: grids.append(job.grid) or solve(job)
     assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
+    core = f.core  # the dead manager's, for where its plan wanted the robots next
     f.kill_manager()
     f.advance(3.0)
     rid = idle_robot(f)
     stray = f.robots[rid].navigator
     here = stray.true_pose()
-    carry(f, rid, round(here.x) + 0.5, round(here.y))  # pushed half a cell
+    x, y = round(here.x), round(here.y)
+    robot = core.fleet.by_id[rid]
+    nxt = core.run.engine.run.next_incomplete(robot.agent)
+    taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y)) for r in f.robots.values()}
+    if nxt >= 0:
+        taken.add(core.run.engine.table.coord(core.run.engine.run.dst[nxt]))
+    grid = f.loaded.grid
+    dx, dy = next((dx, dy) for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)) if grid.in_bounds((x + dx, y + dy))
+                  and grid.free[y + dy, x + dx] and (x + dx, y + dy) not in taken)
+    carry(f, rid, x + dx / 2, y + dy / 2)  # pushed half a cell towards a free cell nobody needs now
     f.resume_manager()
     f.advance(0.5)
     robot = f.core.fleet.by_id[rid]
     assert f.core.run.engine.run.out[robot.agent] == "failed" and "between cells" in robot.hold_reason
+    assert not grids[-1].free[y + dy, x + dx], "the cell it leans into is walled off for the replan"
     told = " ".join(f.said)
     assert "robot {} stands at".format(rid) in told and "between cells, held and planned around" in told
     assert f.kinds("plan"), "--accept switches to the replan at once"
-    plan = f.core.run.plan.positions
     pose = (stray.true_pose().x, stray.true_pose().y)
+    near = [(x, y) for x in range(f.loaded.grid.width) for y in range(f.loaded.grid.height)
+            if math.hypot(x - pose[0], y - pose[1]) < size.safe_cells and f.loaded.grid.free[y, x]
+            and (x, y) not in {tuple(c) for c in f.core.run.plan.positions[0]}]
+    assert near and not any(grids[-1].free[y, x] for x, y in near), "the cells around it were walled off"
+    plan = f.core.run.plan.positions
     others = [a for a in range(plan.shape[1]) if a != robot.agent]
     nearest = min(math.hypot(plan[t, a, 0] - pose[0], plan[t, a, 1] - pose[1])
                   for t in range(1, plan.shape[0]) for a in others if tuple(plan[t, a]) != tuple(plan[0, a]))
@@ -210,34 +241,45 @@ def test_the_records_of_a_resumed_run_read_as_one_run():
 
 def _progress(loaded: LoadedPlan, follow: bool, seed: int, events: int) -> Tuple[Engine, List[int], List[int],
                                                                                     List[int]]:
-    """An engine run `events` completions into the plan in a random order the engine allows."""
+    """An engine run `events` steps into the plan, robots starting and completing moves in a random
+    order the engine and the robots allow (a follower arrives only once its leader has set off)."""
     engine = Engine(loaded.plan, "adg", follow=follow)
-    rng = random.Random(seed)
-    sent: Dict[int, List[int]] = {}
-    for d in engine.handle(Resume(0.0)):
-        sent.setdefault(d.agent, []).append(d.index)
-    for t in range(events):
-        ready = [a for a, idx in sent.items() if idx]
-        if not ready:
-            break
-        agent = rng.choice(ready)
-        index = sent[agent].pop(0)
-        engine.handle(ActionStarted(agent, index, float(t)))
-        for d in engine.handle(ActionCompleted(agent, index, float(t))):
-            sent.setdefault(d.agent, []).append(d.index)
     run = engine.run
+    rng = random.Random(seed)
+    engine.handle(Resume(0.0))
+    for t in range(events):
+        moves = []
+        for r in range(run.num_agents):
+            if run.started[r] < run.dispatched[r]:
+                moves.append(("start", r, run.started[r]))
+            elif run.completed[r] < run.started[r]:
+                a = run.first[r] + run.completed[r]
+                d = run.dep[a]
+                if d < 0 or run.done[d] or run.started[run.agent[d]] > d - run.first[run.agent[d]]:
+                    moves.append(("complete", r, run.completed[r]))
+        if not moves:
+            break
+        kind, r, index = rng.choice(moves)
+        engine.handle((ActionStarted if kind == "start" else ActionCompleted)(r, index, float(t)))
     return engine, list(run.completed), list(run.started), list(run.dispatched)
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(0, 10_000), st.integers(0, 60), st.booleans())
-def test_restore_gives_the_progress_it_was_given_and_the_run_goes_on_to_the_end(seed, events, follow):
+@given(st.integers(0, 10_000), st.integers(0, 60), st.booleans(), st.booleans())
+def test_restore_gives_the_progress_it_was_given_and_the_run_goes_on_to_the_end(seed, events, follow, logged):
     engine, completed, started, dispatched = _progress(lab(), follow, seed, events)
+    if not logged:  # what a run log tells: what robots began, not every dispatch
+        dispatched = list(started)
     again = Engine(lab().plan, "adg", follow=follow)
     pending = again.restore(completed, started, dispatched, 100.0)
+    run = again.run
+    for d in pending:  # a follower sent early has its leader's move dispatched
+        if d.follows is not None:
+            assert run.dispatched[d.follows[0]] > d.follows[1]
     assert list(again.run.completed) == completed
     assert bytes(again.run.done) == bytes(engine.run.done)
     assert all(again.run.dispatched[r] >= dispatched[r] for r in range(len(completed)))
+    assert again.run.dispatched == engine.run.dispatched or not logged
     assert {(d.agent, d.index) for d in pending} == {
         (r, k) for r in range(len(completed)) for k in range(completed[r], again.run.dispatched[r])}
     # carried on from there, the run reaches the end
@@ -251,6 +293,17 @@ def test_restore_gives_the_progress_it_was_given_and_the_run_goes_on_to_the_end(
         queue.discard((agent, index))
         queue |= {(d.agent, d.index) for d in again.handle(ActionCompleted(agent, index, 102.0))}
     assert again.finished
+
+
+def test_restore_counts_the_leader_of_a_follower_that_set_off_first_as_dispatched():
+    engine = Engine(train().plan, "adg", follow=True)
+    engine.handle(Resume(0.0))  # robot 0 leads robots 1 and 2 east along a row
+    engine.handle(ActionStarted(1, 0, 0.1))  # the follower drives to its hold point; its leader turns
+    again = Engine(train().plan, "adg", follow=True)
+    pending = again.restore([0, 0, 0], [0, 1, 0], [0, 1, 0], 1.0)  # what a run log says
+    assert {(d.agent, d.index) for d in pending} == {(0, 0), (1, 0)}
+    follower = next(d for d in pending if d.agent == 1)
+    assert follower.follows == (0, 0) and list(again.run.dispatched) == [1, 1, 0]
 
 
 def test_restore_refuses_progress_the_dependencies_do_not_allow():

@@ -26,7 +26,8 @@ from fleet_manager.settings import ManagerSettings
 from live import ScriptedConsole, fleet_definitions, start_fleet, start_manager
 from memory_fleet import MemoryFleet, lab_fleet
 
-SECRET = "root:SECRET-MARKER-7f3a:20228:0:99999:7:::"
+# a secret that a map reader would quote if it were made to read it (a row of the wrong length)
+SECRET = "height 1\nwidth 3\nmap\nroot:SECRET-MARKER-7f3a:20228:0:99999:7:::"
 
 
 @pytest.fixture
@@ -147,6 +148,10 @@ def test_loads_a_console_may_not_make_are_refused_and_the_run_goes_on(place, tmp
             continue
         assert not answer.ok, args
         assert "SECRET-MARKER" not in answer.reason and "root:" not in answer.reason, answer.reason
+        if "text" in args and "map_file=" in args["text"] and "map_file=lab.map" not in args["text"]:  # never read
+            assert any(why in answer.reason for why in (
+                "is not in the folders this manager serves maps from", "leads out of the served folder",
+                "not a regular file (a FIFO)")), answer.reason
     assert (f.phase, f.folders) == (before[0], before[2] + 1)
     everything = " ".join(a.reason for a in ops.answers()) + " ".join(str(x) for x in f.records)
     assert "SECRET-MARKER" not in everything
