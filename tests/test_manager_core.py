@@ -75,9 +75,25 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
     f.link_up()
     answer = f.ask(ops, "start")
-    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])  # the file's own coordinates
-    assert not answer.ok and "robot 3 is at (0.0, 0.0), its start is {}".format(start) in answer.reason
+    loaded = f.core.run.loaded
+    start = loaded.show(loaded.starts[2])  # the file's own coordinates, both of them
+    here = loaded.show((0, 0))
+    assert not answer.ok and "robot 3 stands at ({:.1f}, {:.1f}), its start is {}".format(
+        here[0], here[1], start) in answer.reason
+    assert "(cells as lab_instance.txt counts them)" in answer.reason and "go to starts" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
+
+
+def test_a_robot_whose_poses_stop_is_stale_after_half_a_second_as_the_readme_says():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.advance(0.3)
+    f.robots[2].up = False  # its pose stream stops (its link is not known to be down yet)
+    f.advance(0.4)
+    assert not ops.state.robots[1].stale
+    f.advance(0.2)
+    assert ops.state.robots[1].stale and not ops.state.robots[0].stale
 
 
 def test_pause_sends_nothing_new_and_start_drives_on():

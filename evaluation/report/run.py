@@ -280,6 +280,11 @@ def run_page(run: RunFolder) -> Page:
             page.meta.append(line)
     elif run.torn:
         page.meta.append("the run did not end cleanly (its last line was cut off)")
+    for rec in run.of("resume"):  # a manager that died, replaced: one run, said where
+        page.meta.append("resumed at {:.1f} s by a manager started again on this folder, after {:.1f} s "
+                         "without one ({}, {} actions done)".format(
+                             float(rec.get("t", 0.0)), float(rec.get("downtime") or 0.0), rec.get("plan"),
+                             sum(rec.get("completed") or [])))
     page.add("Robots over time", gantt_chart(run))
     page.add("Planned and executed", progress_chart(run), deviation_chart(run))
     count = sum(1 for rec in run.records if rec.get("k") not in ("poses", "waits"))

@@ -78,6 +78,8 @@ class Driver:
         self.out = out
         self.following = following
         self.preturn = preturn
+        #: followers' hold points move on (False while a resumed run checks its robots)
+        self.releasing = True
 
     # ---- the engine's side ---------------------------------------------------------------
 
@@ -114,7 +116,9 @@ class Driver:
         for p in passes:
             robot, other = self.robots[p.agent], self.robots[p.passed]
             cell = table.coord(p.cell)
-            self.out.record("pass", robot=robot.id, passed=other.id, cell=list(cell), taken_back=p.taken_back)
+            run = self.engine.run
+            self.out.record("pass", robot=robot.id, passed=other.id, cell=list(cell), taken_back=p.taken_back,
+                            index=p.action - run.first[p.agent], passed_index=p.passed_action - run.first[p.passed])
             self.out.tell("pass", robot.id, "robot {} goes before robot {} at {}{}".format(
                 robot.id, other.id, cell, " (robot {} gave its move back)".format(other.id) if p.taken_back else ""))
 
@@ -188,6 +192,8 @@ class Driver:
 
     def release_followers(self, leader: Robot) -> None:
         """`leader` moved on (a pose) or completed a move: move its followers' hold points on."""
+        if not self.releasing:
+            return
         for agent, point in self.following.moved(leader.agent).items():
             robot = self.robots[agent]
             flight, d = robot.flight, robot.queue[0] if robot.queue else None
@@ -222,7 +228,8 @@ class Driver:
             return  # an outcome of something we stopped caring about (a take-back)
         if isinstance(reply, Accepted):
             flight.accepted = True
-            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index:
+            begun = reply.duplicate and self.engine.run.started[robot.agent] > (flight.index or 0)
+            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index and not begun:
                 d = robot.queue[0]
                 robot.moving_since = flight.sent
                 self.out.record("action", robot=robot.id, index=d.index, phase="started",
@@ -267,6 +274,11 @@ class Driver:
             robot.hold = None
             self._robot_out(robot, "halted: " + reason, now, hold=HALTED)
             return
+        self._robot_out(robot, reason, now, hold=FAULT)
+
+    def hold_out(self, robot: Robot, reason: str, now: float) -> None:
+        """Take `robot` out of the run and hold it, as a fault would, until an operator enables
+        it (a robot a resumed run found between cells)."""
         self._robot_out(robot, reason, now, hold=FAULT)
 
     def _robot_out(self, robot: Robot, reason: str, now: float, hold: str) -> None:
@@ -314,9 +326,10 @@ class Driver:
 
     # ---- operator actions that need commands ---------------------------------------------
 
-    def halt(self) -> None:
-        """Stop every robot where it is, now (the run is paused by the caller)."""
-        for robot in self.robots:
+    def halt(self, only: Optional[Sequence[Robot]] = None) -> None:
+        """Stop every robot (or those of `only`) where it is, now (the run is paused by the
+        caller)."""
+        for robot in self.robots if only is None else only:
             if robot.flight is not None and robot.flight.kind in ("drive", "turn"):
                 robot.hold = HALTED
                 cid = robot.take_id()

@@ -16,14 +16,14 @@ once, whatever the phase.
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Callable, Dict, Optional, Tuple
 
 from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
-from fleet_common.plan_loading import load_plan
+from fleet_common.limits import one_line
 
+from .plan_requests import load_requested
 from .robot import HALTED, VICON, Robot
 from .run import Run
 from .run_phase import RUNNING, WAITING
@@ -66,7 +66,10 @@ def resume(run: Run, now: float, trigger: str = "start") -> None:
 
 
 def _ready(run: Run, now: float) -> str:
-    """At the first start or step, why the robots cannot go ("" when they can)."""
+    """At the first start or step (or the first after a resume), why the robots cannot go ("" when
+    they can)."""
+    if run.resuming is not None:
+        return run.not_ready()
     if run.phase.phase != WAITING:
         return ""
     problem = run.not_ready()
@@ -194,11 +197,11 @@ def load(run: Run, args: Args, now: float) -> Answer:
         refusal = "load another plan when no robot moves"
     if refusal:
         return False, refusal
-    path = Path(args["path"] or args["name"])
     try:
-        loaded = load_plan(path, len(run.fleet), "the fleet", run.settings.map_dirs, text=args["text"])
-    except (FleetError, OSError) as err:
-        return False, "cannot load {}: {}".format(path, err)
+        loaded = load_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
+                                args["path"], args["text"], args["name"])
+    except FleetError as err:
+        return False, "cannot load: {}".format(one_line(str(err), 400))
     run.load(loaded, now)
     return True, "{} loaded ({})".format(loaded.name, loaded.note)
 

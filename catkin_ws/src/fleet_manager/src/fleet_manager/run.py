@@ -6,15 +6,19 @@ after a `load`, which starts a new run in a new run folder, or an accepted
 replan, which continues the same run with plan-2.txt, plan-3.txt ...), the
 execution engine for it, the driver that turns the engine's decisions into
 commands, the phase (`run_phase`) and the replanner's state. Everything it
-does goes out through the `Outbox` as values.
+does goes out through the `Outbox` as values. A run may also be resumed
+from the folder of a manager that died (`resume.py`): it goes on there.
 """
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Set
+from pathlib import Path
+from typing import Dict, List, Optional, Set, Tuple
 
 from fleet_common.control import RunSetup
-from fleet_common.execution import Disabled, Engine, RobotFailed
+from fleet_common.errors import FleetError
+from fleet_common.execution import Disabled, Engine, EventError, RobotFailed
+from fleet_common.execution.reorder import replay as replay_passes
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -24,10 +28,11 @@ from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
 from .following import Following
-from .outbox import NewRunFolder, Outbox, WriteFile
+from .outbox import NewRunFolder, Outbox, ResumeRunFolder, WriteFile
 from .replanning import Replanner
-from .robot import Fleet
-from .run_phase import RUNNING, RunPhase
+from .resume import ResumePoint, Resuming
+from .robot import FAULT, HALTED, RESUMING, Fleet, InFlight
+from .run_phase import RUNNING, WAITING, RunPhase
 from .settings import ManagerSettings
 from .state_view import setup
 
@@ -40,7 +45,8 @@ def action_counts(plan: Plan) -> List[int]:
 
 
 class Run:
-    def __init__(self, loaded: LoadedPlan, fleet: Fleet, out: Outbox, settings: ManagerSettings) -> None:
+    def __init__(self, loaded: LoadedPlan, fleet: Fleet, out: Outbox, settings: ManagerSettings,
+                 resume: Optional[Tuple[ResumePoint, Plan]] = None, now: float = 0.0) -> None:
         self.fleet = fleet
         self.out = out
         self.settings = settings
@@ -50,9 +56,18 @@ class Run:
         self.plan: Plan = loaded.plan
         self.plan_id = 1
         self.started_at: Optional[float] = None
-        self.engine = self._engine(self.plan)
-        self.driver = self._driver(self.engine)
-        self._begin()
+        #: a resumed run before its robots were checked (`resume.py`)
+        self.resuming: Optional[Resuming] = None
+        #: agent -> the cell a robot found off the plan stands on (replanned from there)
+        self.standing: Dict[int, Coord] = {}
+        #: cells walled off for replanning around robots standing between cells
+        self.walls: Set[Coord] = set()
+        if resume is None:
+            self.engine = self._engine(self.plan)
+            self.driver = self._driver(self.engine)
+            self._begin()
+        else:
+            self._resume(resume[0], resume[1], now)
 
     @property
     def grid(self) -> Grid:
@@ -97,10 +112,17 @@ class Run:
         return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
 
     def not_ready(self) -> str:
-        """Why the run cannot start now ("" if it can): robots not connected or not on their starts."""
+        """Why the run cannot start or go on now ("" if it can): robots not connected or not on
+        their starts; for a resumed run, robots not checked yet or a replan to answer."""
+        if self.resuming is not None:
+            return self.resuming.waiting_for(self.fleet, self.engine.run.out)
+        if self.phase.phase != WAITING:
+            return ""
         down = [r.id for r in self.fleet if not r.link_up]
         if down:
-            return "not connected: robot{} {}".format("s" if len(down) > 1 else "", _ids(down))
+            why = {r.link_reason for r in self.fleet if not r.link_up and r.link_reason}
+            return "not connected: robot{} {}{}".format(
+                "s" if len(down) > 1 else "", _ids(down), " ({})".format("; ".join(sorted(why)[:2])) if why else "")
         off: List[str] = []
         for robot in self.fleet:
             if self.engine.run.out[robot.agent] is not None:
@@ -110,16 +132,23 @@ class Run:
             if pose is None:
                 off.append("robot {} has not reported a pose".format(robot.id))
             elif math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
-                off.append("robot {} is at ({:.1f}, {:.1f}), its start is {}".format(
-                    robot.id, pose.x, pose.y, self.loaded.show(start)))
+                off.append("robot {} stands at {}, its start is {}".format(
+                    robot.id, self.shown(pose.x, pose.y), self.loaded.show(start)))
         if off:
-            return "not on their start cells: " + "; ".join(off[:5]) + (
+            return ("not on their start cells: " + "; ".join(off[:5]) + (
                 "; and {} more".format(len(off) - 5) if len(off) > 5 else "")
+                + " (cells as {} counts them); send them there with the console's go to starts, "
+                  "or continue their last run (fleetctl manager --resume)".format(Path(self.loaded.name).name))
         return ""
 
+    def shown(self, x: float, y: float) -> str:
+        """A point of the base grid as the plan's file writes cells (its own coordinates)."""
+        (x0, y0), (x1, y1) = self.loaded.show((0, 0)), self.loaded.show((1, 1))
+        return "({:.1f}, {:.1f})".format(x0 + (x1 - x0) * x, y0 + (y1 - y0) * y)
+
     def positions(self) -> List[Coord]:
-        """The cell each robot holds for planning."""
-        return [self.driver.position(r) for r in self.fleet]
+        """The cell each robot holds for planning (a robot found off the plan: where it stands)."""
+        return [self.standing.get(r.agent) or self.driver.position(r) for r in self.fleet]
 
     # ---- plans ----------------------------------------------------------------------------
 
@@ -148,9 +177,76 @@ class Run:
                         map=self.grid.name, step_time=self.settings.step_time,
                         size=size_fields(self.settings.size))
 
+    def _resume(self, point: ResumePoint, plan: Plan, now: float) -> None:
+        """Go on with the run of `point`'s folder (its manager died): the progress from its
+        records, the commands no reply settled sent again with their ids, nothing new until
+        the robots are checked (`core.RunCore.resumed`)."""
+        self.plan, self.plan_id = plan, point.plan_number
+        self.out.add(ResumeRunFolder(point.folder))
+        self.engine = self._engine(plan)
+        self.driver = self._driver(self.engine)
+        fleet, run = self.fleet, self.engine.run
+        agents = {r.id: r.agent for r in fleet}
+        done = [min(point.completed.get(r.id, 0), run.count(r.agent)) for r in fleet]
+        began = [min(point.started.get(r.id, 0), run.count(r.agent)) for r in fleet]
+        sent = [min(point.dispatched(r.id), run.count(r.agent)) for r in fleet]
+        try:  # the cells' order as the passes of a re-ordering strategy left it, then the progress
+            replay_passes(run, [(agents.get(a, -1), k, agents.get(b, -1), j) for a, k, b, j in point.passes])
+            dispatches = self.engine.restore(done, began, sent, now)
+        except (ValueError, EventError) as err:
+            raise FleetError("cannot resume {}: its records do not fit {}: {}".format(
+                point.folder, point.plan, err)) from None
+        for d in dispatches:
+            fleet[d.agent].queue.append(d)
+        for robot in fleet:
+            robot.next_id = max(robot.next_id, point.next_id.get(robot.id, 1))
+        for rid, (why, reason) in sorted(point.out.items()):
+            robot = fleet.by_id.get(rid)
+            if robot is None:
+                continue
+            if why == "disabled":
+                self.engine.handle(Disabled(robot.agent, now))
+                self.driver.drop_pending(robot)
+            else:
+                self.engine.handle(RobotFailed(robot.agent, now))
+                robot.queue.clear()
+                robot.hold, robot.hold_reason = (HALTED if reason.startswith("halted") else FAULT), reason
+        again = []
+        for robot in fleet:
+            for u in point.unsettled.get(robot.id, ()):
+                if u.action is not None and u.action >= run.count(robot.agent):
+                    continue  # a command of an older plan
+                self.out.send(robot.id, u.command)
+                again.append([robot.id, u.command.id, u.command.TYPE])
+                kind = u.command.TYPE
+                if kind in ("drive", "turn", "stop"):
+                    target = ((u.command.x, u.command.y) if kind == "drive"  # type: ignore[union-attr]
+                              else (u.command.angle,) if kind == "turn" else ())  # type: ignore[union-attr]
+                    robot.flight = InFlight(u.command.id, kind, u.action, now, target)
+                if kind == "drive" and robot.queue and robot.queue[0].index == u.action:
+                    self.driver.following.sent(robot.queue[0], u.hold)
+        self.started_at = point.began
+        self.out.record("resume", started=None, plan=point.plan, completed=done, sent=again,
+                        dropped=0, downtime=round(max(0.0, now - point.last_t), 3))
+        if point.began is not None:  # under way: nothing moves on before the robots are checked
+            self.driver.releasing = False
+            for robot in fleet:
+                if robot.hold is None:
+                    robot.hold = RESUMING
+            self.resuming = Resuming(point, now)
+            self.move("resumed", "resumed from {}: checking where the robots are".format(point.folder.name))
+
+    def say(self, reason: str) -> None:
+        """A new reason for the phase the run is in (recorded and versioned)."""
+        if reason != self.phase.reason:
+            self.phase.reason = reason
+            self._phase_changed()
+
     def switch_plan(self, plan: Plan, reason: str, now: float) -> None:
         """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out."""
         old = self.engine
+        self.standing.clear()
+        self.walls.clear()
         self.plan_id += 1
         self.plan = plan
         engine = self._engine(plan)

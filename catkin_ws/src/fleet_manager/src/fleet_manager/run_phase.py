@@ -11,7 +11,8 @@ reason from `REFUSALS` (or a general one) and changes nothing, as h11 refuses
 an illegal event. Triggers are the operator's requests that move the run
 (start, pause, stop, step, halt, load, replan) and the run's own news
 (arrived: every robot taking part is at its goal; resume: a replan was
-answered). The phase names are what consoles and run logs show.
+answered; resumed: a manager started again on the folder of a run under way
+takes it over, paused). The phase names are what consoles and run logs show.
 """
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ TRANSITIONS: Dict[Tuple[str, str], str] = {
     (PAUSED, "replan"): PAUSED,
     (STOPPED, "replan"): STOPPED,
     (PAUSED, "resume"): RUNNING,
+    (WAITING, "resumed"): PAUSED,
 }
 
 #: Why a trigger is refused in a phase, where "not now" needs saying better.

@@ -180,6 +180,72 @@ class Engine:
         """For each out robot, the robots now waiting for it, directly or transitively."""
         return blocked_by(self.waiting() + self.following(), self.out_agents())
 
+    def restore(self, completed: Sequence[int], started: Sequence[int], dispatched: Sequence[int],
+                time: float) -> List[Dispatch]:
+        """Progress known from elsewhere, before any event: a manager started again on a run
+        folder reads it from the run log. Agent r completed its first `completed[r]` actions,
+        began those up to `started[r]` and was sent those up to `dispatched[r]`. Followers sent
+        before their leader completed need the leader's move dispatched: it is counted so. The
+        progress must be one the dependency rule allows (EventError otherwise, changing
+        nothing). The run stays paused; the actions dispatched and not completed are returned
+        (their robots are carrying them out, or are to)."""
+        run = self.run
+        n = run.num_agents
+        if run.version or not (len(completed) == len(started) == len(dispatched) == n):
+            raise EventError("restore needs the progress of all {} agents before any event".format(n))
+        done = [int(c) for c in completed]
+        disp = [max(int(c), int(s), int(d)) for c, s, d in zip(completed, started, dispatched)]
+        for r in range(n):
+            if not 0 <= done[r] <= disp[r] <= run.count(r):
+                raise EventError("agent {} has {} actions; cannot restore {} completed, {} sent".format(
+                    r, run.count(r), done[r], disp[r]), r)
+        first, dep, agent = run.first, run.dep, run.agent
+
+        def index(a: int) -> int:
+            return a - first[agent[a]]
+
+        grown = True
+        while grown:  # a follower sent early needs its leader's move sent (and that one's leader)
+            grown = False
+            for r in range(n):
+                for a in range(first[r] + done[r], first[r] + disp[r]):
+                    d = dep[a]
+                    if d < 0 or agent[d] == r or index(d) < done[agent[d]]:
+                        continue
+                    if not self.follow:
+                        raise EventError("agent {} was sent action {} before agent {} completed "
+                                         "action {}".format(r, a - first[r], agent[d], index(d)), r)
+                    if index(d) >= disp[agent[d]]:
+                        disp[agent[d]] = index(d) + 1
+                        grown = True
+        for r in range(n):
+            for a in range(first[r], first[r] + done[r]):
+                d = dep[a]
+                if d >= 0 and agent[d] != r and index(d) >= (disp if self.follow else done)[agent[d]]:
+                    raise EventError("agent {} completed action {} before agent {} began action {}".format(
+                        r, a - first[r], agent[d], index(d)), r)
+        for r in range(n):
+            for a in range(first[r], first[r] + done[r]):
+                run.done[a] = 1
+            run.completed[r] = done[r]
+            run.started[r] = min(max(done[r], int(started[r])), disp[r])
+            run.dispatched[r] = run.sent[r] = disp[r]
+        out = []
+        for r in range(n):
+            for a in range(first[r] + done[r], first[r] + disp[r]):
+                d = dep[a]
+                leader = None
+                if d >= 0 and not run.done[d] and agent[d] != r:
+                    self.early[a] = d
+                    leader = (agent[d], index(d))
+                out.append(Dispatch(r, a - first[r], run.step[a], self.table.coord(run.src[a]),
+                                    self.table.coord(run.dst[a]), leader))
+        self.strategy.attach(run)  # strategies derive their state from the progress
+        self.metrics.restored(done, time)
+        self._cap = list(run.dispatched)
+        run.version += 1
+        return out
+
     # ---- events -------------------------------------------------------------------------
     def _agent(self, r: object, event: object) -> int:
         if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.run.num_agents:

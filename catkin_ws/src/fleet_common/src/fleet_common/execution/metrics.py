@@ -80,6 +80,17 @@ class Metrics:
             self._ahead[event.agent] = self._done[event.agent]
             self._busy[event.agent] = None  # what it may still finish counts from its completion
 
+    def restored(self, completed: List[int], time: float) -> None:
+        """The run goes on from progress known from elsewhere (`Engine.restore`): robots are
+        ready for their next action from `time`."""
+        self._done = list(completed)
+        self._ahead = list(completed)
+        self._busy = [None] * len(self.counts)
+        self._ready = [time] * len(self.counts)
+        for r, done in enumerate(completed):
+            if done and done == self.counts[r]:
+                self.agents[r].arrival = time - (self.begin or 0.0)
+
     def ready_at(self, agent: int) -> Optional[float]:
         """Since when the robot has been ready for an action it was not sent (None: it has one)."""
         return self._ready[agent]

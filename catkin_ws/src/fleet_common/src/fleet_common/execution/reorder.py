@@ -279,3 +279,31 @@ class ReorderStrategy(Strategy):
                 if d >= 0:
                     stack.append(d)
         return False
+
+
+def replay(run: RunState, passes: Sequence[Tuple[int, int, int, int]]) -> List[Pass]:
+    """Make again, in order, passes made in an earlier life of this run (a manager resumed on
+    its folder): (robot, its action index, robot passed, that one's action index), each the
+    moves into the cell. Raises ValueError, changing nothing, when one does not fit the graph."""
+    dep, first, count = list(run.dep), run.first, len(run.dep)
+    succ = list(run.succ)
+    made: List[Pass] = []
+    for agent, k, passed, j in passes:
+        if not (0 <= agent < run.num_agents and 0 <= passed < run.num_agents):
+            raise ValueError("a pass names robots not in this plan: {} and {}".format(agent, passed))
+        eq, ep = first[agent] + k, first[passed] + j
+        if not (first[agent] <= eq < first[agent + 1] - 1 and first[passed] <= ep < first[passed + 1] - 1
+                and eq < count and dep[eq] == ep + 1):
+            raise ValueError("agent {}'s action {} was not next after agent {}'s action {} at a cell".format(
+                agent, k, passed, j))
+        view = _Chains(dep, succ)
+        ReorderStrategy._swap(view, eq, ep)  # type: ignore[arg-type]
+        made.append(Pass(agent, passed, run.dst[eq], eq, ep))
+    run.dep[:], run.succ[:] = dep, succ
+    run.passes.extend(made)
+    return made
+
+
+class _Chains(NamedTuple):
+    dep: List[int]
+    succ: List[int]

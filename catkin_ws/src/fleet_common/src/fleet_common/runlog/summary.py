@@ -32,10 +32,15 @@ later are the same numbers.
   margin) in a `poses` record: the live count from poses. Two poses of one
   record were reported at different moments (each record gives their age):
   a pair counts only when closer than the safe distance less what either
-  robot could cover in between, at the fastest its own poses showed it go;
+  robot could cover in between, at the fastest its own poses showed it go,
+  and less the record's rounding (`POSE_ROUNDING`), so that a follower
+  standing at its hold point, exactly the safe distance away, is not counted;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
-  with the robots' size, metres.
+  with the robots' size, metres;
+- a run its manager did not live to finish and another resumed (`resume`
+  records) is one run: its times include the time it stood still, and the
+  summary says how often and how long.
 """
 from __future__ import annotations
 
@@ -46,7 +51,11 @@ from typing import Any, Dict, List, Optional, Set, Tuple
 from ..execution.trace import CollisionCount
 from ..spacing import closest_pair, pairs_within
 
-__all__ = ["RunSummary", "SummaryBuilder"]
+__all__ = ["RunSummary", "SummaryBuilder", "POSE_ROUNDING"]
+
+#: How much a distance between two centres of a `poses` record may be off (cells): each
+#: coordinate is written to 3 decimals (the manager's `log_poses`), off by 0.0005 at most.
+POSE_ROUNDING = 2 * math.sqrt(2) * 0.0005
 
 Record = Dict[str, Any]
 
@@ -76,6 +85,8 @@ class RunSummary:
     @property
     def avoidable(self) -> Optional[float]:
         return None if self.forced is None else max(0.0, self.wait - self.forced - self.held)
+    resumes: int = 0                 # managers started again on the run's folder
+    downtime: float = 0.0            # time without a manager, in all
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
@@ -103,6 +114,9 @@ class RunSummary:
         if self.passes:
             out.append("passes: {} (a robot went into a cell before a late one that was due first)".format(
                 self.passes))
+        if self.resumes:
+            out.append("resumed: {} time{} after its manager stopped ({:.1f} {} without one)".format(
+                self.resumes, "s" if self.resumes > 1 else "", self.downtime, unit))
         if self.disabled:
             out.append("disabled: robots {}".format(", ".join(map(str, self.disabled))))
         if self.failed:
@@ -120,7 +134,7 @@ class RunSummary:
                 "min_distance": None if self.min_distance is None else round(self.min_distance, 3),
                 "min_distance_m": None if self.min_distance is None or self.cell_m is None
                 else round(self.min_distance * self.cell_m, 4),
-                "safe_m": self.safe_m,
+                "safe_m": self.safe_m, "resumes": self.resumes, "downtime": round(self.downtime, 3),
                 "unit": self.unit, "lines": self.lines()}  # as printed, for reports
 
 
@@ -153,6 +167,8 @@ class SummaryBuilder:
         self.safe: Optional[float] = None         # cells; None: robots as large as a cell
         self.too_close: Set[Tuple[int, int]] = set()  # pairs of robot ids seen closer than safe
         self._reported: Dict[int, Tuple[float, float, float, float]] = {}  # robot -> t, x, y, speed
+        self.resumes = 0
+        self.downtime = 0.0
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
@@ -185,6 +201,9 @@ class SummaryBuilder:
                 self.out[record["robot"]] = why
         elif kind == "poses":
             self._poses(record, t)
+        elif kind == "resume":
+            self.resumes += 1
+            self.downtime += float(record.get("downtime") or 0.0)
 
     def _dispatch(self, record: Record, t: float) -> None:
         waited = float(record.get("waited") or 0.0)
@@ -270,11 +289,11 @@ class SummaryBuilder:
             self.closest = (found[1], found[2], t)
         if self.safe is not None:
             speed = self._speeds(points, taken)
-            if found is not None and found[0] < self.safe:
+            if found is not None and found[0] < self.safe - POSE_ROUNDING:
                 for a, b in pairs_within(points, self.safe):
                     moved = max(speed.get(a, 0.0), speed.get(b, 0.0)) * abs(taken[a] - taken[b])
                     d = math.hypot(points[a][0] - points[b][0], points[a][1] - points[b][1])
-                    if d < self.safe - moved:
+                    if d < self.safe - moved - POSE_ROUNDING:
                         self.too_close.add((a, b))
 
     def _speeds(self, points: Dict[int, Tuple[float, float]], taken: Dict[int, float]) -> Dict[int, float]:
@@ -315,4 +334,4 @@ class SummaryBuilder:
             cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
             else round(self.safe * self.cell_m, 6),
             forced=self.forced, held=self.held, lower_bound=max(self.own.values(), default=0.0),
-            passes=self.passes)
+            passes=self.passes, resumes=self.resumes, downtime=self.downtime)
