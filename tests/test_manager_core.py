@@ -75,8 +75,10 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
     f.link_up()
     answer = f.ask(ops, "start")
-    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])  # the file's own coordinates
-    assert not answer.ok and "robot 3 is at (0.0, 0.0), its start is {}".format(start) in answer.reason
+    # the pose and the start in one convention, the plan file's own (mapf-IR rows from the top)
+    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])
+    assert start == (5, 1)
+    assert not answer.ok and "robot 3 is at (0, 13), its start is (5, 1)" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
 
 

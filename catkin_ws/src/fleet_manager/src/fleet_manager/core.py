@@ -40,7 +40,7 @@ from . import operator
 from .outbox import Effect, Outbox
 from .replanning import SAFE_POINT, walled
 from .robot import Fleet, Seen
-from .run import Run
+from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
 from .state_view import build_state, proposal, robot_waits
@@ -64,6 +64,7 @@ class RunCore:
         self._states = 0
         self._last_waits: Optional[Dict[int, Waiting]] = None
         self._stuck_since: Optional[float] = None
+        self._refusals = _Burst()
 
     def take(self) -> List[Effect]:
         """The effects of the inputs so far, in order (and forget them)."""
@@ -119,8 +120,12 @@ class RunCore:
             action = intake.request.action
             ok, reason = operator.apply(self.run, action, intake.args, now)
             self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
+            asked = request_words(action, intake.args)
+            robot = intake.args.get("robot") if action in ("enable", "disable", "source") else None
             if ok:
-                self.out.tell("operator", None, "{}: {}{}".format(name, action, " " + reason if reason else ""))
+                self.out.tell("operator", robot, "{}: {}{}".format(name, asked, " (" + reason + ")" if reason else ""))
+            elif self._refusals.allow(name, now):
+                self.out.say("[{:7.1f} s] {}: {} refused: {}".format(now, name, asked, reason))
             self.out.frames(self.desk.answer(peer, intake.request, ok, reason))
             self.publish(now)
         if intake.refusal is None:
@@ -146,14 +151,21 @@ class RunCore:
             grid = walled(run.grid, run.engine, self.fleet.robots, here, out)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
-            run.move("arrived", "every robot taking part is at its goal")
-            self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            if run.purpose == PLAN:
+                self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            run.arrived(now)
             self.publish(now)
+        for line in self._refusals.counts(now):
+            self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
 
     def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
                    now: float) -> None:
         self._at(now)
+        if job_id == self.run.to_starts_job:
+            self.run.to_starts_ready(result, error, now)
+            self.publish(now)
+            return
         replanner = self.run.replanner
         message = replanner.finished(job_id, result, error)
         if message is None:
@@ -171,10 +183,11 @@ class RunCore:
 
     def state(self, now: float, waits: Dict[int, Waiting]):
         self._states += 1
-        return build_state(self._states, self.desk.version, now, self.run.clock(now),
-                           self.settings.step_time, self.run.engine, self.fleet, self.run.phase,
-                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits,
-                           self.run.driver.following)
+        run = self.run
+        return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
+                           run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
+                           self.collisions, waits, run.driver.following, run.purpose,
+                           operator.allowed(run, now))
 
     def publish(self, now: float) -> bool:
         """Who waits for whom to the run log when it changed; the State to the consoles.
@@ -250,12 +263,62 @@ class RunCore:
     def close(self, reason: str, now: float) -> None:
         """The manager stops: the run log's last record, and every console told."""
         self._at(now)
+        self.out.summary.feed({"k": "end", "t": round(now, 4), "reason": reason})  # the summary says why
         summary = self.summary()
         self.out.record("end", reason=reason, arrived=len(summary.arrived), robots=summary.robots,
                         summary=summary.as_dict())
         self.out.broadcast(Notice(self.out.notices + 1, round(now, 3), "run", None, "manager stopping: " + reason))
         # consoles learn at once that this manager is gone (not after 3.5 s of silence)
         self.out.broadcast(Bye("manager stopping: " + reason))
+
+
+def request_words(action: str, args: Dict) -> str:
+    """A request as the manager's log and the consoles' event lists say it: "disable robot 3"."""
+    if action in ("enable", "disable"):
+        return "{} robot {}".format(action, args.get("robot"))
+    if action == "source":
+        return "position source {} for {}".format(args.get("source"), "every robot" if args.get("robot") is None
+                                                  else "robot {}".format(args["robot"]))
+    if action == "strategy":
+        return "strategy {}{}".format(args.get("name"), "" if args.get("lookahead") is None
+                                      else " (lookahead {})".format(args["lookahead"]))
+    if action == "load":
+        return "load {}".format(args.get("path") or args.get("name"))
+    if action in ("accept", "reject"):
+        return "{} replan {}".format(action, args.get("proposal"))
+    if action == "to_starts":
+        return "go to starts"
+    return action
+
+
+class _Burst:
+    """Refused requests said on the terminal: `burst` a console per `window` seconds, then a
+    count, so that one console repeating a refused request cannot flood the log."""
+
+    def __init__(self, burst: int = 3, window: float = 60.0) -> None:
+        self.burst, self.window = burst, window
+        self._seen: Dict[str, List[float]] = {}  # console -> [window start, said, held back]
+
+    def allow(self, name: str, now: float) -> bool:
+        entry = self._seen.get(name)
+        if entry is None or now - entry[0] >= self.window:
+            entry = self._seen[name] = [now, 0, 0]
+        if entry[1] < self.burst:
+            entry[1] += 1
+            return True
+        entry[2] += 1
+        return False
+
+    def counts(self, now: float) -> List[str]:
+        """Lines for the windows that have passed with refusals held back."""
+        lines = []
+        for name, (start, _, held) in list(self._seen.items()):
+            if now - start >= self.window:
+                del self._seen[name]
+                if held:
+                    lines.append("{}: {:,} more refused requests in the last {:g} s".format(
+                        name, int(held), self.window))
+        return lines
 
 
 def _robots_wait(ids: List[int]) -> str:

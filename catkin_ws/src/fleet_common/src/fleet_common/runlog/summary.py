@@ -23,7 +23,10 @@ later are the same numbers.
   margin) in a `poses` record: the live count from poses;
 - the smallest distance between two robots is taken over every `poses`
   record (the positions the run used: robot feedback or Vicon), in cells and,
-  with the robots' size, metres.
+  with the robots' size, metres;
+- a run that began and ended (an `end` record: Ctrl-C, another plan, a reset)
+  before it was done was interrupted: the summary says when and why, and how
+  many of the plan's moves were executed by then.
 """
 from __future__ import annotations
 
@@ -55,12 +58,22 @@ class RunSummary:
     failed: List[int] = field(default_factory=list)
     cell_m: Optional[float] = None   # metres a cell; None: a run of old, robots as large as a cell
     safe_m: Optional[float] = None   # the safe distance between centres, metres
+    interrupted: Optional[str] = None  # why the run ended before it was done (None: it was not)
+    ended_at: float = 0.0            # when it ended, from its start
+    moves: Tuple[int, int] = (0, 0)  # the plan's moves executed, and in all
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
-        out = ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
-                                         else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
-               "executed makespan: {:.2f} {}".format(self.makespan, unit),
+        out = []
+        if self.interrupted is not None:
+            out.append("interrupted at {:.1f} {} ({}): {} of {} moves executed, {} of {} robots at their "
+                       "goals".format(self.ended_at, unit, self.interrupted, self.moves[0], self.moves[1],
+                                      len(self.arrived), self.enabled))
+        out += ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
+                                          else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
+               ("executed so far: {:.2f} {} (the latest arrival {:.2f} {})".format(
+                   self.ended_at, unit, self.makespan, unit) if self.interrupted is not None
+                else "executed makespan: {:.2f} {}".format(self.makespan, unit)),
                "sum of costs: {:.2f} {}".format(self.soc, unit),
                "total wait: {:.2f} {}".format(self.wait, unit),
                "collisions: {}{}{}".format(self.collisions, " ({} swaps)".format(self.swaps) if self.swaps else "",
@@ -87,7 +100,8 @@ class RunSummary:
                 "min_distance_m": None if self.min_distance is None or self.cell_m is None
                 else round(self.min_distance * self.cell_m, 4),
                 "safe_m": self.safe_m,
-                "unit": self.unit, "lines": self.lines()}  # as printed, for reports
+                "unit": self.unit, "interrupted": self.interrupted,
+                "moves": list(self.moves), "lines": self.lines()}  # as printed, for reports
 
 
 class SummaryBuilder:
@@ -112,6 +126,9 @@ class SummaryBuilder:
         self.cell_m: Optional[float] = None
         self.safe: Optional[float] = None         # cells; None: robots as large as a cell
         self.too_close: Set[Tuple[int, int]] = set()  # pairs of robot ids seen closer than safe
+        self.done_at: Optional[float] = None      # the run was done (a `state` record "done")
+        self.end: Optional[Tuple[str, float]] = None  # the `end` record: why, when
+        self.moves_before = 0                     # moves executed under earlier plans (replans)
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
@@ -122,8 +139,15 @@ class SummaryBuilder:
             self._plan(record, t, first=True)
         elif kind == "plan" and record.get("reason") != "loaded":
             self._plan(record, t, first=False)
-        elif kind == "state" and record.get("run") == "running" and self.begin is None:
-            self.begin = t
+        elif kind == "state":
+            if record.get("run") == "running":
+                if self.begin is None:
+                    self.begin = t
+                self.done_at = None  # a new leg after the end
+            elif record.get("run") == "done":
+                self.done_at = t
+        elif kind == "end":
+            self.end = (str(record.get("reason") or "ended"), t)
         elif kind == "dispatch":
             self.wait += float(record.get("waited") or 0.0)
         elif kind == "command" and record.get("type") == "drive" and record.get("action") is not None:
@@ -149,6 +173,7 @@ class SummaryBuilder:
             self.safe = None if safe >= cell else safe / cell
 
     def _plan(self, record: Record, t: float, first: bool) -> None:
+        self.moves_before += sum(self.done)
         robots = list(record.get("robots") or [])
         self.robots = robots
         self.agent = {r: i for i, r in enumerate(robots)}
@@ -207,6 +232,9 @@ class SummaryBuilder:
 
     def summary(self) -> RunSummary:
         begin = self.begin if self.begin is not None else 0.0
+        interrupted = None
+        if self.begin is not None and self.done_at is None and self.end is not None:
+            interrupted = self.end[0]
         # a robot held by a fault still takes part (it has not arrived); disabled ones do not
         enabled = [i for i, r in enumerate(self.robots) if self.out.get(r) != "disabled"]
         arrived = sorted(self.robots[i] for i in enabled if i in self.arrival)
@@ -221,4 +249,6 @@ class SummaryBuilder:
             disabled=sorted(r for r, why in self.out.items() if why == "disabled"),
             failed=sorted(r for r, why in self.out.items() if why == "failed"),
             cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
-            else round(self.safe * self.cell_m, 6))
+            else round(self.safe * self.cell_m, 6), interrupted=interrupted,
+            ended_at=0.0 if self.end is None else max(0.0, self.end[1] - begin),
+            moves=(self.moves_before + sum(self.done), self.moves_before + sum(self.actions)))
