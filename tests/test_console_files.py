@@ -43,7 +43,8 @@ def test_lab_robots_are_listed_by_their_id_alone(root: tk.Tk) -> None:
     root.update()
     status = app.status.get()
     start = app.scene.starts[2]
-    assert status.startswith("robot 3: start ({}, {}) node {}".format(*start, node_table().node_at(start)))
+    in_file = app.scene.grid.flip_y(start)  # lab_instance.txt counts rows from the top, as mapf-IR
+    assert status.startswith("robot 3: start ({}, {}) node {}".format(*in_file, node_table().node_at(start)))
     assert "agent" not in status
 
 

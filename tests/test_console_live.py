@@ -10,6 +10,7 @@ bounded loops; nothing is timed.
 """
 from __future__ import annotations
 
+import dataclasses
 import gc
 import time
 import tkinter as tk
@@ -382,27 +383,47 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
 
 def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> None:
     """One table of run controls: each button and each Run menu entry sends its action, one the
-    manager knows (accept and reject only as buttons: they name the proposal shown)."""
+    manager knows (accept and reject only as buttons: they name the proposal shown), and both
+    are greyed when the manager would refuse it (without a manager: all of them)."""
+    from console.live.feed import LinkStatus
     from console.ui.admin_panel import RUN_CONTROLS
-    from fleet_common.control import ACTIONS
+    from fleet_common.control import ACTIONS, RUN_ACTIONS, RunInfo, State
 
     asked: List[str] = []
     root = tk.Tk()
     try:
-        app = LiveApp(root, LiveFeed(), LiveModel("tcp://127.0.0.1:1"),
-                      lambda action, **args: asked.append(action))
+        feed, model = LiveFeed(), LiveModel("tcp://127.0.0.1:1")
+        app = LiveApp(root, feed, model, lambda action, **args: asked.append(action))
         root.after_cancel(app._after)
         run = app.menubar.nametowidget(app.menubar.entrycget("Run", "menu"))
         labels = [run.entrycget(i, "label") for i in range(run.index("end") + 1)]
         assert labels == [c.menu for c in RUN_CONTROLS if c.menu is not None]
-        for i in range(len(labels)):
-            run.invoke(i)
-        menu_asked, asked[:] = list(asked), []
-        for c in RUN_CONTROLS:
-            app.admin.buttons[c.action].invoke()
+
+        def press_all() -> Tuple[List[str], List[str]]:
+            for i in range(len(labels)):
+                run.invoke(i)
+            menu_asked, asked[:] = list(asked), []
+            for c in RUN_CONTROLS:
+                app.admin.buttons[c.action].invoke()
+            buttons, asked[:] = list(asked), []
+            return menu_asked, buttons
+
+        assert press_all() == ([], [])  # no manager yet: nothing to ask
+        feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
+        everything = RunInfo("paused", "", "adg", 1, 3.0, 1.0, 1, 0, 5, None, 0, 7, allowed=RUN_ACTIONS)
+        feed.offer(State(1, 3, everything, ()), 0.0)
+        app.refresh()
+        menu_asked, buttons = press_all()
         assert menu_asked == [c.action for c in RUN_CONTROLS if c.menu is not None]
-        assert asked == [c.action for c in RUN_CONTROLS if c.action not in ("accept", "reject")]
+        assert buttons == [c.action for c in RUN_CONTROLS]
         assert {c.action for c in RUN_CONTROLS} <= set(ACTIONS)
+        only_start = dataclasses.replace(everything, state="waiting", proposal=None, allowed=("start",))
+        feed.offer(State(2, 3, only_start, ()), 0.0)
+        app.refresh()
+        assert press_all() == (["start"], ["start"])
+        assert app.admin.buttons["reset"].instate(["disabled"])
+        assert run.entrycget(labels.index(next(c.menu for c in RUN_CONTROLS if c.action == "reset")),
+                             "state") == "disabled"
     finally:
         root.destroy()
         gc.collect()

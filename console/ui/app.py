@@ -43,6 +43,8 @@ log = logging.getLogger(__name__)
 
 #: One frame every 33 ms: 30 frames per second while something moves.
 FRAME_MS = 33
+#: Seconds before the same failure of a frame is logged again.
+FAILURE_QUIET = 10.0
 
 
 class PlayerApp(PlayerActions, FileActions):
@@ -60,6 +62,7 @@ class PlayerApp(PlayerActions, FileActions):
         self.collector = TkThreadCollector(root)  # Tk objects are freed on this thread only
         self.speed = speed
         self._after: Optional[str] = None
+        self._failures: Dict[str, float] = {}
         root.report_callback_exception = self._report  # type: ignore[assignment]
         self._load(scene, source, canvas_size, playing)
         root.bind("<Destroy>", self._destroyed, add="+")
@@ -78,6 +81,7 @@ class PlayerApp(PlayerActions, FileActions):
     def _load(self, scene: Scene, source: Optional[QueueSource], canvas_size: Tuple[int, int],
               playing: bool) -> None:
         self.scene = scene
+        self.options.file_opened(scene.file_orientation)
         self.clock: Optional[PlanClock] = None
         self.source: Union[PlanClock, QueueSource]
         if source is None:
@@ -155,8 +159,12 @@ class PlayerApp(PlayerActions, FileActions):
         try:
             self.jobs.drain()  # results of background work, handled here on the Tk thread
             self.refresh()
-        except Exception:  # one bad frame must not stop the loop
-            log.exception("frame failed")
+        except Exception as err:  # one bad frame must not stop the loop, nor flood the log
+            key = "{}: {}".format(type(err).__name__, err)
+            if self._failures.get(key, -1e9) + FAILURE_QUIET <= started:
+                self._failures[key] = started
+                log.exception("frame failed (the same failure is logged again after %g s at most)",
+                              FAILURE_QUIET)
         spent = int((time.perf_counter() - started) * 1000)
         self._after = self.root.after(max(1, self.frame_ms - spent), self._tick)
 

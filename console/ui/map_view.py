@@ -99,6 +99,13 @@ class MapView(tk.Frame):
             self.view.set_down(down)
             self.changed()
 
+    def set_bands(self, top: int, bottom: int) -> None:
+        """Room for bands over the top and bottom of the canvas (the map fits between them)."""
+        if (top, bottom) != (self.view.top, self.view.bottom):
+            self.view.top, self.view.bottom = top, bottom
+            self.view.fit()
+            self.changed()
+
     def set_grid_lines(self, on: bool) -> None:
         self.grid_lines = on
         self.redraw_map()

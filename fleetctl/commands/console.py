@@ -60,9 +60,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "console's window after --after seconds")
     parser.add_argument("--at", type=non_negative, default=0.0, metavar="T",
                         help="time step for --screenshot (fractions move agents between cells)")
-    parser.add_argument("--orientation", choices=("lab", "mapf-ir"), default="lab",
-                        help="lab: origin bottom-left, y up (default); mapf-ir: as mapf-IR's "
-                             "visualizer shows the file (origin top-left); key m toggles")
+    parser.add_argument("--orientation", choices=("file", "lab", "mapf-ir"), default="file",
+                        help="whose coordinates the window shows: file (default), the plan file's "
+                             "own, as its messages use them; lab: origin bottom-left, y up; mapf-ir: "
+                             "as mapf-IR's visualizer shows the file (origin top-left); key m toggles")
     parser.add_argument("--lines", choices=("goal", "path", "none"), default="goal",
                         help="line from each agent to its goal, its remaining path, or none")
     parser.add_argument("--agent", type=int, metavar="I", help="highlight agent I (0-based)")
@@ -94,7 +95,6 @@ def _live(args: argparse.Namespace) -> int:
     import socket
 
     from console.live_console import LiveOptions, run_live_console
-    from console.view_options import ViewOptions
     from fleet_common.transport.curve_keys import default_keys_dir, load_console_keys
 
     try:
@@ -105,7 +105,7 @@ def _live(args: argparse.Namespace) -> int:
         name=args.name or "console@{}".format(socket.gethostname()), size=args.size,
         screenshot=args.screenshot, after=args.after, record=args.record, every=args.every,
         close_when_done=args.close_when_done, start_when_ready=args.start_when_ready,
-        view=ViewOptions(lines=args.lines, ids=args.ids, orientation=args.orientation))
+        view=_view(args))
     outcome = run_live_console(args.manager, keys, options)
     if outcome.screenshot is not None:
         print("{}: the console on {} after {:g} s".format(outcome.screenshot, args.manager, args.after))
@@ -116,10 +116,17 @@ def _live(args: argparse.Namespace) -> int:
     return 0
 
 
+def _view(args: argparse.Namespace):
+    from console.view_options import ViewOptions
+
+    follow = args.orientation == "file"
+    return ViewOptions(lines=args.lines, ids=args.ids, orientation="lab" if follow else args.orientation,
+                       follow_file=follow)
+
+
 def _replay(args: argparse.Namespace) -> int:
     from console.player import run_player, screenshot
     from console.scene import scene_from_instance, scene_from_solution
-    from console.view_options import ViewOptions
 
     kind = filekinds.sniff(args.replay)
     if kind == filekinds.SOLUTION:
@@ -132,8 +139,8 @@ def _replay(args: argparse.Namespace) -> int:
     selected: Optional[int] = args.agent
     if selected is not None and not 0 <= selected < scene.num_agents:
         raise FleetError("--agent {}: the plan has agents 0..{}".format(selected, scene.num_agents - 1))
-    options = ViewOptions(lines=args.lines, ids=args.ids, node_ids=args.node_ids, orientation=args.orientation,
-                          selected=selected)
+    options = _view(args)
+    options.node_ids, options.selected = args.node_ids, selected
     if args.screenshot is not None:
         w, h = screenshot(scene, args.screenshot, args.at, options, args.size)
         print("{}: time step {:g} of {}, {}x{} pixels".format(args.screenshot, min(max(args.at, 0), scene.makespan),

@@ -316,7 +316,12 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     pending = run.replanner.pending
     if run.replanner.proposal_id is None or pending is None or pending.id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
-    run.switch_plan(pending.result.plan, "replan", now)
+    plan = pending.result.plan
+    moving = [run.fleet[a].id for a in range(plan.num_agents)
+              if (plan.positions[1:, a] != plan.positions[:-1, a]).any()]
+    run.switch_plan(plan, "replan", now)
+    run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
+        len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
     run.replanner.resolved()
     _resume_after_replan(run, now)  # a new plan's engine starts paused: otherwise it stays so
     return True, "switched to plan {}".format(run.plan_id)

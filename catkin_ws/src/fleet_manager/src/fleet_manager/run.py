@@ -237,7 +237,7 @@ class Run:
     def _driver(self, engine: Engine) -> Driver:
         size = self.settings.size
         following = Following(engine, self.fleet, None if size.cell_sized else size.safe_cells)
-        return Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn)
+        return Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn, self.loaded.show)
 
     def _begin(self) -> None:
         """The first records of a run (and of each run after a `load`)."""
