@@ -54,8 +54,8 @@ class Lab:
         self.procs.append(proc)
         return proc
 
-    def start_manager(self, *extra: str) -> Proc:
-        proc = start_manager(self.folder, LAB, self.definitions, self.port, "--log", self.folder / "runs",
+    def start_manager(self, *extra: str, plan: object = LAB) -> Proc:
+        proc = start_manager(self.folder, plan, self.definitions, self.port, "--log", self.folder / "runs",
                              "--step-time", "0.6", *extra, name="manager-{}".format(len(self.procs)))
         self.procs.append(proc)
         return proc
@@ -192,6 +192,41 @@ def test_clicking_a_robots_enabled_box_disables_it_in_the_manager(lab: Lab, cons
         events.event_generate("<ButtonPress-1>", x=x + w // 2, y=y + h // 2)
         events.event_generate("<ButtonRelease-1>", x=x + w // 2, y=y + h // 2)
     assert console.app.selected_robot() == 3  # the event list jumps to the robot it is about
+
+
+@pytest.mark.parametrize("posted", ["menu", "drop-down"])
+def test_the_robot_table_keeps_updating_while_a_menu_is_posted(lab: Lab, consoles, caplog, posted: str) -> None:
+    """An operator reaching for Halt with a menu or the strategy drop-down open reads current rows:
+    the table goes on changing at its pace, and no frame fails."""
+    lab.fleet(2.0)
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app = console.app
+    assert pump(console, lambda: running(console) and tree_row(console, 1) != (), 60)
+    root = app.root
+    if posted == "menu":  # Run in the menu bar, posted as a click on it does, the focus in it
+        app.menubar.entryconfigure("Run", underline=0)
+        root.tk.call("tk::TraverseToMenu", str(root), "r")
+        root.update()
+        clones = [w for w in root.tk.call("winfo", "children", ".") if "#" in str(w)]
+        root.tk.call("focus", str(clones[0]))  # where a desktop's window manager puts it
+    else:  # the strategy drop-down, open
+        root.tk.call("ttk::combobox::Post", str(app.admin.strategy_box))
+    root.update()
+    focus = str(root.tk.call("focus"))
+    assert "#" in focus or "popdown" in focus, focus  # a widget tkinter does not know has the focus
+    rows, seen = [], time.monotonic()
+    while time.monotonic() - seen < 3.0:
+        root.update()
+        row = tree_row(console, 1)
+        if not rows or row != rows[-1]:
+            rows.append(row)
+        time.sleep(0.01)
+    # the pose's age changes at every refresh of the panels (four a second)
+    assert len(rows) >= 6, rows
+    assert not [r for r in caplog.records if "frame failed" in r.getMessage()]
+    root.tk.call("tk::MenuUnpost", "") if posted == "menu" else root.tk.call(
+        "ttk::combobox::Unpost", str(app.admin.strategy_box))
 
 
 # ---- a stalled robot and the robot that waits for it -----------------------------------------
