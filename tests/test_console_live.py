@@ -358,6 +358,35 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
 
 # ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------
 
+@pytest.mark.parametrize("curve", [False, True])
+def test_a_console_nobody_answers_says_the_port_or_the_keys_are_wrong(curve: bool) -> None:
+    """A wrong port and a CurveZMQ manager that drops a console without its keys look the same
+    from the console: silence. After a few seconds it says so, naming both causes, and keeps trying."""
+    import zmq
+
+    from fleet_common.transport.curve_keys import ConsoleKeys
+    from helpers import free_port
+
+    keys = None
+    if curve:
+        public, secret = zmq.curve_keypair()
+        keys = ConsoleKeys(public, secret, zmq.curve_keypair()[0])
+    feed = LiveFeed()
+    endpoint = "tcp://127.0.0.1:{}".format(free_port())
+    link = ManagerLink(endpoint, feed, keys=keys, no_answer=1.0, hello_every=0.3).start()
+    try:
+        said: List[str] = []
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not any("no answer" in t for t in said):
+            said += [item.text for item, _ in feed.drain() if hasattr(item, "status")]
+            time.sleep(0.05)
+    finally:
+        link.stop()
+    line = next(t for t in said if "no answer" in t)
+    assert line.startswith("no answer from a manager at {} for 1 s: is it running on that port?".format(endpoint))
+    assert ("console.key_secret" if curve else "--no-curve") in line and line.endswith("still trying")
+
+
 def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(lab: Lab, consoles) -> None:
     fleet = lab.fleet(4.0, None, "--bump", "3@2")  # robot 3's bumper is hit in its 2nd drive
     lab.start_manager("--start")

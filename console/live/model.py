@@ -66,6 +66,7 @@ class LiveModel:
         self.proposal_plan: Optional[Plan] = None
         self.lines: Deque[Line] = deque(maxlen=events)
         self.story: Deque[Line] = deque(maxlen=8)
+        self.told = 0  # sentences of the story so far
         self.ticker = Ticker()
         self.last_reply: Optional[Reply] = None
         self.changes: Set[str] = set()
@@ -119,6 +120,7 @@ class LiveModel:
 
     def _scene(self, message: RunSetup) -> None:
         self.setup = message
+        self.ticker.step_time = message.step_time
         self.scene = scene_from_manager(message, self.endpoint)
         self.agent_of = {rid: i for i, rid in enumerate(message.plan.robots)}
         self.proposal, self.proposal_plan = None, None
@@ -141,6 +143,7 @@ class LiveModel:
         line = Line(time.strftime("%H:%M:%S", time.localtime(wall)), STORY, robot, text, INFO)
         self.lines.append(line)
         self.story.append(line)
+        self.told += 1
         self.changes.update(("events", "story"))
 
     def take_changes(self) -> Set[str]:

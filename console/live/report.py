@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import html
 import time
+from pathlib import PurePath
 from typing import Iterable, Optional
 
 from .describe import action_text
@@ -54,7 +55,7 @@ def report_html(model: LiveModel, picture: Optional[str] = None, saved_at: Optio
     """The report of what `model` holds; `picture`: the window's PNG, a file name beside the report."""
     setup, state = model.setup, model.state
     run = state.run if state is not None else None
-    title = setup.plan.name if setup is not None and setup.plan.name else "a FleetControl run"
+    title = PurePath(setup.plan.name).name if setup is not None and setup.plan.name else "a FleetControl run"
     out = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>{}</title><style>{}</style>{}</head><body>".format(
         _e(title), _STYLE, _FILTER)]
     out.append("<h1>{}</h1>".format(_e(title)))

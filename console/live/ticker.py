@@ -20,10 +20,11 @@ from fleet_common.control import Notice, RunInfo, State
 
 __all__ = ["Ticker", "STALL_AFTER", "WAIT_AFTER"]
 
-#: Seconds a driving robot stands still before it counts as stalled.
-STALL_AFTER = 1.5
-#: Seconds a wait lasts before it is told.
-WAIT_AFTER = 1.0
+#: Seconds a driving robot stands still before it counts as stalled (at least; and at least the
+#: time a plan step is expected to take, as the manager says: a fast fleet stalls sooner).
+STALL_AFTER = 0.8
+#: Seconds a wait lasts before it is told (at least; and at least half a plan step).
+WAIT_AFTER = 0.5
 #: A robot that moved less than this (cells) stood still.
 STILL = 0.03
 #: Sentences of one kind told for one State; the rest are counted in one more.
@@ -51,6 +52,7 @@ class Ticker:
     def __init__(self) -> None:
         self._robots: Dict[int, _Robot] = {}
         self._run: Optional[RunInfo] = None
+        self.step_time = STALL_AFTER  # seconds a plan step takes (the run setup's)
 
     def reset(self) -> None:
         """Another manager, or another plan: what was seen no longer counts."""
@@ -78,7 +80,8 @@ class Ticker:
             return ["stopped by the operator: robots finish their move"]
         if run.state == "done" and run.purpose == "plan":
             return ["every robot is home: done in {:.0f} s, {}".format(
-                run.clock, "no collision" if run.collisions == 0 else "{} collisions".format(run.collisions))]
+                run.clock, "no collision" if run.collisions == 0 else "{} collision{}".format(
+                    run.collisions, "" if run.collisions == 1 else "s"))]
         if run.state == "waiting" and before.purpose == "to-starts":
             return ["every robot is on its start: ready to run"]
         return []
@@ -89,6 +92,8 @@ class Ticker:
         """The sentences `state`, arrived at `at` (seconds), gives rise to."""
         said = self._run_news(state.run)
         running = state.run.state == "running"
+        stall_after = max(STALL_AFTER, self.step_time)
+        wait_after = max(WAIT_AFTER, 0.5 * self.step_time)
         stalls: List[str] = []
         waits: List[str] = []
         others: List[str] = []
@@ -104,7 +109,10 @@ class Ticker:
                     seen.stalled = False
                     others.append("robot {} moves again".format(r.id))
             driving = r.activity is not None and r.activity.kind == "drive" and r.waiting is None
-            if running and driving and not seen.stalled and at - seen.still_since >= STALL_AFTER \
+            if driving and r.follows is not None:  # a follower behind a leader that stands waits for it
+                leader = self._robots.get(r.follows)
+                driving = leader is None or at - leader.still_since < stall_after
+            if running and driving and not seen.stalled and at - seen.still_since >= stall_after \
                     and r.link == "up" and not r.faults:
                 seen.stalled = True
                 stalls.append("robot {} stalled".format(r.id))
@@ -112,7 +120,7 @@ class Ticker:
             on = tuple(r.waiting.on) if r.waiting is not None else ()
             if on != seen.wait:
                 seen.wait, seen.wait_since, seen.wait_told = on, at, False
-            if on and running and not seen.wait_told and at - seen.wait_since >= WAIT_AFTER:
+            if on and running and not seen.wait_told and at - seen.wait_since >= wait_after:
                 seen.wait_told = True
                 waits.append("robot {} waits for {}".format(r.id, _robots(on)))
             # taken out and back in, by the operator or a fault

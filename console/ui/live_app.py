@@ -246,7 +246,7 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
         elif c.status == LOST:
             self.banner.set("manager lost: reconnecting to {}".format(self.model.endpoint), lost=True)
         else:
-            self.banner.set("connecting to the manager at {}".format(self.model.endpoint))
+            self.banner.set(c.text)  # connecting, or why nothing answers
 
     def update_panels(self, changes: Any = ()) -> None:
         """Refresh the admin panel, the robot panel and the event list from the model."""

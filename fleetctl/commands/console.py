@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 from typing import Optional, Tuple
 
-from fleet_common.arg_types import non_negative, positive
+from fleet_common.arg_types import endpoint, non_negative, positive
 from fleet_common.errors import FleetError
 
 from .. import filekinds
@@ -32,8 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--replay", type=Path, metavar="SOLUTION",
                         help="mapf-IR solution (or instance) file to play")
     live = parser.add_argument_group("live console (without --replay)")
-    live.add_argument("--manager", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
-                      help="the manager's console endpoint (default {})".format(DEFAULT_ENDPOINT))
+    live.add_argument("--manager", default=DEFAULT_ENDPOINT, metavar="ENDPOINT", type=endpoint,
+                      help="the manager's console endpoint, HOST:PORT or tcp://HOST:PORT (default {})".format(
+                          DEFAULT_ENDPOINT))
     live.add_argument("--keys", type=Path, default=None, metavar="DIR",
                       help="CurveZMQ key folder with console.key_secret and manager.key (default: "
                            "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
@@ -52,6 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="close the window S seconds after the run is done")
     live.add_argument("--start-when-ready", action="store_true",
                       help="press Start once every robot is connected (the demo's console)")
+    live.add_argument("--present", action="store_true",
+                      help="open in the presentation view for visitors: the map full screen, robots "
+                           "large, a legend and the run's story in words (F11 switches)")
     parser.add_argument("--map", type=Path, metavar="MAP",
                         help="use this .map instead of looking up the file's map_file=")
     add_map_dir(parser)
@@ -104,7 +108,7 @@ def _live(args: argparse.Namespace) -> int:
     options = LiveOptions(
         name=args.name or "console@{}".format(socket.gethostname()), size=args.size,
         screenshot=args.screenshot, after=args.after, record=args.record, every=args.every,
-        close_when_done=args.close_when_done, start_when_ready=args.start_when_ready,
+        close_when_done=args.close_when_done, start_when_ready=args.start_when_ready, present=args.present,
         view=_view(args))
     outcome = run_live_console(args.manager, keys, options)
     if outcome.screenshot is not None:
