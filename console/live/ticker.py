@@ -42,6 +42,7 @@ class _Robot:
     wait_told: bool = False
     out: Optional[str] = None
     link: str = "up"
+    doing: Optional[Tuple[str, Optional[int]]] = None  # the command it carries out (kind, action)
 
 
 def _robots(ids: Tuple[int, ...]) -> str:
@@ -102,6 +103,9 @@ class Ticker:
             if seen is None:
                 seen = self._robots[r.id] = _Robot(r.x, r.y, at, out=r.out, link=r.link)
             # standing still in the middle of a drive: stalled (a follower at its hold point waits)
+            doing = None if r.activity is None else (r.activity.kind, r.activity.index)
+            if doing != seen.doing:  # a new command: standing still counts from now
+                seen.doing, seen.still_since = doing, at
             if r.x is not None and r.y is not None and (
                     seen.x is None or seen.y is None or math.hypot(r.x - seen.x, r.y - seen.y) > STILL):
                 seen.x, seen.y, seen.still_since = r.x, r.y, at

@@ -143,7 +143,7 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
         self._present_overlays()
         if self.map is not None:
             if not self.presentation.on:
-                self.map.set_bands(HEADER_HEIGHT, 0)
+                self.map.set_bands(HEADER_HEIGHT, 0, 0)
             self.relayout()
         self._show_presentation(True)
 
@@ -171,9 +171,10 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
 
     def relayout(self) -> None:
         if self.map is not None and self.presentation.on:
-            top, bottom = self.bands.bands_for(self.map.view.canvas_h)
-            if (self.map.view.top, self.map.view.bottom) != (top, bottom):
-                self.map.set_bands(top, bottom)  # fits the map again, and relayouts
+            bands = self.bands.bands_for(self.map.view.canvas_h)
+            view = self.map.view
+            if (view.top, view.bottom, view.right) != bands:
+                self.map.set_bands(*bands)  # fits the map again, and relayouts
                 return
         super().relayout()
 

@@ -99,10 +99,10 @@ class MapView(tk.Frame):
             self.view.set_down(down)
             self.changed()
 
-    def set_bands(self, top: int, bottom: int) -> None:
-        """Room for bands over the top and bottom of the canvas (the map fits between them)."""
-        if (top, bottom) != (self.view.top, self.view.bottom):
-            self.view.top, self.view.bottom = top, bottom
+    def set_bands(self, top: int, bottom: int, right: int = 0) -> None:
+        """Room for bands over the top, bottom and right of the canvas (the map fits between)."""
+        if (top, bottom, right) != (self.view.top, self.view.bottom, self.view.right):
+            self.view.top, self.view.bottom, self.view.right = top, bottom, right
             self.view.fit()
             self.changed()
 

@@ -16,6 +16,8 @@ overlays that stay on top of the robots.
 from __future__ import annotations
 
 import tkinter as tk
+from pathlib import PurePath
+from tkinter import font as tkfont
 from typing import Callable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import RunInfo
@@ -37,10 +39,17 @@ FADED = "#7a7a74"
 PAPER = "#fbfbf7"
 #: The smallest robot disc in the presentation view (pixels of radius): visitors see robots.
 LARGE = 6.0
+#: What the marks on the map mean, in the legend's words.
+LEGEND = ("a robot, where it is (the tick: where it faces)", "where the plan wants it now", "behind the plan",
+          "waits to enter a cell, for the robot the arrow points to", "out of the run (disabled, fault, no link)",
+          "a robot's goal")
+#: Fleets this small get a legend line for each robot (its colour and id).
+LEGEND_ROBOTS = 12
 
 
 def run_words(run: Optional[RunInfo], name: str) -> Tuple[str, str]:
-    """The title band's two lines."""
+    """The title band's two lines (`name`: the plan, its file name is what a visitor reads)."""
+    name = PurePath(name).name
     if run is None:
         return "FleetControl: {}".format(name or "waiting for the manager"), "waiting for the manager"
     what = {"waiting": "ready, waiting for Start", "running": "running", "paused": "paused",
@@ -70,16 +79,23 @@ class Bands:
         self.colours: Sequence[str] = ()
         self.names: Sequence[str] = ()
         self.font = 18
-        self.top = self.bottom = 0
+        self.top = self.bottom = self.right = 0
         self.shown = False
         self.hide()
 
-    def bands_for(self, canvas_h: int) -> Tuple[int, int]:
-        """(top, bottom) band heights for a canvas `canvas_h` pixels high."""
+    def bands_for(self, canvas_h: int) -> Tuple[int, int, int]:
+        """(top, bottom, right): the title's and the ticker's heights and the legend's width for a
+        canvas `canvas_h` pixels high (the map fits in what is left)."""
         self.font = max(14, min(26, canvas_h // 40))
         self.top = int(self.font * 3.4)
         self.bottom = int(self.font * 1.55 * TICKER_LINES + self.font)
-        return self.top, self.bottom
+        f = tkfont.Font(root=self.canvas, family=TITLE_FONT, size=-self._legend_font())
+        widest = max(f.measure(words) for words in LEGEND + tuple(self.names[:LEGEND_ROBOTS]))
+        self.right = int(widest + 4 * self._legend_font() * 0.55 + 10 + 20 + 24)
+        return self.top, self.bottom, self.right
+
+    def _legend_font(self) -> int:
+        return max(12, int(self.font * 0.7))
 
     def show(self) -> None:
         self.shown = True
@@ -137,53 +153,57 @@ class Bands:
         for item in self.legend_items:
             c.delete(item)
         self.legend_items = []
-        f = max(12, int(self.font * 0.7))
+        f = self._legend_font()
         r = f * 0.55
         colour = self.colours[0] if self.colours else "#3a78c8"
         rows: List[Tuple[Callable[[float, float], List[int]], str]] = [
             (lambda x, y: [c.create_oval(x - r, y - r, x + r, y + r, fill=colour, outline=INK),
                            c.create_line(x + 0.4 * r, y, x + r, y, fill="#ffffff", width=2)],
-             "a robot, where it is (the tick: where it faces)"),
+             LEGEND[0]),
             (lambda x, y: [c.create_oval(x - r, y - r, x + r, y + r, outline=colour, dash=(4, 3), width=2)],
-             "where the plan wants it now"),
+             LEGEND[1]),
             (lambda x, y: [c.create_oval(x - r, y - r, x + r, y + r, fill=colour, outline=BEHIND, width=3)],
-             "behind the plan"),
+             LEGEND[2]),
             (lambda x, y: [c.create_rectangle(x - r, y - r, x + r, y + r, outline=WAIT, width=3),
                            c.create_line(x + r + 2, y, x + 3 * r, y, fill=WAIT, width=3, arrow=tk.LAST)],
-             "waits to enter a cell, for the robot the arrow points to"),
+             LEGEND[3]),
             (lambda x, y: [c.create_oval(x - r, y - r, x + r, y + r, fill=GREY, outline=colour, width=2)],
-             "out of the run (disabled, fault, no link)"),
+             LEGEND[4]),
             (lambda x, y: [c.create_rectangle(x - r * 0.5, y - r * 0.5, x + r * 0.5, y + r * 0.5, fill=colour,
                                               outline="")],
-             "a robot's goal"),
+             LEGEND[5]),
         ]
-        if 0 < len(self.colours) <= 12:
+        if 0 < len(self.colours) <= LEGEND_ROBOTS:
             for colour_k, name in zip(self.colours, self.names):
                 rows.append((lambda x, y, k=colour_k: [c.create_oval(x - r, y - r, x + r, y + r, fill=k,
                                                                      outline=INK)], name))
         line_h = f * 1.6
-        width = f * 24
+        tags = ("overlay", "present")
+        # the words first, to know how wide the box must be; then the box behind them
+        texts = [c.create_text(0, 0, anchor=tk.W, text="On the map", font=(TITLE_FONT, -f, "bold"), fill=INK,
+                               tags=tags)]
+        texts += [c.create_text(0, 0, anchor=tk.W, text=words, font=(TITLE_FONT, -f), fill=INK, tags=tags)
+                  for _, words in rows]
+        widest = max((c.bbox(t)[2] - c.bbox(t)[0]) for t in texts)
+        symbols = 4 * r + 10
         x1 = view.canvas_w - 12
-        x0 = x1 - width
-        _, _, map_right, _ = view.map_box()
+        x0 = x1 - (20 + symbols + widest)
         y0 = self.top + 12
         box = c.create_rectangle(x0, y0, x1, y0 + line_h * (len(rows) + 1) + 8, fill=PAPER,
-                                 outline="#c8c8c0", tags=("overlay", "present"))
-        self.legend_items.append(box)
-        self.legend_items.append(c.create_text(x0 + 10, y0 + line_h * 0.6, anchor=tk.W, text="On the map",
-                                               font=(TITLE_FONT, -f, "bold"), fill=INK, tags=("overlay", "present")))
-        for k, (draw, words) in enumerate(rows):
+                                 outline="#c8c8c0", tags=tags)
+        c.tag_lower(box, texts[0])
+        self.legend_items += [box] + texts
+        c.coords(texts[0], x0 + 10, y0 + line_h * 0.6)
+        for k, (draw, _) in enumerate(rows):
             y = y0 + line_h * (k + 1.6)
-            for item in draw(x0 + 10 + 2 * r, y):
+            c.coords(texts[k + 1], x0 + 10 + symbols, y)
+            for item in draw(x0 + 10 + r, y):
                 c.addtag_withtag("present", item)
                 c.addtag_withtag("overlay", item)
                 self.legend_items.append(item)
-            self.legend_items.append(c.create_text(x0 + 16 + 4 * r, y, anchor=tk.W, text=words,
-                                                   font=(TITLE_FONT, -f), fill=INK, tags=("overlay", "present")))
         state = tk.NORMAL if self.shown else tk.HIDDEN
         for item in self.legend_items:
             c.itemconfigure(item, state=state)
-        del map_right
 
 
 class Presentation:
@@ -235,5 +255,5 @@ class Presentation:
                 root.geometry(self._geometry)
         self.on_change()
 
-    def bands(self, canvas_h: int, bands: Bands) -> Tuple[int, int]:
-        return bands.bands_for(canvas_h) if self.on else (HEADER_HEIGHT, 0)
+    def bands(self, canvas_h: int, bands: Bands) -> Tuple[int, int, int]:
+        return bands.bands_for(canvas_h) if self.on else (HEADER_HEIGHT, 0, 0)
