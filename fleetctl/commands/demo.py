@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.lab import lab_instance_path, lab_map_path, node_table
     from fleet_common.plan_loading import solve_instance
     from fleet_common.robots import default_definitions_path, read_robot_definitions
+    from fleet_common.plan_loading import file_coordinates
     from fleet_common.validate import validate_plan
 
     robots_path = args.robots or default_definitions_path()
@@ -109,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     print("plan: {} in {:.0f} ms, soc={}, makespan={}, {}".format(
         result.solver, result.comp_time_ms, plan.soc, plan.makespan,
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
-    for line in _robot_lines(robots, plan, nodes):
+    for line in _robot_lines(robots, plan, nodes, file_coordinates(inst)):
         print("  " + line)
     if not report.ok:
         return 1
@@ -201,12 +202,13 @@ def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int)
         return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)
 
 
-def _robot_lines(robots, plan, nodes) -> List[str]:
+def _robot_lines(robots, plan, nodes, show) -> List[str]:
+    """Each robot's way, its cells in the instance file's own coordinates (`show`)."""
     costs = plan.path_costs()
     lines = []
     for i in range(plan.num_agents):
         r = robots[i]
         start, goal = plan.path(i)[0], plan.goals[i]
         lines.append("robot {} ({}): node {} {} -> node {} {}, {} steps".format(
-            r.id, r.colour, nodes.node_at(start), start, nodes.node_at(goal), goal, int(costs[i])))
+            r.id, r.colour, nodes.node_at(start), show(start), nodes.node_at(goal), show(goal), int(costs[i])))
     return lines
