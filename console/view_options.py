@@ -29,6 +29,8 @@ class ViewOptions:
     selected: Optional[int] = None
     #: show the selected agent only (mapf-IR's single-agent mode)
     only_selected: bool = False
+    #: keep the selected agent in sight: the view follows it (PlanViz's follow mode)
+    follow: bool = False
 
     def cycle_lines(self) -> None:
         self.lines = LINE_MODES[(LINE_MODES.index(self.lines) + 1) % len(LINE_MODES)]

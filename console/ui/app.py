@@ -177,6 +177,8 @@ class PlayerApp(PlayerActions, FileActions):
     def show(self, state: FleetState) -> None:
         was_playing = self.clock is not None and self.clock.playing
         self.state = state
+        if self.options.follow and self._keep_in_sight(state):
+            return  # the view moved: everything was placed again, this state with it
         for layer in self.layers:
             layer.update(state)
         self._show_controls()
@@ -186,6 +188,22 @@ class PlayerApp(PlayerActions, FileActions):
     def _show_controls(self) -> None:
         if self.clock is not None and self.controls is not None:
             self.controls.show(self.clock.time, self.clock.playing, self.clock.speed, self.clock.loop)
+
+    def _keep_in_sight(self, state: FleetState) -> bool:
+        """Follow mode: when the selected agent nears the view's edge, centre the view on it
+        (not at every frame: the map picture is drawn again each time the view moves)."""
+        agent = self.options.selected
+        if agent is None or not 0 <= agent < len(state.positions):
+            return False
+        x, y = (float(v) for v in state.positions[agent])
+        view = self.map.view
+        cx, cy = view.to_canvas(x, y)
+        w, top, bottom = view.canvas_w - view.right, view.top, view.canvas_h - view.bottom
+        if 0.2 * w <= cx <= 0.8 * w and top + 0.2 * (bottom - top) <= cy <= bottom - 0.2 * (bottom - top):
+            return False
+        view.centre_on(x, y)
+        self.map.changed()
+        return True
 
     def relayout(self) -> None:
         """Place every item again (the view or the options changed)."""
@@ -228,7 +246,7 @@ class PlayerApp(PlayerActions, FileActions):
     def _fill_conflicts(self) -> None:
         h = self.scene.grid.height
         labels = [e.label(h, self.options.orientation, self.scene.file_orientation) for e in self.entries]
-        self.conflict_list.fill(labels, self.scene.following, self.scene.rotations)
+        self.conflict_list.fill(labels, self.scene.following, self.scene.rotations, self.scene.plan is not None)
 
     def _guarded(self, fn: Callable[[], None]) -> Callable[[], None]:
         def run() -> None:
