@@ -486,6 +486,16 @@ def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> 
         app.refresh()
         assert press_all() == (["start"], ["start"])
         assert app.admin.buttons["reset"].instate(["disabled"])
+        # a refusal stays on the answer line while the run stays where it was refused, no longer
+        from console.live.feed import Reply
+        feed.offer(Reply("start", {}, False, "not on their start cells"), 0.0)
+        app.refresh()
+        app.update_panels({"reply"})
+        assert "REFUSED" in app.admin.answer.cget("text")
+        feed.offer(State(3, 4, dataclasses.replace(only_start, state="running", allowed=()), ()), 0.0)
+        app.refresh()
+        app.update_panels({"state"})
+        assert app.admin.answer.cget("text") == ""
         assert run.entrycget(labels.index(next(c.menu for c in RUN_CONTROLS if c.action == "reset")),
                              "state") == "disabled"
     finally:

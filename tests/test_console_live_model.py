@@ -419,3 +419,12 @@ def test_an_endpoint_is_taken_with_or_without_tcp(host: str, port: int, scheme: 
 def test_a_bad_endpoint_says_what_was_expected(bad: str) -> None:
     with pytest.raises(ValueError, match="expected HOST:PORT or tcp://HOST:PORT"):
         tcp_endpoint(bad)
+
+
+def test_an_answer_of_another_session_is_forgotten_when_a_manager_answers_again() -> None:
+    model = connected_model()
+    model.apply(Reply("start", {}, False, "the run is done"), 0.0, 0.0)
+    assert model.last_reply is not None and "reply" in model.take_changes()
+    model.apply(LinkStatus(LOST, "manager lost"), 1.0, 1.0)
+    model.apply(LinkStatus(CONNECTED, "connected to a restarted manager"), 2.0, 2.0)
+    assert model.last_reply is None and "reply" in model.take_changes()
