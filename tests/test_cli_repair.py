@@ -129,7 +129,8 @@ def test_demo_runs_a_given_plan_repairing_its_rotation(tmp_path: Path) -> None:
     plan = turning(lab_grid(), "lab.map", tmp_path / "lab_plan.txt")
     proc = fleetctl("demo", "--plan", plan, "--plan-only")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "robot 1 (red): node 436 (2, 2) -> node 451 (3, 2), 1 steps" in proc.stdout
+    # cells as the plan file writes them (mapf-IR's rows from the top: base (2, 2) is (2, 11))
+    assert "robot 1 (red): node 436 (2, 11) -> node 451 (3, 11), 1 steps" in proc.stdout
     assert re.search(r"^plan: 1 rotation repaired: robots [1-4](, [1-4])*; soc \+\d+, makespan \+\d+$",
                      proc.stdout, re.M)
     assert proc.stdout.count("collisions: 0, robots at goal: 4 of 4") == 2

@@ -113,6 +113,9 @@ def test_open_an_instance_solve_it_go_to_starts_run_reset_and_run_again(lab: Lab
             assert pump(console, run_is(console, "done"), 120), console.model.state.run
             if turn == 1:
                 click(console, "reset")  # the robots drive back to their starts, then the plan waits
+        app.save_report(lab.folder / "report.html")  # File -> Save the run's report, the dialog answered
+        report = (lab.folder / "report.html").read_text()
+        assert "every robot is home" in report and (lab.folder / "report.png").stat().st_size > 0
         story = [line.text for line in console.model.lines if line.kind == "story"]
         assert "the robots drive to their starts" in story and "every robot is on its start: ready to run" in story
         assert sum(1 for s in story if s.startswith("every robot is home")) == 2

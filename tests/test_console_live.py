@@ -502,6 +502,43 @@ def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> 
         root.destroy()
         gc.collect()
 
+def test_the_presentation_view_shows_the_map_alone_and_f11_brings_the_operators_window_back(display: str) -> None:
+    from console.live.feed import LinkStatus
+    from fleet_common.control import Notice, RunInfo, State
+
+    root = tk.Tk()
+    try:
+        feed, model = LiveFeed(), LiveModel("tcp://127.0.0.1:1")
+        app = LiveApp(root, feed, model, lambda action, **args: None, present=True)
+        root.update()
+        assert not app.admin.winfo_ismapped() and not app.right.winfo_ismapped()
+        assert app.canvas.winfo_width() == root.winfo_screenwidth()  # the whole screen
+        assert app.canvas.itemcget(app.header.line1, "state") == "hidden"
+        feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
+        feed.offer(State(1, 1, RunInfo("waiting", "", "adg", 1, 0.0, 0.0, 1, 0, 5, None, 0, None), ()), 0.0)
+        feed.offer(State(2, 1, RunInfo("running", "", "adg", 1, 1.0, 0.5, 1, 0, 5, None, 0, None), ()), 0.1)
+        feed.offer(Notice(1, 1.0, "plan", None, "replanned 4 robots: plan 2 (planned by pp)"), 0.2)
+        for _ in range(3):
+            app.refresh()
+            root.update()
+        text = app.bands.text()
+        assert "running" in text and "0 of 5 at their goals" in text
+        assert text.splitlines()[-1].endswith("replanned 4 robots")
+        assert text.splitlines()[-2].endswith("the run starts: 5 robots")
+        view = app.map.view
+        assert view.top > 42 and view.bottom > 0 and view.right > 0  # title, ticker and legend beside the map
+        app.canvas.focus_force()
+        root.update()
+        app.canvas.event_generate("<KeyPress-F11>")  # the key, as the X server would send it
+        root.update()
+        assert app.admin.winfo_ismapped() and app.right.winfo_ismapped() and not app.presentation.on
+        assert app.canvas.itemcget(app.header.line1, "state") == "normal"
+        assert (app.map.view.top, app.map.view.bottom, app.map.view.right) == (42, 0, 0)
+    finally:
+        root.destroy()
+        gc.collect()
+
+
 def _pictures(root: tk.Tk) -> set:
     return {name for name in root.image_names() if name.startswith("pyimage")}
 

@@ -251,8 +251,9 @@ class Presentation:
             self.map_area.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
             if self._menu:
                 root.configure(menu=self._menu)
-            if self._geometry:
-                root.geometry(self._geometry)
+            # the size it had (none yet if it opened in this view: then its natural size)
+            size = self._geometry.split("+")[0]
+            root.geometry(self._geometry if size and int(size.split("x")[0]) > 200 else "")
         self.on_change()
 
     def bands(self, canvas_h: int, bands: Bands) -> Tuple[int, int, int]:

@@ -94,8 +94,9 @@ def run(args: argparse.Namespace) -> int:
         raise FleetError("{} has {} agents but {} defines only {} robots".format(
             inst_path, len(inst.starts), robots_path, len(robots)))
 
+    show = file_coordinates(inst)  # what the robots' lines say: the file's own coordinates
     if args.plan is not None:
-        result = _given_plan(args.plan, grid)
+        result, show = _given_plan(args.plan, grid)
     else:  # a demo should show the best plan: CBS, optimal and quick for a handful of robots
         result = solve_instance(grid, inst.starts, inst.goals, args.solver, args.time_limit, args.seed)
     if not result.solved or result.plan is None:
@@ -110,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     print("plan: {} in {:.0f} ms, soc={}, makespan={}, {}".format(
         result.solver, result.comp_time_ms, plan.soc, plan.makespan,
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
-    for line in _robot_lines(robots, plan, nodes, file_coordinates(inst)):
+    for line in _robot_lines(robots, plan, nodes, show):
         print("  " + line)
     if not report.ok:
         return 1
@@ -129,19 +130,21 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _given_plan(path: Path, grid):
-    """A solution file on the lab map, as a solver's result."""
+    """A solution file on the lab map, as a solver's result, and its own coordinates."""
     from fleet_common.formats.mapsearch import default_map_dirs
     from fleet_common.formats.solution import read_solution
     from fleet_common.lab import lab_map_path
+    from fleet_common.plan_loading import file_coordinates
     from fleet_common.planning import NO_SOLUTION, SOLVED, SolveResult
 
     sol = read_solution(path, map_dirs=[lab_map_path().parent] + default_map_dirs())
+    show = file_coordinates(sol)
     if sol.grid != grid:
         raise FleetError("{}: its map {} is not the lab's map".format(path, sol.map_file))
     solver = "{} ({})".format(sol.solver or "?", path)
     if sol.plan is None or not sol.solved:
-        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run")
-    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0))
+        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run"), show
+    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0)), show
 
 
 def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
