@@ -113,10 +113,12 @@ class Ticker:
                     seen.stalled = False
                     others.append("robot {} moves again".format(r.id))
             driving = r.activity is not None and r.activity.kind == "drive" and r.waiting is None
-            if driving and r.follows is not None:  # a follower behind a leader that stands waits for it
-                leader = self._robots.get(r.follows)
+            after = stall_after
+            if driving and r.follows is not None:  # a follower behind a leader that stands waits for it,
+                leader = self._robots.get(r.follows)  # and one whose leader just left waits a moment more
                 driving = leader is None or at - leader.still_since < stall_after
-            if running and driving and not seen.stalled and at - seen.still_since >= stall_after \
+                after = 2 * stall_after
+            if running and driving and not seen.stalled and at - seen.still_since >= after \
                     and r.link == "up" and not r.faults:
                 seen.stalled = True
                 stalls.append("robot {} stalled".format(r.id))
