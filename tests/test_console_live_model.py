@@ -338,11 +338,15 @@ def test_short_waits_and_standing_robots_that_wait_or_follow_are_no_news() -> No
                           # robot 3 follows robot 2, which stands: robot 3 waits, it does not stall
                           (0.5, state(4, [robot(2, 1.0, 0.0), drive(3, 0.0, 0.0, follows=2)])),
                           (2.5, state(5, [robot(2, 1.0, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          # robot 2 leaves; robot 3 follows a moment later
+                          (3.0, state(51, [drive(2, 1.3, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          (3.6, state(52, [drive(2, 1.6, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          (3.9, state(53, [drive(2, 1.8, 0.0), drive(3, 0.2, 0.0, follows=2)])),
                           # robot 2 stood idle for seconds, is given a drive and leaves at once
-                          (5.0, state(6, [robot(2, 1.0, 0.0), robot(3)])),
-                          (5.1, state(7, [drive(2, 1.0, 0.0), robot(3)])),
-                          (5.6, state(8, [drive(2, 1.0, 0.0), robot(3)])),
-                          (5.8, state(9, [drive(2, 1.2, 0.0), robot(3)]))])
+                          (5.0, state(6, [robot(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.1, state(7, [drive(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.6, state(8, [drive(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.8, state(9, [drive(2, 2.0, 0.0), robot(3, 0.2, 0.0)]))])
     assert story == []
 
 

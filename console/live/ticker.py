@@ -35,7 +35,9 @@ CROWD = 2
 class _Robot:
     x: Optional[float] = None
     y: Optional[float] = None
-    still_since: float = 0.0
+    still_since: float = 0.0    # where it stands, since when (any robot)
+    stall_clock: float = 0.0    # since when it may drive and does not move (waiting stops the clock)
+    may_drive: bool = False     # at the State before: driving, nobody to wait for
     stalled: bool = False
     wait: Tuple[int, ...] = ()
     wait_since: float = 0.0
@@ -101,24 +103,25 @@ class Ticker:
         for r in state.robots:
             seen = self._robots.get(r.id)
             if seen is None:
-                seen = self._robots[r.id] = _Robot(r.x, r.y, at, out=r.out, link=r.link)
+                seen = self._robots[r.id] = _Robot(r.x, r.y, at, at, out=r.out, link=r.link)
             # standing still in the middle of a drive: stalled (a follower at its hold point waits)
             doing = None if r.activity is None else (r.activity.kind, r.activity.index)
             if doing != seen.doing:  # a new command: standing still counts from now
-                seen.doing, seen.still_since = doing, at
+                seen.doing, seen.stall_clock = doing, at
             if r.x is not None and r.y is not None and (
                     seen.x is None or seen.y is None or math.hypot(r.x - seen.x, r.y - seen.y) > STILL):
-                seen.x, seen.y, seen.still_since = r.x, r.y, at
+                seen.x, seen.y, seen.still_since, seen.stall_clock = r.x, r.y, at, at
                 if seen.stalled:
                     seen.stalled = False
                     others.append("robot {} moves again".format(r.id))
             driving = r.activity is not None and r.activity.kind == "drive" and r.waiting is None
-            after = stall_after
-            if driving and r.follows is not None:  # a follower behind a leader that stands waits for it,
-                leader = self._robots.get(r.follows)  # and one whose leader just left waits a moment more
+            if driving and r.follows is not None:  # a follower behind a leader that stands waits for it
+                leader = self._robots.get(r.follows)
                 driving = leader is None or at - leader.still_since < stall_after
-                after = 2 * stall_after
-            if running and driving and not seen.stalled and at - seen.still_since >= after \
+            if not driving or not seen.may_drive:
+                seen.stall_clock = at  # waiting is no stall: the clock starts when it may drive again
+            seen.may_drive = driving
+            if running and driving and not seen.stalled and at - seen.stall_clock >= stall_after \
                     and r.link == "up" and not r.faults:
                 seen.stalled = True
                 stalls.append("robot {} stalled".format(r.id))

@@ -32,8 +32,9 @@ Action = Callable[..., None]
 ENABLED, DISABLED = "\u2611", "\u2610"
 FONT = ("DejaVu Sans", -12)
 BOLD = ("DejaVu Sans", -13, "bold")
-COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 118),
-           ("waits", "waits for", 74))
+#: Wide enough for what they say: "drive to (12, 10) (#19)", "2, 7 (cell)"
+COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 150),
+           ("waits", "waits for", 84))
 
 
 @dataclass(frozen=True)
