@@ -348,7 +348,7 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
     old_plan = model.setup.plan.id
     app.admin.buttons["accept"].invoke()
-    assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 30)
+    assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 30), "\n".join(line.text for line in model.lines)
     assert pump(console, lambda: not app.canvas.find_withtag("proposal") and app.state is not None, 5)
     assert pump(console, lambda: "disabled" in app.admin.buttons["accept"].state(), 2)
     assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())

@@ -172,7 +172,6 @@ class AdminPanel(ttk.Frame):
         if run.replanning:
             parts.append("replanning...")
         self.run.configure(text="\n".join(parts))
-        self._proposal = run.proposal
         self.grey(run)
         phase = (run.state, run.purpose, run.plan_id)
         if self._answered is not None and phase != self._answered:
@@ -189,7 +188,9 @@ class AdminPanel(ttk.Frame):
             self._writing = False
 
     def grey(self, run: Optional[RunInfo]) -> None:
-        """Grey the run buttons the manager would refuse now (all of them without a manager)."""
+        """Grey the run buttons the manager would refuse now (all of them without a manager);
+        Accept and Reject answer the proposal that made them usable."""
+        self._proposal = None if run is None else run.proposal
         for action, button in self.buttons.items():
             button.state(["!disabled"] if usable(action, run, self._connected) else ["disabled"])
 
