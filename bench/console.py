@@ -28,7 +28,10 @@ State to the end of the frame that drew it (CLOCK_MONOTONIC, one clock for
 all processes).
 
     .venv/bin/python bench/console.py [--case player|live|all] [--frames 300] [--lines goal|path|none]
-                                      [--robots 300] [--seconds 15] [--time-scale 4]
+                                      [--robots 300] [--seconds 15] [--time-scale 4] [--present]
+
+With `--present` the live case runs twice, the second time in the presentation view
+(full screen, title, legend, the story's ticker), for the ratio of the two.
 """
 from __future__ import annotations
 
@@ -127,8 +130,9 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) -> None:
-    """The live console on `robots` virtual robots through a manager; prints its figures."""
+def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int, present: bool = False) -> None:
+    """The live console on `robots` virtual robots through a manager; prints its figures
+    (`present`: in the presentation view, full screen)."""
     import shutil
     import tempfile
     import tkinter as tk
@@ -167,7 +171,7 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
         root = tk.Tk()
         try:
             root.geometry("+0+0")
-            app = LiveApp(root, feed, model, link.request)
+            app = LiveApp(root, feed, model, link.request, present=present)
             root.after_cancel(app._after)  # this loop runs the frames instead
             app._after = None
             began = time.monotonic()
@@ -209,8 +213,8 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
         transit = [1000.0 * (arrived_at[seq] - sent[seq]) for seq in drawn_at if seq in sent]
         inside = [1000.0 * (t - arrived_at[seq]) for seq, t in drawn_at.items()]
         states = [seq for seq in sent if min(drawn_at) <= seq <= max(drawn_at)]
-        print("live: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
-            robots, started, canvas[0], canvas[1], len(times)))
+        print("live{}: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
+            " (presentation view)" if present else "", robots, started, canvas[0], canvas[1], len(times)))
         print("  frame time, all frames:          median {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
             statistics.median(times), float(np.percentile(times, 99)), max(times)))
         print("  frame time, frames with a state: median {:5.1f} ms  p99 {:5.1f} ms  ({} frames)".format(
@@ -314,12 +318,16 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=300, help="live: virtual robots (default 300)")
     parser.add_argument("--time-scale", type=float, default=4.0, help="live: the fleet's time scale")
     parser.add_argument("--seconds", type=float, default=15.0, help="live: seconds measured (default 15)")
+    parser.add_argument("--present", action="store_true",
+                        help="live: the operator's window, then the presentation view, one after the other")
     args = parser.parse_args()
     print("python {}, {}, {} cores".format(platform.python_version(), platform.machine(), os.cpu_count()))
     with Xvfb.start(1600, 1200) as server:
         os.environ["DISPLAY"] = server.display
         if args.case in ("live", "all"):
             live_times(args.robots, args.seconds, args.time_scale, server.pid)
+            if args.present:
+                live_times(args.robots, args.seconds, args.time_scale, server.pid, present=True)
             draw_and_decode_costs(args.robots, server.pid)
         if args.case == "live":
             return

@@ -75,12 +75,11 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
     f.link_up()
     answer = f.ask(ops, "start")
-    loaded = f.core.run.loaded
-    start = loaded.show(loaded.starts[2])  # the file's own coordinates, both of them
-    here = loaded.show((0, 0))
-    assert not answer.ok and "robot 3 stands at ({:.1f}, {:.1f}), its start is {}".format(
-        here[0], here[1], start) in answer.reason
-    assert "(cells as lab_instance.txt counts them)" in answer.reason and "go to starts" in answer.reason
+    # the pose and the start in one convention, the plan file's own (mapf-IR rows from the top)
+    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])
+    assert start == (5, 1)
+    assert not answer.ok and "robot 3 is at (0, 13), its start is (5, 1)" in answer.reason
+    assert "Go to starts drives them there" in answer.reason and "--resume" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
 
 

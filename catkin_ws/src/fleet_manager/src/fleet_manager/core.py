@@ -47,7 +47,7 @@ from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, walled
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import RESUMING, Fleet, Seen
-from .run import Run
+from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
 from .state_view import build_state, proposal, robot_waits
@@ -57,6 +57,8 @@ __all__ = ["RunCore"]
 
 _STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up
 _SETUP_EVERY = 1.0  # s: a console saying hello again sooner is not sent the whole setup again
+#: Seconds the run actions a State allows may lag the robots' poses (the key's changes count at once).
+ALLOWED_EVERY = 0.25
 
 
 class RunCore:
@@ -80,6 +82,8 @@ class RunCore:
         self._setups: Dict[bytes, float] = {}  # console -> when it was last sent the run's setup
         #: something changed that consoles should see soon (the loop publishes within its rate)
         self.news = False
+        self._refusals = _Burst()
+        self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...]]] = None
 
     def take(self) -> List[Effect]:
         """The effects of the inputs so far, in order (and forget them)."""
@@ -140,11 +144,16 @@ class RunCore:
             ok, reason = operator.apply(self.run, action, intake.args, now)
             if ok or self._refused.first(peer, name, now):  # refusals: the first a minute, then counted
                 self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
+            asked = request_words(action, intake.args)
+            robot = intake.args.get("robot") if action in ("enable", "disable", "source") else None
             if ok:
-                self.out.tell("operator", None, "{}: {}{}".format(name, action, " " + reason if reason else ""))
+                self.out.tell("operator", robot, "{}: {}{}".format(name, asked, " (" + reason + ")" if reason else ""))
+            elif self._refusals.allow(name, now):
+                self.out.say("[{:7.1f} s] {}: {} refused: {}".format(now, name, asked, reason))
             self.out.frames(self.desk.answer(peer, intake.request, ok, reason))
-            if ok:  # what changed goes out at once, within each console's State rate
-                self.news = True
+            if ok:  # what changed goes out at once: to the console that asked whatever its rate
+                self.news = True  # (it acts on what it sees next), to the others within theirs
+                self._state_to(now, peer, at_once=True)
                 self.publish(now)
         if intake.refusal is None:
             return None
@@ -171,14 +180,17 @@ class RunCore:
             grid = _without(walled(run.grid, run.engine, self.fleet.robots, here, out), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
-            run.move("arrived", "every robot taking part is at its goal")
-            self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            if run.purpose == PLAN:
+                self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            run.arrived(now)
             self.news = True  # consoles must see the end (the loop waits for it: `news`)
             self.publish(now)
         for held in self._refused.due(now):
             self.out.record("refused", console=held.console, requests=held.requests, seconds=held.seconds)
         if len(self._setups) > 64:
             self._setups = {p: t for p, t in self._setups.items() if now - t < _SETUP_EVERY}
+        for line in self._refusals.counts(now):
+            self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
 
     def resumed(self, now: float) -> None:
@@ -206,7 +218,7 @@ class RunCore:
         told = []
         for o in off:
             where = "robot {} stands at {}, where the run has it at {}".format(
-                o.robot.id, run.shown(*o.pose), run.loaded.show(o.expected))
+                o.robot.id, run.where(*o.pose), run.loaded.show(o.expected))
             if o.cell is not None:
                 run.standing[o.robot.agent] = o.cell
                 told.append("{}: replanned from {}".format(where, run.loaded.show(o.cell)))
@@ -235,6 +247,12 @@ class RunCore:
     def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
                    now: float) -> None:
         self._at(now)
+        if job_id == self.run.to_starts_job:
+            self.run.to_starts_ready(result, error, now)
+            self.news = True  # the run changed under the consoles: every one sees it at once
+            self._state_to(now, None, at_once=True)
+            self.publish(now)
+            return
         replanner = self.run.replanner
         message = replanner.finished(job_id, result, error)
         if message is None:
@@ -256,10 +274,21 @@ class RunCore:
 
     def state(self, now: float, waits: Dict[int, Waiting]):
         self._states += 1
-        return build_state(self._states, self.desk.version, now, self.run.clock(now),
-                           self.settings.step_time, self.run.engine, self.fleet, self.run.phase,
-                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits,
-                           self.run.driver.following)
+        run = self.run
+        return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
+                           run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
+                           self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now))
+
+    def _allowed_now(self, now: float) -> Tuple[str, ...]:
+        """What the manager would carry out now: again when anything decisive changed, else at
+        most every ALLOWED_EVERY seconds (where 300 standing robots are costs milliseconds)."""
+        run = self.run
+        key = (self.desk.version, run.phase.phase, run.purpose, run.to_starts_job, run.replanner.state,
+               run.driver.moving)
+        last = self._allowed
+        if last is None or last[0] != key or now - last[1] >= ALLOWED_EVERY:
+            self._allowed = (key, now, operator.allowed(run, now))
+        return self._allowed[2]
 
     def publish(self, now: float) -> bool:
         """Who waits for whom to the run log when it changed; the State to the consoles not sent
@@ -272,12 +301,14 @@ class RunCore:
                                         for rid, w in sorted(waits.items())])
         return self._state_to(now, None, waits)
 
-    def _state_to(self, now: float, peer: Optional[bytes], waits: Optional[Dict[int, Waiting]] = None) -> bool:
-        """A State to `peer` (None: every console) if its rate allows; True if one went out."""
+    def _state_to(self, now: float, peer: Optional[bytes], waits: Optional[Dict[int, Waiting]] = None,
+                  at_once: bool = False) -> bool:
+        """A State to `peer` (None: every console) if its rate allows (`at_once`: whatever it
+        allows); True if one went out."""
         if not self.desk.consoles:
             self.news = False  # nobody to tell
             return False
-        interval = 1.0 / self.settings.state_max_rate
+        interval = 0.0 if at_once else 1.0 / self.settings.state_max_rate
         if not self.desk.state_due(now, interval, peer):
             return False
         self.news = False
@@ -345,6 +376,7 @@ class RunCore:
     def close(self, reason: str, now: float) -> None:
         """The manager stops: the run log's last record, and every console told."""
         self._at(now)
+        self.out.summary.feed({"k": "end", "t": round(now, 4), "reason": reason})  # the summary says why
         summary = self.summary()
         self.out.record("end", reason=reason, arrived=len(summary.arrived), robots=summary.robots,
                         summary=summary.as_dict())
@@ -362,6 +394,55 @@ def _without(grid: Grid, cells: Iterable[Tuple[int, int]]) -> Grid:
     for x, y in cells:
         free[y, x] = False
     return Grid(free, name=grid.name)
+
+
+def request_words(action: str, args: Dict) -> str:
+    """A request as the manager's log and the consoles' event lists say it: "disable robot 3"."""
+    if action in ("enable", "disable"):
+        return "{} robot {}".format(action, args.get("robot"))
+    if action == "source":
+        return "position source {} for {}".format(args.get("source"), "every robot" if args.get("robot") is None
+                                                  else "robot {}".format(args["robot"]))
+    if action == "strategy":
+        return "strategy {}{}".format(args.get("name"), "" if args.get("lookahead") is None
+                                      else " (lookahead {})".format(args["lookahead"]))
+    if action == "load":
+        return "load {}".format(args.get("path") or args.get("name"))
+    if action in ("accept", "reject"):
+        return "{} replan {}".format(action, args.get("proposal"))
+    if action == "to_starts":
+        return "go to starts"
+    return action
+
+
+class _Burst:
+    """Refused requests said on the terminal: `burst` a console per `window` seconds, then a
+    count, so that one console repeating a refused request cannot flood the log."""
+
+    def __init__(self, burst: int = 3, window: float = 60.0) -> None:
+        self.burst, self.window = burst, window
+        self._seen: Dict[str, List[float]] = {}  # console -> [window start, said, held back]
+
+    def allow(self, name: str, now: float) -> bool:
+        entry = self._seen.get(name)
+        if entry is None or now - entry[0] >= self.window:
+            entry = self._seen[name] = [now, 0, 0]
+        if entry[1] < self.burst:
+            entry[1] += 1
+            return True
+        entry[2] += 1
+        return False
+
+    def counts(self, now: float) -> List[str]:
+        """Lines for the windows that have passed with refusals held back."""
+        lines = []
+        for name, (start, _, held) in list(self._seen.items()):
+            if now - start >= self.window:
+                del self._seen[name]
+                if held:
+                    lines.append("{}: {:,} more refused requests in the last {:g} s".format(
+                        name, int(held), self.window))
+        return lines
 
 
 def _robots_wait(ids: List[int]) -> str:

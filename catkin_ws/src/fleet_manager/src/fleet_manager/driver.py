@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Engine,
@@ -70,7 +70,7 @@ class Driver:
     """Drives `engine`'s plan through `robots` (one per plan agent, in order)."""
 
     def __init__(self, engine: Engine, robots: Sequence[Robot], out: Outbox, following: Following,
-                 preturn: bool = True) -> None:
+                 preturn: bool = True, show: Callable[[Coord], Coord] = lambda c: c) -> None:
         if len(robots) != engine.run.num_agents:
             raise ValueError("{} robots for a plan of {} agents".format(len(robots), engine.run.num_agents))
         self.engine = engine
@@ -80,6 +80,7 @@ class Driver:
         self.preturn = preturn
         #: followers' hold points move on (False while a resumed run checks its robots)
         self.releasing = True
+        self.show = show  # base cell -> the plan file's coordinates, for messages
 
     # ---- the engine's side ---------------------------------------------------------------
 
@@ -315,13 +316,13 @@ class Driver:
             d = robot.queue[0]
             if math.hypot(pose.x - d.dst[0], pose.y - d.dst[1]) <= MADE_IT:
                 self.out.tell("link", robot.id, "robot {} restarted at the end of its move to {}: "
-                              "counted as done".format(robot.id, d.dst))
+                              "counted as done".format(robot.id, self.show(d.dst)))
                 if self.engine.run.started[robot.agent] <= d.index:
                     self._progress(robot, ActionStarted(robot.agent, d.index, now), now)
                 self._completed(robot, InFlight(-1, "drive", d.index, now, d.dst), now)
                 return
             self.out.tell("link", robot.id, "robot {} restarted before reaching {}: sending the "
-                          "move again".format(robot.id, d.dst))
+                          "move again".format(robot.id, self.show(d.dst)))
         self.pump(robot, now)
 
     # ---- operator actions that need commands ---------------------------------------------

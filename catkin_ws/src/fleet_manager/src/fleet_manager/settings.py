@@ -25,6 +25,7 @@ class ManagerSettings:
     state_max_rate: float = 50.0  # and at most, when news (poses, replies) comes faster
     stale_after: float = STALE_AFTER  # s without a pose before a robot's position is stale
     replan_limit: float = 5.0    # s a replan may take
+    to_starts_limit: float = 10.0  # s planning the way to the starts may take
     preturn: bool = True         # robots turn towards their next cell while they wait
     definitions: Optional[Path] = None
     map_dirs: List[Path] = field(default_factory=list)  # where `load` looks for map files

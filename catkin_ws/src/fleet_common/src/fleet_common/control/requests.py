@@ -1,6 +1,10 @@
 """What each console action takes: the arguments of a `Request`, checked.
 
     start, pause, stop, step, halt    {}
+    to_starts  {}     every robot drives from where it stands to its start in the plan (planned and
+                      run as a run of its own, in its own run folder); then the plan waits for Start
+    reset      {}     the plan again from step 0, in a new run folder: the robots drive back to
+                      their starts first (as to_starts) if they are not on them
     strategy   {"name": "adg" | "step" | ..., "lookahead": K (adg, optional)}
     enable     {"robot": ID}          disable  {"robot": ID}
     source     {"source": "robot" | "vicon", "robot": ID (optional: every robot)}
@@ -20,7 +24,7 @@ from ..limits import MAX_PLAN_TEXT
 from .messages import SOURCES
 from ..schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
 
-__all__ = ["ACTIONS", "ARGS", "check_args"]
+__all__ = ["ACTIONS", "ARGS", "RUN_ACTIONS", "check_args"]
 
 _ROBOT = Int(0, 2 ** 31)
 _NONE: Obj = Obj({})
@@ -39,6 +43,7 @@ class _Text(Str):
 #: The console's actions (the one list: a `Request` names one of them) and what each takes.
 ARGS: Dict[str, Checker] = {
     "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
+    "to_starts": _NONE, "reset": _NONE,
     "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
     "enable": Obj({"robot": _ROBOT}),
     "disable": Obj({"robot": _ROBOT}),
@@ -52,6 +57,9 @@ ARGS: Dict[str, Checker] = {
 }
 #: What a console may ask.
 ACTIONS = tuple(ARGS)
+#: The actions without arguments that act on the run: a State says which of them the manager
+#: would carry out now (`RunInfo.allowed`), so that a console greys the others.
+RUN_ACTIONS = ("start", "pause", "step", "stop", "halt", "replan", "to_starts", "reset")
 
 
 def check_args(action: str, args: Dict[str, Any]) -> Dict[str, Any]:

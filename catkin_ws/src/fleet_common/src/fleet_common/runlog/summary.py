@@ -41,6 +41,9 @@ later are the same numbers.
 - a run its manager did not live to finish and another resumed (`resume`
   records) is one run: its times include the time it stood still, and the
   summary says how often and how long.
+- a run that began and ended (an `end` record: Ctrl-C, another plan, a reset)
+  before it was done was interrupted: the summary says when and why, and how
+  many of the plan's moves were executed by then.
 """
 from __future__ import annotations
 
@@ -81,20 +84,30 @@ class RunSummary:
     held: float = 0.0                # of the wait: held by the operator
     lower_bound: float = 0.0         # the largest own time (every robot alone)
     passes: int = 0
+    resumes: int = 0                 # managers started again on the run's folder
+    downtime: float = 0.0            # time without a manager, in all
+    interrupted: Optional[str] = None  # why the run ended before it was done (None: it was not)
+    ended_at: float = 0.0            # when it ended, from its start
+    moves: Tuple[int, int] = (0, 0)  # the plan's moves executed, and in all
 
     @property
     def avoidable(self) -> Optional[float]:
         return None if self.forced is None else max(0.0, self.wait - self.forced - self.held)
-    resumes: int = 0                 # managers started again on the run's folder
-    downtime: float = 0.0            # time without a manager, in all
 
     def lines(self) -> List[str]:
         unit = "s" if self.unit == "s" else "steps"
-        out = ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
-                                         else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
-               "executed makespan: {:.2f} {}".format(self.makespan, unit),
+        out = []
+        if self.interrupted is not None:
+            out.append("interrupted at {:.1f} {} ({}): {} of {} moves executed, {} of {} robots at their "
+                       "goals".format(self.ended_at, unit, self.interrupted, self.moves[0], self.moves[1],
+                                      len(self.arrived), self.enabled))
+        out += ["arrived: {}/{}{}".format(len(self.arrived), self.enabled, "" if self.enabled == self.robots
+                                          else " (of {} robots; {} out)".format(self.robots, self.robots - self.enabled)),
+               ("executed so far: {:.2f} {} (the latest arrival {:.2f} {})".format(
+                   self.ended_at, unit, self.makespan, unit) if self.interrupted is not None
+                else "executed makespan: {:.2f} {}".format(self.makespan, unit)),
                "lower bound: {:.2f} {} (every robot alone, with its own delays){}".format(
-                   self.lower_bound, unit, "" if self.lower_bound <= 0 else
+                   self.lower_bound, unit, "" if self.lower_bound <= 0 or self.interrupted is not None else
                    "; executed makespan {:.2f}x it".format(self.makespan / self.lower_bound)),
                "sum of costs: {:.2f} {}".format(self.soc, unit),
                "total wait: {:.2f} {}{}".format(self.wait, unit, "" if self.forced is None else
@@ -135,7 +148,8 @@ class RunSummary:
                 "min_distance_m": None if self.min_distance is None or self.cell_m is None
                 else round(self.min_distance * self.cell_m, 4),
                 "safe_m": self.safe_m, "resumes": self.resumes, "downtime": round(self.downtime, 3),
-                "unit": self.unit, "lines": self.lines()}  # as printed, for reports
+                "unit": self.unit, "interrupted": self.interrupted,
+                "moves": list(self.moves), "lines": self.lines()}  # as printed, for reports
 
 
 class SummaryBuilder:
@@ -169,6 +183,9 @@ class SummaryBuilder:
         self._reported: Dict[int, Tuple[float, float, float, float]] = {}  # robot -> t, x, y, speed
         self.resumes = 0
         self.downtime = 0.0
+        self.done_at: Optional[float] = None      # the run was done (a `state` record "done")
+        self.end: Optional[Tuple[str, float]] = None  # the `end` record: why, when
+        self.moves_before = 0                     # moves executed under earlier plans (replans)
 
     def feed(self, record: Record) -> None:
         kind = record.get("k")
@@ -179,8 +196,15 @@ class SummaryBuilder:
             self._plan(record, t, first=True)
         elif kind == "plan" and record.get("reason") != "loaded":
             self._plan(record, t, first=False)
-        elif kind == "state" and record.get("run") == "running" and self.begin is None:
-            self.begin = t
+        elif kind == "state":
+            if record.get("run") == "running":
+                if self.begin is None:
+                    self.begin = t
+                self.done_at = None  # a new leg after the end
+            elif record.get("run") == "done":
+                self.done_at = t
+        elif kind == "end":
+            self.end = (str(record.get("reason") or "ended"), t)
         elif kind == "dispatch":
             self._dispatch(record, t)
         elif kind == "pass":
@@ -232,6 +256,7 @@ class SummaryBuilder:
             self.safe = None if safe >= cell else safe / cell
 
     def _plan(self, record: Record, t: float, first: bool) -> None:
+        self.moves_before += sum(self.done)
         robots = list(record.get("robots") or [])
         self.robots = robots
         self.agent = {r: i for i, r in enumerate(robots)}
@@ -318,6 +343,9 @@ class SummaryBuilder:
 
     def summary(self) -> RunSummary:
         begin = self.begin if self.begin is not None else 0.0
+        interrupted = None
+        if self.begin is not None and self.done_at is None and self.end is not None:
+            interrupted = self.end[0]
         # a robot held by a fault still takes part (it has not arrived); disabled ones do not
         enabled = [i for i, r in enumerate(self.robots) if self.out.get(r) != "disabled"]
         arrived = sorted(self.robots[i] for i in enabled if i in self.arrival)
@@ -334,4 +362,6 @@ class SummaryBuilder:
             cell_m=self.cell_m, safe_m=None if self.safe is None or self.cell_m is None
             else round(self.safe * self.cell_m, 6),
             forced=self.forced, held=self.held, lower_bound=max(self.own.values(), default=0.0),
-            passes=self.passes, resumes=self.resumes, downtime=self.downtime)
+            passes=self.passes, resumes=self.resumes, downtime=self.downtime, interrupted=interrupted,
+            ended_at=0.0 if self.end is None else max(0.0, self.end[1] - begin),
+            moves=(self.moves_before + sum(self.done), self.moves_before + sum(self.actions)))
