@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     show = sol.grid.flip_y if sol.orientation == "mapf-ir" else (lambda c: c)
     names = Names.of(sol.grid, plan.num_agents, args.definitions)
     try:
-        plan = for_robots(plan, sol.grid, name, args, names)
+        plan = for_robots(plan, sol.grid, name, args, names, checked=True)
     except RepairError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
