@@ -1,8 +1,10 @@
-"""Benchmark: the manager driving 300 virtual robots (two processes on this machine, CURVE on).
+"""Benchmark: the manager driving 300 virtual robots (or 1,000, from several fleet processes; CURVE on).
 
 Starts `fleetctl virtual-fleet` for N robots at the starts of an instance (arena_300agents_1
 by default) and `fleetctl manager` on that instance (planned by the built-in lacam), with
---start --until-done and a run folder; a scripted console watches the state stream. Prints:
+--start --until-done and a run folder; a scripted console watches the state stream. With
+--fleets K the robots are served by K virtual-fleet processes, each a contiguous part of
+one definitions file (`--robots a-b`), as several hosts would serve them. Prints:
 
 - state messages received per second by the console (min over 1 s windows, and mean);
 - command round trip, drive or turn sent -> Accepted, from the run log (p50, p99, max);
@@ -14,12 +16,15 @@ by default) and `fleetctl manager` on that instance (planned by the built-in lac
   what it took on the virtual robot; what the ratio shows is what dispatching over the
   wire adds (replies, decisions, commands), nothing else.
 
-    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE]
+    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--fleets 1]
+
+A 1,000-robot instance: bench/make_instance.py den520d.map 1000 OUT.txt --radius 60.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -65,7 +70,7 @@ def round_trips(records: List[dict]) -> List[float]:
 
 
 def split_round_trips(records: List[dict], started: str, at: float,
-                      truth: Path) -> Tuple[List[float], List[float]]:
+                      truths: List[Path]) -> Tuple[List[float], List[float]]:
     """Each round trip cut where the virtual robot started the command (its truth file, wall
     clock), the run log's times put on the wall clock by the run's start: the manager's side
     and the robot's side of the latency (to about a millisecond)."""
@@ -74,10 +79,11 @@ def split_round_trips(records: List[dict], started: str, at: float,
 
     t0 = datetime.fromisoformat(started).timestamp() - at  # the wall clock at the log's t = 0
     executed: Dict[Tuple[int, int], float] = {}
-    for line in truth.read_text().splitlines():
-        r = json.loads(line)
-        if r.get("k") == "exec":
-            executed.setdefault((r["robot"], r["id"]), r["t"])
+    for truth in truths:
+        for line in truth.read_text().splitlines():
+            r = json.loads(line)
+            if r.get("k") == "exec":
+                executed.setdefault((r["robot"], r["id"]), r["t"])
     sent: Dict[Tuple[int, int], float] = {}
     outbound, back = [], []
     for r in records:
@@ -116,37 +122,55 @@ def move_durations(records: List[dict], robots: List[int], first: np.ndarray) ->
     return durations
 
 
+def inst_map(instance: Path, name: str) -> Path:
+    """The map of an instance: beside it, else among the shared maps."""
+    beside = instance.parent / name
+    return beside if beside.is_file() else SHARED / "maps" / name
+
+
 def main() -> int:
+    work = Path(tempfile.mkdtemp(prefix="fleet-bench-manager-"))
+    try:
+        return bench(work)
+    finally:
+        shutil.rmtree(str(work), ignore_errors=True)
+
+
+def bench(work: Path) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=300)
     parser.add_argument("--time-scale", type=float, default=4.0)
     parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
     parser.add_argument("--strategy", default="adg")
+    parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
     args = parser.parse_args()
-
-    work = Path(tempfile.mkdtemp(prefix="fleet-bench-manager-"))
     make_keys(work / "keys")
-    inst = read_instance(str(args.instance), map_dirs=[SHARED / "maps"])
+    inst = read_instance(str(args.instance), map_dirs=[args.instance.parent, SHARED / "maps"])
     if args.robots > len(inst.starts):
         raise SystemExit("{} has only {} agents".format(args.instance, len(inst.starts)))
     if args.robots < len(inst.starts):  # the first N agents, as a file of their own
         first = make_instance(inst.grid, inst.map_file, inst.starts[:args.robots],
                               inst.goals[:args.robots])
+        source = inst_map(args.instance, inst.map_file)
         args.instance = work / "first-{}-{}".format(args.robots, args.instance.name)
         write_instance(first, str(args.instance))
-        (work / inst.map_file).write_text((SHARED / "maps" / inst.map_file).read_text())
+        (work / inst.map_file).write_text(source.read_text())
     base = free_port_block(2 * args.robots + 1)
     (work / "robots.txt").write_text("".join(
         "{} 127.0.0.1 {} u tb{} red\n".format(i + 1, base + i, i + 1) for i in range(args.robots)))
     console_port, feedback = base + 2 * args.robots, base + args.robots
-    fleet = Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
-                               work / "keys", "--time-scale", args.time_scale, "--feedback-base",
-                               feedback, "--instance", args.instance, "--log-level", "warning",
-                               "--truth", work / "truth.jsonl"),
-                 work / "fleet.log")
+    parts = np.array_split(np.arange(1, args.robots + 1), args.fleets)
+    truths = [work / "truth{}.jsonl".format(k) for k in range(args.fleets)]
+    fleets = [Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
+                                 work / "keys", "--time-scale", args.time_scale, "--feedback-base",
+                                 feedback, "--instance", args.instance, "--log-level", "warning",
+                                 "--truth", truth, "--robots", "{}-{}".format(part[0], part[-1])),
+                   work / "fleet{}.log".format(k))
+              for k, (part, truth) in enumerate(zip(parts, truths))]
     manager = None
     try:
-        fleet.wait_line(r"^virtual fleet: ", timeout=120)
+        for fleet in fleets:
+            fleet.wait_line(r"^virtual fleet: ", timeout=120)
         manager = Proc(fleetctl_args(
             "manager", args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
@@ -167,9 +191,10 @@ def main() -> int:
                 seen = state.seq
                 states.append(time.monotonic())
                 if cpu0 is None and state.run.state == "running":
-                    cpu0 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
+                    cpu0 = (time.monotonic(), cpu_seconds(manager.popen.pid),
+                            *(cpu_seconds(f.popen.pid) for f in fleets))
             if cpu0 is not None and state is not None and state.run.state == "running":
-                cpu1 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
+                cpu1 = (time.monotonic(), cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
         if cpu0 is None:
             print("the console saw no running state ({} states); manager said:\n{}".format(
                 len(states), manager.tail(20)))
@@ -182,14 +207,15 @@ def main() -> int:
     finally:
         if manager is not None:
             manager.stop()
-        fleet.stop()
+        for fleet in fleets:
+            fleet.stop()
     out = manager.text()
     folder = Path(out.split("run folder: ")[1].split()[0])
     run = read_run(folder)
     records = run.records
     rtt = round_trips(records)
-    outbound, back = split_round_trips(records, run.run["started"], run.run["t"], work / "truth.jsonl")
-    plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps"]).plan
+    outbound, back = split_round_trips(records, run.run["started"], run.run["t"], truths)
+    plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps", args.instance.parent]).plan
     engine = Engine(plan, args.strategy)
     durations = move_durations(records, run.robots, engine.table.first)
     engine_only = simulate_engine(engine, durations).metrics.makespan
@@ -200,8 +226,9 @@ def main() -> int:
                for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else [0]
     span = cpu1[0] - cpu0[0]
     ms = 1000.0
-    print("robots {}, instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
-        args.robots, args.instance.name, args.strategy, args.time_scale, elapsed))
+    print("robots {} ({} fleet process{}), instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
+        args.robots, args.fleets, "" if args.fleets == 1 else "es", args.instance.name, args.strategy,
+        args.time_scale, elapsed))
     print("state at the console: min {} per 1 s window, mean {:.1f}/s while running".format(
         min(windows), len(running) / max(1e-9, running[-1] - running[0]) if len(running) > 1 else 0))
     print("command sent -> Accepted: p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms over {}".format(
@@ -210,8 +237,9 @@ def main() -> int:
           "manager read the Accepted: p50 {:.1f} ms, p99 {:.1f} ms".format(
               percentile(outbound, 0.5) * ms, percentile(outbound, 0.99) * ms,
               percentile(back, 0.5) * ms, percentile(back, 0.99) * ms))
-    print("CPU while running (share of one core): manager {:.0f}%, virtual fleet {:.0f}%".format(
-        100 * (cpu1[2] - cpu0[2]) / span, 100 * (cpu1[1] - cpu0[1]) / span))
+    print("CPU while running (share of one core): manager {:.0f}%, virtual fleet{} {}".format(
+        100 * (cpu1[1] - cpu0[1]) / span, "" if args.fleets == 1 else "s",
+        " + ".join("{:.0f}%".format(100 * (b - a) / span) for a, b in zip(cpu0[2:], cpu1[2:]))))
     print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
           "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
