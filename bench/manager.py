@@ -183,21 +183,26 @@ def bench(work: Path) -> int:
         seen = -1
         cpu0 = None
         t0 = time.monotonic()
+        looked = t0
         while manager.popen.poll() is None:
             time.sleep(0.01)
             with console.lock:
                 state = console.session.state
+            now = time.monotonic()
             if state is not None and state.seq != seen:
                 seen = state.seq
-                states.append(time.monotonic())
-                if cpu0 is None and state.run.state == "running":
-                    cpu0 = (time.monotonic(), cpu_seconds(manager.popen.pid),
-                            *(cpu_seconds(f.popen.pid) for f in fleets))
-            if cpu0 is not None and state is not None and state.run.state == "running":
-                cpu1 = (time.monotonic(), cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
+                states.append(now)
+            # running: the console says so, or (a console starved of States) the manager's log does
+            running = state is not None and state.run.state == "running"
+            if cpu0 is None and not running and now - looked > 1.0:
+                looked = now
+                running = "started: every robot" in manager.text()
+            if cpu0 is None and running:
+                cpu0 = (now, cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
+            if cpu0 is not None and (state is None or state.run.state not in ("done", "failed", "stopped")):
+                cpu1 = (now, cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
         if cpu0 is None:
-            print("the console saw no running state ({} states); manager said:\n{}".format(
-                len(states), manager.tail(20)))
+            print("the run never started ({} states); manager said:\n{}".format(len(states), manager.tail(20)))
             return 1
         console.close()
         if manager.popen.wait() != 0:
@@ -223,7 +228,8 @@ def bench(work: Path) -> int:
                      .split(":")[1].split()[0])
     running = [t for t in states if cpu0 is not None and cpu0[0] <= t <= cpu1[0]]
     windows = [sum(1 for t in running if w <= t < w + 1.0)
-               for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else [0]
+               for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else []
+    windows = windows or [0]
     span = cpu1[0] - cpu0[0]
     ms = 1000.0
     print("robots {} ({} fleet process{}), instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
