@@ -143,6 +143,8 @@ def bench(work: Path) -> int:
     parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
     parser.add_argument("--strategy", default="adg")
     parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
+    parser.add_argument("--profile", action="store_true",
+                        help="run the manager as bench/profiled_manager.py: CPU of its loop's parts")
     args = parser.parse_args()
     make_keys(work / "keys")
     inst = read_instance(str(args.instance), map_dirs=[args.instance.parent, SHARED / "maps"])
@@ -171,11 +173,15 @@ def bench(work: Path) -> int:
     try:
         for fleet in fleets:
             fleet.wait_line(r"^virtual fleet: ", timeout=120)
-        manager = Proc(fleetctl_args(
-            "manager", args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
+        command = fleetctl_args("manager")
+        if args.profile:
+            command = [sys.executable, str(Path(__file__).with_name("profiled_manager.py")),
+                       str(work / "profile.tsv"), "--"]
+        manager = Proc(command + [str(a) for a in (
+            args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
-            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale)),
+            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale))],
             work / "manager.log")
         from live import ScriptedConsole
         console = ScriptedConsole(console_port, "bench", keys=work / "keys")
@@ -248,8 +254,22 @@ def bench(work: Path) -> int:
         " + ".join("{:.0f}%".format(100 * (b - a) / span) for a, b in zip(cpu0[2:], cpu1[2:]))))
     print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
           "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
+    if args.profile:
+        print_profile(work / "profile.tsv")
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     return 0
+
+
+def print_profile(path: Path) -> None:
+    """The manager loop's parts while the run ran: CPU seconds, share of one core, per call."""
+    rows = [line.split("\t") for line in path.read_text().splitlines()]
+    wall, cpu = float(rows[0][1]), float(rows[0][2])
+    print("manager's loop thread while running: {:.1f} s of CPU in {:.1f} s ({:.0%} of a core); its parts "
+          "(CPU time, inclusive):".format(cpu, wall, cpu / wall))
+    for label, calls, seconds in rows[1:]:
+        n, sec = int(calls), float(seconds)
+        print("  {:<58} {:>9} calls {:7.1f} s  {:5.1%} of a core  {:8.1f} us a call".format(
+            label, n, sec, sec / wall, 1e6 * sec / n if n else 0.0))
 
 
 if __name__ == "__main__":
