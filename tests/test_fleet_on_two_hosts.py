@@ -15,6 +15,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 from contextlib import contextmanager
 from pathlib import Path
@@ -52,6 +53,8 @@ def _free_subnets(count: int) -> List[int]:
 def two_hosts() -> Iterator[List[Tuple[str, str]]]:
     """Two network namespaces, each reachable from here at its own address: (namespace, address)."""
     names = ["fc{}h{}".format(os.getpid() % 100000, i) for i in range(2)]
+    if shutil.which("ip") is None:
+        pytest.skip("network namespaces cannot be made here: no `ip` command (iproute2)")
     made = _ip("netns", "add", names[0])
     if made.returncode != 0:
         pytest.skip("network namespaces cannot be created here (`ip netns add`: {})".format(
