@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     show = file_coordinates(sol)
     names = Names.of(sol.grid, plan.num_agents, args.definitions)
     try:
-        plan = for_robots(plan, sol.grid, name, args, names)
+        plan = for_robots(plan, sol.grid, name, args, names, checked=True)
     except RepairError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
