@@ -27,8 +27,16 @@ panels at 4 Hz) plus the X round trip; pose-to-screen latency is from the manage
 State to the end of the frame that drew it (CLOCK_MONOTONIC, one clock for
 all processes).
 
+With `--instance FILE --robots N --fleets K` the live case runs N robots of another instance
+(e.g. 1,000 on den520d, from bench/make_instance.py) served by K virtual-fleet processes.
+
     .venv/bin/python bench/console.py [--case player|live|all] [--frames 300] [--lines goal|path|none]
-                                      [--robots 300] [--seconds 15] [--time-scale 4]
+    .venv/bin/python bench/console.py [--case player|live|all] [--frames 300] [--lines goal|path|none]
+                                      [--robots 300] [--seconds 15] [--time-scale 4] [--present]
+                                      [--instance FILE] [--fleets 1]
+
+With `--present` the live case runs twice, the second time in the presentation view
+(full screen, title, legend, the story's ticker), for the ratio of the two.
 """
 from __future__ import annotations
 
@@ -40,7 +48,7 @@ import statistics
 import sys
 import time
 from pathlib import Path
-from typing import List, Set, Tuple
+from typing import List, Optional, Set, Tuple
 
 # This file is bench/console.py: run as a script, its folder comes first on sys.path and
 # `import console` would find this file instead of the console package.
@@ -91,6 +99,15 @@ def brc_scene() -> Scene:
     return scene
 
 
+def file_scene(path: Path) -> Tuple[Scene, float]:
+    """A solution file as `fleetctl console --replay` loads it (read, validate, style), and the seconds taken."""
+    from console.scene import scene_from_solution
+
+    began = time.perf_counter()
+    scene = scene_from_solution(path, map_dirs=[path.parent, DATA / "maps"])
+    return scene, time.perf_counter() - began
+
+
 def frame_times(scene: Scene, frames: int, lines: str) -> Tuple[List[float], Tuple[int, int], float]:
     import tkinter as tk
 
@@ -127,8 +144,13 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) -> None:
-    """The live console on `robots` virtual robots through a manager; prints its figures."""
+def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int,
+               instance: Optional[Path] = None, fleets: int = 1, present: bool = False) -> None:
+    """The live console on `robots` virtual robots through a manager; prints its figures
+    (`present`: in the presentation view, full screen).
+
+    `instance` (default arena_300agents_1; its map beside it or among the shared maps) gives
+    the starts and the plan; `fleets` virtual-fleet processes serve parts of the robots."""
     import shutil
     import tempfile
     import tkinter as tk
@@ -145,17 +167,21 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
     work = Path(tempfile.mkdtemp(prefix="bench-console-"))
     children: List[Child] = []
     try:
-        name = "arena_300agents_1.txt"
-        shutil.copy(str(DATA / "instances" / name), str(work / name))
-        shutil.copy(str(DATA / "maps" / "arena.map"), str(work / "arena.map"))
+        source = instance or DATA / "instances" / "arena_300agents_1.txt"
+        name = source.name
+        shutil.copy(str(source), str(work / name))
+        map_name = read_instance(str(source), map_dirs=[source.parent, DATA / "maps"]).map_file
+        beside = source.parent / map_name
+        shutil.copy(str(beside if beside.is_file() else DATA / "maps" / map_name), str(work / map_name))
         fleet = [RobotDefinition(i + 1, "127.0.0.1", 1, "tb", "tb{}".format(i + 1), c)
                  for i, c in enumerate(distinct_colours(robots))]
         defs, feedback, port = local_definitions(fleet, work / "robots.txt")
         endpoint = "tcp://127.0.0.1:{}".format(port)
-        children.append(Child.start("fleet", [
-            "virtual-fleet", "--definitions", str(defs), "--no-curve", "--time-scale", str(time_scale),
-            "--instance", str(work / name), "--feedback-base", str(feedback), "--log-level", "warning"],
-            log=work / "fleet.log"))
+        for k, part in enumerate(np.array_split(np.arange(1, robots + 1), fleets)):
+            children.append(Child.start("fleet{}".format(k), [
+                "virtual-fleet", "--definitions", str(defs), "--no-curve", "--time-scale", str(time_scale),
+                "--instance", str(work / name), "--feedback-base", str(feedback), "--log-level", "warning",
+                "--robots", "{}-{}".format(part[0], part[-1])], log=work / "fleet{}.log".format(k)))
         stamps = work / "stamps.tsv"
         children.append(Child.spawn("manager", [
             sys.executable, str(Path(__file__).with_name("stamped_manager.py")), str(stamps), "--",
@@ -167,12 +193,12 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
         root = tk.Tk()
         try:
             root.geometry("+0+0")
-            app = LiveApp(root, feed, model, link.request)
+            app = LiveApp(root, feed, model, link.request, present=present)
             root.after_cancel(app._after)  # this loop runs the frames instead
             app._after = None
             began = time.monotonic()
             while not (model.state is not None and model.state.run.state == "running"):
-                if time.monotonic() - began > 180 or not children[1].running():
+                if time.monotonic() - began > 180 or not children[-1].running():
                     raise SystemExit("the run did not start: see {}".format(work / "manager.log"))
                 root.update()
                 app.refresh()
@@ -209,8 +235,8 @@ def live_times(robots: int, seconds: float, time_scale: float, xvfb_pid: int) ->
         transit = [1000.0 * (arrived_at[seq] - sent[seq]) for seq in drawn_at if seq in sent]
         inside = [1000.0 * (t - arrived_at[seq]) for seq, t in drawn_at.items()]
         states = [seq for seq in sent if min(drawn_at) <= seq <= max(drawn_at)]
-        print("live: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
-            robots, started, canvas[0], canvas[1], len(times)))
+        print("live{}: {} robots, connected and started in {:.1f} s, canvas {}x{}, {} frames".format(
+            " (presentation view)" if present else "", robots, started, canvas[0], canvas[1], len(times)))
         print("  frame time, all frames:          median {:5.1f} ms  p99 {:5.1f} ms  max {:5.1f} ms".format(
             statistics.median(times), float(np.percentile(times, 99)), max(times)))
         print("  frame time, frames with a state: median {:5.1f} ms  p99 {:5.1f} ms  ({} frames)".format(
@@ -314,18 +340,35 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=300, help="live: virtual robots (default 300)")
     parser.add_argument("--time-scale", type=float, default=4.0, help="live: the fleet's time scale")
     parser.add_argument("--seconds", type=float, default=15.0, help="live: seconds measured (default 15)")
+    parser.add_argument("--present", action="store_true",
+                        help="live: the operator's window, then the presentation view, one after the other")
+    parser.add_argument("--instance", type=Path, default=None,
+                        help="live: the robots' instance (default arena_300agents_1)")
+    parser.add_argument("--fleets", type=int, default=1, help="live: virtual-fleet processes (default 1)")
+    parser.add_argument("--plan", type=Path, action="append", default=[],
+                        help="player: also this solution file, loaded as `fleetctl console --replay` loads it "
+                             "(repeatable; its load time is printed too)")
+    parser.add_argument("--only-plans", action="store_true", help="player: only the --plan files")
     args = parser.parse_args()
     print("python {}, {}, {} cores".format(platform.python_version(), platform.machine(), os.cpu_count()))
     with Xvfb.start(1600, 1200) as server:
         os.environ["DISPLAY"] = server.display
         if args.case in ("live", "all"):
-            live_times(args.robots, args.seconds, args.time_scale, server.pid)
+            live_times(args.robots, args.seconds, args.time_scale, server.pid, args.instance, args.fleets)
+            if args.present:
+                live_times(args.robots, args.seconds, args.time_scale, server.pid, args.instance, args.fleets,
+                           present=True)
             draw_and_decode_costs(args.robots, server.pid)
         if args.case == "live":
             return
         print("{:<22s} {:>6s} {:>10s} {:>6s} {:>7s} {:>10s} {:>8s} {:>8s} {:>8s}".format(
             "plan", "agents", "canvas", "lines", "frames", "open s", "median", "p99", "max"))
-        for scene in (arena_scene(), brc_scene()):
+        scenes = [] if args.only_plans else [arena_scene(), brc_scene()]
+        for path in args.plan:
+            scene, loaded = file_scene(path)
+            print("{}: loaded (read, validated, styled) in {:.2f} s".format(path.name, loaded))
+            scenes.append(scene)
+        for scene in scenes:
             times, size, opened = frame_times(scene, args.frames, args.lines)
             p99 = float(np.percentile(times, 99))
             print("{:<22s} {:>6d} {:>10s} {:>6s} {:>7d} {:>10.2f} {:>5.1f} ms {:>5.1f} ms {:>5.1f} ms".format(

@@ -1,8 +1,10 @@
-"""Benchmark: the manager driving 300 virtual robots (two processes on this machine, CURVE on).
+"""Benchmark: the manager driving 300 virtual robots (or 1,000, from several fleet processes; CURVE on).
 
 Starts `fleetctl virtual-fleet` for N robots at the starts of an instance (arena_300agents_1
 by default) and `fleetctl manager` on that instance (planned by the built-in lacam), with
---start --until-done and a run folder; a scripted console watches the state stream. Prints:
+--start --until-done and a run folder; a scripted console watches the state stream. With
+--fleets K the robots are served by K virtual-fleet processes, each a contiguous part of
+one definitions file (`--robots a-b`), as several hosts would serve them. Prints:
 
 - state messages received per second by the console (min over 1 s windows, and mean);
 - command round trip, drive or turn sent -> Accepted, from the run log (p50, p99, max);
@@ -14,12 +16,15 @@ by default) and `fleetctl manager` on that instance (planned by the built-in lac
   what it took on the virtual robot; what the ratio shows is what dispatching over the
   wire adds (replies, decisions, commands), nothing else.
 
-    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE]
+    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--fleets 1]
+
+A 1,000-robot instance: bench/make_instance.py den520d.map 1000 OUT.txt --radius 60.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -65,7 +70,7 @@ def round_trips(records: List[dict]) -> List[float]:
 
 
 def split_round_trips(records: List[dict], started: str, at: float,
-                      truth: Path) -> Tuple[List[float], List[float]]:
+                      truths: List[Path]) -> Tuple[List[float], List[float]]:
     """Each round trip cut where the virtual robot started the command (its truth file, wall
     clock), the run log's times put on the wall clock by the run's start: the manager's side
     and the robot's side of the latency (to about a millisecond)."""
@@ -74,10 +79,11 @@ def split_round_trips(records: List[dict], started: str, at: float,
 
     t0 = datetime.fromisoformat(started).timestamp() - at  # the wall clock at the log's t = 0
     executed: Dict[Tuple[int, int], float] = {}
-    for line in truth.read_text().splitlines():
-        r = json.loads(line)
-        if r.get("k") == "exec":
-            executed.setdefault((r["robot"], r["id"]), r["t"])
+    for truth in truths:
+        for line in truth.read_text().splitlines():
+            r = json.loads(line)
+            if r.get("k") == "exec":
+                executed.setdefault((r["robot"], r["id"]), r["t"])
     sent: Dict[Tuple[int, int], float] = {}
     outbound, back = [], []
     for r in records:
@@ -116,42 +122,66 @@ def move_durations(records: List[dict], robots: List[int], first: np.ndarray) ->
     return durations
 
 
+def inst_map(instance: Path, name: str) -> Path:
+    """The map of an instance: beside it, else among the shared maps."""
+    beside = instance.parent / name
+    return beside if beside.is_file() else SHARED / "maps" / name
+
+
 def main() -> int:
+    work = Path(tempfile.mkdtemp(prefix="fleet-bench-manager-"))
+    try:
+        return bench(work)
+    finally:
+        shutil.rmtree(str(work), ignore_errors=True)
+
+
+def bench(work: Path) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=300)
     parser.add_argument("--time-scale", type=float, default=4.0)
     parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
     parser.add_argument("--strategy", default="adg")
+    parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
+    parser.add_argument("--profile", action="store_true",
+                        help="run the manager as bench/profiled_manager.py: CPU of its loop's parts")
     args = parser.parse_args()
-
-    work = Path(tempfile.mkdtemp(prefix="fleet-bench-manager-"))
     make_keys(work / "keys")
-    inst = read_instance(str(args.instance), map_dirs=[SHARED / "maps"])
+    inst = read_instance(str(args.instance), map_dirs=[args.instance.parent, SHARED / "maps"])
     if args.robots > len(inst.starts):
         raise SystemExit("{} has only {} agents".format(args.instance, len(inst.starts)))
     if args.robots < len(inst.starts):  # the first N agents, as a file of their own
         first = make_instance(inst.grid, inst.map_file, inst.starts[:args.robots],
                               inst.goals[:args.robots])
+        source = inst_map(args.instance, inst.map_file)
         args.instance = work / "first-{}-{}".format(args.robots, args.instance.name)
         write_instance(first, str(args.instance))
-        (work / inst.map_file).write_text((SHARED / "maps" / inst.map_file).read_text())
+        (work / inst.map_file).write_text(source.read_text())
     base = free_port_block(2 * args.robots + 1)
     (work / "robots.txt").write_text("".join(
         "{} 127.0.0.1 {} u tb{} red\n".format(i + 1, base + i, i + 1) for i in range(args.robots)))
     console_port, feedback = base + 2 * args.robots, base + args.robots
-    fleet = Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
-                               work / "keys", "--time-scale", args.time_scale, "--feedback-base",
-                               feedback, "--instance", args.instance, "--log-level", "warning",
-                               "--truth", work / "truth.jsonl"),
-                 work / "fleet.log")
+    parts = np.array_split(np.arange(1, args.robots + 1), args.fleets)
+    truths = [work / "truth{}.jsonl".format(k) for k in range(args.fleets)]
+    fleets = [Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
+                                 work / "keys", "--time-scale", args.time_scale, "--feedback-base",
+                                 feedback, "--instance", args.instance, "--log-level", "warning",
+                                 "--truth", truth, "--robots", "{}-{}".format(part[0], part[-1])),
+                   work / "fleet{}.log".format(k))
+              for k, (part, truth) in enumerate(zip(parts, truths))]
     manager = None
     try:
-        fleet.wait_line(r"^virtual fleet: ", timeout=120)
-        manager = Proc(fleetctl_args(
-            "manager", args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
+        for fleet in fleets:
+            fleet.wait_line(r"^virtual fleet: ", timeout=120)
+        command = fleetctl_args("manager")
+        if args.profile:
+            command = [sys.executable, str(Path(__file__).with_name("profiled_manager.py")),
+                       str(work / "profile.tsv"), "--"]
+        manager = Proc(command + [str(a) for a in (
+            args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
-            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale)),
+            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale))],
             work / "manager.log")
         from live import ScriptedConsole
         console = ScriptedConsole(console_port, "bench", keys=work / "keys")
@@ -159,20 +189,26 @@ def main() -> int:
         seen = -1
         cpu0 = None
         t0 = time.monotonic()
+        looked = t0
         while manager.popen.poll() is None:
             time.sleep(0.01)
             with console.lock:
                 state = console.session.state
+            now = time.monotonic()
             if state is not None and state.seq != seen:
                 seen = state.seq
-                states.append(time.monotonic())
-                if cpu0 is None and state.run.state == "running":
-                    cpu0 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
-            if cpu0 is not None and state is not None and state.run.state == "running":
-                cpu1 = (time.monotonic(), cpu_seconds(fleet.popen.pid), cpu_seconds(manager.popen.pid))
+                states.append(now)
+            # running: the console says so, or (a console starved of States) the manager's log does
+            running = state is not None and state.run.state == "running"
+            if cpu0 is None and not running and now - looked > 1.0:
+                looked = now
+                running = "started: every robot" in manager.text()
+            if cpu0 is None and running:
+                cpu0 = (now, cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
+            if cpu0 is not None and (state is None or state.run.state not in ("done", "failed", "stopped")):
+                cpu1 = (now, cpu_seconds(manager.popen.pid), *(cpu_seconds(f.popen.pid) for f in fleets))
         if cpu0 is None:
-            print("the console saw no running state ({} states); manager said:\n{}".format(
-                len(states), manager.tail(20)))
+            print("the run never started ({} states); manager said:\n{}".format(len(states), manager.tail(20)))
             return 1
         console.close()
         if manager.popen.wait() != 0:
@@ -182,14 +218,15 @@ def main() -> int:
     finally:
         if manager is not None:
             manager.stop()
-        fleet.stop()
+        for fleet in fleets:
+            fleet.stop()
     out = manager.text()
     folder = Path(out.split("run folder: ")[1].split()[0])
     run = read_run(folder)
     records = run.records
     rtt = round_trips(records)
-    outbound, back = split_round_trips(records, run.run["started"], run.run["t"], work / "truth.jsonl")
-    plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps"]).plan
+    outbound, back = split_round_trips(records, run.run["started"], run.run["t"], truths)
+    plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps", args.instance.parent]).plan
     engine = Engine(plan, args.strategy)
     durations = move_durations(records, run.robots, engine.table.first)
     engine_only = simulate_engine(engine, durations).metrics.makespan
@@ -197,11 +234,13 @@ def main() -> int:
                      .split(":")[1].split()[0])
     running = [t for t in states if cpu0 is not None and cpu0[0] <= t <= cpu1[0]]
     windows = [sum(1 for t in running if w <= t < w + 1.0)
-               for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else [0]
+               for w in np.arange(running[0], running[-1] - 1.0, 1.0)] if len(running) > 2 else []
+    windows = windows or [0]
     span = cpu1[0] - cpu0[0]
     ms = 1000.0
-    print("robots {}, instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
-        args.robots, args.instance.name, args.strategy, args.time_scale, elapsed))
+    print("robots {} ({} fleet process{}), instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
+        args.robots, args.fleets, "" if args.fleets == 1 else "es", args.instance.name, args.strategy,
+        args.time_scale, elapsed))
     print("state at the console: min {} per 1 s window, mean {:.1f}/s while running".format(
         min(windows), len(running) / max(1e-9, running[-1] - running[0]) if len(running) > 1 else 0))
     print("command sent -> Accepted: p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms over {}".format(
@@ -210,12 +249,27 @@ def main() -> int:
           "manager read the Accepted: p50 {:.1f} ms, p99 {:.1f} ms".format(
               percentile(outbound, 0.5) * ms, percentile(outbound, 0.99) * ms,
               percentile(back, 0.5) * ms, percentile(back, 0.99) * ms))
-    print("CPU while running (share of one core): manager {:.0f}%, virtual fleet {:.0f}%".format(
-        100 * (cpu1[2] - cpu0[2]) / span, 100 * (cpu1[1] - cpu0[1]) / span))
+    print("CPU while running (share of one core): manager {:.0f}%, virtual fleet{} {}".format(
+        100 * (cpu1[1] - cpu0[1]) / span, "" if args.fleets == 1 else "s",
+        " + ".join("{:.0f}%".format(100 * (b - a) / span) for a, b in zip(cpu0[2:], cpu1[2:]))))
     print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
           "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
+    if args.profile:
+        print_profile(work / "profile.tsv")
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     return 0
+
+
+def print_profile(path: Path) -> None:
+    """The manager loop's parts while the run ran: CPU seconds, share of one core, per call."""
+    rows = [line.split("\t") for line in path.read_text().splitlines()]
+    wall, cpu = float(rows[0][1]), float(rows[0][2])
+    print("manager's loop thread while running: {:.1f} s of CPU in {:.1f} s ({:.0%} of a core); its parts "
+          "(CPU time, inclusive):".format(cpu, wall, cpu / wall))
+    for label, calls, seconds in rows[1:]:
+        n, sec = int(calls), float(seconds)
+        print("  {:<58} {:>9} calls {:7.1f} s  {:5.1%} of a core  {:8.1f} us a call".format(
+            label, n, sec, sec / wall, 1e6 * sec / n if n else 0.0))
 
 
 if __name__ == "__main__":

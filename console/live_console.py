@@ -11,7 +11,9 @@ for is done:
   (`live.recorder`), until closed;
 - `close_when_done`: close that many seconds after the run is done;
 - `start_when_ready`: press Start once every robot is connected and has a
-  pose, as an operator would (the demo's console does).
+  pose, as an operator would (the demo's console does);
+- `present`: open in the presentation view for visitors (full screen; on a
+  private Xvfb, a 1600 x 1000 screen unless `size` says otherwise).
 
 Without a display (no DISPLAY), a screenshot or a recording renders on a
 private Xvfb; a plain window says what to do instead.
@@ -34,6 +36,7 @@ from .live.link import ManagerLink
 from .live.model import LiveModel
 from .live.recorder import Recorder
 from .player import _display, _tk, _wait_until_viewable, default_canvas_size
+from .recent import RecentFiles, default_recent_path
 from .view_options import ViewOptions
 
 if TYPE_CHECKING:
@@ -43,6 +46,8 @@ __all__ = ["LiveOptions", "LiveOutcome", "run_live_console", "AutoStart"]
 
 #: The live console's canvas fits this box (the panels take the rest of a laptop screen).
 LIVE_CANVAS = (820, 620)
+#: The private screen of a headless presentation view (a projector's 16:10).
+PRESENTATION_SCREEN = (1600, 1000)
 
 
 @dataclass
@@ -55,6 +60,7 @@ class LiveOptions:
     every: float = 1.0
     close_when_done: Optional[float] = None
     start_when_ready: bool = False
+    present: bool = False
     view: ViewOptions = field(default_factory=ViewOptions)
 
 
@@ -94,14 +100,17 @@ def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOp
     from .ui.live_app import LiveApp
 
     size = options.size or default_canvas_size(13, 14, LIVE_CANVAS)
-    with _screen(options.screenshot is not None or options.record is not None, size) as display:
+    screen = (options.size or PRESENTATION_SCREEN) if options.present else (size[0] + 760, size[1] + 160)
+    with _screen(options.screenshot is not None or options.record is not None, screen,
+                 options.present) as display:
         feed = LiveFeed()
         model = LiveModel(endpoint)
         link = ManagerLink(endpoint, feed, keys=keys, name=options.name).start()
         try:
             root = _tk(display)
             root.geometry("+0+0")
-            app = LiveApp(root, feed, model, link.request, options.view, canvas_size=size)
+            app = LiveApp(root, feed, model, link.request, options.view, canvas_size=size,
+                          recent=RecentFiles(default_recent_path()), present=options.present)
             _wait_until_viewable(root, app.canvas)
             run = _Run(app, options, link.request)
             root.mainloop()
@@ -149,7 +158,7 @@ class _Run:
             self.outcome.run_state = run.state
         if self.recorder is not None and model.scene is not None:
             try:
-                self.recorder.offer(run)
+                self.recorder.offer(run, [line.text for line in model.story], model.told)
             except FleetError as err:  # the screen cannot be read: say so once, stop recording
                 self.app.status.set("recording stopped: {}".format(err))
                 self.recorder = None
@@ -175,11 +184,12 @@ class _Run:
 
 
 @contextmanager
-def _screen(headless_ok: bool, size: Tuple[int, int]) -> Iterator[str]:
-    """The display to open the window on: $DISPLAY, or a private Xvfb when nobody needs to see
-    the window (a screenshot, a recording); without either, FleetError saying what to do."""
+def _screen(headless_ok: bool, screen: Tuple[int, int], exact: bool = False) -> Iterator[str]:
+    """The display to open the window on: $DISPLAY, or a private Xvfb of `screen` pixels (at
+    least) when nobody needs to see the window (a screenshot, a recording); without either,
+    FleetError saying what to do."""
     if not headless_ok and not os.environ.get("DISPLAY"):
         raise FleetError("no display (DISPLAY is not set): use --screenshot PNG or --record DIR, "
                          "which render on a private Xvfb, or run it on a desktop")
-    with _display((size[0] + 760, size[1] + 160)) as display:
+    with _display(screen, exact) as display:
         yield display

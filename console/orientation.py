@@ -8,13 +8,18 @@
 
 Since mapf-IR files are flipped into the base frame when read, a mapf-IR file
 shows the same picture in both views and only its coordinates change (axes,
-cell ids, the cell under the mouse, conflict messages); a file written in the
-base frame (`orientation=base`) is mirrored top to bottom, as mapf-IR's
-visualizer would draw it. Pure functions of (view, file orientation).
+cell ids, the cell under the mouse, conflict messages, positions); a file
+written in the base frame (`orientation=base`) is mirrored top to bottom, as
+mapf-IR's visualizer would draw it. A window opens in the view whose
+coordinates are the file's own (`of_file`), so that what it says about a plan
+reads as the file, `fleetctl validate` and the manager say it. Pure functions
+of (view, file orientation).
 """
 from __future__ import annotations
 
 from fleet_common.formats.header import BASE, MAPF_IR as FILE_MAPF_IR
+from typing import Tuple
+
 from fleet_common.grid import Coord
 
 LAB = "lab"
@@ -32,6 +37,11 @@ def other(view: str) -> str:
     return MAPF_IR if view == LAB else LAB
 
 
+def of_file(file_orientation: str) -> str:
+    """The view whose coordinates are the file's own."""
+    return MAPF_IR if file_orientation == FILE_MAPF_IR else LAB
+
+
 def rows_grow_down(view: str, file_orientation: str) -> bool:
     """True when base y grows down the screen (the picture is mirrored)."""
     return view == MAPF_IR and file_orientation == BASE
@@ -42,6 +52,13 @@ def shown_cell(cell: Coord, height: int, view: str, file_orientation: str) -> Co
     if view == MAPF_IR and file_orientation == FILE_MAPF_IR:
         return (cell[0], height - 1 - cell[1])
     return (int(cell[0]), int(cell[1]))
+
+
+def shown_point(x: float, y: float, height: int, view: str, file_orientation: str) -> Tuple[float, float]:
+    """A position (base frame, fractions of cells) in the coordinates the view shows."""
+    if view == MAPF_IR and file_orientation == FILE_MAPF_IR:
+        return (x, height - 1 - y)
+    return (x, y)
 
 
 def origin_at_top(view: str) -> bool:

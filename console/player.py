@@ -72,13 +72,14 @@ def run_player(scene: Scene, options: ViewOptions, size: Optional[Tuple[int, int
 
 
 @contextmanager
-def _display(size: Tuple[int, int]) -> Iterator[str]:
-    """$DISPLAY if set, else a private Xvfb large enough for the window."""
+def _display(size: Tuple[int, int], exact: bool = False) -> Iterator[str]:
+    """$DISPLAY if set, else a private Xvfb large enough for the window (`exact`: of that size)."""
     current = os.environ.get("DISPLAY")
     if current:
         yield current
         return
-    with Xvfb.start(max(1280, size[0] + 400), max(1024, size[1] + 200)) as server:
+    screen = size if exact else (max(1280, size[0] + 400), max(1024, size[1] + 200))
+    with Xvfb.start(*screen) as server:
         yield server.display
 
 

@@ -16,7 +16,7 @@ from typing import Dict, List, Optional, Sequence
 from fleet_common.formats.header import MAPF_IR, read_text
 from fleet_common.formats.instance import parse_instance
 from fleet_common.formats.mapfile import read_map
-from fleet_common.formats.solution import read_solution
+from fleet_common.formats.solution import Solution, read_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.lab import node_table
 from fleet_common.lab.fleet import lab_fleet, lab_grid
@@ -56,6 +56,10 @@ class Scene:
     node_ids: Dict[Coord, int] = field(default_factory=dict)
     #: a robot's diameter in cells, as its disc is drawn (None: the player's size for agents)
     robot_diameter: Optional[float] = None
+    #: the map file the scene's file names (`map_file=`), for a plan solved here to name it too
+    map_file: str = ""
+    #: a plan solved in this window, as the mapf-IR solution File -> save the plan writes
+    solution: Optional[Solution] = None
 
     @property
     def num_agents(self) -> int:
@@ -93,7 +97,7 @@ def scene_from_solution(path: Path, map_path: Optional[Path] = None,
             "comp_time {} ms".format(_text(sol.comp_time)),
             "{} agents".format(len(sol.starts)), sol.map_file or "-"]
     scene = Scene(sol.grid, list(sol.starts), list(sol.goals), plan, info=info,
-                  file_orientation=sol.orientation, title=Path(path).name)
+                  file_orientation=sol.orientation, title=Path(path).name, map_file=sol.map_file or "")
     if plan is not None:
         report = validate_plan(plan, sol.grid, starts=sol.starts, goals=sol.goals, soc=sol.soc,
                                makespan=sol.makespan, strict_following=strict_following)
@@ -126,7 +130,8 @@ def scene_from_instance(path: Path, map_path: Optional[Path] = None,
     if inst.random_problem:
         info[0] = "instance with random_problem=1: the solver draws starts and goals"
     scene = Scene(inst.grid, list(inst.starts), list(inst.goals), None, info=info,
-                  file_orientation=inst.orientation, title=Path(path).name, kind=INSTANCE)
+                  file_orientation=inst.orientation, title=Path(path).name, kind=INSTANCE,
+                  map_file=inst.map_file or "")
     _style(scene, robots)
     return scene
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from .orientation import LAB, other
+from .orientation import LAB, of_file, other
 
 #: Line modes, in the order the `v` key cycles through them (mapf-visualizer's order).
 LINE_GOAL = "goal"
@@ -23,16 +23,26 @@ class ViewOptions:
     node_ids: bool = False
     grid_lines: bool = True
     orientation: str = LAB
+    #: the orientation follows each file opened (its own coordinates) until the user picks one
+    follow_file: bool = True
     #: the highlighted agent (clicked or picked from the list), if any
     selected: Optional[int] = None
     #: show the selected agent only (mapf-IR's single-agent mode)
     only_selected: bool = False
+    #: keep the selected agent in sight: the view follows it (PlanViz's follow mode)
+    follow: bool = False
 
     def cycle_lines(self) -> None:
         self.lines = LINE_MODES[(LINE_MODES.index(self.lines) + 1) % len(LINE_MODES)]
 
     def toggle_orientation(self) -> None:
         self.orientation = other(self.orientation)
+        self.follow_file = False
+
+    def file_opened(self, file_orientation: str) -> None:
+        """A file (or a manager's plan) is shown: use its own coordinates, unless chosen."""
+        if self.follow_file:
+            self.orientation = of_file(file_orientation)
 
     def select_next(self, num_agents: int, delta: int) -> None:
         """Select the next (delta 1) or previous (-1) agent, wrapping around."""

@@ -5,8 +5,9 @@ is at canvas pixel (ox, oy). Cell (x, y)'s centre is at
 `(ox + (x + 0.5) * cell, oy + (row + 0.5) * cell)` where `row` counts from the
 top: `height - 1 - y` when y grows up the screen (the lab view), `y` when it
 grows down. A canvas pixel (px, py) covers the point (px + 0.5, py + 0.5).
-`fit` centres the whole map in the area below the header band; zooming keeps
-the point under the mouse still. Pure arithmetic, vectorised for many agents.
+`fit` centres the whole map in the area between the header band (`top`), a
+band at the bottom and one on the right (`bottom`, `right`: the presentation
+view's ticker and legend); zooming keeps the point under the mouse still. Pure arithmetic, vectorised for many agents.
 """
 from __future__ import annotations
 
@@ -27,12 +28,14 @@ class Viewport:
     """Maps base cells of a `width` x `height` grid onto a `canvas_w` x `canvas_h` canvas."""
 
     def __init__(self, width: int, height: int, canvas_w: int, canvas_h: int, top: int = 0,
-                 down: bool = False) -> None:
+                 down: bool = False, bottom: int = 0, right: int = 0) -> None:
         self.width = width
         self.height = height
         self.canvas_w = canvas_w
         self.canvas_h = canvas_h
         self.top = top
+        self.bottom = bottom
+        self.right = right
         self.down = down
         self.cell = 1.0
         self.ox = 0.0
@@ -45,14 +48,14 @@ class Viewport:
 
     def fit(self) -> None:
         """The whole map, as large as fits, centred below the header band."""
-        aw = max(self.canvas_w - 2 * MARGIN, 1)
-        ah = max(self.canvas_h - self.top - 2 * MARGIN, 1)
+        aw = max(self.canvas_w - self.right - 2 * MARGIN, 1)
+        ah = max(self.canvas_h - self.top - self.bottom - 2 * MARGIN, 1)
         cell = min(aw / max(self.width, 1), ah / max(self.height, 1))
         if cell >= 4:
             cell = math.floor(cell)  # whole pixels: even grid lines
         self.cell = min(max(cell, MIN_CELL), MAX_CELL)
-        self.ox = math.floor((self.canvas_w - self.width * self.cell) / 2)
-        self.oy = math.floor(self.top + (self.canvas_h - self.top - self.height * self.cell) / 2)
+        self.ox = math.floor((self.canvas_w - self.right - self.width * self.cell) / 2)
+        self.oy = math.floor(self.top + (self.canvas_h - self.top - self.bottom - self.height * self.cell) / 2)
 
     def _row(self, y: float) -> float:
         return y if self.down else self.height - 1 - y
@@ -99,8 +102,8 @@ class Viewport:
     def centre_on(self, x: float, y: float) -> None:
         """Pan so that cell (x, y) is in the middle of the area below the header."""
         cx, cy = self.to_canvas(x, y)
-        self.pan(self.canvas_w / 2 - cx, (self.top + self.canvas_h) / 2 - cy)
+        self.pan((self.canvas_w - self.right) / 2 - cx, (self.top + self.canvas_h - self.bottom) / 2 - cy)
 
     def shows(self, x: float, y: float) -> bool:
         cx, cy = self.to_canvas(x, y)
-        return 0 <= cx < self.canvas_w and self.top <= cy < self.canvas_h
+        return 0 <= cx < self.canvas_w - self.right and self.top <= cy < self.canvas_h - self.bottom

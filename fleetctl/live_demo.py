@@ -10,9 +10,11 @@ the lab's addresses:
    into the run), so a visitor sees one robot wait for another;
 2. `fleetctl manager` on the demo's plan, ADG, until the run is done, writing
    its run folder;
-3. `fleetctl console`, the live console, which presses Start once every robot
-   is connected (`--start-when-ready`), closes a few seconds after the run is
-   done, and records frames into the run folder when it runs headless.
+3. `fleetctl console`, the live console in its presentation view for visitors
+   (`--present`: the map full screen, a legend, the run's story in words), which
+   presses Start once every robot is connected (`--start-when-ready`), closes a
+   few seconds after the run is done, and records frames into the run folder when
+   it runs headless (frames.txt gives the sentences told at each frame).
 
 The demo waits for the manager to finish, then for the console, then stops the
 fleet; Ctrl-C, a console closed early or a process that dies stop everything,
@@ -167,7 +169,7 @@ def _start_console(endpoint: str, folder: Path, settings: DemoSettings, work: Pa
     headless = settings.headless or not env.get("DISPLAY")
     if headless:
         env.pop("DISPLAY", None)  # the console starts its own Xvfb
-    args = ["console", "--manager", endpoint, "--no-curve", "--name", "demo console",
+    args = ["console", "--manager", endpoint, "--no-curve", "--name", "demo console", "--present",
             "--start-when-ready", "--close-when-done", "{:g}".format(settings.linger if not headless else 1.0)]
     if headless or settings.record:
         args += ["--record", str(folder / "frames")]

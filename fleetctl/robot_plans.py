@@ -81,14 +81,16 @@ def add_repair_options(parser: argparse.ArgumentParser) -> None:
                         help="do not repair rotations (robots cannot perform them): refuse such a plan")
 
 
-def for_robots(plan: Plan, grid: Grid, name: str, args: argparse.Namespace, names: Names) -> Plan:
+def for_robots(plan: Plan, grid: Grid, name: str, args: argparse.Namespace, names: Names,
+               checked: bool = False) -> Plan:
     """`plan` with its rotations repaired (one line says so), unless --no-repair.
 
+    `checked`: `plan` is known valid apart from rotations (`valid_solution`).
     Raises `RepairError` when a rotation cannot be repaired.
     """
     if args.no_repair:
         return plan
-    result = repair_rotations(plan, grid, names=names.ids)
+    result = repair_rotations(plan, grid, names=names.ids, checked=checked)
     if result.repaired:
         print("{}: {}".format(name, result.describe("robots" if names.lab else "agents", names.ids)))
     return result.plan

@@ -7,12 +7,14 @@ kinematics (`virtual_fleet.kinematics.VirtualNavigator`), and to consoles
 that speak the console protocol's bytes. Time moves only when a test says so
 (`advance`), and everything the core asks for happens at once: commands reach
 their robot, replies and poses come back at the next tick, planning jobs are
-solved in place.
+solved in place. The manager may die (`kill_manager`: the robots go on, what
+they answer is lost) and another take over from the records it left
+(`resume_manager`), as `fleetctl manager --resume` does from a run folder.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.control import codec
 from fleet_common.limits import MAX_MANAGER_BYTES
@@ -21,7 +23,11 @@ from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
 from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
+from pathlib import Path
+
+from fleet_common.runlog.reader import RunFolder
 from fleet_manager.core import RunCore
+from fleet_manager.resume import read_resume
 from fleet_manager.outbox import NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
 from fleet_common.plan_loading import LoadedPlan
 from fleet_manager.settings import ManagerSettings
@@ -49,6 +55,11 @@ class MemoryRobot:
         self.up = False
         self.seq = 0
         self.commands: List[object] = []  # everything it was sent while up, in order
+        #: ids its manager's connection sent: a reply to anything else would be refused on the
+        #: wire ("not in flight"), so it is not delivered (a new manager sends again what it needs)
+        self.sent_ids: Set[int] = set()
+        #: sent while its link was down: they go out when it is up again (as a robot link's do)
+        self.queued: List[object] = []
 
     def restart(self) -> None:
         """A new process where the robot stands: an empty command memory, a new session."""
@@ -93,7 +104,9 @@ class MemoryFleet:
                  speed: float = 2.0, turn_speed: float = 6.0, pose_lag: float = 0.0) -> None:
         self.clock = FakeClock()
         self.settings = settings or ManagerSettings(step_time=0.5)
-        self.core = RunCore(loaded, definitions, self.settings, "session-1", 0.0)
+        self.loaded = loaded
+        self.definitions = list(definitions)
+        self.core: Optional[RunCore] = RunCore(loaded, definitions, self.settings, "session-1", 0.0)
         starts = loaded.starts
         self.robots: Dict[int, MemoryRobot] = {}
         for i, d in enumerate(definitions):
@@ -103,6 +116,7 @@ class MemoryFleet:
         self.records: List[Tuple[str, float, dict]] = []
         self.folders = 0
         self.files: Dict[str, str] = {}
+        self.replans: Dict[str, object] = {}  # plan-N.txt -> the plan it holds
         self.said: List[str] = []
         self._replies: List[RobotReply] = []
         self.solve: Callable[[PlanJob], object] = lambda job: replan(
@@ -120,8 +134,40 @@ class MemoryFleet:
 
     # ---- wiring ---------------------------------------------------------------------------
 
+    def kill_manager(self) -> None:
+        """The manager dies (SIGKILL): no goodbye; the robots go on with what they run, and
+        what they answer reaches nobody."""
+        self.pump()
+        self.core = None  # type: ignore[assignment]
+        self._replies.clear()
+        for robot in self.robots.values():
+            robot.up = False
+        self.consoles.clear()
+
+    def resume_manager(self, settings: Optional[ManagerSettings] = None,
+                       up: Optional[Sequence[int]] = None) -> None:
+        """A new manager on the records the dead one left (its run folder), at the same time;
+        robots connect at once (those of `up`, if given: the others later, `link_up`)."""
+        records = [dict(fields, k=kind, t=t) for kind, t, fields in self.records]
+        records[0].setdefault("started", None)
+        point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
+        plan = self.loaded.plan if point.plan == "plan-1.txt" else self.replans[point.plan]
+        self.core = RunCore(self.loaded, self.definitions, settings or self.settings, "session-2",
+                            self.now, resume=(point, plan))
+        for robot in self.robots.values():  # new links come up; the commands sent again reach them
+            robot.sent_ids.clear()
+            robot.queued.clear()  # the dead manager's
+            if up is None or robot.id in up:
+                robot.up = True
+                self.core.link_event(LinkUp(robot.id, robot.session, False), self.now)
+        self.pump()
+        self.feedback()
+        self.pump()
+
     def pump(self) -> None:
         """Carry out what the core asked for, until it asks for nothing more."""
+        if self.core is None:
+            return
         while True:
             effects = self.core.take()
             if not effects and not self._replies:
@@ -136,9 +182,9 @@ class MemoryFleet:
         if isinstance(effect, Send):
             robot = self.robots[effect.robot]
             if robot.up:
-                robot.commands.append(effect.command)
-                for _, reply in robot.executor.handle(EPOCH, effect.command):
-                    self._replies.append(RobotReply(robot.id, reply))
+                self._deliver(robot, effect.command)
+            else:
+                robot.queued.append(effect.command)
         elif isinstance(effect, Record):
             self.records.append((effect.kind, effect.t, effect.fields))
         elif isinstance(effect, ToConsole):
@@ -156,6 +202,13 @@ class MemoryFleet:
             self.folders += 1
         elif isinstance(effect, WriteFile):
             self.files[effect.name] = effect.text
+            self.replans[effect.name] = self.core.run.plan
+
+    def _deliver(self, robot: MemoryRobot, command: object) -> None:
+        robot.commands.append(command)
+        robot.sent_ids.add(command.id)  # type: ignore[attr-defined]
+        for _, reply in robot.executor.handle(EPOCH, command):  # type: ignore[arg-type]
+            self._replies.append(RobotReply(robot.id, reply))
 
     def finish_plans(self) -> None:
         jobs, self.jobs = self.jobs, []
@@ -165,6 +218,9 @@ class MemoryFleet:
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
         for robot in self._chosen(robot_id):
             robot.up = True
+            queued, robot.queued = robot.queued, []
+            for command in queued:
+                self._deliver(robot, command)
             self.core.link_event(LinkUp(robot.id, robot.session, restarted), self.now)
         self.feedback()
         self.pump()
@@ -196,10 +252,13 @@ class MemoryFleet:
         end = self.now + seconds
         while self.now < end - 1e-9:
             self.clock.t = min(end, self.now + step)
-            for robot in self.robots.values():
+            for robot in self.robots.values():  # (a robot's motion goes on unpolled: it keeps time)
                 if robot.up:
                     for _, reply in robot.executor.poll():
-                        self._replies.append(RobotReply(robot.id, reply))
+                        if reply.id in robot.sent_ids:
+                            self._replies.append(RobotReply(robot.id, reply))
+            if self.core is None:
+                continue
             self.pump()
             self.feedback()
             for console in self.consoles.values():  # a live console's heartbeat

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fleet_common.execution import STRATEGIES
 from fleet_common.formats import make_solution, map_from_grid, read_solution, write_map, write_solution
 from fleet_common.grid import Grid
 from fleet_common.lab.fleet import lab_grid
@@ -129,10 +130,12 @@ def test_demo_runs_a_given_plan_repairing_its_rotation(tmp_path: Path) -> None:
     plan = turning(lab_grid(), "lab.map", tmp_path / "lab_plan.txt")
     proc = fleetctl("demo", "--plan", plan, "--plan-only")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "robot 1 (red): node 436 (2, 2) -> node 451 (3, 2), 1 steps" in proc.stdout
+    # cells as the plan file writes them (mapf-IR's rows from the top: base (2, 2) is (2, 11))
+    assert "robot 1 (red): node 436 (2, 11) -> node 451 (3, 11), 1 steps" in proc.stdout
     assert re.search(r"^plan: 1 rotation repaired: robots [1-4](, [1-4])*; soc \+\d+, makespan \+\d+$",
                      proc.stdout, re.M)
-    assert proc.stdout.count("collisions: 0, robots at goal: 4 of 4") == 2
+    # every registered strategy executes the repaired plan safely to its goals
+    assert proc.stdout.count("collisions: 0, robots at goal: 4 of 4") == len(STRATEGIES)
     refused = fleetctl("demo", "--plan", plan, "--no-repair", "--plan-only")
     assert refused.returncode == 1 and "plan: cannot be executed by robots: rotation at t=0->1" in refused.stdout
 

@@ -43,7 +43,8 @@ def test_lab_robots_are_listed_by_their_id_alone(root: tk.Tk) -> None:
     root.update()
     status = app.status.get()
     start = app.scene.starts[2]
-    assert status.startswith("robot 3: start ({}, {}) node {}".format(*start, node_table().node_at(start)))
+    in_file = app.scene.grid.flip_y(start)  # lab_instance.txt counts rows from the top, as mapf-IR
+    assert status.startswith("robot 3: start ({}, {}) node {}".format(*in_file, node_table().node_at(start)))
     assert "agent" not in status
 
 
@@ -135,3 +136,52 @@ def test_the_header_counts_rotations_of_a_solved_plan(tmp_path: Path) -> None:
     write_solution(make_solution(grid, "g.map", plan, plan.starts, plan.goals, "hand", True, 0),
                    str(tmp_path / "r.txt"))
     assert scene_from_solution(tmp_path / "r.txt").info[1] == "solved, 1 rotation (robots need them repaired)"
+
+
+def test_a_plan_solved_here_is_saved_as_a_solution_in_the_instances_own_coordinates(
+        root: tk.Tk, tmp_path: Path) -> None:
+    from fleet_common.formats.solution import read_solution
+
+    app = open_player(root, scene_from_instance(lab_instance_path()))
+    # an instance has no plan: nothing is called valid
+    assert app.conflict_list.title.cget("text") == "No plan to check: solve the instance (File menu)"
+    app.do_save_plan()
+    assert app.status.get().startswith("no plan solved here to save")
+    assert app.solve("cbs")
+    pump(app, lambda: app.scene.plan is not None)
+    assert app.conflict_list.title.cget("text").startswith("No conflicts: the plan is valid")
+    app.save_plan(str(tmp_path / "solved.txt"))
+    text = (tmp_path / "solved.txt").read_text()
+    assert "map_file=lab.map" in text and "solver=cbs" in text and "instance=lab_instance.txt" in text
+    saved = read_solution(str(tmp_path / "solved.txt"), map_dirs=[lab_map_path().parent])
+    assert np.array_equal(saved.plan.positions, app.scene.plan.positions)
+    assert saved.starts == scene_from_instance(lab_instance_path()).starts  # the same cells, read back
+    assert saved.orientation == "mapf-ir" and "1,5" in text.split("solution=")[1].splitlines()[1]
+
+
+def test_find_an_agent_go_to_a_time_and_follow_an_agent(root: tk.Tk, shared_data: Path) -> None:
+    scene = scene_from_solution(shared_data / ECBS)
+    app = open_player(root, scene)
+    assert app.go_to_time("12.5") and app.clock.time == 12.5 and not app.clock.playing
+    assert not app.go_to_time("99") and "from 0 to 43" in app.status.get()
+    assert not app.go_to_time("soon") and app.clock.time == 12.5
+    for _ in range(4):
+        app.do_zoom_in()
+    assert app.find_agent("17") and app.options.selected == 17
+    x, y = app.state.positions[17]
+    assert app.map.view.shows(x, y)  # brought into view
+    assert app.find_agent("agent 3") and app.options.selected == 3
+    assert not app.find_agent("robot 99") and app.options.selected == 3
+    # follow: as the agent moves on, the view keeps it in sight
+    app.find_agent("5")
+    press(app, "t")
+    assert app.options.follow
+    seen = []
+    for t in range(0, 44, 2):
+        app.go_to_time(str(t))
+        root.update()
+        x, y = app.state.positions[5]
+        seen.append(app.map.view.shows(x, y))
+    assert all(seen)
+    press(app, "t")
+    assert not app.options.follow

@@ -10,6 +10,7 @@ bounded loops; nothing is timed.
 """
 from __future__ import annotations
 
+import dataclasses
 import gc
 import time
 import tkinter as tk
@@ -53,8 +54,8 @@ class Lab:
         self.procs.append(proc)
         return proc
 
-    def start_manager(self, *extra: str) -> Proc:
-        proc = start_manager(self.folder, LAB, self.definitions, self.port, "--log", self.folder / "runs",
+    def start_manager(self, *extra: str, plan: object = LAB) -> Proc:
+        proc = start_manager(self.folder, plan, self.definitions, self.port, "--log", self.folder / "runs",
                              "--step-time", "0.6", *extra, name="manager-{}".format(len(self.procs)))
         self.procs.append(proc)
         return proc
@@ -193,6 +194,41 @@ def test_clicking_a_robots_enabled_box_disables_it_in_the_manager(lab: Lab, cons
     assert console.app.selected_robot() == 3  # the event list jumps to the robot it is about
 
 
+@pytest.mark.parametrize("posted", ["menu", "drop-down"])
+def test_the_robot_table_keeps_updating_while_a_menu_is_posted(lab: Lab, consoles, caplog, posted: str) -> None:
+    """An operator reaching for Halt with a menu or the strategy drop-down open reads current rows:
+    the table goes on changing at its pace, and no frame fails."""
+    lab.fleet(2.0)
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app = console.app
+    assert pump(console, lambda: running(console) and tree_row(console, 1) != (), 60)
+    root = app.root
+    if posted == "menu":  # Run in the menu bar, posted as a click on it does, the focus in it
+        app.menubar.entryconfigure("Run", underline=0)
+        root.tk.call("tk::TraverseToMenu", str(root), "r")
+        root.update()
+        clones = [w for w in root.tk.call("winfo", "children", ".") if "#" in str(w)]
+        root.tk.call("focus", str(clones[0]))  # where a desktop's window manager puts it
+    else:  # the strategy drop-down, open
+        root.tk.call("ttk::combobox::Post", str(app.admin.strategy_box))
+    root.update()
+    focus = str(root.tk.call("focus"))
+    assert "#" in focus or "popdown" in focus, focus  # a widget tkinter does not know has the focus
+    rows, seen = [], time.monotonic()
+    while time.monotonic() - seen < 3.0:
+        root.update()
+        row = tree_row(console, 1)
+        if not rows or row != rows[-1]:
+            rows.append(row)
+        time.sleep(0.01)
+    # the pose's age changes at every refresh of the panels (four a second)
+    assert len(rows) >= 6, rows
+    assert not [r for r in caplog.records if "frame failed" in r.getMessage()]
+    root.tk.call("tk::MenuUnpost", "") if posted == "menu" else root.tk.call(
+        "ttk::combobox::Unpost", str(app.admin.strategy_box))
+
+
 # ---- a stalled robot and the robot that waits for it -----------------------------------------
 
 def test_a_stalled_robot_makes_its_dependent_show_the_red_frame_and_arrow(lab: Lab, consoles,
@@ -312,7 +348,7 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
     old_plan = model.setup.plan.id
     app.admin.buttons["accept"].invoke()
-    assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 30)
+    assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 30), "\n".join(line.text for line in model.lines)
     assert pump(console, lambda: not app.canvas.find_withtag("proposal") and app.state is not None, 5)
     assert pump(console, lambda: "disabled" in app.admin.buttons["accept"].state(), 2)
     assert any("accept proposal=" in line and ": done" in line for line in app.events.rows())
@@ -321,6 +357,35 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
 
 
 # ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------
+
+@pytest.mark.parametrize("curve", [False, True])
+def test_a_console_nobody_answers_says_the_port_or_the_keys_are_wrong(curve: bool) -> None:
+    """A wrong port and a CurveZMQ manager that drops a console without its keys look the same
+    from the console: silence. After a few seconds it says so, naming both causes, and keeps trying."""
+    import zmq
+
+    from fleet_common.transport.curve_keys import ConsoleKeys
+    from helpers import free_port
+
+    keys = None
+    if curve:
+        public, secret = zmq.curve_keypair()
+        keys = ConsoleKeys(public, secret, zmq.curve_keypair()[0])
+    feed = LiveFeed()
+    endpoint = "tcp://127.0.0.1:{}".format(free_port())
+    link = ManagerLink(endpoint, feed, keys=keys, no_answer=1.0, hello_every=0.3).start()
+    try:
+        said: List[str] = []
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not any("no answer" in t for t in said):
+            said += [item.text for item, _ in feed.drain() if hasattr(item, "status")]
+            time.sleep(0.05)
+    finally:
+        link.stop()
+    line = next(t for t in said if "no answer" in t)
+    assert line.startswith("no answer from a manager at {} for 1 s: is it running on that port?".format(endpoint))
+    assert ("console.key_secret" if curve else "--no-curve") in line and line.endswith("still trying")
+
 
 def test_a_faulty_robot_and_a_lost_fleet_are_greyed_with_the_reason_not_dropped(lab: Lab, consoles) -> None:
     fleet = lab.fleet(4.0, None, "--bump", "3@2")  # robot 3's bumper is hit in its 2nd drive
@@ -382,30 +447,97 @@ def test_a_long_robot_list_writes_the_rows_in_view_and_the_others_as_they_scroll
 
 def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> None:
     """One table of run controls: each button and each Run menu entry sends its action, one the
-    manager knows (accept and reject only as buttons: they name the proposal shown)."""
+    manager knows (accept and reject only as buttons: they name the proposal shown), and both
+    are greyed when the manager would refuse it (without a manager: all of them)."""
+    from console.live.feed import LinkStatus
     from console.ui.admin_panel import RUN_CONTROLS
-    from fleet_common.control import ACTIONS
+    from fleet_common.control import ACTIONS, RUN_ACTIONS, RunInfo, State
 
     asked: List[str] = []
     root = tk.Tk()
     try:
-        app = LiveApp(root, LiveFeed(), LiveModel("tcp://127.0.0.1:1"),
-                      lambda action, **args: asked.append(action))
+        feed, model = LiveFeed(), LiveModel("tcp://127.0.0.1:1")
+        app = LiveApp(root, feed, model, lambda action, **args: asked.append(action))
         root.after_cancel(app._after)
         run = app.menubar.nametowidget(app.menubar.entrycget("Run", "menu"))
         labels = [run.entrycget(i, "label") for i in range(run.index("end") + 1)]
         assert labels == [c.menu for c in RUN_CONTROLS if c.menu is not None]
-        for i in range(len(labels)):
-            run.invoke(i)
-        menu_asked, asked[:] = list(asked), []
-        for c in RUN_CONTROLS:
-            app.admin.buttons[c.action].invoke()
+
+        def press_all() -> Tuple[List[str], List[str]]:
+            for i in range(len(labels)):
+                run.invoke(i)
+            menu_asked, asked[:] = list(asked), []
+            for c in RUN_CONTROLS:
+                app.admin.buttons[c.action].invoke()
+            buttons, asked[:] = list(asked), []
+            return menu_asked, buttons
+
+        assert press_all() == ([], [])  # no manager yet: nothing to ask
+        feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
+        everything = RunInfo("paused", "", "adg", 1, 3.0, 1.0, 1, 0, 5, None, 0, 7, allowed=RUN_ACTIONS)
+        feed.offer(State(1, 3, everything, ()), 0.0)
+        app.refresh()
+        menu_asked, buttons = press_all()
         assert menu_asked == [c.action for c in RUN_CONTROLS if c.menu is not None]
-        assert asked == [c.action for c in RUN_CONTROLS if c.action not in ("accept", "reject")]
+        assert buttons == [c.action for c in RUN_CONTROLS]
         assert {c.action for c in RUN_CONTROLS} <= set(ACTIONS)
+        only_start = dataclasses.replace(everything, state="waiting", proposal=None, allowed=("start",))
+        feed.offer(State(2, 3, only_start, ()), 0.0)
+        app.refresh()
+        assert press_all() == (["start"], ["start"])
+        assert app.admin.buttons["reset"].instate(["disabled"])
+        # a refusal stays on the answer line while the run stays where it was refused, no longer
+        from console.live.feed import Reply
+        feed.offer(Reply("start", {}, False, "not on their start cells"), 0.0)
+        app.refresh()
+        app.update_panels({"reply"})
+        assert "REFUSED" in app.admin.answer.cget("text")
+        feed.offer(State(3, 4, dataclasses.replace(only_start, state="running", allowed=()), ()), 0.0)
+        app.refresh()
+        app.update_panels({"state"})
+        assert app.admin.answer.cget("text") == ""
+        assert run.entrycget(labels.index(next(c.menu for c in RUN_CONTROLS if c.action == "reset")),
+                             "state") == "disabled"
     finally:
         root.destroy()
         gc.collect()
+
+def test_the_presentation_view_shows_the_map_alone_and_f11_brings_the_operators_window_back(display: str) -> None:
+    from console.live.feed import LinkStatus
+    from fleet_common.control import Notice, RunInfo, State
+
+    root = tk.Tk()
+    try:
+        feed, model = LiveFeed(), LiveModel("tcp://127.0.0.1:1")
+        app = LiveApp(root, feed, model, lambda action, **args: None, present=True)
+        root.update()
+        assert not app.admin.winfo_ismapped() and not app.right.winfo_ismapped()
+        assert app.canvas.winfo_width() == root.winfo_screenwidth()  # the whole screen
+        assert app.canvas.itemcget(app.header.line1, "state") == "hidden"
+        feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
+        feed.offer(State(1, 1, RunInfo("waiting", "", "adg", 1, 0.0, 0.0, 1, 0, 5, None, 0, None), ()), 0.0)
+        feed.offer(State(2, 1, RunInfo("running", "", "adg", 1, 1.0, 0.5, 1, 0, 5, None, 0, None), ()), 0.1)
+        feed.offer(Notice(1, 1.0, "plan", None, "replanned 4 robots: plan 2 (planned by pp)"), 0.2)
+        for _ in range(3):
+            app.refresh()
+            root.update()
+        text = app.bands.text()
+        assert "running" in text and "0 of 5 at their goals" in text
+        assert text.splitlines()[-1].endswith("replanned 4 robots")
+        assert text.splitlines()[-2].endswith("the run starts: 5 robots")
+        view = app.map.view
+        assert view.top > 42 and view.bottom > 0 and view.right > 0  # title, ticker and legend beside the map
+        app.canvas.focus_force()
+        root.update()
+        app.canvas.event_generate("<KeyPress-F11>")  # the key, as the X server would send it
+        root.update()
+        assert app.admin.winfo_ismapped() and app.right.winfo_ismapped() and not app.presentation.on
+        assert app.canvas.itemcget(app.header.line1, "state") == "normal"
+        assert (app.map.view.top, app.map.view.bottom, app.map.view.right) == (42, 0, 0)
+    finally:
+        root.destroy()
+        gc.collect()
+
 
 def _pictures(root: tk.Tk) -> set:
     return {name for name in root.image_names() if name.startswith("pyimage")}

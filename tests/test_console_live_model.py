@@ -3,18 +3,25 @@ stall choice and the virtual fleet's planned stall. No display, no sockets."""
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from console.live.describe import BEHIND_MARK, blocked_chain, greyed, row
+from console.live.fit import fit
+from console.live.report import report_html
+from console.live.ticker import Ticker
 from console.live.feed import CONNECTED, LOST, LinkStatus, LiveFeed, Reply
 from console.live.model import LiveModel, LiveSource
 from console.live.picture import WaitMark, WaitMarks, picture
 from console.live.recorder import FrameSchedule, Recorder
-from fleet_common.control import (Notice, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
+from fleet_common.arg_types import tcp_endpoint
+from fleet_common.control import (Activity, Notice, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
                                   State, Waiting)
+from fleet_common.grid import Grid
 from fleet_common.errors import FleetError
 from fleet_common.plan import Plan
 from fleetctl.live_demo import pick_stall
@@ -289,3 +296,144 @@ def test_a_proposal_after_an_older_state_in_the_same_batch_stays() -> None:
     model.apply(state(1, [robot(7), robot(9)], run(proposal=None)), 0.0, 0.0)  # sent before the proposal
     model.apply(Proposal(4, PlanData(1004, (7, 9), other.positions), "pp", 2, 1), 0.0, 0.0)
     assert model.proposal is not None and model.proposal.id == 4
+
+
+# ---- the run's story in words -------------------------------------------------------------
+
+def drive(rid: int, x: float, y: float, **kw) -> RobotState:
+    return robot(rid, x, y, activity=Activity("drive", 2, x + 1.0, y), **kw)
+
+
+def told(ticker: Ticker, states: Sequence[Tuple[float, State]]) -> List[str]:
+    out: List[str] = []
+    for at, s in states:
+        out += ticker.state(s, at)
+    return out
+
+
+def test_the_story_tells_a_stall_a_wait_that_lasts_and_the_operators_hand() -> None:
+    ticker = Ticker()
+    ticker.step_time = 1.0
+    waiting = Waiting((2,), (3, 0), "cell")
+    waiting_run = run("waiting")
+    story = told(ticker, [(0.0, state(1, [drive(2, 1.0, 0.0), robot(3)], waiting_run)),
+                          (0.1, state(2, [drive(2, 1.0, 0.0), robot(3)])),
+                          (0.5, state(3, [drive(2, 1.2, 0.0), robot(3, waiting=waiting)])),
+                          (1.4, state(4, [drive(2, 1.2, 0.0), robot(3, waiting=waiting)])),  # 0.9 s still
+                          (1.6, state(5, [drive(2, 1.2, 0.0), robot(3, waiting=waiting)])),
+                          (1.7, state(6, [drive(2, 1.2, 0.0), robot(3, waiting=waiting)])),
+                          (2.0, state(7, [drive(2, 1.6, 0.0), robot(3, out="disabled")]))])
+    assert story == ["the run starts: 2 robots", "robot 3 waits for robot 2", "robot 2 stalled",
+                     "robot 2 moves again", "robot 3 disabled by the operator"]
+
+
+def test_short_waits_and_standing_robots_that_wait_or_follow_are_no_news() -> None:
+    ticker = Ticker()
+    ticker.step_time = 1.0
+    short = Waiting((2,), (3, 0), "cell")
+    story = told(ticker, [(0.0, state(1, [drive(2, 1.0, 0.0), robot(3)])),
+                          (0.2, state(2, [drive(2, 1.0, 0.0, waiting=Waiting((), None, "barrier")),
+                                          robot(3, waiting=short)])),
+                          (0.4, state(3, [drive(2, 1.0, 0.0, waiting=Waiting((), None, "barrier")), robot(3)])),
+                          # robot 3 follows robot 2, which stands: robot 3 waits, it does not stall
+                          (0.5, state(4, [robot(2, 1.0, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          (2.5, state(5, [robot(2, 1.0, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          # robot 2 leaves; robot 3 follows a moment later
+                          (3.0, state(51, [drive(2, 1.3, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          (3.6, state(52, [drive(2, 1.6, 0.0), drive(3, 0.0, 0.0, follows=2)])),
+                          (3.9, state(53, [drive(2, 1.8, 0.0), drive(3, 0.2, 0.0, follows=2)])),
+                          # robot 2 stood idle for seconds, is given a drive and leaves at once
+                          (5.0, state(6, [robot(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.1, state(7, [drive(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.6, state(8, [drive(2, 1.8, 0.0), robot(3, 0.2, 0.0)])),
+                          (5.8, state(9, [drive(2, 2.0, 0.0), robot(3, 0.2, 0.0)]))])
+    assert story == []
+
+
+def test_a_crowd_is_counted_and_the_end_and_a_replan_are_told() -> None:
+    ticker = Ticker()
+    ticker.step_time = 0.5
+    robots = [drive(i, float(i), 0.0) for i in range(1, 11)]
+    story = told(ticker, [(0.0, state(1, robots)), (1.0, state(2, robots))])
+    assert story == ["robot 1 stalled", "robot 2 stalled", "and 8 more robots stalled"]
+    done = dataclasses.replace(run("done", clock=41.6), arrived=2)
+    assert ticker.state(state(3, [robot(1, 1.0, 0.0)], done), 2.0) == \
+        ["every robot is home: done in 42 s, no collision"]
+    assert ticker.notice(Notice(9, 3.0, "plan", None, "replanned 4 robots: plan 2 (planned by pp)")) == \
+        ["replanned 4 robots"]
+    assert ticker.notice(Notice(10, 3.0, "operator", None, "console: start")) == []
+
+
+def test_the_models_story_goes_to_the_event_list_and_the_ticker() -> None:
+    model = connected_model()
+    model.apply(state(1, [robot(7), robot(9)], run("waiting")), 0.0, 0.0)
+    model.apply(state(2, [robot(7), robot(9, out="disabled")]), 0.1, 0.1)
+    assert [line.text for line in model.story] == ["the run starts: 2 robots", "robot 9 disabled by the operator"]
+    assert model.lines[-1].kind == "story" and model.lines[-1].robot == 9 and model.told == 2
+    assert "story" in model.take_changes()
+
+
+# ---- does a plan fit the fleet ------------------------------------------------------------
+
+def test_a_plan_fits_the_fleet_on_its_map_with_one_agent_a_robot() -> None:
+    setup = scene()
+    tiny = Grid.from_rows(list(ROWS), blocked="@", name="tiny.map")
+    ok = fit("p.txt", tiny, 2, setup)
+    assert ok.ok and ok.robots == (7, 9) and "agent 0 -> robot 7, agent 1 -> robot 9" in ok.reason
+    other = Grid.from_rows(["....", "....", "...."], name="open.map")
+    wrong_map = fit("p.txt", other, 2, setup)
+    assert not wrong_map.ok and wrong_map.reason == (
+        "p.txt is for map open.map (4 x 3); this fleet runs on tiny (4 x 3): open a plan for that map")
+    three = fit("p.txt", tiny, 3, setup)
+    assert not three.ok and "p.txt has 3 agents but this fleet has 2 robots" in three.reason
+
+
+# ---- frames tell the story ------------------------------------------------------------------
+
+def test_a_new_sentence_is_a_frame_of_its_own_with_the_words_beside_it(tmp_path) -> None:
+    grabbed: List[str] = []
+    rec = Recorder(tmp_path, lambda p: grabbed.append(p.name), every=10.0)
+    r = run("running", clock=1.0, plan_time=0.5)
+    assert rec.offer(r, [], 0) is not None  # the first state
+    assert rec.offer(r, [], 0) is None
+    assert rec.offer(r, ["robot 2 stalled"], 1) is not None
+    assert rec.offer(r, ["robot 2 stalled", "robot 3 waits for robot 2", "robot 2 moves again"], 3) is not None
+    lines = (tmp_path / "frames.txt").read_text().splitlines()
+    assert lines[2].endswith("| robot 2 stalled")
+    assert lines[3].endswith("| robot 3 waits for robot 2 ; robot 2 moves again")
+
+
+# ---- the report the console saves ----------------------------------------------------------
+
+def test_the_consoles_report_lists_the_story_filterable_and_escaped() -> None:
+    model = connected_model()
+    model.apply(state(1, [robot(7), robot(9)], run("waiting")), 0.0, 0.0)
+    model.apply(state(2, [robot(7), robot(9)], run("running")), 0.0, 0.0)
+    model.apply(Notice(1, 0.0, "operator", 9, "ops: disable robot 9 <now>"), 0.1, 0.1)
+    page = report_html(model, "report.png")
+    assert "<h1>tiny_plan.txt</h1>" in page and "<img src='report.png'" in page
+    assert "id='word'" in page and "data-robot='9'" in page and "&lt;now&gt;" in page
+    assert "the run starts: 2 robots" in page
+
+
+# ---- endpoints ---------------------------------------------------------------------------------
+
+@given(st.sampled_from(["127.0.0.1", "lab-pc", "10.0.0.7", "[::1]"]), st.integers(1, 65535), st.booleans())
+def test_an_endpoint_is_taken_with_or_without_tcp(host: str, port: int, scheme: bool) -> None:
+    text = "{}{}:{}".format("tcp://" if scheme else "", host, port)
+    assert tcp_endpoint(text) == "tcp://{}:{}".format(host, port)
+
+
+@pytest.mark.parametrize("bad", ["7100", "tcp://lab-pc", "udp://a:1", "a b:1", "h:0", "h:65536", "h:x", ""])
+def test_a_bad_endpoint_says_what_was_expected(bad: str) -> None:
+    with pytest.raises(ValueError, match="expected HOST:PORT or tcp://HOST:PORT"):
+        tcp_endpoint(bad)
+
+
+def test_an_answer_of_another_session_is_forgotten_when_a_manager_answers_again() -> None:
+    model = connected_model()
+    model.apply(Reply("start", {}, False, "the run is done"), 0.0, 0.0)
+    assert model.last_reply is not None and "reply" in model.take_changes()
+    model.apply(LinkStatus(LOST, "manager lost"), 1.0, 1.0)
+    model.apply(LinkStatus(CONNECTED, "connected to a restarted manager"), 2.0, 2.0)
+    assert model.last_reply is None and "reply" in model.take_changes()

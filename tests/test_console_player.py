@@ -25,6 +25,7 @@ from console.view_options import ViewOptions
 from fleet_common.formats import make_solution, map_from_grid, read_solution, write_map, write_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
+from fleet_common.validate import validate_plan
 
 ECBS = "solutions/ecbs_random-32-32-20_30agents_1.txt"
 
@@ -105,20 +106,24 @@ def test_orientation_toggle_on_a_mapf_ir_file_keeps_the_picture_and_flips_coordi
     scene = scene_from_solution(shared_data / ECBS)
     app = open_player(root, scene)
     before = disc_centres(app)
+    x, y = scene.starts[0]
+    file_y = scene.grid.height - 1 - y
+    # a window opens in the file's own coordinates: what the file, `validate` and the manager say
+    app._hovered(*before[0])
+    assert "cell ({}, {})".format(x, file_y) in app.status.get()
+    assert "origin top-left" in app.header.text()
     axes_before = app.canvas.coords(app.axes.y_arrow)
     press(app, "m")
     # mapf-IR draws its file top-down, as the lab view draws the flipped base grid: same picture
     np.testing.assert_allclose(disc_centres(app), before)
-    x, y = scene.starts[0]
-    app._hovered(*before[0])
-    file_y = scene.grid.height - 1 - y
-    assert "cell ({}, {})".format(x, file_y) in app.status.get()
-    assert "origin top-left" in app.header.text()
-    axes_after = app.canvas.coords(app.axes.y_arrow)
-    assert axes_after[3] > axes_after[1] and axes_before[3] < axes_before[1]  # y arrow now points down
-    press(app, "m")
     app._hovered(*before[0])
     assert "cell ({}, {})".format(x, y) in app.status.get()
+    assert "origin bottom-left" in app.header.text()
+    axes_after = app.canvas.coords(app.axes.y_arrow)
+    assert axes_before[3] > axes_before[1] and axes_after[3] < axes_after[1]  # y arrow now points up
+    press(app, "m")
+    app._hovered(*before[0])
+    assert "cell ({}, {})".format(x, file_y) in app.status.get()
 
 
 def test_orientation_toggle_mirrors_a_base_frame_file(root: tk.Tk, shared_data: Path, tmp_path: Path) -> None:
@@ -144,9 +149,12 @@ def test_conflicts_are_listed_marked_and_a_click_jumps_there(root: tk.Tk, tmp_pa
     app = open_player(root, scene)
     items = app.conflict_list.items()
     assert len(items) == 2 and "swap" in items[0] and "vertex" in items[1]
-    assert "(1, 1)" in items[1] and items[0].endswith("at (1, 0)")
-    press(app, "m")  # mapf-IR's coordinates: the file's rows count from the top of the 3-row map
-    assert app.conflict_list.items()[0].endswith("at (1, 2)")
+    # the file's own coordinates, as `fleetctl validate` says them: rows from the top of 3 rows
+    assert "(1, 1)" in items[1] and items[0].endswith("at (1, 2)")
+    report = validate_plan(scene.plan, scene.grid, show=scene.grid.flip_y)
+    assert "(1, 2)" in str([f for f in report.errors if f.kind == "swap-conflict"][0])
+    press(app, "m")  # the lab's coordinates: rows from the bottom
+    assert app.conflict_list.items()[0].endswith("at (1, 0)")
     press(app, "m")
     assert "Conflicts and errors (2)" in app.conflict_list.title.cget("text")
     app.conflict_list.listbox.selection_set(1)

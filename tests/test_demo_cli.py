@@ -13,6 +13,7 @@ from typing import Dict, List, Tuple
 
 from PIL import Image
 
+from fleet_common.lab import lab_instance_path
 from helpers import fleetctl, free_port_block
 
 
@@ -54,8 +55,14 @@ def test_demo_runs_the_lab_scenario_headless_and_leaves_its_evidence(tmp_path: P
     index = (folder / "frames" / "frames.txt").read_text().splitlines()
     assert len(frames) >= 10 and len(index) == len(frames) + 1
     assert index[1].split()[1] == "waiting" and index[-1].split()[1] == "done"
+    # the presentation view's ticker told the story the visitor watched, in words
+    stall = re.search(r"robot (\d) stalls 8 s in its drive", out)
+    told = [t for line in index[1:] if "| " in line for t in line.split("| ", 1)[1].split(" ; ")]
+    assert "the run starts: 5 robots" in told and "robot {} stalled".format(stall.group(1)) in told, told
+    assert any(re.fullmatch(r"robot \d waits for robot {}".format(stall.group(1)), t) for t in told), told
+    assert told[-1].startswith("every robot is home: done in") and told[-1].endswith("no collision")
     with Image.open(frames[-1]) as last:
-        assert last.width > 1000 and last.height > 500  # the whole window, panels and all
+        assert (last.width, last.height) == (1600, 1000)  # the presentation view, full screen
     assert all(gone(pid) for pid in pids(out))
 
 
@@ -131,7 +138,29 @@ def test_console_without_a_manager_says_so_in_its_screenshot(tmp_path: Path) -> 
         assert image.width > 1000
 
 
+def test_console_takes_the_managers_endpoint_with_or_without_tcp(tmp_path: Path) -> None:
+    from live import fleet_definitions, start_fleet, start_manager
+
+    definitions, feedback, port = fleet_definitions(tmp_path, 5)
+    procs = [start_fleet(tmp_path, definitions, feedback)]
+    procs.append(start_manager(tmp_path, lab_instance_path(), definitions, port, "--no-log"))
+    try:
+        proc = fleetctl("console", "--manager", "127.0.0.1:{}".format(port), "--no-curve",
+                        "--screenshot", tmp_path / "x.png", "--after", "3", env=headless())
+    finally:
+        for p in reversed(procs):
+            p.stop()
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert "the console on tcp://127.0.0.1:{}".format(port) in proc.stdout
+    assert "the run is waiting" in proc.stdout  # it talked to the manager
+
+
 def test_console_errors_are_one_line(tmp_path: Path) -> None:
+    for bad in ("tcp://nowhere", "127.0.0.1:99999", "udp://127.0.0.1:7100"):
+        endpoint = fleetctl("console", "--manager", bad, "--no-curve", "--screenshot", tmp_path / "x.png",
+                            env=headless())
+        assert endpoint.returncode == 2 and endpoint.stderr.count("\n") == 1, endpoint.stderr
+        assert "expected HOST:PORT or tcp://HOST:PORT" in endpoint.stderr
     window = fleetctl("console", "--no-curve", env=headless())
     assert window.returncode == 2 and window.stderr.count("\n") == 1
     assert "no display" in window.stderr and "--screenshot" in window.stderr

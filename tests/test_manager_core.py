@@ -75,9 +75,24 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "not connected: robots 1, 2, 3, 4, 5" in answer.reason
     f.link_up()
     answer = f.ask(ops, "start")
-    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])  # the file's own coordinates
-    assert not answer.ok and "robot 3 is at (0.0, 0.0), its start is {}".format(start) in answer.reason
+    # the pose and the start in one convention, the plan file's own (mapf-IR rows from the top)
+    start = f.core.run.loaded.show(f.core.run.loaded.starts[2])
+    assert start == (5, 1)
+    assert not answer.ok and "robot 3 is at (0, 13), its start is (5, 1)" in answer.reason
+    assert "Go to starts drives them there" in answer.reason and "--resume" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
+
+
+def test_a_robot_whose_poses_stop_is_stale_after_half_a_second_as_the_readme_says():
+    f = fleet()
+    ops = f.console()
+    f.link_up()
+    f.advance(0.3)
+    f.robots[2].up = False  # its pose stream stops (its link is not known to be down yet)
+    f.advance(0.4)
+    assert not ops.state.robots[1].stale
+    f.advance(0.2)
+    assert ops.state.robots[1].stale and not ops.state.robots[0].stale
 
 
 def test_pause_sends_nothing_new_and_start_drives_on():

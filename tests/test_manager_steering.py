@@ -219,3 +219,8 @@ def test_ctrl_c_stops_every_robot_and_closes_the_run_log(tmp_path: Path) -> None
         fleet.stop()
     run = read_run(next((tmp_path / "runs").iterdir()))
     assert not run.torn and run.last("end")["reason"] == "interrupted (SIGINT)"
+    # the summary says the run was cut short, when, and what was executed by then
+    line = re.search(r"^interrupted at ([\d.]+) s \(interrupted \(SIGINT\)\): (\d+) of (\d+) moves executed",
+                     manager.text(), re.M)
+    assert line and float(line.group(1)) > 0 and 3 <= int(line.group(2)) < int(line.group(3)), manager.text()
+    assert "executed makespan: 0.00" not in manager.text()

@@ -177,6 +177,21 @@ def test_problems_too_large_for_distance_tables_are_refused_before_any_search(mo
         solve("pibt", grid, [(0, 0), (1, 0)], [(6, 2), (5, 2)])
 
 
+def test_pibt_and_lacam_are_sized_by_free_cells_the_others_by_all(monkeypatch) -> None:
+    # PIBT and LaCAM keep distances over the free cells only: 3 goals x 11 fit in 40 entries,
+    # not 3 x 21 (CBS and PP keep them over every cell)
+    from fleet_common.planning import problem
+
+    monkeypatch.setattr(problem, "MAX_TABLE_ENTRIES", 40)
+    grid = Grid.from_rows(["@@@@@@@", ".......", "@@@...@"])
+    starts, goals = [(0, 1), (1, 1), (3, 0)], [(6, 1), (5, 1), (4, 0)]
+    for name in ("pibt", "lacam"):
+        assert solve(name, grid, starts, goals, deadline=5.0).solved, name
+    for name in ("cbs", "pp"):
+        with pytest.raises(ProblemTooLargeError, match="3 agents on a 7x3 map need 0 million"):
+            solve(name, grid, starts, goals, deadline=5.0)
+
+
 @settings(max_examples=60)
 @given(rows=grids, data=st.data())
 def test_large_map_search_and_compact_tables_equal_a_plain_bfs(rows, data) -> None:

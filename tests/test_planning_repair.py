@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import random
 from typing import Optional, Tuple
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -23,6 +24,8 @@ from fleet_common.plan import Orientation, Plan
 from fleet_common.planning import solve
 from fleet_common.planning.components import component_labels
 from fleet_common.planning.deadline import Deadline
+from fleet_common.planning import repair_one
+from fleet_common.planning.occupancy import AWAY, Occupancy
 from fleet_common.planning.repair import RepairError, repair_rotations
 from fleet_common.rotations import step_cycles
 from fleet_common.validate import validate_plan
@@ -170,3 +173,51 @@ def test_repaired_solver_plans_validate_keep_ends_and_run_without_collision(seed
     check(result, plan, grid)
     assert result.rotations == step_cycles(ids_of(plan, grid))
     assert result.plan.soc <= SOC_FACTOR * plan.soc
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 10**6), width=st.integers(14, 22), height=st.integers(14, 22),
+       density=st.floats(0.15, 0.3), solver=st.sampled_from(["pibt", "lacam"]))
+def test_larger_plans_are_repaired_as_well(seed, width, height, density, solver):
+    # 30-150 agents and tens of rotations: many repairs in one plan, some in the windows of others
+    found = random_problem(seed, width, height, density, solver)
+    assume(found is not None)
+    grid, plan = found
+    result = repair_rotations(plan, grid, deadline=30.0)
+    check(result, plan, grid)
+    assert result.rotations == step_cycles(ids_of(plan, grid))
+    assert result.plan.soc <= SOC_FACTOR * plan.soc
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10**6), width=st.integers(6, 12), height=st.integers(6, 12),
+       density=st.floats(0.2, 0.35), solver=st.sampled_from(["pibt", "lacam"]))
+def test_when_no_window_works_lacam_replans_everyone_from_the_rotation(seed, width, height, density, solver):
+    # no windows at all: every repair is the crowd's, LaCAM from the first rotation's step on
+    found = random_problem(seed, width, height, density, solver)
+    assume(found is not None)
+    grid, plan = found
+    with mock.patch.object(repair_one, "FIXED_WINDOWS", ()):
+        result = repair_rotations(plan, grid, deadline=30.0)
+    check(result, plan, grid)
+    first = result.rotations[0][0]
+    np.testing.assert_array_equal(result.plan.positions[:first + 1], plan.positions[:first + 1])
+
+
+@settings(max_examples=60)
+@given(data=st.data(), steps=st.integers(2, 6), agents=st.integers(1, 6))
+def test_the_plan_lookups_follow_every_change(data, steps, agents):
+    cells = st.lists(st.integers(0, 11), min_size=agents, max_size=agents, unique=True)
+    occ = Occupancy(np.array([data.draw(cells) for _ in range(steps)], dtype=np.int64))
+    for _ in range(data.draw(st.integers(1, 8))):
+        t = data.draw(st.integers(0, steps - 1))
+        occ.at(t)  # looked at before the change, so the change must update it
+        agent = data.draw(st.integers(0, agents - 1))
+        taken = set(occ.row(t)) - {occ.row(t)[agent]}
+        cell = data.draw(st.sampled_from([AWAY] + [c for c in range(12) if c not in taken]))
+        occ.put(agent, t, [cell])
+        for k in range(steps):
+            row = occ.ids[k].tolist()
+            assert occ.row(k) == row
+            assert occ.at(k) == {c: a for a, c in enumerate(row) if c != AWAY}
+    assert occ.row(steps + 5) == occ.ids[-1].tolist()  # after the end everyone stays

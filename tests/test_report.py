@@ -224,3 +224,67 @@ def test_a_robot_stuck_in_its_move_is_drawn_stalled_and_a_turning_one_is_not(tmp
     assert since == pytest.approx(1.0) and until == pytest.approx(4.0)
     assert gantt[1]["moving"] == [(0.0, 6.0)]  # the move is still one move
     assert "stalled" not in gantt[2]
+
+
+def test_a_manager_runs_report_reads_in_words_with_the_consoles_colours_and_its_marks(tmp_path):
+    """The report a person reads: robots in the colours the live console gives them, the events
+    in words (cells as the plan file writes them) in a table filterable by robot and kind, the
+    operator's actions and the replans marked on the timelines, and a legend for what is drawn."""
+    from console.live.scene import scene_from_manager
+    from evaluation.report.html import render
+    from fleet_common.control import PlanData, RobotInfo, RunSetup
+    from fleet_common.formats.instance import read_instance
+    from fleet_common.formats.solution import format_solution, make_solution
+    from fleet_common.lab import lab_instance_path
+    from fleet_common.plan import Plan
+
+    inst = read_instance(str(lab_instance_path()))
+    plan = Plan.from_paths([[inst.starts[i], inst.starts[i]] for i in range(2)])
+    (tmp_path / "plan-1.txt").write_text(format_solution(make_solution(
+        inst.grid, "lab.map", plan, inst.starts[:2], inst.starts[:2], "hand", True, 0)))
+    (tmp_path / "robot_definitions.txt").write_text("1 127.0.0.1 9001 u tb1 red\n2 127.0.0.1 9002 u tb2 dodgerblue\n")
+    log, at = manager_log(tmp_path, [1, 2], [[1, 8], [11, 5]])
+    at(0.0, "state", run="running")
+    at(1.0, "operator", console="console@lab", action="disable", args={"robot": 2}, ok=True, reason="")
+    at(1.0, "out", robot=2, why="disabled", reason="disabled by operator")
+    at(1.5, "operator", console="console@lab", action="start", args={}, ok=False, reason="already running")
+    at(2.0, "plan", file="plan-2.txt", robots=[1, 2], reason="replan", at=None, actions=[1, 0], starts=[[1, 8], [11, 5]])
+    at(2.5, "action", robot=1, index=0, phase="started", src=[1, 8], dst=[2, 8])
+    at(4.0, "action", robot=1, index=0, phase="completed", src=[1, 8], dst=[2, 8])
+    at(4.0, "state", run="done")
+    log.close()
+    run = read_run(tmp_path)
+    page = run_page(run)
+    gantt = charts_of(page)["gantt"]
+    assert (1.0, 2, "disable robot 2") in gantt.data["marks"] and (2.0, None, "replan") in gantt.data["marks"]
+    assert all(m[2] != "start refused" for m in gantt.data["marks"])  # a refusal changed nothing
+    assert "blue marks: the operator's actions" in gantt.caption and "a replan" in gantt.caption
+    assert "stalled" not in gantt.caption  # the legend says what is drawn, no more
+    progress = charts_of(page)["progress"]
+    assert "dashed" not in progress.caption  # no step time in this log: no schedule drawn, none named
+    setup = RunSetup("lab", tuple("." * 13 for _ in range(14)),
+                     (RobotInfo(1, "red", "tb1"), RobotInfo(2, "dodgerblue", "tb2")),
+                     PlanData(1, (1, 2), plan.positions), ("adg",), 2.0)
+    from evaluation.report.run import robot_colours
+    assert list(robot_colours(run).values()) == scene_from_manager(setup, "e").colours
+    text = render(page)
+    assert 'id="events-word"' in text and '<tr data-robot="2" data-kind="operator" class="operator">' in text
+    assert "console@lab: disable robot 2" in text and "console@lab: start refused: already running" in text
+    assert 'class="replan"' in text and "replan: plan-2.txt from here on" in text
+    # the lab instance writes rows from the top: base (2, 8) is (2, 5) in the file
+    assert "robot 1 ends move 1 from (1, 5) to (2, 5)" in text
+    assert '{"' not in text.split("<h2>Events</h2>")[1]  # words, not raw JSON
+
+
+def test_a_schedule_is_drawn_for_a_manager_run_that_says_its_step_time(tmp_path):
+    from fleet_common.runlog.writer import RunLog
+
+    log = RunLog(tmp_path, clock=lambda: 0.0)
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[1], strategy="adg",
+                    actions=[1], starts=[[0, 0]], step_time=2.0)
+    log.record("state", run="running")
+    log.record("dispatch", robot=1, index=0, step=0, src=[0, 0], dst=[1, 0], waited=0.0)
+    log.record("action", robot=1, index=0, phase="completed", src=[0, 0], dst=[1, 0])
+    log.close()
+    progress = charts_of(run_page(read_run(tmp_path)))["progress"]
+    assert "dashed: on schedule (a plan step every 2 s, from Start)" in progress.caption

@@ -80,6 +80,18 @@ def test_a_big_jump_is_a_restart_not_millions_of_lost_frames() -> None:
     assert stream.sightings["a"].obj.translation[0] == 3.0
 
 
+def test_a_spoofed_frame_number_never_shows_an_object_at_frame_minus_one() -> None:
+    stream = ViconStream()
+    feed(stream, frame(100, obj("a", 1.0), obj("b", 1.0)))
+    feed(stream, frame(100 + MAX_FRAME_GAP + 7, obj("a", 2.0)))  # a spoofed (or restarted) count
+    assert stream.counters.restarts == 1
+    assert stream.sightings["b"].frame == 100  # b was not seen since: its frame, as it was
+    assert stream.sightings["a"].frame == 100 + MAX_FRAME_GAP + 7
+    assert all(s.frame >= 0 for s in stream.sightings.values())
+    feed(stream, frame(101, obj("b", 3.0)))  # back to the real count: newer than what b had
+    assert stream.sightings["b"].obj.translation[0] == 3.0 and stream.sightings["b"].frame == 101
+
+
 def test_objects_beyond_the_limit_are_dropped_and_counted() -> None:
     stream = ViconStream(max_objects=3)
     feed(stream, frame(1, *[obj("r{}".format(i), 1.0) for i in range(5)]))

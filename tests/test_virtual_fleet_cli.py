@@ -5,6 +5,7 @@ import os
 import signal
 import stat
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Iterator, List
@@ -103,6 +104,62 @@ def test_virtual_fleet_serves_every_robot_and_stops_on_ctrl_c(fleet_files: Path,
     assert running_fleet.wait(timeout=10) == 0
     assert "virtual fleet stopped" in running_fleet.stdout.read()
     assert "Traceback" not in running_fleet.stderr.read()
+
+
+def test_two_processes_serve_one_fleet_each_robot_on_its_own_ports(fleet_files: Path) -> None:
+    path = fleet_files / "robots.txt"
+    path.write_text(path.read_text() + "4 192.168.2.14 {} turtlebot tb4 red\n".format(free_ports(1)[0]))
+    feedback = free_port_block(4)
+    fleets = []
+    for ids in ("1,2", "3-4"):
+        fleets.append(subprocess.Popen(
+            [sys.executable, "-m", "fleetctl", "virtual-fleet", "--definitions", str(path), "--robots", ids,
+             "--keys", str(fleet_files / "keys"), "--time-scale", "10", "--feedback-base", str(feedback),
+             "--log-level", "warning"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    context = zmq.Context()
+    links = None
+    try:
+        banners = [f.stdout.readline() for f in fleets]
+        robots = read_robot_definitions(path)
+        # the ports of the whole file: the second process's robots come after the first's
+        assert banners[0].startswith("virtual fleet: 2 robots (1-2 of 4) on 127.0.0.1, command ports {}..{}, "
+                                     "feedback ports {}..{},".format(robots[0].command_port, robots[1].command_port,
+                                                                     feedback, feedback + 1)), banners
+        assert banners[1].startswith("virtual fleet: 2 robots (3-4 of 4) on 127.0.0.1, command ports {}..{}, "
+                                     "feedback ports {}..{},".format(robots[2].command_port, robots[3].command_port,
+                                                                     feedback + 2, feedback + 3)), banners
+        links = LinkSet([RobotLink(context, r, "split-test", host="127.0.0.1",
+                                   keys=load_manager_keys(fleet_files / "keys")) for r in robots])
+        ids = {r.id: links[r.id].turn(1.0) for r in robots}
+        done = set()
+        deadline = time.monotonic() + 15
+        while done != set(ids):  # one fleet: every robot answers, whichever process serves it
+            assert time.monotonic() < deadline and all(f.poll() is None for f in fleets), done
+            for ev in links.poll(0.05):
+                if isinstance(ev, RobotReply) and ev.reply == Completed(ids[ev.robot_id]):
+                    done.add(ev.robot_id)
+    finally:
+        if links is not None:
+            links.close()
+        context.destroy(linger=0)
+        for f in fleets:
+            f.kill()
+            f.wait(timeout=10)
+            f.stdout.close()
+            f.stderr.close()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--robots", "1-"], "argument --robots: expected robot ids and ranges separated by commas, e.g. 1-150,300, "
+                         "got '1-' in '1-'"),
+    (["--robots", "7"], "robots.txt: robot 7 is not defined (this file defines 1-3)"),
+    (["--robots", "1", "--stall", "2:1:1"], "--stall names robot 2, which this fleet does not serve (--robots)"),
+])
+def test_a_part_of_the_fleet_that_cannot_be_served_is_one_line(fleet_files: Path, args: List[str],
+                                                               message: str) -> None:
+    proc = fleetctl("virtual-fleet", "--definitions", fleet_files / "robots.txt", "--no-curve", *args)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and message in proc.stderr, proc.stderr
 
 
 @pytest.mark.parametrize("args, message", [

@@ -2,7 +2,12 @@
 
 Each robot definition becomes a `RobotEndpoint` on 127.0.0.1 (its own command
 port; feedback ports from fleet_common.wire.ports: base, base + 1, ... in
-definition order) driving a `VirtualNavigator`. Dropouts from the delay model
+definition order) driving a `VirtualNavigator`. A fleet may serve a part of
+the definitions (`serve`), so that several processes, or hosts, serve one
+fleet: ports and delays are those of the whole file, so a robot has the same
+ones whichever process serves it. With `on_hosts` each robot listens on the
+address its definition names, as a real robot does (robots sharing a host
+count feedback ports up from the base among themselves). Dropouts from the delay model
 are carried out here: the robot's sockets close without a goodbye, as at a
 power cut, and after the model's pause a new endpoint (new session, empty
 command memory) comes up where the robot stopped.
@@ -63,15 +68,23 @@ class VirtualFleet:
                  check: Optional[CommandCheck] = None, truth: Optional[Path] = None,
                  state: Optional[Path] = None, truth_port: Optional[int] = None,
                  drift: Optional[Dict[int, float]] = None,
-                 bumps: Sequence[Tuple[int, int]] = (), stalls: Sequence[Stall] = ()) -> None:
-        self.robots = on_localhost(robots, path)
+                 bumps: Sequence[Tuple[int, int]] = (), stalls: Sequence[Stall] = (),
+                 serve: Optional[Sequence[int]] = None, on_hosts: bool = False) -> None:
+        fleet = list(robots) if on_hosts else on_localhost(robots, path)
+        ports = feedback_ports(fleet, feedback_base, path)  # the whole file's: the same in every process
+        index = {r.id: i for i, r in enumerate(fleet)}
+        chosen = set(serve) if serve is not None else set(index)
+        self.robots = [r for r in fleet if r.id in chosen]
         self.check = check or CommandCheck()
-        self.ports = feedback_ports(self.robots, feedback_base, path)
+        self.ports = {r.id: ports[r.id] for r in self.robots}
         for option, named in (("--drift", set(drift or {})), ("--bump", {r for r, _ in bumps}),
                               ("--stall", {s.robot for s in stalls})):
             unknown = sorted(named - {r.id for r in self.robots})
             if unknown:
-                raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path))
+                raise FleetError("{} names robot {}, which is not in {}".format(option, unknown[0], path)
+                                 if unknown[0] not in index else
+                                 "{} names robot {}, which this fleet does not serve (--robots)".format(
+                                     option, unknown[0]))
         self.keys = keys
         self.model = model or FleetDelays()
         self.clock = clock
@@ -80,7 +93,7 @@ class VirtualFleet:
         self.context = fleet_context(len(self.robots))
         self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
         self.loop = RobotLoop(self.zap, clock, self.log)
-        poses = dict(start_poses or row_poses(self.robots))
+        poses = dict(start_poses or row_poses(fleet))
         resumed = load_state(state) if state is not None else {}
         poses.update({r: p for r, p in resumed.items() if r in poses})
         self.publisher: Optional[TruthPublisher] = None
@@ -94,9 +107,9 @@ class VirtualFleet:
             raise
         self.navigators: Dict[int, VirtualNavigator] = {
             r.id: VirtualNavigator(poses[r.id], speed=speed, turn_speed=turn_speed,
-                                   time_scale=time_scale, model=self.model.for_robot(i),
+                                   time_scale=time_scale, model=self.model.for_robot(index[r.id]),
                                    rng=random.Random("{}/{}".format(seed, r.id)), clock=clock)
-            for i, r in enumerate(self.robots)}
+            for r in self.robots}
         for robot_id, rate in (drift or {}).items():
             self.navigators[robot_id].start_drifting(rate)
         for robot_id, drive in bumps:
@@ -119,7 +132,7 @@ class VirtualFleet:
 
     def _start(self, robot: RobotDefinition) -> None:
         endpoint = RobotEndpoint(self.context, robot.id, self.navigators[robot.id],
-                                 robot.command_port, self.ports[robot.id], bind="127.0.0.1",
+                                 robot.command_port, self.ports[robot.id], bind=robot.host,
                                  keys=self.keys, zap=self.zap, clock=self.clock,
                                  log=self.log, feedback_rate=self.feedback_rate,
                                  check=self.check,

@@ -10,7 +10,10 @@ button press never waits on the network).
 Theory of operation, the connection's life:
 
 - not connected: a hello every `hello_every` seconds, each on a fresh socket,
-  so hellos never pile up in a socket's queue while no manager listens;
+  so hellos never pile up in a socket's queue while no manager listens; when
+  nothing has answered for `no_answer` seconds the console says that the port
+  or the keys are wrong (a CurveZMQ manager drops a console without the right
+  keys in silence, exactly as an empty port does), and keeps trying;
 - Welcome: connected (the session remembers the manager's session id);
 - silence for the session's timeout, or a Bye: lost. Requests still waiting
   get a Reply saying they were never answered, the session is reset, and
@@ -32,21 +35,26 @@ import zmq
 
 from fleet_common.control import Answer, Bye, ControlProtocolError, Request, Welcome
 from fleet_common.control.session import ConsoleSession
+from fleet_common.errors import FleetError
 from fleet_common.transport.console_channel import ConsoleClient
 from fleet_common.transport.curve_keys import ConsoleKeys
 from fleet_common.wire.liveness import PEER_TIMEOUT
 
 from .feed import CONNECTED, CONNECTING, LOST, LinkStatus, LiveFeed, Reply, Trouble
 
-__all__ = ["ManagerLink"]
+__all__ = ["ManagerLink", "NO_ANSWER"]
 
 log = logging.getLogger(__name__)
+
+#: Seconds of unanswered hellos before the console says the port or the keys are wrong.
+NO_ANSWER = 5.0
 
 
 class ManagerLink:
     def __init__(self, endpoint: str, feed: LiveFeed, *, keys: Optional[ConsoleKeys] = None,
                  name: str = "console", hello_every: float = 1.0, poll_s: float = 0.01,
-                 timeout: float = PEER_TIMEOUT, clock: Callable[[], float] = time.monotonic) -> None:
+                 timeout: float = PEER_TIMEOUT, clock: Callable[[], float] = time.monotonic,
+                 no_answer: float = NO_ANSWER) -> None:
         self.endpoint = endpoint
         self.feed = feed
         self.keys = keys
@@ -54,6 +62,7 @@ class ManagerLink:
         self.hello_every = hello_every
         self.poll_s = poll_s
         self.timeout = timeout  # seconds of silence after which the manager counts as lost
+        self.no_answer = no_answer  # seconds of hellos unanswered before the console says why
         self.clock = clock
         self._outbox: Deque[Tuple[str, Optional[int], Dict[str, Any]]] = deque()
         self._stop = threading.Event()
@@ -86,12 +95,22 @@ class ManagerLink:
             self._offer(LinkStatus(CONNECTING, "connecting to the manager at {}".format(self.endpoint)), now)
             next_hello = now
             was_connected = False
+            asking_since: Optional[float] = now  # hellos unanswered since
             while not self._stop.is_set():
                 now = self.clock()
                 if not session.connected and now >= next_hello:
                     client = self._fresh(context, client)
+                    if client is None:
+                        return  # an endpoint that cannot be: said, and nothing more to try
                     client.send(session.hello(now))
                     next_hello = now + self.hello_every
+                if session.connected:
+                    asking_since = None
+                elif asking_since is None:
+                    asking_since = now
+                elif now - asking_since >= self.no_answer:
+                    asking_since = float("inf")  # said once until a manager answers
+                    self._offer(LinkStatus(LOST if was_connected else CONNECTING, self._silence()), now)
                 if client is not None and client.socket.poll(int(self.poll_s * 1000), zmq.POLLIN):
                     for frame in newest_states(client.receive()):
                         was_connected = self._receive(session, frame, was_connected)
@@ -113,10 +132,23 @@ class ManagerLink:
                 client.close()
             context.destroy(linger=0)
 
-    def _fresh(self, context: zmq.Context, old: Optional[ConsoleClient]) -> ConsoleClient:
+    def _fresh(self, context: zmq.Context, old: Optional[ConsoleClient]) -> Optional[ConsoleClient]:
         if old is not None:
             old.close()
-        return ConsoleClient(context, self.endpoint, keys=self.keys)
+        try:
+            return ConsoleClient(context, self.endpoint, keys=self.keys)
+        except FleetError as err:
+            self._offer(LinkStatus(LOST, "{} (a manager endpoint is HOST:PORT or tcp://HOST:PORT)".format(err)),
+                        self.clock())
+            return None
+
+    def _silence(self) -> str:
+        """Why nothing answers, as far as a console can tell."""
+        keys = ("or the manager does not take this console's keys (console.key_secret, and the "
+                "manager's manager.key)" if self.keys is not None else
+                "or the manager uses CurveZMQ keys and this console runs without (--no-curve)")
+        return ("no answer from a manager at {} for {:g} s: is it running on that port? {}; "
+                "still trying".format(self.endpoint, self.no_answer, keys))
 
     def _receive(self, session: ConsoleSession, frame: bytes, was_connected: bool) -> bool:
         now = self.clock()

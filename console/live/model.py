@@ -8,9 +8,11 @@ changed in `changes` (a set of "scene", "state", "events", "connection",
 window's `poll(now)` with a `FleetState` when a new State arrived, so the
 live console plugs into the player's frame loop like the plan clock does.
 
-The event list holds the manager's notices and the console's own lines (the
-manager's answers, refusals included, connection changes, bad frames), each
-with the local time it arrived.
+The event list holds the manager's notices, the console's own lines (the
+manager's answers, refusals included, connection changes, bad frames) and
+the run's story in words (`ticker`: "robot 2 stalled", "robot 3 waits for
+robot 2"), each with the local time it arrived; the presentation view shows
+the story's last lines (`story`).
 """
 from __future__ import annotations
 
@@ -29,10 +31,13 @@ from ..fleet_state import FleetState
 from ..scene import Scene
 from .feed import CONNECTED, CONNECTING, LOST, LinkStatus, LiveFeed, Reply, Trouble
 from .scene import scene_from_manager
+from .ticker import Ticker
 
 __all__ = ["Line", "LiveModel", "LiveSource"]
 
 INFO, WARN, ERROR = "info", "warn", "error"
+#: The kind of the story's lines (the ticker's words) in the event list.
+STORY = "story"
 #: Kinds of the manager's notices shown as warnings (they need an operator's eye).
 _WARN_KINDS = ("fault", "link", "vicon")
 
@@ -60,6 +65,9 @@ class LiveModel:
         self.proposal: Optional[Proposal] = None
         self.proposal_plan: Optional[Plan] = None
         self.lines: Deque[Line] = deque(maxlen=events)
+        self.story: Deque[Line] = deque(maxlen=8)
+        self.told = 0  # sentences of the story so far
+        self.ticker = Ticker()
         self.last_reply: Optional[Reply] = None
         self.changes: Set[str] = set()
         self._fleet: Optional[FleetState] = None  # fleet_state() of the current state and scene
@@ -71,6 +79,8 @@ class LiveModel:
             if self.state is None or item.seq > self.state.seq:
                 self.state, self.state_at = item, at
                 self.changes.add("state")
+                for text in self.ticker.state(item, at):
+                    self._told(wall, text)
                 if self.proposal is not None and item.run.proposal is None:
                     self.proposal, self.proposal_plan = None, None  # answered (here or elsewhere)
                     self.changes.add("proposal")
@@ -79,6 +89,8 @@ class LiveModel:
         elif isinstance(item, Notice):
             level = WARN if item.kind in _WARN_KINDS else INFO
             self._line(wall, item.kind, item.robot, item.text, level)
+            for text in self.ticker.notice(item):
+                self._told(wall, text)
         elif isinstance(item, Reply):
             self.last_reply = item
             self.changes.add("reply")
@@ -93,6 +105,10 @@ class LiveModel:
         elif isinstance(item, LinkStatus):
             if item.status == CONNECTED:
                 self.state = None  # a manager counts its states from 1: maybe a restarted one
+                self.ticker.reset()
+                if self.last_reply is not None:  # an answer of another session: no longer true
+                    self.last_reply = None
+                    self.changes.add("reply")
             if item != self.connection:
                 self.connection = item
                 self.changes.add("connection")
@@ -104,14 +120,31 @@ class LiveModel:
 
     def _scene(self, message: RunSetup) -> None:
         self.setup = message
+        self.ticker.step_time = message.step_time
         self.scene = scene_from_manager(message, self.endpoint)
         self.agent_of = {rid: i for i, rid in enumerate(message.plan.robots)}
         self.proposal, self.proposal_plan = None, None
         self.changes.update(("scene", "proposal"))
 
+    def say(self, text: str, level: str = INFO, robot: Optional[int] = None) -> None:
+        """A line of the console's own (a file opened, a plan sent, a solve) in the event list."""
+        self._line(time.time(), "console", robot, text, level)
+
     def _line(self, wall: float, kind: str, robot: Optional[int], text: str, level: str = INFO) -> None:
         self.lines.append(Line(time.strftime("%H:%M:%S", time.localtime(wall)), kind, robot, text, level))
         self.changes.add("events")
+
+    def _told(self, wall: float, text: str) -> None:
+        """A sentence of the run's story: the event list and the ticker."""
+        robot = None
+        words = text.split()
+        if len(words) > 1 and words[0] == "robot" and words[1].isdigit():
+            robot = int(words[1])
+        line = Line(time.strftime("%H:%M:%S", time.localtime(wall)), STORY, robot, text, INFO)
+        self.lines.append(line)
+        self.story.append(line)
+        self.told += 1
+        self.changes.update(("events", "story"))
 
     def take_changes(self) -> Set[str]:
         changes, self.changes = self.changes, set()

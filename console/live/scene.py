@@ -42,11 +42,12 @@ def scene_from_manager(message: RunSetup, endpoint: str) -> Scene:
                  [tuple(int(v) for v in c) for c in plan.positions[-1]], plan,
                  colours=[by_id.get(rid, spare[i]) for i, rid in enumerate(ids)],
                  names=["robot {}".format(rid) for rid in ids], info=info,
-                 title="{} on {}".format(name, endpoint), robot_diameter=min(1.0, diameter / cell))
+                 title="{} on {}".format(name, endpoint), robot_diameter=min(1.0, diameter / cell),
+                 file_orientation=message.orientation)
 
 
 def placeholder_scene(endpoint: str) -> Scene:
     """An empty floor to show until the manager sends its scene."""
     grid = Grid.from_rows(["." * 12] * 10, name="no map yet")
     return Scene(grid, [], [], None, colours=[], names=[],
-                 info=["waiting for the manager at {}".format(endpoint)], title=endpoint)
+                 info=["waiting for the manager at {}".format(endpoint)], title=endpoint, file_orientation="base")

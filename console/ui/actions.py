@@ -9,7 +9,7 @@ the actions use of it).
 from __future__ import annotations
 
 import math
-from tkinter import filedialog
+from tkinter import filedialog, simpledialog
 from typing import Callable, Optional, Tuple
 
 from ..conflicts import next_entry
@@ -195,6 +195,81 @@ class PlayerActions:
     def do_clear_selection(self: "PlayerWindow") -> None:
         self.options.only_selected = False
         self.select(None)
+
+    def do_follow(self: "PlayerWindow") -> None:
+        if self.options.selected is None and not self.options.follow:
+            self.status.set("select an agent first (click it, or +), then t follows it")
+            return
+        self.options.follow = not self.options.follow
+        self.status.set("following {}".format(self.scene.names[self.options.selected])
+                        if self.options.follow and self.options.selected is not None else "not following")
+        if self.state is not None:
+            self.show(self.state)
+
+    def do_find_agent(self: "PlayerWindow") -> None:
+        text = simpledialog.askstring("Find an agent", "Agent or robot id:", parent=self.root)
+        if text:
+            self.find_agent(text)
+
+    def find_agent(self: "PlayerWindow", text: str) -> bool:
+        """Select the agent named `text` ("robot 3", "agent 7", or the number alone, as the agent
+        list names it) and bring it into view; False (and the status says why) if none is."""
+        wanted = text.strip().lower()
+        number = wanted.split()[-1] if wanted else ""
+        names = [n.lower() for n in self.scene.names]
+        agent = next((i for i, n in enumerate(names) if n == wanted or n.split()[-1] == number), None)
+        if agent is None:
+            self.status.set("no agent {!r} here ({})".format(text, names[0] + " ... " + names[-1] if names
+                                                             else "no agents"))
+            return False
+        self.options.only_selected = False
+        self.select(agent)
+        if self.state is not None:
+            x, y = (float(v) for v in self.state.positions[agent])
+            if not self.map.view.shows(x, y):
+                self.map.view.centre_on(x, y)
+                self.map.changed()
+        return True
+
+    def do_go_to_time(self: "PlayerWindow") -> None:
+        if self.clock is None:
+            return
+        text = simpledialog.askstring("Go to a time step", "Time step (0 to {}):".format(self.clock.makespan),
+                                      parent=self.root)
+        if text:
+            self.go_to_time(text)
+
+    def go_to_time(self: "PlayerWindow", text: str) -> bool:
+        """Pause at time step `text` (fractions move agents between cells); False if not a time."""
+        clock = self.clock
+        try:
+            t = float(text)
+        except ValueError:
+            t = math.nan
+        if clock is None or not (math.isfinite(t) and 0 <= t <= clock.makespan):
+            self.status.set("a time step is a number from 0 to {}, not {!r}".format(
+                clock.makespan if clock is not None else 0, text))
+            return False
+        self._with_clock(lambda c: (c.pause(), c.seek(t)))
+        return True
+
+    def do_save_plan(self: "PlayerWindow") -> None:
+        if self.scene.solution is None:
+            self.status.set("no plan solved here to save: open an instance and solve it (File menu)")
+            return
+        path = filedialog.asksaveasfilename(parent=self.root, defaultextension=".txt",
+                                            filetypes=[("mapf-IR solution", "*.txt")], title="Save the plan as")
+        if path:
+            self.save_plan(path)
+
+    def save_plan(self: "PlayerWindow", path: str) -> None:
+        """The plan solved here as a mapf-IR solution file (in its instance's orientation)."""
+        from fleet_common.formats.solution import write_solution
+
+        if self.scene.solution is None:
+            raise ValueError("no plan was solved in this window")
+        write_solution(self.scene.solution, path)
+        self.status.set("saved {}".format(path))
 
     def do_next_conflict(self: "PlayerWindow") -> None:
         k = next_entry(self.entries, self._now(), 1)

@@ -9,7 +9,9 @@ action, whom it waits for. Greyed robots stay in the list, greyed, with why.
 Every control only asks (`on_action(action, args)`, which sends a request);
 what the panel shows comes from the manager's state, so a box ticked here
 shows the manager's view as soon as it answers, and a refused request
-changes nothing but the answer line.
+changes nothing but the answer line. A run button the manager would refuse
+now (the State's `allowed`) is greyed; the answer line is cleared when the
+run moves on to another phase, so an old refusal never reads as a new one.
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ from dataclasses import dataclass
 from tkinter import ttk
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
-from fleet_common.control import RunInfo
+from fleet_common.control import RUN_ACTIONS, RunInfo
 
 from ..live.describe import RobotRow
 from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
@@ -30,8 +32,9 @@ Action = Callable[..., None]
 ENABLED, DISABLED = "\u2611", "\u2610"
 FONT = ("DejaVu Sans", -12)
 BOLD = ("DejaVu Sans", -13, "bold")
-COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 118),
-           ("waits", "waits for", 74))
+#: Wide enough for what they say: "drive to (12, 10) (#19)", "2, 7 (cell)"
+COLUMNS = (("link", "link", 40), ("pose", "pose", 84), ("on", "on", 28), ("action", "action", 150),
+           ("waits", "waits for", 84))
 
 
 @dataclass(frozen=True)
@@ -50,8 +53,20 @@ RUN_CONTROLS = (
     RunControl("step", "Step", "Step"), RunControl("stop", "Stop", "Stop"),
     RunControl("halt", "Halt", "Halt every robot"), RunControl("replan", "Replan", "Replan"),
     RunControl("accept", "Accept", None), RunControl("reject", "Reject", None),
+    RunControl("to_starts", "To starts", "Go to starts: every robot drives to its start"),
+    RunControl("reset", "Reset", "Reset: the run again, robots back to their starts first"),
 )
 BUTTONS_A_ROW = 4
+
+
+def usable(action: str, run: Optional[RunInfo], connected: bool) -> bool:
+    """Whether the control of `action` may be pressed: connected, and the manager would do it
+    (accept and reject: a proposal waits)."""
+    if not connected or run is None:
+        return False
+    if action in ("accept", "reject"):
+        return run.proposal is not None
+    return run.allowed is None or action not in RUN_ACTIONS or action in run.allowed
 
 
 class AdminPanel(ttk.Frame):
@@ -73,8 +88,10 @@ class AdminPanel(ttk.Frame):
                 b.pack(side=tk.LEFT, padx=1, pady=1)
                 self.buttons[control.action] = b
         self._proposal: Optional[int] = None
-        for action in ("accept", "reject"):
-            self.buttons[action].state(["disabled"])  # until a proposal waits
+        self._connected = False
+        self._answered: Optional[tuple] = None  # the run's phase when the answer shown came
+        for button in self.buttons.values():
+            button.state(["disabled"])  # until a manager says what it would do
         self._build_selectors()
         self.answer = ttk.Label(self, font=FONT, wraplength=330, justify=tk.LEFT)
         self.answer.pack(anchor=tk.W, fill=tk.X, pady=(4, 4))
@@ -139,6 +156,9 @@ class AdminPanel(ttk.Frame):
         colour = {CONNECTED: "#1d6b22", LOST: "#c8101a"}.get(connection.status, "#8a5a00")
         text = "MANAGER LOST: " + connection.text if connection.status == LOST else connection.text
         self.connection.configure(text=text, foreground=colour)
+        self._connected = connection.status == CONNECTED
+        if not self._connected:
+            self.grey(None)
 
     def show_run(self, run: Optional[RunInfo]) -> None:
         if run is None:
@@ -152,17 +172,27 @@ class AdminPanel(ttk.Frame):
         if run.replanning:
             parts.append("replanning...")
         self.run.configure(text="\n".join(parts))
-        self._proposal = run.proposal
-        for action in ("accept", "reject"):
-            self.buttons[action].state(["!disabled"] if run.proposal is not None else ["disabled"])
+        self.grey(run)
+        phase = (run.state, run.purpose, run.plan_id)
+        if self._answered is not None and phase != self._answered:
+            self.show_reply(None)  # the run moved on: that answer is history (the event list keeps it)
         self._writing = True
         try:
             if self.strategy.get() != run.strategy:
                 self.strategy.set(run.strategy)
-            if self.focus_get() is None or not str(self.focus_get()).endswith("spinbox"):
+            # Tk's own name of the focus: focus_get() raises KeyError while a menu or a drop-down
+            # list has the focus (Tk's clones of them are no tkinter widgets), which froze this panel
+            if not str(self.tk.call("focus")).endswith("spinbox"):
                 self.lookahead.set(str(run.lookahead))
         finally:
             self._writing = False
+
+    def grey(self, run: Optional[RunInfo]) -> None:
+        """Grey the run buttons the manager would refuse now (all of them without a manager);
+        Accept and Reject answer the proposal that made them usable."""
+        self._proposal = None if run is None else run.proposal
+        for action, button in self.buttons.items():
+            button.state(["!disabled"] if usable(action, run, self._connected) else ["disabled"])
 
     def show_rows(self, row_of: Callable[[int], RobotRow]) -> None:
         """Rows from `row_of(robot id)`: only those in view are made and written if they changed
@@ -190,7 +220,14 @@ class AdminPanel(ttk.Frame):
         if self.source.get() != source:
             self.source.set(source)
 
-    def show_reply(self, reply: Reply) -> None:
+    def show_reply(self, reply: Optional[Reply], run: Optional[RunInfo] = None) -> None:
+        """The manager's answer to this console's last request (None: clear the line)."""
+        if reply is None:
+            self._answered = None
+            self.answer.configure(text="")
+            return
+        # a refusal holds while the run stays in the phase it was refused in
+        self._answered = None if run is None or reply.ok else (run.state, run.purpose, run.plan_id)
         self.answer.configure(text="manager: " + reply_text(reply) if reply.sent else reply_text(reply),
                               foreground="#1d6b22" if reply.ok else "#c8101a")
 

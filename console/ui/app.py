@@ -43,6 +43,8 @@ log = logging.getLogger(__name__)
 
 #: One frame every 33 ms: 30 frames per second while something moves.
 FRAME_MS = 33
+#: Seconds before the same failure of a frame is logged again.
+FAILURE_QUIET = 10.0
 
 
 class PlayerApp(PlayerActions, FileActions):
@@ -60,6 +62,7 @@ class PlayerApp(PlayerActions, FileActions):
         self.collector = TkThreadCollector(root)  # Tk objects are freed on this thread only
         self.speed = speed
         self._after: Optional[str] = None
+        self._failures: Dict[str, float] = {}
         root.report_callback_exception = self._report  # type: ignore[assignment]
         self._load(scene, source, canvas_size, playing)
         root.bind("<Destroy>", self._destroyed, add="+")
@@ -78,6 +81,7 @@ class PlayerApp(PlayerActions, FileActions):
     def _load(self, scene: Scene, source: Optional[QueueSource], canvas_size: Tuple[int, int],
               playing: bool) -> None:
         self.scene = scene
+        self.options.file_opened(scene.file_orientation)
         self.clock: Optional[PlanClock] = None
         self.source: Union[PlanClock, QueueSource]
         if source is None:
@@ -155,8 +159,12 @@ class PlayerApp(PlayerActions, FileActions):
         try:
             self.jobs.drain()  # results of background work, handled here on the Tk thread
             self.refresh()
-        except Exception:  # one bad frame must not stop the loop
-            log.exception("frame failed")
+        except Exception as err:  # one bad frame must not stop the loop, nor flood the log
+            key = "{}: {}".format(type(err).__name__, err)
+            if self._failures.get(key, -1e9) + FAILURE_QUIET <= started:
+                self._failures[key] = started
+                log.exception("frame failed (the same failure is logged again after %g s at most)",
+                              FAILURE_QUIET)
         spent = int((time.perf_counter() - started) * 1000)
         self._after = self.root.after(max(1, self.frame_ms - spent), self._tick)
 
@@ -169,6 +177,8 @@ class PlayerApp(PlayerActions, FileActions):
     def show(self, state: FleetState) -> None:
         was_playing = self.clock is not None and self.clock.playing
         self.state = state
+        if self.options.follow and self._keep_in_sight(state):
+            return  # the view moved: everything was placed again, this state with it
         for layer in self.layers:
             layer.update(state)
         self._show_controls()
@@ -178,6 +188,22 @@ class PlayerApp(PlayerActions, FileActions):
     def _show_controls(self) -> None:
         if self.clock is not None and self.controls is not None:
             self.controls.show(self.clock.time, self.clock.playing, self.clock.speed, self.clock.loop)
+
+    def _keep_in_sight(self, state: FleetState) -> bool:
+        """Follow mode: when the selected agent nears the view's edge, centre the view on it
+        (not at every frame: the map picture is drawn again each time the view moves)."""
+        agent = self.options.selected
+        if agent is None or not 0 <= agent < len(state.positions):
+            return False
+        x, y = (float(v) for v in state.positions[agent])
+        view = self.map.view
+        cx, cy = view.to_canvas(x, y)
+        w, top, bottom = view.canvas_w - view.right, view.top, view.canvas_h - view.bottom
+        if 0.2 * w <= cx <= 0.8 * w and top + 0.2 * (bottom - top) <= cy <= bottom - 0.2 * (bottom - top):
+            return False
+        view.centre_on(x, y)
+        self.map.changed()
+        return True
 
     def relayout(self) -> None:
         """Place every item again (the view or the options changed)."""
@@ -220,7 +246,7 @@ class PlayerApp(PlayerActions, FileActions):
     def _fill_conflicts(self) -> None:
         h = self.scene.grid.height
         labels = [e.label(h, self.options.orientation, self.scene.file_orientation) for e in self.entries]
-        self.conflict_list.fill(labels, self.scene.following, self.scene.rotations)
+        self.conflict_list.fill(labels, self.scene.following, self.scene.rotations, self.scene.plan is not None)
 
     def _guarded(self, fn: Callable[[], None]) -> Callable[[], None]:
         def run() -> None:

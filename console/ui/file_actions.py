@@ -16,6 +16,7 @@ from pathlib import Path
 from tkinter import filedialog
 from typing import Any, Callable, Dict, Optional, Tuple
 
+from fleet_common.formats.solution import make_solution
 from fleet_common.planning import SOLVER_NAMES, SolveResult, solve
 
 from ..scene import INSTANCE, MAP, SOLUTION, Scene, scene_from_instance, scene_from_map, scene_from_plan, \
@@ -69,12 +70,16 @@ class FileActions:
             if result.plan is None:
                 return result
             plan = result.plan
+            sol = make_solution(scene.grid, scene.map_file, plan, scene.starts, scene.goals, result.solver, True,
+                                round(result.comp_time_ms), instance=scene.title)
+            sol.orientation = scene.file_orientation
             solved = scene_from_plan(scene.grid, plan, scene.goals, title="{} ({})".format(scene.title, solver),
                                      info=["solver {} (built in)".format(solver), "solved", "soc {}".format(plan.soc),
                                            "makespan {}".format(plan.makespan),
                                            "comp_time {:.0f} ms".format(result.comp_time_ms),
                                            "{} agents".format(plan.num_agents), scene.title])
             solved.file_orientation = scene.file_orientation
+            solved.map_file, solved.solution = scene.map_file, sol
             return solved
 
         return self._background("solving {} with {} (up to {:g} s)".format(scene.title, solver, SOLVE_SECONDS), work)
@@ -94,7 +99,8 @@ class FileActions:
             self.status.set(result.summary())
         else:
             self.open_scene(result)
-            self.status.set("opened {}".format(result.title))
+            self.status.set("opened {}{}".format(result.title, "; File -> save the plan keeps it"
+                                                 if result.solution is not None else ""))
 
     def _add_solve_menu(self: "PlayerWindow", menu: tk.Menu) -> None:
         """"Solve this instance with" after the Open entries, usable while an instance is shown."""

@@ -63,11 +63,15 @@ class ConflictList(_PickList):
                  focus_back: Callable[[], None]) -> None:
         super().__init__(master, "Conflicts", on_pick, 12, focus_back)
 
-    def fill(self, labels: Sequence[str], following: int, rotations: int = 0) -> None:
+    def fill(self, labels: Sequence[str], following: int, rotations: int = 0, plan: bool = True) -> None:
+        """The validator's findings; `plan` False: there is no plan to check (an instance)."""
         self.listbox.delete(0, tk.END)
         for label in labels:
             self.listbox.insert(tk.END, label)
-        title = "Conflicts and errors ({})".format(len(labels)) if labels else "No conflicts: the plan is valid"
+        if not plan:
+            title = "No plan to check: solve the instance (File menu)"
+        else:
+            title = "Conflicts and errors ({})".format(len(labels)) if labels else "No conflicts: the plan is valid"
         if following:
             title += "\n{} following moves (legal in mapf-IR)".format(following)
         if rotations:

@@ -13,7 +13,7 @@ from typing import Any, Optional
 from ..keys import AGENTS, KEYS, VIEW
 from ..live.describe import cell_text, greyed
 from . import capture
-from .admin_panel import RUN_CONTROLS
+from .admin_panel import RUN_CONTROLS, usable
 from .help_window import show_keys
 from .window import LiveWindow
 
@@ -21,19 +21,18 @@ from .window import LiveWindow
 class LiveActions:
     def _build_menus(self: "LiveWindow") -> None:
         bar = tk.Menu(self.root, tearoff=False)
-        file = tk.Menu(bar, tearoff=False)
-        file.add_command(label="save the view as PNG", accelerator="Ctrl+S", command=self.actions["save_png"])
-        file.add_command(label="save the window as PNG", command=self._guarded(self._save_window))
-        file.add_separator()
-        file.add_command(label="quit", accelerator="q, Ctrl+Q", command=self.actions["quit"])
-        bar.add_cascade(label="File", menu=file)
+        bar.add_cascade(label="File", menu=self.add_file_menu(bar))
         run = tk.Menu(bar, tearoff=False)
         for control in RUN_CONTROLS:
             if control.menu is not None:
                 run.add_command(label=control.menu, command=lambda a=control.action: self.ask(a))
         bar.add_cascade(label="Run", menu=run)
+        self.run_menu = run
         for group in (VIEW, AGENTS):
             menu = tk.Menu(bar, tearoff=False)
+            if group == VIEW:
+                menu.add_command(label="presentation for visitors (full screen) on / off", accelerator="F11",
+                                 command=self._guarded(self.do_presentation))
             for key in KEYS:
                 if key.group == group:
                     menu.add_command(label=key.help.replace("agent", "robot"), accelerator=key.shown,
@@ -61,7 +60,7 @@ class LiveActions:
         if rid is not None:
             r = self.model.robot(rid)
             self.status.set("robot {}{}".format(rid, "" if r is None else ": at {}, {}".format(
-                cell_text((r.x, r.y)) if r.x is not None else "unknown position", greyed(r) or "ok")))
+                cell_text((r.x, r.y), self.place) if r.x is not None else "unknown position", greyed(r) or "ok")))
 
     def _pick_robot(self: "LiveWindow", robot_id: Optional[int]) -> None:
         agent = None if robot_id is None else self.model.agent_of.get(robot_id)
@@ -86,7 +85,18 @@ class LiveActions:
         shown = self.model.state
         self._ask(action, based_on=shown.version if shown is not None else None, **args)
         self.status.set("asked the manager: {}{}".format(action, "".join(
-            " {}={}".format(k, v) for k, v in sorted(args.items()))))
+            " {}={}".format(k, v) for k, v in sorted(args.items()) if k != "text")))
+
+    def grey_run_menu(self: "LiveWindow") -> None:
+        """The Run menu's entries as the buttons: greyed when the manager would refuse them."""
+        run = self.model.state.run if self.model.state is not None else None
+        for index, control in enumerate(c for c in RUN_CONTROLS if c.menu is not None):
+            self.run_menu.entryconfigure(index, state=tk.NORMAL if usable(control.action, run, self.model.connected)
+                                         else tk.DISABLED)
+
+    def do_presentation(self: "LiveWindow") -> None:
+        """The map for visitors, full screen (F11 again: back to the operator's window)."""
+        self.presentation.toggle()
 
     # -- capture -----------------------------------------------------------------------
 

@@ -7,11 +7,16 @@ only and never waits on the network. Around the map: the admin panel on the
 left (fig. 5.5), the robot panel and the event list on the right (fig. 5.6).
 
 The scene can change while the window is open (a replan accepted, another
-plan loaded, another manager): the map and its layers are then built again
-for it, keeping the selected robot. Buttons, boxes and menu entries only
-send requests through the link (`ask`); the picture changes when the
-manager's state says so, and every answer, refusals included, is shown in
-the admin panel, the status line and the event list.
+plan loaded, the robots' way to the starts, another manager): the map and
+its layers are then built again for it, keeping the selected robot.
+Buttons, boxes and menu entries only send requests through the link
+(`ask`); the picture changes when the manager's state says so, and every
+answer, refusals included, is shown in the admin panel, the status line and
+the event list. Run buttons and menu entries the manager would refuse are
+greyed. The File menu opens plans and instances for the fleet
+(`LiveFiles`); F11 switches to the presentation view for visitors
+(`Presentation`). Positions are written in the coordinates the view shows:
+the plan file's own unless the operator switched (m).
 """
 from __future__ import annotations
 
@@ -20,20 +25,24 @@ import tkinter as tk
 from tkinter import ttk
 from typing import Any, Callable, List, Optional, Tuple
 
+from .. import orientation
 from ..fleet_state import FleetState
 from ..live.describe import blocked_chain, details, greyed, row
 from ..live.feed import CONNECTED, LOST, LiveFeed
 from ..live.model import LiveModel, LiveSource, reply_text
 from ..live.picture import WaitMarks, picture
 from ..live.scene import placeholder_scene
+from ..recent import RecentFiles
 from ..view_options import ViewOptions
 from .admin_panel import AdminPanel
 from .app import PlayerApp
 from .banner import Banner
 from .event_list import EventList
 from .live_actions import LiveActions
-from .map_view import MapView
+from .live_files import LiveFiles
+from .map_view import HEADER_HEIGHT, MapView
 from .overlays import SEPARATOR, AxesLayer, CellIdLayer, HeaderBand
+from .presentation import LARGE, Bands, Presentation, run_words
 from .proposal_layer import ProposalLayer
 from .robot_layer import RobotLayer
 from .robot_panel import RobotPanel
@@ -46,15 +55,20 @@ PANEL_PERIOD = 0.25
 POLL_MS = 15
 
 
-class LiveApp(LiveActions, PlayerApp):
+class LiveApp(LiveFiles, LiveActions, PlayerApp):
     """The live console on `root`; `ask(action, based_on=..., **args)` sends a request (the link's
-    `request`)."""
+    `request`); `recent` keeps the files opened (default: for this session only); `present`
+    opens it in the presentation view."""
 
     frame_ms = POLL_MS
 
     def __init__(self, root: tk.Tk, feed: LiveFeed, model: LiveModel, ask: Callable[..., None],
-                 options: Optional[ViewOptions] = None, canvas_size: Tuple[int, int] = (560, 600)) -> None:
+                 options: Optional[ViewOptions] = None, canvas_size: Tuple[int, int] = (560, 600),
+                 recent: Optional[RecentFiles] = None, present: bool = False) -> None:
         self.model = model
+        self.recent = recent or RecentFiles()
+        self.instance = self.solving = self.solved = None
+        self.map: Optional[MapView] = None
         self.live = LiveSource(feed, model)
         self._ask = ask
         self.wait_marks = WaitMarks()
@@ -62,31 +76,41 @@ class LiveApp(LiveActions, PlayerApp):
         self.after_frame: List[Callable[[], None]] = []
         self._panels_due = 0.0
         self._panels_stale = True
+        self._greyed_for: Any = None
         self._canvas_size = canvas_size
         super().__init__(root, placeholder_scene(model.endpoint), options, source=self.live,
                          canvas_size=canvas_size, playing=False)
         root.title("FleetControl console: manager at {}".format(model.endpoint))
+        root.bind("<F11>", lambda e: self._guarded(self.do_presentation)())
+        if present:
+            self.presentation.set(True)
 
     # -- building ----------------------------------------------------------------------
 
     def _build(self, canvas_size: Tuple[int, int]) -> None:
         root = self.root
         self.status = tk.StringVar(root, value="")
-        ttk.Label(root, textvariable=self.status, anchor=tk.W, padding=(6, 2)).pack(side=tk.BOTTOM, fill=tk.X)
+        self.status_bar = ttk.Label(root, textvariable=self.status, anchor=tk.W, padding=(6, 2))
         self.controls = None
         self.admin = AdminPanel(root, self.ask, self._pick_robot)
-        self.admin.pack(side=tk.LEFT, fill=tk.Y)
-        right = ttk.Frame(root, padding=(2, 2))
-        right.pack(side=tk.RIGHT, fill=tk.Y)
-        self.robot_panel = RobotPanel(right, self.ask)
+        self.right = ttk.Frame(root, padding=(2, 2))
+        self.robot_panel = RobotPanel(self.right, self.ask)
         self.robot_panel.pack(fill=tk.X)
         self.robot_panel.show(None, "", (), (), (), None)  # the legend, until a robot is picked
-        self.events = EventList(right, self.jump_to_robot)
+        self.events = EventList(self.right, self.jump_to_robot)
         self.events.pack(fill=tk.BOTH, expand=True)
+        for widget, pack in self._operator_parts():
+            widget.pack(**pack)
         self.map_area = ttk.Frame(root)
         self.map_area.pack(side=tk.LEFT, fill=tk.BOTH, expand=True)
-        self.map: Optional[MapView] = None
+        self.presentation = Presentation(root, self._operator_parts, self.map_area, lambda: self.map,
+                                         self._presentation_changed)
         self._build_map(canvas_size)
+
+    def _operator_parts(self) -> List[Tuple[tk.Widget, dict]]:
+        """The operator's panels around the map, with how they are packed (in this order)."""
+        return [(self.status_bar, dict(side=tk.BOTTOM, fill=tk.X)), (self.admin, dict(side=tk.LEFT, fill=tk.Y)),
+                (self.right, dict(side=tk.RIGHT, fill=tk.Y))]
 
     def _build_map(self, size: Tuple[int, int]) -> None:
         scene = self.scene
@@ -102,13 +126,62 @@ class LiveApp(LiveActions, PlayerApp):
         self.axes = AxesLayer(canvas, scene.file_orientation)
         self.header = HeaderBand(canvas, scene.info)
         self.banner = Banner(canvas)
+        self.bands = Bands(canvas)
+        self.bands.set_fleet(scene.colours, scene.names)
         self.layers = (self.cell_ids, self.proposal, self.agents, self.waits, self.axes, self.header,
-                       self.banner)
+                       self.banner, self.bands)
         self.map.on_view_change(self.relayout)
         self.map.on_click = self._clicked
         self.map.on_hover = self._hovered
         canvas.focus_set()
         self._show_banner()
+        self._present_overlays()
+
+    # -- the presentation view ---------------------------------------------------------
+
+    def _presentation_changed(self) -> None:
+        self._present_overlays()
+        if self.map is not None:
+            if not self.presentation.on:
+                self.map.set_bands(HEADER_HEIGHT, 0, 0)
+            self.relayout()
+        self._show_presentation(True)
+
+    def _present_overlays(self) -> None:
+        """The visitors' bands instead of the operator's header and axes (and large robots)."""
+        on = self.presentation.on
+        c = self.canvas
+        for item in (self.header.band, self.header.line1, self.header.line2):
+            c.itemconfigure(item, state=tk.HIDDEN if on else tk.NORMAL)
+        c.itemconfigure("axes", state=tk.HIDDEN if on else tk.NORMAL)
+        self.agents.min_radius = LARGE if on else 0.0  # type: ignore[attr-defined]
+        if on:
+            self.bands.show()
+        else:
+            self.bands.hide()
+
+    def _show_presentation(self, story: bool) -> None:
+        if not self.presentation.on:
+            return
+        run = self.model.state.run if self.model.state is not None else None
+        name = self.model.setup.plan.name if self.model.setup is not None else ""
+        self.bands.set_run(*run_words(run, name))
+        if story:
+            self.bands.set_story(self.model.story)
+
+    def relayout(self) -> None:
+        if self.map is not None and self.presentation.on:
+            bands = self.bands.bands_for(self.map.view.canvas_h)
+            view = self.map.view
+            if (view.top, view.bottom, view.right) != bands:
+                self.map.set_bands(*bands)  # fits the map again, and relayouts
+                return
+        super().relayout()
+
+    def place(self, x: float, y: float) -> Tuple[float, float]:
+        """A position in the coordinates the view shows (the plan file's, unless switched)."""
+        return orientation.shown_point(x, y, self.scene.grid.height, self.options.orientation,
+                                       self.scene.file_orientation)
 
     # -- the frame loop ----------------------------------------------------------------
 
@@ -125,6 +198,10 @@ class LiveApp(LiveActions, PlayerApp):
             self.show(state)
         if "connection" in changes:
             self._connection_changed()
+        if state is not None or "story" in changes:
+            self._show_presentation("story" in changes)
+        self._grey_controls()
+        self.solving_progress()
         self._panels_stale = self._panels_stale or bool(changes)
         if changes - {"state"} or (self._panels_stale and now >= self._panels_due):
             self.update_panels(changes)
@@ -146,6 +223,7 @@ class LiveApp(LiveActions, PlayerApp):
         if self.map is not None and self.canvas.winfo_width() > 1:
             size = (self.canvas.winfo_width(), self.canvas.winfo_height())
         self.scene = self.model.scene or placeholder_scene(self.model.endpoint)
+        self.options.file_opened(self.scene.file_orientation)
         self.state = None
         self.options.selected = None
         self._build_map(size)
@@ -169,7 +247,7 @@ class LiveApp(LiveActions, PlayerApp):
         elif c.status == LOST:
             self.banner.set("manager lost: reconnecting to {}".format(self.model.endpoint), lost=True)
         else:
-            self.banner.set("connecting to the manager at {}".format(self.model.endpoint))
+            self.banner.set(c.text)  # connecting, or why nothing answers
 
     def update_panels(self, changes: Any = ()) -> None:
         """Refresh the admin panel, the robot panel and the event list from the model."""
@@ -177,15 +255,26 @@ class LiveApp(LiveActions, PlayerApp):
         run = m.state.run if m.state is not None else None
         self.admin.show_run(run)
         by_id = {r.id: r for r in m.state.robots} if m.state is not None else {}
-        self.admin.show_rows(lambda rid: row(rid, by_id.get(rid), m.connected))
+        self.admin.show_rows(lambda rid: row(rid, by_id.get(rid), m.connected, self.place))
         sources = {r.source for r in by_id.values()}
         if len(sources) == 1:
             self.admin.show_source(sources.pop())
-        if "reply" in changes and m.last_reply is not None:
-            self.admin.show_reply(m.last_reply)
-            self.status.set(reply_text(m.last_reply))
+        if "reply" in changes:
+            self.admin.show_reply(m.last_reply, run)
+            if m.last_reply is not None:
+                self.status.set(reply_text(m.last_reply))
         self.events.sync(list(m.lines))
         self._show_robot()
+
+    def _grey_controls(self) -> None:
+        """The run's buttons and menu entries greyed as soon as what the manager allows changes
+        (not at the panels' pace: a button must not be pressable a quarter second too long)."""
+        run = self.model.state.run if self.model.state is not None else None
+        key = (self.model.connected, None if run is None else (run.allowed, run.proposal))
+        if key != self._greyed_for:
+            self._greyed_for = key
+            self.admin.grey(run)
+            self.grey_run_menu()
 
     def _show_robot(self) -> None:
         m, rid = self.model, self.selected_robot()
@@ -195,8 +284,8 @@ class LiveApp(LiveActions, PlayerApp):
             return
         robots = {x.id: x for x in m.state.robots} if m.state is not None else {}
         events = [line for line in m.lines if line.robot == rid]
-        self.robot_panel.show(rid, self.scene.colours[m.agent_of[rid]], details(r, m.state.run),
-                              blocked_chain(robots, rid), events, greyed(r, m.connected))
+        self.robot_panel.show(rid, self.scene.colours[m.agent_of[rid]], details(r, m.state.run, self.place),
+                              blocked_chain(robots, rid, place=self.place), events, greyed(r, m.connected))
 
     def _status_changed(self) -> None:
         run = self.model.state.run if self.model.state is not None else None

@@ -99,6 +99,13 @@ class MapView(tk.Frame):
             self.view.set_down(down)
             self.changed()
 
+    def set_bands(self, top: int, bottom: int, right: int = 0) -> None:
+        """Room for bands over the top, bottom and right of the canvas (the map fits between)."""
+        if (top, bottom, right) != (self.view.top, self.view.bottom, self.view.right):
+            self.view.top, self.view.bottom, self.view.right = top, bottom, right
+            self.view.fit()
+            self.changed()
+
     def set_grid_lines(self, on: bool) -> None:
         self.grid_lines = on
         self.redraw_map()

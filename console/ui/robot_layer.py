@@ -72,6 +72,8 @@ class RobotLayer:
         self.view: Optional[Viewport] = None
         self.options = ViewOptions()
         self.radius = 3.0
+        #: discs never smaller than this (pixels of radius): the presentation view's robots are large
+        self.min_radius = 0.0
         self._w = str(canvas)
         self._xy = np.full((n, 2), np.nan)
         self._gxy = np.full((n, 2), np.nan)
@@ -93,7 +95,7 @@ class RobotLayer:
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
         self.view, self.options = view, options
         c = self.canvas
-        r = self.radius = disc_radius(view.cell, self.scene.robot_diameter)
+        r = self.radius = max(disc_radius(view.cell, self.scene.robot_diameter), self.min_radius)
         g = max(0.16 * view.cell, 1.5)
         script = []
         for i, (x, y) in enumerate(view.to_canvas_array(self.goals).tolist()):
@@ -103,7 +105,7 @@ class RobotLayer:
         c.itemconfigure("halo", width=max(2, round(0.24 * r)))
         c.itemconfigure("heading", width=max(1, round(r / 4)))
         c.itemconfigure("robotid", font=("DejaVu Sans", -max(7, int(r * 0.8)), "bold"),
-                        state=tk.NORMAL if view.cell >= MIN_LABEL_CELL else tk.HIDDEN)
+                        state=tk.NORMAL if self._ids_shown() else tk.HIDDEN)
         c.itemconfigure("robotlabel", font=("DejaVu Sans", -max(8, min(12, int(r * 0.55)))))
         for i in range(len(self.disc_items)):
             self._style(i)
@@ -158,13 +160,16 @@ class RobotLayer:
         on = haloed[idx]
         script.extend(coords % (w, self.halo_items[i], a - halo, b - halo, a + halo, b + halo)
                       for i, (a, b) in zip(idx[on].tolist(), xy[idx[on]].tolist()))
-        if self.view.cell >= MIN_LABEL_CELL:  # hidden ids need not follow (relayout places them)
+        if self._ids_shown():  # hidden ids need not follow (relayout places them)
             script.extend("%s coords %d %.1f %.1f" % (w, self.id_items[i], a, b)
                           for i, (a, b) in zip(idx.tolist(), xy[idx].tolist()))
         for i in idx.tolist():
             label = self.label_items.get(i)
             if label is not None:
                 script.append("%s coords %d %.1f %.1f" % (w, label, xy[i, 0], xy[i, 1] + r + 2))
+
+    def _ids_shown(self) -> bool:
+        return self.view is not None and (self.view.cell >= MIN_LABEL_CELL or self.radius >= 8)
 
     def _ghosts(self, pic: Picture, script: List[str]) -> None:
         on = pic.ghost is not None

@@ -18,7 +18,26 @@ td, th { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; }
 th { background: #f0f0f0; } td.l, th.l { text-align: left; }
 figure { margin: 1em 0; } figcaption { font-size: 0.85em; color: #555; max-width: 60em; }
 img { max-width: 100%; } .meta { color: #555; font-size: 0.9em; }
+tr.operator td { background: #eef3ff; } tr.replan td { background: #fff3d6; font-weight: bold; }
 """
+
+#: Shows only the rows of a filterable table that hold the word typed and match the robot and
+#: the kind chosen (runs in the browser; the page needs no network).
+_FILTER = """<script>
+function filterRows(id) {
+  var word = document.getElementById(id + '-word').value.toLowerCase();
+  var robot = document.getElementById(id + '-robot').value;
+  var kind = document.getElementById(id + '-kind').value;
+  var rows = document.getElementById(id).getElementsByTagName('tr');
+  for (var i = 1; i < rows.length; i++) {
+    var r = rows[i];
+    var ok = (!word || r.textContent.toLowerCase().indexOf(word) >= 0)
+      && (!robot || r.getAttribute('data-robot') === robot)
+      && (!kind || r.getAttribute('data-kind') === kind || r.className === kind);
+    r.style.display = ok ? '' : 'none';
+  }
+}
+</script>"""
 
 
 @dataclass
@@ -26,6 +45,10 @@ class Table:
     header: Sequence[str]
     rows: Sequence[Sequence[object]]
     left: int = 1  # leading columns aligned left (labels)
+    #: a filterable table: its id, and per row (robot, kind, class); a word, a robot and a kind
+    #: (or a class: "operator", "replan") chosen above it show only the rows that match
+    name: str = ""
+    tags: Sequence[Tuple[str, str, str]] = ()
 
 
 Block = Union[Chart, Table, str]
@@ -50,8 +73,23 @@ def _table(t: Table) -> str:
         text = "{:.3f}".format(v) if isinstance(v, float) else str(v)
         return "<{0}{1}>{2}</{0}>".format(tag, ' class="l"' if i < t.left else "", html.escape(text))
     head = "".join(cell("th", i, h) for i, h in enumerate(t.header))
-    body = "".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>" for r in t.rows)
-    return "<table><tr>{}</tr>{}</table>".format(head, body)
+    if not t.name:
+        body = "".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>" for r in t.rows)
+        return "<table><tr>{}</tr>{}</table>".format(head, body)
+    rows = []
+    for r, (robot, kind, css) in zip(t.rows, t.tags):
+        rows.append('<tr data-robot="{}" data-kind="{}"{}>{}</tr>'.format(
+            html.escape(robot), html.escape(kind), ' class="{}"'.format(html.escape(css)) if css else "",
+            "".join(cell("td", i, v) for i, v in enumerate(r))))
+    robots = sorted({robot for robot, _, _ in t.tags if robot}, key=lambda v: (len(v), v))
+    kinds = sorted({kind for _, kind, _ in t.tags} | {css for _, _, css in t.tags if css})
+    call = "filterRows('{}')".format(t.name)
+    controls = ('<p>Show: <input id="{0}-word" placeholder="a word" oninput="{1}"> '
+                '<select id="{0}-robot" onchange="{1}"><option value="">every robot</option>{2}</select> '
+                '<select id="{0}-kind" onchange="{1}"><option value="">every kind</option>{3}</select></p>').format(
+        t.name, call, "".join('<option value="{0}">robot {0}</option>'.format(html.escape(r)) for r in robots),
+        "".join('<option value="{0}">{0}</option>'.format(html.escape(k)) for k in kinds))
+    return '{}{}<table id="{}"><tr>{}</tr>{}</table>'.format(_FILTER, controls, t.name, head, "".join(rows))
 
 
 def render(page: Page) -> str:

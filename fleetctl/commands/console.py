@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 from typing import Optional, Tuple
 
-from fleet_common.arg_types import non_negative, positive
+from fleet_common.arg_types import endpoint, non_negative, positive
 from fleet_common.errors import FleetError
 
 from .. import filekinds
@@ -32,8 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--replay", type=Path, metavar="SOLUTION",
                         help="mapf-IR solution (or instance) file to play")
     live = parser.add_argument_group("live console (without --replay)")
-    live.add_argument("--manager", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
-                      help="the manager's console endpoint (default {})".format(DEFAULT_ENDPOINT))
+    live.add_argument("--manager", default=DEFAULT_ENDPOINT, metavar="ENDPOINT", type=endpoint,
+                      help="the manager's console endpoint, HOST:PORT or tcp://HOST:PORT (default {})".format(
+                          DEFAULT_ENDPOINT))
     live.add_argument("--keys", type=Path, default=None, metavar="DIR",
                       help="CurveZMQ key folder with console.key_secret and manager.key (default: "
                            "$FLEETCONTROL_KEYS, else ~/.config/fleetcontrol/keys)")
@@ -52,6 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="close the window S seconds after the run is done")
     live.add_argument("--start-when-ready", action="store_true",
                       help="press Start once every robot is connected (the demo's console)")
+    live.add_argument("--present", action="store_true",
+                      help="open in the presentation view for visitors: the map full screen, robots "
+                           "large, a legend and the run's story in words (F11 switches)")
     parser.add_argument("--map", type=Path, metavar="MAP",
                         help="use this .map instead of looking up the file's map_file=")
     add_map_dir(parser)
@@ -60,9 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "console's window after --after seconds")
     parser.add_argument("--at", type=non_negative, default=0.0, metavar="T",
                         help="time step for --screenshot (fractions move agents between cells)")
-    parser.add_argument("--orientation", choices=("lab", "mapf-ir"), default="lab",
-                        help="lab: origin bottom-left, y up (default); mapf-ir: as mapf-IR's "
-                             "visualizer shows the file (origin top-left); key m toggles")
+    parser.add_argument("--orientation", choices=("file", "lab", "mapf-ir"), default="file",
+                        help="whose coordinates the window shows: file (default), the plan file's "
+                             "own, as its messages use them; lab: origin bottom-left, y up; mapf-ir: "
+                             "as mapf-IR's visualizer shows the file (origin top-left); key m toggles")
     parser.add_argument("--lines", choices=("goal", "path", "none"), default="goal",
                         help="line from each agent to its goal, its remaining path, or none")
     parser.add_argument("--agent", type=int, metavar="I", help="highlight agent I (0-based)")
@@ -94,7 +99,6 @@ def _live(args: argparse.Namespace) -> int:
     import socket
 
     from console.live_console import LiveOptions, run_live_console
-    from console.view_options import ViewOptions
     from fleet_common.transport.curve_keys import default_keys_dir, load_console_keys
 
     try:
@@ -104,8 +108,8 @@ def _live(args: argparse.Namespace) -> int:
     options = LiveOptions(
         name=args.name or "console@{}".format(socket.gethostname()), size=args.size,
         screenshot=args.screenshot, after=args.after, record=args.record, every=args.every,
-        close_when_done=args.close_when_done, start_when_ready=args.start_when_ready,
-        view=ViewOptions(lines=args.lines, ids=args.ids, orientation=args.orientation))
+        close_when_done=args.close_when_done, start_when_ready=args.start_when_ready, present=args.present,
+        view=_view(args))
     outcome = run_live_console(args.manager, keys, options)
     if outcome.screenshot is not None:
         print("{}: the console on {} after {:g} s".format(outcome.screenshot, args.manager, args.after))
@@ -116,10 +120,17 @@ def _live(args: argparse.Namespace) -> int:
     return 0
 
 
+def _view(args: argparse.Namespace):
+    from console.view_options import ViewOptions
+
+    follow = args.orientation == "file"
+    return ViewOptions(lines=args.lines, ids=args.ids, orientation="lab" if follow else args.orientation,
+                       follow_file=follow)
+
+
 def _replay(args: argparse.Namespace) -> int:
     from console.player import run_player, screenshot
     from console.scene import scene_from_instance, scene_from_solution
-    from console.view_options import ViewOptions
 
     kind = filekinds.sniff(args.replay)
     if kind == filekinds.SOLUTION:
@@ -132,8 +143,8 @@ def _replay(args: argparse.Namespace) -> int:
     selected: Optional[int] = args.agent
     if selected is not None and not 0 <= selected < scene.num_agents:
         raise FleetError("--agent {}: the plan has agents 0..{}".format(selected, scene.num_agents - 1))
-    options = ViewOptions(lines=args.lines, ids=args.ids, node_ids=args.node_ids, orientation=args.orientation,
-                          selected=selected)
+    options = _view(args)
+    options.node_ids, options.selected = args.node_ids, selected
     if args.screenshot is not None:
         w, h = screenshot(scene, args.screenshot, args.at, options, args.size)
         print("{}: time step {:g} of {}, {}x{} pixels".format(args.screenshot, min(max(args.at, 0), scene.makespan),

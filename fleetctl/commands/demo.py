@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     from fleet_common.lab import lab_instance_path, lab_map_path, node_table
     from fleet_common.plan_loading import solve_instance
     from fleet_common.robots import default_definitions_path, read_robot_definitions
+    from fleet_common.plan_loading import file_coordinates
     from fleet_common.validate import validate_plan
 
     robots_path = args.robots or default_definitions_path()
@@ -93,8 +94,9 @@ def run(args: argparse.Namespace) -> int:
         raise FleetError("{} has {} agents but {} defines only {} robots".format(
             inst_path, len(inst.starts), robots_path, len(robots)))
 
+    show = file_coordinates(inst)  # what the robots' lines say: the file's own coordinates
     if args.plan is not None:
-        result = _given_plan(args.plan, grid)
+        result, show = _given_plan(args.plan, grid)
     else:  # a demo should show the best plan: CBS, optimal and quick for a handful of robots
         result = solve_instance(grid, inst.starts, inst.goals, args.solver, args.time_limit, args.seed)
     if not result.solved or result.plan is None:
@@ -109,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     print("plan: {} in {:.0f} ms, soc={}, makespan={}, {}".format(
         result.solver, result.comp_time_ms, plan.soc, plan.makespan,
         "valid" if report.ok else "INVALID: " + report.errors[0].message))
-    for line in _robot_lines(robots, plan, nodes):
+    for line in _robot_lines(robots, plan, nodes, show):
         print("  " + line)
     if not report.ok:
         return 1
@@ -128,19 +130,21 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _given_plan(path: Path, grid):
-    """A solution file on the lab map, as a solver's result."""
+    """A solution file on the lab map, as a solver's result, and its own coordinates."""
     from fleet_common.formats.mapsearch import default_map_dirs
     from fleet_common.formats.solution import read_solution
     from fleet_common.lab import lab_map_path
+    from fleet_common.plan_loading import file_coordinates
     from fleet_common.planning import NO_SOLUTION, SOLVED, SolveResult
 
     sol = read_solution(path, map_dirs=[lab_map_path().parent] + default_map_dirs())
+    show = file_coordinates(sol)
     if sol.grid != grid:
         raise FleetError("{}: its map {} is not the lab's map".format(path, sol.map_file))
     solver = "{} ({})".format(sol.solver or "?", path)
     if sol.plan is None or not sol.solved:
-        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run")
-    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0))
+        return SolveResult(None, solver, NO_SOLUTION, message="the file records a failed run"), show
+    return SolveResult(sol.plan, solver, SOLVED, comp_time_ms=float(sol.comp_time or 0)), show
 
 
 def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
@@ -201,12 +205,13 @@ def _log(parent: Path, plan, result, solver: str, grid, inst, delays, seed: int)
         return write_simulation(parent, plan, result, path, delays.spec(), seed, lines)
 
 
-def _robot_lines(robots, plan, nodes) -> List[str]:
+def _robot_lines(robots, plan, nodes, show) -> List[str]:
+    """Each robot's way, its cells in the instance file's own coordinates (`show`)."""
     costs = plan.path_costs()
     lines = []
     for i in range(plan.num_agents):
         r = robots[i]
         start, goal = plan.path(i)[0], plan.goals[i]
         lines.append("robot {} ({}): node {} {} -> node {} {}, {} steps".format(
-            r.id, r.colour, nodes.node_at(start), start, nodes.node_at(goal), goal, int(costs[i])))
+            r.id, r.colour, nodes.node_at(start), show(start), nodes.node_at(goal), show(goal), int(costs[i])))
     return lines

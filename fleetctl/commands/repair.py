@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     name = str(args.solution)
     try:
-        result = repair_rotations(sol.plan, sol.grid, deadline=args.time_limit)
+        result = repair_rotations(sol.plan, sol.grid, deadline=args.time_limit, checked=True)
     except RepairError as err:
         print("{}: {}".format(name, err))
         return 1

@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     show = file_coordinates(sol)
     names = Names.of(sol.grid, plan.num_agents, args.definitions)
     try:
-        plan = for_robots(plan, sol.grid, name, args, names)
+        plan = for_robots(plan, sol.grid, name, args, names, checked=True)
     except RepairError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
@@ -152,9 +152,17 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
         "executed makespan: {:.2f} (time unit: one nominal move, one plan step){}".format(
             m.makespan, partial),
         "sum of costs: {:.2f}{}".format(m.soc, partial),
-        "waits: {} by {} robots, {:.2f} in total".format(
-            m.total_waits, sum(1 for r in m.agents if r.waits), m.total_wait_time),
+        "waits: {} by {} robots, {:.2f} in total: forced {:.2f} (the robot ahead was in or on its way "
+        "into the cell, or it was the robot's goal), avoidable {:.2f}".format(
+            m.total_waits, sum(1 for r in m.agents if r.waits), m.total_wait_time, m.total_forced_time,
+            m.total_avoidable_time) + ("" if not m.total_held_time else
+                                       ", held by the operator {:.2f}".format(m.total_held_time)),
+        "lower bound: {:.2f} (every robot alone, with its own delays); executed makespan {:.2f}x it".format(
+            result.lower_bound, m.makespan / result.lower_bound if result.lower_bound > 0 else 1.0),
     ]
+    if engine.run.passes:
+        lines.append("passes: {} (a robot went into a cell before a late one that was due first)".format(
+            len(engine.run.passes)))
     pairs = m.blocking_pairs()[:5]
     if pairs:
         lines.append("longest waits: " + "; ".join(

@@ -3,7 +3,11 @@
 One virtual robot per line of robot_definitions.txt, all on 127.0.0.1: each
 binds its own command port from the file and publishes pose feedback on
 --feedback-base + its index (9980, 9981, ... by default), so a manager started
-for a virtual run cannot tell it from the lab. Each robot knows its map (--map,
+for a virtual run cannot tell it from the lab. `--robots 1-150,300` serves
+only those robots, with the ports they have in the whole file, so several
+processes serve one fleet; `--on-hosts` puts each robot on the address its
+line names (several hosts, as in the lab: robots sharing a host count their
+feedback ports up from the base among themselves). Each robot knows its map (--map,
 else the map of --instance, else the lab's) and refuses what a TurtleBot
 refuses: drives off the map, into obstacles, farther than --max-step cells or
 later than --max-time s. Runs until interrupted.
@@ -21,13 +25,22 @@ from fleet_common.delays import FORMS
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
-DESCRIPTION = HELP + ". Stops on Ctrl-C or SIGTERM."
+DESCRIPTION = (HELP + ". --robots serves a part of the definitions (their ports as in the whole file), so "
+               "that several processes or hosts serve one fleet; --on-hosts puts each robot on its own "
+               "line's address instead. Stops on Ctrl-C or SIGTERM.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
                         help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
                              "repository's robot_definitions.txt)")
+    parser.add_argument("--robots", type=_robot_ids, default=None, metavar="IDS",
+                        help="serve only these robots: ids and ranges, e.g. 1-150,300 (default: all); "
+                             "their ports are those they have in the whole file")
+    parser.add_argument("--on-hosts", action="store_true",
+                        help="each robot listens on the address its line names (this machine's), as a "
+                             "real robot does, instead of 127.0.0.1; feedback ports count up from "
+                             "--feedback-base among the robots of one host")
     parser.add_argument("--time-scale", type=positive, default=1.0, metavar="K",
                         help="run K times faster than real time (default 1)")
     parser.add_argument("--delay-model", action="append", default=[], metavar="SPEC",
@@ -85,6 +98,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         choices=["debug", "info", "warning", "error"])
 
 
+def _robot_ids(text: str) -> object:
+    from fleet_common.robot_ids import parse_robot_ids
+
+    try:
+        return parse_robot_ids(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _drift(text: str) -> tuple:
     robot, _, rate = text.partition(":")
     try:
@@ -116,6 +138,7 @@ def _stall(text: str) -> object:
 
 def run(args: argparse.Namespace) -> int:
     from fleet_common.errors import FleetError
+    from fleet_common.robot_ids import describe_ids, select_robots
     from fleet_common.robots import default_definitions_path, read_robot_definitions
     from fleet_common.transport.curve_keys import default_keys_dir, load_robot_keys
     from fleet_common.delays import parse_delay_model
@@ -127,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
                         format="%(asctime)s %(levelname)s %(message)s")
     path = args.definitions or default_definitions_path()
     robots = read_robot_definitions(path)
+    serve = None if args.robots is None else [r.id for r in select_robots(robots, args.robots, str(path))]
     spec = parse_delay_model(args.delay_model)
     seed = args.seed if args.seed is not None else (spec.seed or 0)
     model = FleetDelays(spec, nominal_s=1.0 / args.speed, seed=seed, num_robots=len(robots))
@@ -141,15 +165,18 @@ def run(args: argparse.Namespace) -> int:
                          speed=args.speed, turn_speed=args.turn_speed,
                          start_poses=poses, path=str(path), check=CommandCheck(grid, limits),
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
-                         drift=dict(args.drift), bumps=args.bump, stalls=args.stall)
+                         drift=dict(args.drift), bumps=args.bump, stalls=args.stall,
+                         serve=serve, on_hosts=args.on_hosts)
     stopping = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stopping.append(True))
     first, last = fleet.robots[0], fleet.robots[-1]
-    print("virtual fleet: {} robots on 127.0.0.1, command ports {}..{}, feedback ports {}..{}, "
+    hosts = sorted({r.host for r in fleet.robots})
+    print("virtual fleet: {} robots{} on {}, command ports {}..{}, feedback ports {}..{}, "
           "time x{:g}, {}, {}".format(
-              len(fleet.robots), first.command_port, last.command_port, fleet.ports[first.id],
-              fleet.ports[last.id], args.time_scale,
+              len(fleet.robots), "" if serve is None else " ({} of {})".format(describe_ids(serve), len(robots)),
+              ", ".join(hosts[:4]) + (", ..." if len(hosts) > 4 else ""), first.command_port,
+              last.command_port, fleet.ports[first.id], fleet.ports[last.id], args.time_scale,
               "CURVE on" if keys is not None else "no CURVE (anyone may drive)",
               "map {} ({}x{})".format(map_name, grid.width, grid.height) if grid is not None
               else "no map (drives checked for length and time only)")

@@ -10,7 +10,7 @@ import math
 from typing import Callable, NoReturn, Optional
 
 __all__ = ["Parser", "number", "positive", "non_negative", "at_least_one", "integer", "seed", "count", "port",
-           "robot_size", "ROBOT_SIZE_HELP"]
+           "robot_size", "ROBOT_SIZE_HELP", "endpoint", "tcp_endpoint"]
 
 
 class Parser(argparse.ArgumentParser):
@@ -80,6 +80,26 @@ def count(text: str) -> int:
 def port(text: str) -> int:
     """argparse type: a TCP or UDP port."""
     return integer(text, 1, 65535, "a port 1-65535")
+
+
+def tcp_endpoint(text: str) -> str:
+    """`tcp://HOST:PORT` from `tcp://HOST:PORT` or `HOST:PORT` (ValueError saying what was expected)."""
+    value = text.strip()
+    rest = value[len("tcp://"):] if value.startswith("tcp://") else value
+    host, sep, number_text = rest.rpartition(":")
+    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    if "://" in rest or not sep or not host or any(c.isspace() for c in host) or "/" in host \
+            or not number_text.isdigit() or not 1 <= int(number_text) <= 65535:
+        raise ValueError("expected HOST:PORT or tcp://HOST:PORT (a port 1-65535), got {!r}".format(text))
+    return "tcp://{}:{}".format(rest.rpartition(":")[0], int(number_text))
+
+
+def endpoint(text: str) -> str:
+    """argparse type: a ZeroMQ TCP endpoint, with or without tcp://."""
+    try:
+        return tcp_endpoint(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 ROBOT_SIZE_HELP = ("the robots' size: DIAMETER:MARGIN in metres (0.354:0.1 is a TurtleBot 2), or 'cell' "

@@ -26,7 +26,7 @@ from .errors import FleetError
 
 __all__ = [
     "DecodeError", "MAX_FRAME_BYTES", "MAX_JSON_DEPTH", "MAX_NUMBER_CHARS", "MAX_WIRE_TEXT",
-    "MAX_WIRE_LIST", "MAX_REQUEST_BYTES", "MAX_MANAGER_BYTES", "MAX_FILE_BYTES", "MAX_LINE_CHARS", "MAX_INT_DIGITS", "MAX_CELL_DIGITS",
+    "MAX_WIRE_LIST", "MAX_REQUEST_BYTES", "MAX_MANAGER_BYTES", "MAX_PLAN_TEXT", "MAX_FILE_BYTES", "MAX_LINE_CHARS", "MAX_INT_DIGITS", "MAX_CELL_DIGITS",
     "MAX_AGENTS", "MAX_GRID_SIDE", "MAX_GRID_CELLS", "MAX_PLAN_STEPS", "MAX_XML_BYTES", "MAX_XML_DEPTH", "MAX_YAML_BYTES", "MAX_DEFINITIONS_BYTES",
     "MAX_NAME_CHARS", "EXCERPT_CHARS", "MAX_MESSAGE_CHARS",
     "VICON_BLOCK_SIZES", "VICON_NAME_BYTES", "VICON_MAX_ABS_MM", "VICON_MAX_FRAME_GAP",
@@ -50,6 +50,9 @@ MAX_WIRE_LIST = 32
 MAX_REQUEST_BYTES = 32 * 1024 * 1024
 #: Largest frame a console reads from a manager (a scene carries a whole plan).
 MAX_MANAGER_BYTES = 256 * 1024 * 1024
+#: Largest plan or instance a console may have the manager load, sent as text or named in a
+#: served folder (a 1,500-agent x 1,000-step solution is 13 MB).
+MAX_PLAN_TEXT = 16 * 1024 * 1024
 
 # ---- files from users ---------------------------------------------------------------------
 #: Largest map, instance, solution or scen file (a 1,500-agent x 1,000-step solution is 13 MB).

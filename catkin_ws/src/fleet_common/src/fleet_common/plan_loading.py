@@ -148,11 +148,12 @@ def from_instance(inst: Instance, name: str, solver: Optional[str] = None, time_
 
 def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[Path],
               solver: Optional[str] = None, time_limit: float = 10.0, seed: int = 0,
-              text: Optional[str] = None, repair: bool = True) -> LoadedPlan:
+              text: Optional[str] = None, repair: bool = True, grid: Optional[Grid] = None) -> LoadedPlan:
     """The plan in `path` (or `text`, named `path`), a solution or an instance, for a fleet of
-    `fleet_size` robots (`fleet_name`, for the message when the counts differ)."""
+    `fleet_size` robots (`fleet_name`, for the message when the counts differ); on `grid` if
+    given (the map found already: its map_file= is not looked up)."""
     name = str(path)
-    problem = read_problem(path, map_dirs, text)
+    problem = read_problem(path, map_dirs, text, grid)
     if isinstance(problem, Solution):
         loaded = from_solution(problem, name, repair)
     else:

@@ -18,16 +18,21 @@ and everything it decides comes out of `take()` as effects, in order
 lines for the terminal, planning to run in a thread, a new run folder. The
 manager's loop (`manager.py`) owns the sockets and the run log and carries
 the effects out; tests drive the core directly with a fake clock and
-in-memory robots. Nothing a peer sends can raise out of an input: a console
-frame that does not decode is refused by the desk, a reply the engine cannot
-place is reported and ignored (`driver`).
+in-memory robots. A core may take over the run of a manager that died
+(`resume`: the folder's records), checking its robots before anything
+moves. Nothing a peer sends can raise out of an input: a console frame that
+does not decode is refused by the desk, a reply the engine cannot place is
+reported and ignored (`driver`); a refused request costs its answer and no
+State, and is recorded once a minute per console (`refusals`).
 """
 from __future__ import annotations
 
-from typing import Dict, Iterable, List, Optional, Sequence
+from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
 from fleet_common.robots import RobotDefinition
@@ -38,9 +43,11 @@ from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
 from .outbox import Effect, Outbox
+from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, walled
-from .robot import Fleet, Seen
-from .run import Run
+from .resume import ResumePoint, off_plan, passes_near, walls_around
+from .robot import RESUMING, Fleet, Seen
+from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
 from .state_view import build_state, proposal, robot_waits
@@ -49,21 +56,34 @@ from .vicon_watch import ViconWatch
 __all__ = ["RunCore"]
 
 _STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up
+_SETUP_EVERY = 1.0  # s: a console saying hello again sooner is not sent the whole setup again
+#: Seconds the run actions a State allows may lag the robots' poses (the key's changes count at once).
+ALLOWED_EVERY = 0.25
 
 
 class RunCore:
     def __init__(self, loaded: LoadedPlan, robots: Sequence[RobotDefinition], settings: ManagerSettings,
-                 session: str, now: float = 0.0, vicon: bool = False) -> None:
+                 session: str, now: float = 0.0, vicon: bool = False,
+                 resume: Optional[Tuple[ResumePoint, Plan]] = None) -> None:
         self.desk = ControlDesk(session, now)
         self.out = Outbox(self.desk)
         self.out.now = now
         self.fleet = Fleet(robots, settings.stale_after)
         self.settings = settings
-        self.run = Run(loaded, self.fleet, self.out, settings)
+        if resume is not None:  # the summary covers the whole run, before and after
+            for record in resume[0].records:
+                self.out.summary.feed(record)
+        self.run = Run(loaded, self.fleet, self.out, settings, resume, now)
         self.vicon_watch = ViconWatch(self.fleet, self.out) if vicon else None
         self._states = 0
         self._last_waits: Optional[Dict[int, Waiting]] = None
         self._stuck_since: Optional[float] = None
+        self._refused = RefusedRequests()
+        self._setups: Dict[bytes, float] = {}  # console -> when it was last sent the run's setup
+        #: something changed that consoles should see soon (the loop publishes within its rate)
+        self.news = False
+        self._refusals = _Burst()
+        self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...]]] = None
 
     def take(self) -> List[Effect]:
         """The effects of the inputs so far, in order (and forget them)."""
@@ -109,21 +129,32 @@ class RunCore:
         intake = self.desk.receive(peer, data, now)
         self.out.frames(intake.out)
         if intake.joined is not None:
-            self.out.frames(self.desk.to(intake.joined, self.run.setup()))
-            pending = self.run.replanner.pending
-            if self.run.replanner.proposal_id is not None and pending is not None:
-                self.out.frames(self.desk.to(intake.joined, proposal(pending, self.fleet, self.run.loaded.name)))
-            self.out.frames(self.desk.to(intake.joined, self.state(now, self.waits())))
+            # the run's setup (a whole plan) once a second at most, however often a peer says hello
+            if now - self._setups.get(peer, float("-inf")) >= _SETUP_EVERY:
+                self._setups[peer] = now
+                self.out.frames(self.desk.to(intake.joined, self.run.setup()))
+                pending = self.run.replanner.pending
+                if self.run.replanner.proposal_id is not None and pending is not None:
+                    self.out.frames(self.desk.to(intake.joined, proposal(pending, self.fleet, self.run.loaded.name)))
+            self._state_to(now, peer)
         if intake.request is not None:
             console = self.desk.consoles.get(peer)
             name = console.name if console is not None else "?"
             action = intake.request.action
             ok, reason = operator.apply(self.run, action, intake.args, now)
-            self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
+            if ok or self._refused.first(peer, name, now):  # refusals: the first a minute, then counted
+                self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
+            asked = request_words(action, intake.args)
+            robot = intake.args.get("robot") if action in ("enable", "disable", "source") else None
             if ok:
-                self.out.tell("operator", None, "{}: {}{}".format(name, action, " " + reason if reason else ""))
+                self.out.tell("operator", robot, "{}: {}{}".format(name, asked, " (" + reason + ")" if reason else ""))
+            elif self._refusals.allow(name, now):
+                self.out.say("[{:7.1f} s] {}: {} refused: {}".format(now, name, asked, reason))
             self.out.frames(self.desk.answer(peer, intake.request, ok, reason))
-            self.publish(now)
+            if ok:  # what changed goes out at once: to the console that asked whatever its rate
+                self.news = True  # (it acts on what it sees next), to the others within theirs
+                self._state_to(now, peer, at_once=True)
+                self.publish(now)
         if intake.refusal is None:
             return None
         return "console {}{!r}: {}".format(intake.refusal.name + " " if intake.refusal.name else "",
@@ -141,20 +172,87 @@ class RunCore:
         heartbeats to consoles."""
         self._at(now)
         run = self.run
+        if run.resuming is not None and not run.not_ready():
+            self.resumed(now)
         if run.replanner.state == SAFE_POINT and not run.driver.moving:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = run.positions()
-            grid = walled(run.grid, run.engine, self.fleet.robots, here, out)
+            grid = _without(walled(run.grid, run.engine, self.fleet.robots, here, out), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
-            run.move("arrived", "every robot taking part is at its goal")
-            self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            if run.purpose == PLAN:
+                self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
+            run.arrived(now)
+            self.news = True  # consoles must see the end (the loop waits for it: `news`)
             self.publish(now)
+        for held in self._refused.due(now):
+            self.out.record("refused", console=held.console, requests=held.requests, seconds=held.seconds)
+        if len(self._setups) > 64:
+            self._setups = {p: t for p, t in self._setups.items() if now - t < _SETUP_EVERY}
+        for line in self._refusals.counts(now):
+            self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def resumed(self, now: float) -> None:
+        """A resumed run's robots have all answered: those standing where the run left them go
+        on; the others are named and replanned from where they stand (those between cells are
+        held and planned around), and drives that would pass close to them stop short."""
+        run = self.run
+        folder = run.resuming.point.folder.name if run.resuming is not None else "?"
+        run.resuming = None
+        run.driver.releasing = True
+        off = off_plan(self.fleet, run.positions(), run.engine.run.out, run.grid)
+        for robot in self.fleet:
+            if robot.hold == RESUMING:
+                robot.hold = None
+        if not off:
+            run.say("resumed from {}: every robot where the run left it; Start drives on".format(folder))
+            self.out.tell("run", None, "resumed from {}: every robot stands where the run left it".format(folder))
+            for robot in self.fleet:
+                run.driver.release_followers(robot)
+                run.driver.pump(robot, now)
+            return
+        size = self.settings.size
+        reach = 1.0 if size.cell_sized else size.safe_cells
+        keep = set(run.positions())
+        told = []
+        for o in off:
+            where = "robot {} stands at {}, where the run has it at {}".format(
+                o.robot.id, run.where(*o.pose), run.loaded.show(o.expected))
+            if o.cell is not None:
+                run.standing[o.robot.agent] = o.cell
+                told.append("{}: replanned from {}".format(where, run.loaded.show(o.cell)))
+            else:
+                run.walls |= walls_around(o.pose, reach + 0.5, run.grid, keep)
+                run.driver.hold_out(o.robot, "stands between cells after the manager restarted: planned "
+                                    "around; put it on a cell and enable it", now)
+                told.append("{}: between cells, held and planned around".format(where))
+        near = [r for r in self.fleet if r.flight is not None and r.flight.kind == "drive"
+                and r.pose is not None and r not in [o.robot for o in off]
+                and any(passes_near((r.pose.x, r.pose.y), (r.flight.target[0], r.flight.target[1]), o.pose, reach)
+                        for o in off)]
+        if near:
+            run.driver.halt(near)
+            told.append("robot{} {} stopped short of them".format("s" if len(near) > 1 else "",
+                                                                  ", ".join(str(r.id) for r in near)))
+        for robot in self.fleet:
+            run.driver.release_followers(robot)
+            run.driver.pump(robot, now)
+        run.replanner.request(False, None, None)
+        run.move("replan", "resumed from {}: replanning robots off the plan".format(folder))
+        self.out.desk.bump("replan requested")
+        self.out.tell("plan", None, "resumed from {}: {}; a replan from where they stand follows".format(
+            folder, "; ".join(told)))
 
     def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
                    now: float) -> None:
         self._at(now)
+        if job_id == self.run.to_starts_job:
+            self.run.to_starts_ready(result, error, now)
+            self.news = True  # the run changed under the consoles: every one sees it at once
+            self._state_to(now, None, at_once=True)
+            self.publish(now)
+            return
         replanner = self.run.replanner
         message = replanner.finished(job_id, result, error)
         if message is None:
@@ -164,6 +262,10 @@ class RunCore:
                            "replan {} proposed".format(replanner.pending.id))
         if replanner.pending is not None:
             self.out.broadcast(proposal(replanner.pending, self.fleet, self.run.loaded.name))
+            if self.settings.accept:  # scripts: --accept takes every proposal
+                ok, reason = operator.apply(self.run, "accept", {"proposal": replanner.pending.id}, now)
+                self.out.record("operator", console="--accept", action="accept", args={}, ok=ok, reason=reason)
+                self.out.tell("operator", None, "--accept: accept: {}".format(reason))
         elif replanner.was_running and self.run.phase.refusal("resume") is None:
             operator.resume(self.run, now, "resume")
 
@@ -172,23 +274,46 @@ class RunCore:
 
     def state(self, now: float, waits: Dict[int, Waiting]):
         self._states += 1
-        return build_state(self._states, self.desk.version, now, self.run.clock(now),
-                           self.settings.step_time, self.run.engine, self.fleet, self.run.phase,
-                           self.run.plan_id, self.run.replanner, self.min_distance, self.collisions, waits,
-                           self.run.driver.following)
+        run = self.run
+        return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
+                           run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
+                           self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now))
+
+    def _allowed_now(self, now: float) -> Tuple[str, ...]:
+        """What the manager would carry out now: again when anything decisive changed, else at
+        most every ALLOWED_EVERY seconds (where 300 standing robots are costs milliseconds)."""
+        run = self.run
+        key = (self.desk.version, run.phase.phase, run.purpose, run.to_starts_job, run.replanner.state,
+               run.driver.moving)
+        last = self._allowed
+        if last is None or last[0] != key or now - last[1] >= ALLOWED_EVERY:
+            self._allowed = (key, now, operator.allowed(run, now))
+        return self._allowed[2]
 
     def publish(self, now: float) -> bool:
-        """Who waits for whom to the run log when it changed; the State to the consoles.
-        True if a State went out."""
+        """Who waits for whom to the run log when it changed; the State to the consoles not sent
+        one within their rate (`state_max_rate`). True if a State went out."""
         self._at(now)
         waits = self.waits()
         if waits != self._last_waits:
             self._last_waits = waits
             self.out.record("waits", w=[[rid, list(w.on), None if w.cell is None else list(w.cell), w.reason]
                                         for rid, w in sorted(waits.items())])
+        return self._state_to(now, None, waits)
+
+    def _state_to(self, now: float, peer: Optional[bytes], waits: Optional[Dict[int, Waiting]] = None,
+                  at_once: bool = False) -> bool:
+        """A State to `peer` (None: every console) if its rate allows (`at_once`: whatever it
+        allows); True if one went out."""
         if not self.desk.consoles:
+            self.news = False  # nobody to tell
             return False
-        self.out.broadcast(self.state(now, waits))
+        interval = 0.0 if at_once else 1.0 / self.settings.state_max_rate
+        if not self.desk.state_due(now, interval, peer):
+            return False
+        self.news = False
+        state = self.state(now, self.waits() if waits is None else waits)
+        self.out.frames(self.desk.states(state, now, interval, peer))
         return True
 
     def log_poses(self, now: float) -> None:
@@ -251,12 +376,73 @@ class RunCore:
     def close(self, reason: str, now: float) -> None:
         """The manager stops: the run log's last record, and every console told."""
         self._at(now)
+        self.out.summary.feed({"k": "end", "t": round(now, 4), "reason": reason})  # the summary says why
         summary = self.summary()
         self.out.record("end", reason=reason, arrived=len(summary.arrived), robots=summary.robots,
                         summary=summary.as_dict())
         self.out.broadcast(Notice(self.out.notices + 1, round(now, 3), "run", None, "manager stopping: " + reason))
         # consoles learn at once that this manager is gone (not after 3.5 s of silence)
         self.out.broadcast(Bye("manager stopping: " + reason))
+
+
+def _without(grid: Grid, cells: Iterable[Tuple[int, int]]) -> Grid:
+    """`grid` with `cells` blocked."""
+    cells = list(cells)
+    if not cells:
+        return grid
+    free = grid.free.copy()
+    for x, y in cells:
+        free[y, x] = False
+    return Grid(free, name=grid.name)
+
+
+def request_words(action: str, args: Dict) -> str:
+    """A request as the manager's log and the consoles' event lists say it: "disable robot 3"."""
+    if action in ("enable", "disable"):
+        return "{} robot {}".format(action, args.get("robot"))
+    if action == "source":
+        return "position source {} for {}".format(args.get("source"), "every robot" if args.get("robot") is None
+                                                  else "robot {}".format(args["robot"]))
+    if action == "strategy":
+        return "strategy {}{}".format(args.get("name"), "" if args.get("lookahead") is None
+                                      else " (lookahead {})".format(args["lookahead"]))
+    if action == "load":
+        return "load {}".format(args.get("path") or args.get("name"))
+    if action in ("accept", "reject"):
+        return "{} replan {}".format(action, args.get("proposal"))
+    if action == "to_starts":
+        return "go to starts"
+    return action
+
+
+class _Burst:
+    """Refused requests said on the terminal: `burst` a console per `window` seconds, then a
+    count, so that one console repeating a refused request cannot flood the log."""
+
+    def __init__(self, burst: int = 3, window: float = 60.0) -> None:
+        self.burst, self.window = burst, window
+        self._seen: Dict[str, List[float]] = {}  # console -> [window start, said, held back]
+
+    def allow(self, name: str, now: float) -> bool:
+        entry = self._seen.get(name)
+        if entry is None or now - entry[0] >= self.window:
+            entry = self._seen[name] = [now, 0, 0]
+        if entry[1] < self.burst:
+            entry[1] += 1
+            return True
+        entry[2] += 1
+        return False
+
+    def counts(self, now: float) -> List[str]:
+        """Lines for the windows that have passed with refusals held back."""
+        lines = []
+        for name, (start, _, held) in list(self._seen.items()):
+            if now - start >= self.window:
+                del self._seen[name]
+                if held:
+                    lines.append("{}: {:,} more refused requests in the last {:g} s".format(
+                        name, int(held), self.window))
+        return lines
 
 
 def _robots_wait(ids: List[int]) -> str:

@@ -41,11 +41,11 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Engine,
-                                    EventError, RobotFailed)
+                                    EventError, Pass, RobotFailed)
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.wire import (Accepted, Completed, DriveToPosition, Failed, GetStatus, Release, Status, Stop,
@@ -70,7 +70,7 @@ class Driver:
     """Drives `engine`'s plan through `robots` (one per plan agent, in order)."""
 
     def __init__(self, engine: Engine, robots: Sequence[Robot], out: Outbox, following: Following,
-                 preturn: bool = True) -> None:
+                 preturn: bool = True, show: Callable[[Coord], Coord] = lambda c: c) -> None:
         if len(robots) != engine.run.num_agents:
             raise ValueError("{} robots for a plan of {} agents".format(len(robots), engine.run.num_agents))
         self.engine = engine
@@ -78,22 +78,29 @@ class Driver:
         self.out = out
         self.following = following
         self.preturn = preturn
+        #: followers' hold points move on (False while a resumed run checks its robots)
+        self.releasing = True
+        self.show = show  # base cell -> the plan file's coordinates, for messages
 
     # ---- the engine's side ---------------------------------------------------------------
 
     def handle(self, event: object, now: float) -> None:
         """Give the engine `event` (a control or progress event) and act on what it decides."""
         run = self.engine.run
-        waits = self.engine.metrics.last_wait
+        waits, forced = self.engine.metrics.last_wait, self.engine.metrics.last_forced
         waits.clear()
+        forced.clear()
+        passes = len(run.passes)
         dispatches = self.engine.handle(event)
+        if len(run.passes) > passes:
+            self._passed(run.passes[passes:])
         released = getattr(event, "agent", None) if isinstance(event, (ActionCompleted, Enabled)) else None
         for d in dispatches:
             robot = self.robots[d.agent]
             robot.queue.append(d)
             waited = waits.pop(d.agent, 0.0)  # a robot sent two actions at once waited once
             self.out.record("dispatch", robot=robot.id, index=d.index, step=d.step, src=d.src,
-                            dst=d.dst, waited=round(waited, 3),
+                            dst=d.dst, waited=round(waited, 3), forced=round(forced.pop(d.agent, 0.0), 3),
                             released_by=None if released is None else self.robots[released].id)
         if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed)):
             # progress frees only the robots dispatched now (and the robot itself, for its next turn)
@@ -103,6 +110,18 @@ class Driver:
             targets = range(run.num_agents)
         for agent in targets:
             self.pump(self.robots[agent], now)
+
+    def _passed(self, passes: Sequence[Pass]) -> None:
+        """A re-ordering strategy changed who goes first at cells: record it, tell the operator."""
+        table = self.engine.table
+        for p in passes:
+            robot, other = self.robots[p.agent], self.robots[p.passed]
+            cell = table.coord(p.cell)
+            run = self.engine.run
+            self.out.record("pass", robot=robot.id, passed=other.id, cell=list(cell), taken_back=p.taken_back,
+                            index=p.action - run.first[p.agent], passed_index=p.passed_action - run.first[p.passed])
+            self.out.tell("pass", robot.id, "robot {} goes before robot {} at {}{}".format(
+                robot.id, other.id, cell, " (robot {} gave its move back)".format(other.id) if p.taken_back else ""))
 
     def pump(self, robot: Robot, now: float) -> None:
         """Send `robot` its next command if it is free to take one."""
@@ -174,6 +193,8 @@ class Driver:
 
     def release_followers(self, leader: Robot) -> None:
         """`leader` moved on (a pose) or completed a move: move its followers' hold points on."""
+        if not self.releasing:
+            return
         for agent, point in self.following.moved(leader.agent).items():
             robot = self.robots[agent]
             flight, d = robot.flight, robot.queue[0] if robot.queue else None
@@ -208,7 +229,8 @@ class Driver:
             return  # an outcome of something we stopped caring about (a take-back)
         if isinstance(reply, Accepted):
             flight.accepted = True
-            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index:
+            begun = reply.duplicate and self.engine.run.started[robot.agent] > (flight.index or 0)
+            if flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index and not begun:
                 d = robot.queue[0]
                 robot.moving_since = flight.sent
                 self.out.record("action", robot=robot.id, index=d.index, phase="started",
@@ -255,6 +277,11 @@ class Driver:
             return
         self._robot_out(robot, reason, now, hold=FAULT)
 
+    def hold_out(self, robot: Robot, reason: str, now: float) -> None:
+        """Take `robot` out of the run and hold it, as a fault would, until an operator enables
+        it (a robot a resumed run found between cells)."""
+        self._robot_out(robot, reason, now, hold=FAULT)
+
     def _robot_out(self, robot: Robot, reason: str, now: float, hold: str) -> None:
         robot.queue.clear()
         robot.moving_since = None
@@ -289,20 +316,21 @@ class Driver:
             d = robot.queue[0]
             if math.hypot(pose.x - d.dst[0], pose.y - d.dst[1]) <= MADE_IT:
                 self.out.tell("link", robot.id, "robot {} restarted at the end of its move to {}: "
-                              "counted as done".format(robot.id, d.dst))
+                              "counted as done".format(robot.id, self.show(d.dst)))
                 if self.engine.run.started[robot.agent] <= d.index:
                     self._progress(robot, ActionStarted(robot.agent, d.index, now), now)
                 self._completed(robot, InFlight(-1, "drive", d.index, now, d.dst), now)
                 return
             self.out.tell("link", robot.id, "robot {} restarted before reaching {}: sending the "
-                          "move again".format(robot.id, d.dst))
+                          "move again".format(robot.id, self.show(d.dst)))
         self.pump(robot, now)
 
     # ---- operator actions that need commands ---------------------------------------------
 
-    def halt(self) -> None:
-        """Stop every robot where it is, now (the run is paused by the caller)."""
-        for robot in self.robots:
+    def halt(self, only: Optional[Sequence[Robot]] = None) -> None:
+        """Stop every robot (or those of `only`) where it is, now (the run is paused by the
+        caller)."""
+        for robot in self.robots if only is None else only:
             if robot.flight is not None and robot.flight.kind in ("drive", "turn"):
                 robot.hold = HALTED
                 cid = robot.take_id()
@@ -318,6 +346,18 @@ class Driver:
             robot.hold = None
             robot.hold_reason = ""
         self.handle(Enabled(robot.agent, now), now)
+
+    def take_back(self, agent: int, index: int) -> bool:
+        """The engine takes back the robot's actions from `index` on (a re-ordering strategy lets
+        another robot pass it): only those not handed to the robot as a drive yet. A turn in
+        flight towards the cell is harmless (the robot turns in its own cell)."""
+        robot = self.robots[agent]
+        flight = robot.flight
+        if robot.hold is not None or (flight is not None and flight.kind == "drive" and
+                                      flight.index is not None and flight.index >= index):
+            return False
+        robot.queue = deque(d for d in robot.queue if d.index < index)
+        return True
 
     def drop_pending(self, robot: Robot) -> None:
         """The engine took `robot`'s unsent actions back (disabled): forget them here too."""

@@ -7,7 +7,7 @@ execution engine. Consoles connect to --bind (state stream 20 times a
 second, commands: start, pause, stop, step, halt, strategy, enable/disable,
 position source, load, replan). With --vicon, Vicon Tracker's stream is a
 second position source, compared with the robots' own. Every run leaves a
-run folder.
+run folder; --resume RUNDIR continues the run of a manager that died there.
 """
 from __future__ import annotations
 
@@ -25,15 +25,29 @@ DESCRIPTION = (
     "--start the run waits for a console's Start. With --until-done it ends when every enabled "
     "robot is at its goal (exit 0) or the run cannot go on (exit 1, saying why), and prints a "
     "summary: arrivals, executed makespan, sum of costs, waits, collisions and the smallest "
-    "distance between two robots. Ctrl-C stops every robot and closes the run log.")
+    "distance between two robots. Ctrl-C stops every robot and closes the run log. --resume "
+    "continues the run of a manager that died, in its run folder.")
+
+#: --resume without a folder: the last run of PLAN on these robots in the --log folder.
+LAST = "last"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from fleet_common.execution import STRATEGIES
     from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
 
-    parser.add_argument("plan", type=Path, metavar="PLAN",
-                        help="mapf-IR solution (run as it is) or instance (planned first)")
+    parser.add_argument("plan", type=Path, metavar="PLAN", nargs="?", default=None,
+                        help="mapf-IR solution (run as it is) or instance (planned first); not "
+                             "needed with --resume RUNDIR")
+    parser.add_argument("--resume", nargs="?", const=LAST, default=None, metavar="RUNDIR",
+                        help="continue the run of a manager that died, in its run folder RUNDIR "
+                             "(alone: the last run of PLAN on these robots in the --log folder): "
+                             "its progress from the folder's records, the robots where they "
+                             "stand (those off the plan are replanned), the same strategy, the "
+                             "run log appended to")
+    parser.add_argument("--accept", action="store_true",
+                        help="accept every replan proposal at once (for scripts; an operator "
+                             "accepts in the console)")
     parser.add_argument("--definitions", type=Path, default=None, metavar="FILE",
                         help="robot definitions (default: $FLEETCONTROL_ROBOTS, else the "
                              "repository's robot_definitions.txt)")
@@ -95,6 +109,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=ROBOT_SIZE_HELP)
     parser.add_argument("--map-dir", metavar="D", action="append", default=[], type=Path,
                         help="folder to search for map_file= (repeatable), before the defaults")
+    parser.add_argument("--plans", metavar="DIR", action="append", default=[], type=Path,
+                        help="a folder whose plans and instances consoles may load by name "
+                             "(repeatable); without it consoles send a plan's content")
     parser.add_argument("--log-level", default="warning",
                         choices=["debug", "info", "warning", "error"])
 
@@ -132,24 +149,36 @@ def run(args: argparse.Namespace) -> int:
     dirs = list(args.map_dir) + default_map_dirs()
 
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(message)s")
+    if args.plan is None and args.resume in (None, LAST):
+        raise FleetError("give a PLAN to run, or --resume RUNDIR to continue a run")
     definitions = args.definitions or default_definitions_path()
-    fleet = pick_robots(read_robot_definitions(definitions), args.robots, str(definitions))
-    loaded = load_plan(args.plan, len(fleet), str(definitions) if args.robots is None
-                       else "--robots", dirs, solver=args.solver,
-                       time_limit=args.plan_time_limit, seed=args.seed, repair=not args.no_repair)
+    log_dir = None if args.no_log else (args.log or default_runs_dir())
+    resume = None
+    if args.resume is not None:
+        from .resume_folder import load_resume
+
+        fleet, loaded, resume = load_resume(args, definitions, dirs, log_dir, args.resume == LAST)
+    else:
+        fleet = pick_robots(read_robot_definitions(definitions), args.robots, str(definitions))
+        loaded = load_plan(args.plan, len(fleet), str(definitions) if args.robots is None
+                           else "--robots", dirs, solver=args.solver,
+                           time_limit=args.plan_time_limit, seed=args.seed, repair=not args.no_repair)
     try:
         keys = None if args.no_curve else load_manager_keys(args.keys or default_keys_dir())
     except FleetError as err:
         raise FleetError("{}; or run with --no-curve (and the robots too)".format(err)) from err
+    strategy, lookahead = args.strategy, args.lookahead
+    if resume is not None:  # the run goes on under the strategy it had
+        strategy = resume[0].strategy
+        lookahead = int(resume[0].settings.get("lookahead") or 1)
     settings = ManagerSettings(
-        strategy=args.strategy, lookahead=args.lookahead, bind=args.bind,
-        log_dir=None if args.no_log else (args.log or default_runs_dir()),
+        strategy=strategy, lookahead=lookahead, bind=args.bind, log_dir=log_dir,
         step_time=args.step_time, state_rate=args.state_rate,
         state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
-        vicon_bind=args.vicon_bind, frames=args.frames,
-        size=args.robot_size or read_robot_size(definitions))
-    manager = Manager(loaded, fleet, settings, keys=keys, host=args.host)
+        vicon_bind=args.vicon_bind, frames=args.frames, plan_dirs=list(args.plans),
+        size=args.robot_size or read_robot_size(definitions), accept=args.accept)
+    manager = Manager(loaded, fleet, settings, keys=keys, host=args.host, resume=resume)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, _frame: stopping.append(signal.Signals(signum).name))
@@ -160,6 +189,11 @@ def run(args: argparse.Namespace) -> int:
             "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),
         "; run folder {}".format(manager.folder) if manager.folder else ""), flush=True)
+    if resume is not None:
+        engine = manager.core.run.engine
+        print("resuming {}: {}, {} of {} actions done{}".format(
+            resume[0].folder, resume[0].plan, sum(engine.run.completed), engine.table.num_actions,
+            "" if resume[0].began is not None else " (the run had not started)"), flush=True)
     outcome: Optional[str] = None
     try:
         if args.start:
@@ -174,8 +208,11 @@ def run(args: argparse.Namespace) -> int:
         manager.close(reason)
     summary = manager.summary()
     if args.until_done or stopping or outcome:
-        for line in summary.lines():
-            print(line, flush=True)
+        if manager.core.run.started_at is None:  # nothing ran: no figures to give
+            print("no summary: the run never started", flush=True)
+        else:
+            for line in summary.lines():
+                print(line, flush=True)
     if manager.folder is not None:
         print("run folder: {}".format(manager.folder), flush=True)
     if stopping:
@@ -196,9 +233,11 @@ def _start_when_ready(manager, timeout: float, should_stop) -> Optional[str]:
         manager.run(lambda: should_stop() or manager.now() >= until)
         problem = manager.core.run.not_ready()
         if not problem:
+            resumed = manager.core.run.phase.phase != "waiting"
             ok, problem = manager.start()
             if ok:
-                print("started: every robot connected and on its start cell", flush=True)
+                print("started: {}".format("the resumed run drives on" if resumed
+                                           else "every robot connected and on its start cell"), flush=True)
                 return None
         if manager.now() >= deadline:
             return "cannot start after {:g} s: {}".format(timeout, problem)

@@ -10,7 +10,10 @@ at most 50 times a second, and 20 times a second without), log poses (10 Hz).
 After each input the core's effects are carried out (`_apply`): commands to
 the robots' links, records to the run folder, frames to consoles, lines to
 the terminal, replanning to a worker thread whose result comes back on the
-next turn.
+next turn. A batch's run-log records are written before its commands leave,
+so that a command the robots may run is always in the folder a manager
+started again on it reads (`resume.py`); such a manager takes the old one's
+epoch and clock from the folder and appends to it.
 """
 from __future__ import annotations
 
@@ -20,12 +23,16 @@ import secrets
 import threading
 import time
 from datetime import datetime, timezone
+from pathlib import Path
 from typing import Callable, List, Optional, Sequence, Tuple
 
+from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
 from fleet_common.runlog import RunLog, new_run_folder
+from fleet_common.ratelimit import RateLimitedLog
+from fleet_common.runlog.writer import cut_torn_tail
 from fleet_common.runlog.records import plan_file
 from fleet_common.runlog.summary import RunSummary
 from fleet_common.transport.console_channel import ConsoleServer
@@ -37,7 +44,8 @@ from fleet_common.transport.zap import ZapHandler
 from fleet_common.vicon.base_grid import load_vicon_to_base
 
 from .core import RunCore
-from .outbox import Effect, NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
+from .outbox import Effect, NewRunFolder, PlanJob, Record, ResumeRunFolder, Say, Send, ToConsole, WriteFile
+from .resume import ResumePoint
 from .settings import ManagerSettings
 from .vicon_provider import ViconProvider
 
@@ -50,15 +58,19 @@ class Manager:
     def __init__(self, loaded: LoadedPlan, robots: Sequence[RobotDefinition],
                  settings: ManagerSettings, *, keys: Optional[ManagerKeys] = None,
                  host: Optional[str] = None, clock: Callable[[], float] = time.monotonic,
-                 say: Callable[[str], None] = print, log: Optional[logging.Logger] = None) -> None:
+                 say: Callable[[str], None] = print, log: Optional[logging.Logger] = None,
+                 resume: Optional[Tuple[ResumePoint, Plan]] = None) -> None:
         self.settings = settings
         self.clock = clock
         self.say = say
         self.log = log or logging.getLogger("fleet_manager")
-        self.t0 = clock()
+        # a resumed run goes on on its folder's clock: seconds since that run's manager started
+        self.t0 = clock() - (0.0 if resume is None else resume_offset(resume[0]))
         self.runlog: Optional[RunLog] = None
         self.folder = None
         self._definitions: Optional[str] = None
+        self._dropped = 0  # bytes of a torn last line cut off the folder of a resumed run
+        self.epoch = (resume[0].epoch if resume is not None else None) or secrets.token_hex(8)
         self.context = fleet_context(len(robots))
         self.vicon: Optional[ViconProvider] = None
         self._plans: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()
@@ -67,15 +79,14 @@ class Manager:
             # bind before connecting: the links' outgoing connections take ephemeral ports
             self.consoles = ConsoleServer(self.context, settings.bind, keys=keys, zap=self.zap,
                                           log=self.log)
-            epoch = secrets.token_hex(8)
-            self.links = LinkSet([RobotLink(self.context, r, epoch, keys=keys, host=host, clock=clock,
+            self.links = LinkSet([RobotLink(self.context, r, self.epoch, keys=keys, host=host, clock=clock,
                                             log=self.log) for r in robots], clock=clock)
             if settings.vicon_port is not None:
                 self.vicon = ViconProvider(robots, load_vicon_to_base(settings.frames),
                                            port=settings.vicon_port, bind=settings.vicon_bind,
                                            stale_after=settings.stale_after, clock=clock, log=self.log)
             self.core = RunCore(loaded, robots, settings, secrets.token_hex(8), self.now(),
-                                vicon=self.vicon is not None)
+                                vicon=self.vicon is not None, resume=resume)
             self._apply(self.core.take())
         except BaseException:
             self._close_sockets()
@@ -85,6 +96,11 @@ class Manager:
         self.links.watch(self.consoles.socket, self._console_frames)
         if self.zap is not None:
             self.links.watch(self.zap.socket, self.zap.handle)
+        if self.consoles.monitor is not None:
+            self.links.watch(self.consoles.monitor.socket, self.consoles.monitor.handle)
+        # what consoles get wrong, logged once a minute per console, then counted
+        self.console_refusals = RateLimitedLog(self.log, clock=clock)
+        self._next_flush = self.now() + 1.0
         if self.vicon is not None:
             self.links.watch(self.vicon.fileno(), self._vicon_readable)
         self._next_state = self._next_poses = self._last_state = self.now()
@@ -113,7 +129,7 @@ class Manager:
             self._chore(now)
             self._timers(now)
             if until_done:
-                if self.core.run.phase.phase == "done":
+                if self.core.run.phase.phase == "done" and not self.core.news:  # the consoles saw it
                     return None
                 failure = self.core.cannot_go_on(now)
                 if failure is not None:
@@ -148,6 +164,14 @@ class Manager:
             self.core.plan_ready(job, result, error, now)  # type: ignore[arg-type]
         self.core.tick(now)
         self._apply(self.core.take())
+        if self.core.news:  # a change the consoles have not been sent yet
+            self._fresh = True
+        if now >= self._next_flush:  # the counts of refusals held back, once their minute is over
+            self._next_flush = now + 1.0
+            self.console_refusals.flush()
+            self.consoles.refusals.flush()
+            if self.zap is not None:
+                self.zap.flush()
 
     def _state_due(self) -> float:
         """When news (a pose, a reply) goes out: at once, but at most `state_max_rate` times a
@@ -177,26 +201,34 @@ class Manager:
 
     def _console_frames(self) -> None:
         for peer, data in self.consoles.receive():
+            key = "console {!r}".format(peer[:16])
             try:
                 refusal = self.core.console_frame(peer, data, self.now())
                 if refusal is not None:
-                    self.log.warning("%s", refusal)
+                    self.console_refusals.event(logging.WARNING, key, "refused console frames", "%s", refusal)
             except Exception:  # one bad request must not take the fleet down
-                self.log.exception("console %r: request failed", peer[:16])
+                self.console_refusals.event(logging.ERROR, key, "failed requests", "%s: request failed",
+                                            key, exc_info=True)
             self._apply(self.core.take())
+        if self.core.news:  # a change a request made goes out with the next State
+            self._fresh = True
 
     # ---- carrying out the core's effects ----------------------------------------------------
 
     def _apply(self, effects: List[Effect]) -> None:
+        sends: List[Send] = []
         for effect in effects:
             if isinstance(effect, Record):
                 if self.runlog is not None:
                     fields = effect.fields
                     if effect.kind == "run":
-                        fields = dict(fields, started=_utc_now(), definitions=self._definitions)
+                        fields = dict(fields, started=_utc_now(), definitions=self._definitions,
+                                      epoch=self.epoch)
+                    elif effect.kind == "resume":
+                        fields = dict(fields, started=_utc_now(), dropped=self._dropped)
                     self.runlog.record(effect.kind, t=effect.t, **fields)
             elif isinstance(effect, Send):
-                self.links[effect.robot].send(effect.command)
+                sends.append(effect)  # after the records that say it was sent
             elif isinstance(effect, ToConsole):
                 self.consoles.send(effect.peer, effect.data)
             elif isinstance(effect, Say):
@@ -205,8 +237,12 @@ class Manager:
                 self._plan(effect)
             elif isinstance(effect, NewRunFolder):
                 self._new_folder(effect.plan_text)
+            elif isinstance(effect, ResumeRunFolder):
+                self._resume_folder(effect.folder)
             elif isinstance(effect, WriteFile) and self.runlog is not None:
                 self.runlog.write_text(effect.name, effect.text)
+        for send in sends:
+            self.links[send.robot].send(send.command)
 
     def _new_folder(self, plan_text: str) -> None:
         if self.runlog is not None:
@@ -221,6 +257,15 @@ class Manager:
         self.runlog.write_text(plan_file(1), plan_text)
         if self.settings.definitions is not None:
             self._definitions = self.runlog.copy_in(self.settings.definitions)
+
+    def _resume_folder(self, folder: Path) -> None:
+        """Go on writing `folder` (a run resumed after its manager died)."""
+        if self.runlog is not None:
+            self.runlog.close()
+        self._dropped = cut_torn_tail(folder)
+        self.folder = folder
+        self.runlog = RunLog(folder, clock=self.clock)
+        self.runlog.start = self.t0
 
     def _plan(self, job: PlanJob) -> None:
         def work() -> None:
@@ -272,3 +317,16 @@ class Manager:
 
 def _utc_now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+def resume_offset(point: ResumePoint) -> float:
+    """Where a resumed run's clock goes on: the seconds since its first manager started (by the
+    wall clock, so the time the run stood still shows), and never before its last record."""
+    elapsed = 0.0
+    started = point.run.get("started")
+    if isinstance(started, str):
+        try:
+            elapsed = (datetime.now(timezone.utc) - datetime.fromisoformat(started)).total_seconds()
+        except (ValueError, TypeError):
+            elapsed = 0.0
+    return max(point.last_t + 0.001, elapsed)

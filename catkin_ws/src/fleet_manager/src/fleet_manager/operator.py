@@ -10,29 +10,39 @@ their starts, a replan under way).
 `start` from waiting checks that every robot is connected and stands on its
 plan start; `halt` stops every robot where it is, now (the robots in a move
 hold both cells and finish the move when started again); `stop` sends
-nothing new and lets robots finish the move they are making. Strategy
-switches, enabling and disabling robots, and the position source apply at
-once, whatever the phase.
+nothing new and lets robots finish the move they are making; `to_starts`
+sends the robots from where they stand to the plan's starts (a run of its
+own, planned first), `reset` starts the plan over in a new run folder, the
+robots driving back to their starts first. Strategy switches, enabling and
+disabling robots, and the position source apply at once, whatever the phase
+(a robot enabled after the end of the run drives on: a new leg).
+
+Each run action without arguments has its refusal written once (`why_not`),
+so that the State can say which of them the manager would carry out now
+(`allowed`) and a console greys the others.
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Callable, Dict, Optional, Tuple
 
 from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
+from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
-from fleet_common.plan_loading import load_plan
+from fleet_common.limits import one_line
 
+from .plan_requests import load_requested
 from .robot import HALTED, VICON, Robot
-from .run import Run
-from .run_phase import RUNNING, WAITING
+from .run import TO_STARTS, Run
+from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "ACTIONS"]
+__all__ = ["apply", "resume", "allowed", "why_not", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
 _REPLAN_OPEN = "a replan is being made or awaits accept/reject; answer it first"
+_TO_STARTS_BUSY = "the way to the starts is being planned; the robots drive there next"
+_MOVING = "some robots are still finishing a move; wait until they stand"
 
 
 def apply(run: Run, action: str, args: Args, now: float) -> Answer:
@@ -45,12 +55,66 @@ def apply(run: Run, action: str, args: Args, now: float) -> Answer:
 
 # ---- the run ------------------------------------------------------------------------------
 
-def start(run: Run, args: Args, now: float) -> Answer:
+def why_not(run: Run, action: str, now: float) -> str:
+    """Why run action `action` (of RUN_ACTIONS) would be refused now ("" if it would not)."""
+    return _WHY_NOT[action](run) or ""
+
+
+def allowed(run: Run, now: float) -> Tuple[str, ...]:
+    """The run actions the manager would carry out now (what they share is looked at once)."""
+    _SHARED.clear()
+    _SHARED["on"] = run
+    try:
+        return tuple(a for a in RUN_ACTIONS if not why_not(run, a, now))
+    finally:
+        _SHARED.clear()
+
+
+#: Within one `allowed`, the answers several refusals share (where the robots stand: 300 robots
+#: cost milliseconds), by question; empty otherwise.
+_SHARED: Dict[str, Any] = {}
+
+
+def _once(run: Run, question: str, answer: Callable[[], Any]) -> Any:
+    if _SHARED.get("on") is not run:
+        return answer()
+    if question not in _SHARED:
+        _SHARED[question] = answer()
+    return _SHARED[question]
+
+
+def _busy(run: Run) -> Optional[str]:
     if run.replanner.open:
-        return False, _REPLAN_OPEN
-    refusal = run.phase.refusal("start") or _ready(run, now)
+        return _REPLAN_OPEN
+    if run.to_starts_job is not None:
+        return _TO_STARTS_BUSY
+    return None
+
+
+def _why_not_start(run: Run) -> Optional[str]:
+    return _busy(run) or run.phase.refusal("start") or _ready(run)
+
+
+def _why_not_step(run: Run) -> Optional[str]:
+    return run.phase.refusal("step") or _busy(run) or _ready(run)
+
+
+def _ready(run: Run) -> str:
+    """At the first start or step (or the first after a resume), why the robots cannot go ("" when
+    they can)."""
+    if run.resuming is not None:
+        return run.not_ready()
+    if run.phase.phase != WAITING:
+        return ""
+    return _once(run, "not_ready", run.not_ready)
+
+
+def start(run: Run, args: Args, now: float) -> Answer:
+    refusal = _why_not_start(run)
     if refusal:
         return False, refusal
+    if run.phase.phase == WAITING:
+        run.begin_clock(now)
     resume(run, now)
     return True, ""
 
@@ -61,18 +125,9 @@ def resume(run: Run, now: float, trigger: str = "start") -> None:
         if robot.hold == HALTED:
             run.driver.enable(robot, now)
             run.out.record("out", robot=robot.id, why=None, reason="resumed after halt")
-    run.move(trigger)
+    run.move(trigger, "" if run.purpose != TO_STARTS else "driving every robot to its start for {}".format(
+        run.target.name))
     run.driver.handle(Resume(now), now)
-
-
-def _ready(run: Run, now: float) -> str:
-    """At the first start or step, why the robots cannot go ("" when they can)."""
-    if run.phase.phase != WAITING:
-        return ""
-    problem = run.not_ready()
-    if not problem:
-        run.started_at = now
-    return problem
 
 
 def pause(run: Run, args: Args, now: float) -> Answer:
@@ -95,9 +150,11 @@ def stop(run: Run, args: Args, now: float) -> Answer:
 
 
 def step(run: Run, args: Args, now: float) -> Answer:
-    refusal = run.phase.refusal("step") or (_REPLAN_OPEN if run.replanner.open else "") or _ready(run, now)
+    refusal = _why_not_step(run)
     if refusal:
         return False, refusal
+    if run.phase.phase == WAITING:
+        run.begin_clock(now)
     run.move("step", "one round released (step)")
     run.driver.handle(StepRound(now), now)
     return True, ""
@@ -112,6 +169,57 @@ def halt(run: Run, args: Args, now: float) -> Answer:
     run.driver.halt()
     run.move("halt", "halted by operator: Start drives on")
     return True, ""
+
+
+# ---- the way to the starts and back ----------------------------------------------------------
+
+def _why_not_to_starts(run: Run) -> Optional[str]:
+    refusal = run.phase.refusal("to_starts") or _busy(run)
+    if refusal:
+        return refusal
+    if run.purpose == TO_STARTS:
+        return "the robots are on their way to the starts"
+    return _way_refusal(run) or ("every robot already stands on its start: press Start"
+                                 if _once(run, "on_starts", run.on_target_starts) else None)
+
+
+def _why_not_reset(run: Run) -> Optional[str]:
+    return run.phase.refusal("reset") or _busy(run) or _way_refusal(run)
+
+
+def _way_refusal(run: Run) -> Optional[str]:
+    """Why the robots cannot be sent anywhere now: not all connected, some moving, some off cells."""
+    down = [r.id for r in run.fleet if not r.link_up and run.engine.run.out[r.agent] != "disabled"]
+    if down:
+        return "not connected: robot{} {}".format("s" if len(down) > 1 else "", ", ".join(map(str, down)))
+    if run.driver.moving:
+        return _MOVING
+    if _once(run, "on_starts", run.on_target_starts):
+        return None
+    _, problem = _once(run, "standing", run.standing_cells)
+    return "cannot plan the way to the starts: " + problem if problem else None
+
+
+def to_starts(run: Run, args: Args, now: float) -> Answer:
+    refusal = _why_not_to_starts(run)
+    if refusal:
+        return False, refusal
+    cells, _ = run.standing_cells()
+    run.plan_to_starts(cells, now, "planning the way to the starts of {}".format(run.target.name))
+    return True, "planning the way to the starts; the robots drive there next"
+
+
+def reset(run: Run, args: Args, now: float) -> Answer:
+    refusal = _why_not_reset(run)
+    if refusal:
+        return False, refusal
+    if run.on_target_starts():
+        run.load(run.target, now, "reset by operator", "{} again: waiting for Start".format(run.target.name))
+        return True, "{} again from its starts, in a new run folder".format(run.target.name)
+    cells, _ = run.standing_cells()
+    run.plan_to_starts(cells, now, "reset: planning the way back to the starts of {}".format(run.target.name))
+    return True, "the robots drive back to their starts first (planning the way), then {} waits for " \
+        "Start in a new run folder".format(run.target.name)
 
 
 # ---- robots and strategy --------------------------------------------------------------------
@@ -158,6 +266,9 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     run.driver.enable(robot, now)
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
+    if run.phase.phase == DONE and not run.engine.run.finished_agent(robot.agent):
+        run.new_leg(robot, now)
+        return True, "the run was done: robot {} drives on to its goal (a new leg)".format(robot.id)
     return True, ""
 
 
@@ -189,26 +300,29 @@ def source(run: Run, args: Args, now: float) -> Answer:
 # ---- plans --------------------------------------------------------------------------------
 
 def load(run: Run, args: Args, now: float) -> Answer:
-    refusal = run.phase.refusal("load")
+    refusal = run.phase.refusal("load") or _busy(run)
     if refusal is None and run.driver.moving:
         refusal = "load another plan when no robot moves"
     if refusal:
         return False, refusal
-    path = Path(args["path"] or args["name"])
     try:
-        loaded = load_plan(path, len(run.fleet), "the fleet", run.settings.map_dirs, text=args["text"])
-    except (FleetError, OSError) as err:
-        return False, "cannot load {}: {}".format(path, err)
+        loaded = load_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
+                                args["path"], args["text"], args["name"])
+    except FleetError as err:
+        return False, "cannot load: {}".format(one_line(str(err), 400))
+    if loaded.grid != run.fleet_map:
+        fleet, mine = run.fleet_map, loaded.grid
+        return False, "cannot load {}: it is a plan for map {} ({} x {}); this fleet runs on {} ({} x {})".format(
+            loaded.name, mine.name or "?", mine.width, mine.height, fleet.name or "?", fleet.width, fleet.height)
     run.load(loaded, now)
-    return True, "{} loaded ({})".format(loaded.name, loaded.note)
+    where = "" if run.on_target_starts() else "; the robots are not on its starts: Go to starts drives them there"
+    return True, "{} loaded ({}){}".format(loaded.name, loaded.note, where)
 
 
 def replan(run: Run, args: Args, now: float) -> Answer:
-    refusal = run.phase.refusal("replan")
+    refusal = _WHY_NOT["replan"](run)
     if refusal:
         return False, refusal
-    if run.replanner.open:
-        return False, "a replan is already being made or awaits accept/reject"
     was_running = run.phase.phase == RUNNING
     if was_running:
         run.driver.handle(Pause(now), now)
@@ -223,7 +337,12 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     pending = run.replanner.pending
     if run.replanner.proposal_id is None or pending is None or pending.id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
-    run.switch_plan(pending.result.plan, "replan", now)
+    plan = pending.result.plan
+    moving = [run.fleet[a].id for a in range(plan.num_agents)
+              if (plan.positions[1:, a] != plan.positions[:-1, a]).any()]
+    run.switch_plan(plan, "replan", now)
+    run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
+        len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
     run.replanner.resolved()
     _resume_after_replan(run, now)  # a new plan's engine starts paused: otherwise it stays so
     return True, "switched to plan {}".format(run.plan_id)
@@ -245,8 +364,22 @@ def _resume_after_replan(run: Run, now: float) -> None:
         resume(run, now, "resume")
 
 
+_WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
+    "start": _why_not_start, "step": _why_not_step,
+    "pause": lambda run: run.phase.refusal("pause"), "stop": lambda run: run.phase.refusal("stop"),
+    "halt": lambda run: run.phase.refusal("halt"),
+    "replan": lambda run: run.phase.refusal("replan") or (
+        "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
+        "a replan is already being made or awaits accept/reject" if run.replanner.open else None),
+    "to_starts": _why_not_to_starts, "reset": _why_not_reset,
+}
+if set(_WHY_NOT) != set(RUN_ACTIONS):
+    raise ImportError("run actions {} differ from the console protocol's {}".format(
+        sorted(_WHY_NOT), sorted(RUN_ACTIONS)))
+
 ACTIONS: Dict[str, Callable[[Run, Args, float], Answer]] = {
     "start": start, "pause": pause, "stop": stop, "step": step, "halt": halt,
+    "to_starts": to_starts, "reset": reset,
     "strategy": strategy, "enable": enable, "disable": disable, "source": source,
     "load": load, "replan": replan, "accept": accept, "reject": reject,
 }

@@ -15,10 +15,14 @@ out in order:
   with the plan in it (the run began, or a new plan was loaded); the records
   after it go there. Its first record, `run`, leaves `started` (the wall
   clock) and `definitions` (the file copied in) for the writer to fill in;
+- `ResumeRunFolder`: go on writing the run folder of a run resumed after its
+  manager died (its torn last line cut off); its next record is `resume`,
+  whose `started` and `dropped` the writer fills in;
 - `WriteFile`: a file for the run folder (a replan's plan-2.txt ...).
 """
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Set, Union
 
 from fleet_common.control import Notice
@@ -27,7 +31,8 @@ from fleet_common.grid import Coord, Grid
 from fleet_common.runlog.summary import SummaryBuilder
 from fleet_common.wire import Command
 
-__all__ = ["Outbox", "Send", "Record", "ToConsole", "Say", "PlanJob", "NewRunFolder", "WriteFile", "Effect"]
+__all__ = ["Outbox", "Send", "Record", "ToConsole", "Say", "PlanJob", "NewRunFolder", "ResumeRunFolder",
+           "WriteFile", "Effect"]
 
 #: Console notice kinds also printed on the manager's terminal.
 SAID = ("fault", "link", "run", "plan", "strategy", "operator", "vicon")
@@ -71,12 +76,16 @@ class NewRunFolder(NamedTuple):
     plan_text: str      # written as plan-1.txt
 
 
+class ResumeRunFolder(NamedTuple):
+    folder: Path
+
+
 class WriteFile(NamedTuple):
     name: str
     text: str
 
 
-Effect = Union[Send, Record, ToConsole, Say, PlanJob, NewRunFolder, WriteFile]
+Effect = Union[Send, Record, ToConsole, Say, PlanJob, NewRunFolder, ResumeRunFolder, WriteFile]
 
 
 class Outbox:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Set
+from typing import Iterator, List, Optional, Sequence, Set
 
 from fleet_common.execution import Engine
 from fleet_common.grid import Coord, Grid
@@ -49,7 +49,7 @@ class Pending:
 
 
 class Replanner:
-    def __init__(self, time_limit: float = 5.0) -> None:
+    def __init__(self, time_limit: float = 5.0, ids: Optional[Iterator[int]] = None) -> None:
         self.state = IDLE
         self.default_limit = time_limit
         self.time_limit = time_limit
@@ -57,7 +57,7 @@ class Replanner:
         self.was_running = False
         self.pending: Optional[Pending] = None
         self._job: Optional[PlanJob] = None
-        self._next_id = 1
+        self._ids = ids if ids is not None else iter(range(1, 2 ** 62))  # shared with other planning jobs
 
     @property
     def busy(self) -> bool:
@@ -80,8 +80,7 @@ class Replanner:
 
     def job(self, grid: Grid, current: List[Coord], goals: List[Coord], out: Set[int]) -> PlanJob:
         """At the safe point: the planning to run (and the replanner waits for its result)."""
-        self._job = PlanJob(self._next_id, grid, current, goals, out, self.time_limit, self.method)
-        self._next_id += 1
+        self._job = PlanJob(next(self._ids), grid, current, goals, out, self.time_limit, self.method)
         self.state = PLANNING
         return self._job
 

@@ -24,6 +24,8 @@ from fleet_common.execution import Dispatch
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import Pose
 
+from .settings import STALE_AFTER
+
 __all__ = ["Robot", "Fleet", "Seen", "InFlight", "ROBOT", "VICON", "HOLDS"]
 
 #: Pose sources.
@@ -31,9 +33,9 @@ ROBOT = "robot"
 VICON = "vicon"
 
 #: Why the manager holds a robot (sends it nothing new): it asked where a restarted robot is;
-#: it reported a fault; an operator halted it.
-RECOVER, FAULT, HALTED = "recover", "fault", "halted"
-HOLDS = (RECOVER, FAULT, HALTED)
+#: it reported a fault; an operator halted it; a resumed run has not checked it yet.
+RECOVER, FAULT, HALTED, RESUMING = "recover", "fault", "halted", "resuming"
+HOLDS = (RECOVER, FAULT, HALTED, RESUMING)
 
 
 @dataclass(frozen=True)
@@ -120,7 +122,7 @@ class Robot:
 class Fleet:
     """The robots of a run, in plan order (agent i is `fleet[i]`), and their pose sources."""
 
-    def __init__(self, definitions: Sequence[RobotDefinition], stale_after: float = 1.0) -> None:
+    def __init__(self, definitions: Sequence[RobotDefinition], stale_after: float = STALE_AFTER) -> None:
         self.robots: List[Robot] = [Robot(d.id, i, d.colour, d.vicon_name)
                                     for i, d in enumerate(definitions)]
         self.by_id: Dict[int, Robot] = {r.id: r for r in self.robots}

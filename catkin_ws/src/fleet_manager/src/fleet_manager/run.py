@@ -7,31 +7,50 @@ replan, which continues the same run with plan-2.txt, plan-3.txt ...), the
 execution engine for it, the driver that turns the engine's decisions into
 commands, the phase (`run_phase`) and the replanner's state. Everything it
 does goes out through the `Outbox` as values.
+
+The plan the operator chose is `target`; what runs now is `loaded`, which is
+the target, or, while the robots drive to the target's starts (`to_starts`,
+and `reset` when they are elsewhere), a plan from the cells they stand on to
+those starts: a run of its own (`purpose` "to-starts", its own run folder),
+planned off the loop (a `PlanJob`) and executed by the same engine and driver
+as any plan, so followers, safety and the run log apply to it too. When every
+robot is on its start the target is loaded again, waiting for Start.
+
+Positions and cells in messages are the plan file's own coordinates
+(`where`), as everything a person reads about a plan. A run may also be resumed from
+the folder of a manager that died (`resume.py`): it goes on there.
 """
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Set
+from typing import Dict, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.control import RunSetup
-from fleet_common.execution import Disabled, Engine, RobotFailed
+from fleet_common.errors import FleetError
+from fleet_common.execution import Disabled, Engine, EventError, Resume, RobotFailed
+from fleet_common.execution.reorder import replay as replay_passes
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
+from fleet_common.planning.replan import ReplanResult
 from fleet_common.runlog.records import FORMAT_VERSION, plan_file, size_fields
 from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
 from .following import Following
-from .outbox import NewRunFolder, Outbox, WriteFile
+from .outbox import NewRunFolder, Outbox, PlanJob, ResumeRunFolder, WriteFile
 from .replanning import Replanner
-from .robot import Fleet
-from .run_phase import RUNNING, RunPhase
+from .resume import ResumePoint, Resuming
+from .robot import FAULT, HALTED, RESUMING, Fleet, InFlight, Robot
+from .run_phase import RUNNING, WAITING, RunPhase
 from .settings import ManagerSettings
 from .state_view import setup
 
-__all__ = ["Run"]
+__all__ = ["Run", "PLAN", "TO_STARTS"]
+
+#: What a run is for: the plan the operator chose, or the way to its starts.
+PLAN, TO_STARTS = "plan", "to-starts"
 
 
 def action_counts(plan: Plan) -> List[int]:
@@ -40,27 +59,61 @@ def action_counts(plan: Plan) -> List[int]:
 
 
 class Run:
-    def __init__(self, loaded: LoadedPlan, fleet: Fleet, out: Outbox, settings: ManagerSettings) -> None:
+    def __init__(self, loaded: LoadedPlan, fleet: Fleet, out: Outbox, settings: ManagerSettings,
+                 resume: Optional[Tuple[ResumePoint, Plan]] = None, now: float = 0.0) -> None:
         self.fleet = fleet
         self.out = out
         self.settings = settings
         self.phase = RunPhase()
-        self.replanner = Replanner(settings.replan_limit)
+        self._job_ids = iter(range(1, 2 ** 62))  # planning jobs: replans and ways to the starts
+        self.replanner = Replanner(settings.replan_limit, self._job_ids)
+        #: the map this fleet runs on: the first plan's (another plan must be on the same map)
+        self.fleet_map = loaded.grid
+        self.target = loaded
         self.loaded = loaded
+        self.purpose = PLAN
         self.plan: Plan = loaded.plan
         self.plan_id = 1
-        self.started_at: Optional[float] = None
-        self.engine = self._engine(self.plan)
-        self.driver = self._driver(self.engine)
-        self._begin()
+        self.started_at: Optional[float] = None   # the run's Start
+        self.plan_since: Optional[float] = None   # the current plan's step 0 (a replan's accept)
+        self.ended_at: Optional[float] = None     # the run was done (the clock stops)
+        self.to_starts_job: Optional[int] = None  # the way to the starts being planned
+        #: a resumed run before its robots were checked (`resume.py`)
+        self.resuming: Optional[Resuming] = None
+        #: agent -> the cell a robot found off the plan stands on (replanned from there)
+        self.standing: Dict[int, Coord] = {}
+        #: cells walled off for replanning around robots standing between cells
+        self.walls: Set[Coord] = set()
+        if resume is None:
+            self.engine = self._engine(self.plan)
+            self.driver = self._driver(self.engine)
+            self._begin()
+        else:
+            self._resume(resume[0], resume[1], now)
 
     @property
     def grid(self) -> Grid:
         return self.loaded.grid
 
+    # ---- the clock ------------------------------------------------------------------------
+
     def clock(self, now: float) -> float:
-        """Seconds since the run started (0 before Start)."""
-        return 0.0 if self.started_at is None else max(0.0, now - self.started_at)
+        """Seconds since the run started (0 before Start); it stops when the run is done."""
+        if self.started_at is None:
+            return 0.0
+        return max(0.0, min(now, self.ended_at if self.ended_at is not None else now) - self.started_at)
+
+    def plan_steps(self, now: float) -> float:
+        """Plan steps since the current plan's step 0 (not capped: a late robot is behind it)."""
+        if self.plan_since is None or self.settings.step_time <= 0:
+            return 0.0
+        end = self.ended_at if self.ended_at is not None else now
+        return max(0.0, min(now, end) - self.plan_since) / self.settings.step_time
+
+    def begin_clock(self, now: float) -> None:
+        """The first Start (or Step) of the run."""
+        self.started_at = self.plan_since = now
+        self.ended_at = None
 
     # ---- the phase ------------------------------------------------------------------------
 
@@ -72,13 +125,16 @@ class Run:
     def _phase_changed(self) -> None:
         state, reason = self.phase.phase, self.phase.reason
         self.out.desk.bump("run {}{}".format(state, ": " + reason if reason else ""))
-        self.out.record("state", run=state, reason=reason)
+        self.out.record("state", run=state, reason=reason, purpose=self.purpose)
 
     def all_arrived(self) -> bool:
         """Every robot not disabled by an operator is at its goal (a robot held by a fault
         has not arrived: it still takes part, and waits for someone to clear the fault)."""
         run = self.engine.run
         return all(run.out[a] == "disabled" or run.finished_agent(a) for a in range(run.num_agents))
+
+    def disabled(self) -> List[int]:
+        return [r.id for r in self.fleet if self.engine.run.out[r.agent] == "disabled"]
 
     def stuck(self) -> bool:
         """Running, not everyone arrived, and nothing can happen without an operator (robots
@@ -96,12 +152,32 @@ class Run:
         leaders = {agent: following.leader_of(agent) for agent in following.holds}
         return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
 
+    # ---- where the robots are, in words -------------------------------------------------------
+
+    def where(self, x: float, y: float) -> str:
+        """A position in the plan file's own coordinates: "(3, 4)" on a cell, "(3.4, 4.0)" off."""
+        sx, sy = self.loaded.show((x, y))  # type: ignore[arg-type]
+        if abs(sx - round(sx)) < 0.05 and abs(sy - round(sy)) < 0.05:
+            return "({:d}, {:d})".format(int(round(sx)), int(round(sy)))
+        return "({:.1f}, {:.1f})".format(sx, sy)
+
+    def _map_words(self, grid: Grid) -> str:
+        return "{} ({} x {})".format(grid.name or "its map", grid.width, grid.height)
+
     def not_ready(self) -> str:
-        """Why the run cannot start now ("" if it can): robots not connected or not on their starts."""
+        """Why the run cannot start or go on now ("" if it can): robots not connected or not on
+        their starts; for a resumed run, robots not checked yet or a replan to answer."""
+        if self.resuming is not None:
+            return self.resuming.waiting_for(self.fleet, self.engine.run.out)
+        if self.phase.phase != WAITING:
+            return ""
         down = [r.id for r in self.fleet if not r.link_up]
         if down:
-            return "not connected: robot{} {}".format("s" if len(down) > 1 else "", _ids(down))
+            why = {r.link_reason for r in self.fleet if not r.link_up and r.link_reason}
+            return "not connected: robot{} {}{}".format(
+                "s" if len(down) > 1 else "", _ids(down), " ({})".format("; ".join(sorted(why)[:2])) if why else "")
         off: List[str] = []
+        outside = 0
         for robot in self.fleet:
             if self.engine.run.out[robot.agent] is not None:
                 continue
@@ -110,28 +186,83 @@ class Run:
             if pose is None:
                 off.append("robot {} has not reported a pose".format(robot.id))
             elif math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
-                off.append("robot {} is at ({:.1f}, {:.1f}), its start is {}".format(
-                    robot.id, pose.x, pose.y, self.loaded.show(start)))
-        if off:
-            return "not on their start cells: " + "; ".join(off[:5]) + (
-                "; and {} more".format(len(off) - 5) if len(off) > 5 else "")
-        return ""
+                cell = (int(round(pose.x)), int(round(pose.y)))
+                if not self.grid.in_bounds(cell) or not self.grid.is_free(cell):
+                    outside += 1
+                off.append("robot {} is at {}, its start is {}".format(
+                    robot.id, self.where(pose.x, pose.y), self.where(*start)))
+        if not off:
+            return ""
+        text = "not on their start cells (the plan file's coordinates): " + "; ".join(off[:5]) + (
+            "; and {} more".format(len(off) - 5) if len(off) > 5 else "")
+        if outside * 2 > len(self.fleet):  # most of the fleet is elsewhere: another map?
+            return text + "; {} of them stand{} off the free cells of the plan's map {}: is the plan " \
+                "for this fleet's map?".format(outside, "s" if outside == 1 else "", self._map_words(self.grid))
+        return text + ("; Go to starts drives them there, or continue their last run (fleetctl manager "
+                       "--resume)")
 
     def positions(self) -> List[Coord]:
-        """The cell each robot holds for planning."""
-        return [self.driver.position(r) for r in self.fleet]
+        """The cell each robot holds for planning (a robot found off the plan: where it stands)."""
+        return [self.standing.get(r.agent) or self.driver.position(r) for r in self.fleet]
+
+    def standing_cells(self) -> Tuple[List[Coord], str]:
+        """The cell each robot stands on, from its pose (a disabled robot: where it stands, or the
+        cell it holds), and why not ("" when every robot taking part stands on a cell's centre)."""
+        cells: List[Coord] = []
+        problems: List[str] = []
+        for robot in self.fleet:
+            pose = robot.pose
+            held = self.driver.position(robot)
+            if pose is None:
+                cells.append(held)
+                if self.engine.run.out[robot.agent] != "disabled":
+                    problems.append("robot {} has not reported a pose".format(robot.id))
+                continue
+            cell = (int(round(pose.x)), int(round(pose.y)))
+            centred = math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL
+            on_map = self.grid.in_bounds(cell) and self.grid.is_free(cell)
+            if centred and on_map:
+                cells.append(cell)
+            else:
+                cells.append(held)
+                if self.engine.run.out[robot.agent] != "disabled":
+                    problems.append("robot {} stands at {}, {}".format(
+                        robot.id, self.where(pose.x, pose.y), "not on a cell's centre" if on_map or not centred
+                        else "off the free cells of {}".format(self._map_words(self.grid))))
+        if not problems:
+            seen: dict = {}
+            for robot, cell in zip(self.fleet, cells):
+                if cell in seen:
+                    problems.append("robots {} and {} both stand on {}".format(
+                        seen[cell], robot.id, self.where(*cell)))
+                seen[cell] = robot.id
+        return cells, "; ".join(problems[:5]) + ("; and {} more".format(len(problems) - 5)
+                                                 if len(problems) > 5 else "")
+
+    def on_target_starts(self) -> bool:
+        """Every robot taking part stands on its start in the target plan."""
+        for robot, start in zip(self.fleet, self.target.starts):
+            if self.engine.run.out[robot.agent] == "disabled":
+                continue
+            pose = robot.pose
+            if pose is None or math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
+                return False
+        return True
 
     # ---- plans ----------------------------------------------------------------------------
 
     def _engine(self, plan: Plan) -> Engine:
         settings = {"lookahead": self.settings.lookahead} if self.settings.strategy == "adg" else {}
         return Engine(plan, self.settings.strategy, show=self.loaded.show,
-                      follow=not self.settings.size.cell_sized, **settings)
+                      follow=not self.settings.size.cell_sized, step_time=self.settings.step_time,
+                      **settings)
 
     def _driver(self, engine: Engine) -> Driver:
         size = self.settings.size
         following = Following(engine, self.fleet, None if size.cell_sized else size.safe_cells)
-        return Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn)
+        driver = Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn, self.loaded.show)
+        engine.allow_take_back(driver.take_back)
+        return driver
 
     def _begin(self) -> None:
         """The first records of a run (and of each run after a `load`)."""
@@ -143,11 +274,79 @@ class Run:
                         plan_name=loaded.name, actions=action_counts(loaded.plan),
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
                         map=self.grid.name, step_time=self.settings.step_time,
-                        size=size_fields(self.settings.size))
+                        size=size_fields(self.settings.size), purpose=self.purpose,
+                        **({"for_plan": self.target.name} if self.purpose == TO_STARTS else {}))
+
+    def _resume(self, point: ResumePoint, plan: Plan, now: float) -> None:
+        """Go on with the run of `point`'s folder (its manager died): the progress from its
+        records, the commands no reply settled sent again with their ids, nothing new until
+        the robots are checked (`core.RunCore.resumed`)."""
+        self.plan, self.plan_id = plan, point.plan_number
+        self.out.add(ResumeRunFolder(point.folder))
+        self.engine = self._engine(plan)
+        self.driver = self._driver(self.engine)
+        fleet, run = self.fleet, self.engine.run
+        agents = {r.id: r.agent for r in fleet}
+        done = [min(point.completed.get(r.id, 0), run.count(r.agent)) for r in fleet]
+        began = [min(point.started.get(r.id, 0), run.count(r.agent)) for r in fleet]
+        sent = [min(point.dispatched(r.id), run.count(r.agent)) for r in fleet]
+        try:  # the cells' order as the passes of a re-ordering strategy left it, then the progress
+            replay_passes(run, [(agents.get(a, -1), k, agents.get(b, -1), j) for a, k, b, j in point.passes])
+            dispatches = self.engine.restore(done, began, sent, now)
+        except (ValueError, EventError) as err:
+            raise FleetError("cannot resume {}: its records do not fit {}: {}".format(
+                point.folder, point.plan, err)) from None
+        for d in dispatches:
+            fleet[d.agent].queue.append(d)
+        for robot in fleet:
+            robot.next_id = max(robot.next_id, point.next_id.get(robot.id, 1))
+        for rid, (why, reason) in sorted(point.out.items()):
+            robot = fleet.by_id.get(rid)
+            if robot is None:
+                continue
+            if why == "disabled":
+                self.engine.handle(Disabled(robot.agent, now))
+                self.driver.drop_pending(robot)
+            else:
+                self.engine.handle(RobotFailed(robot.agent, now))
+                robot.queue.clear()
+                robot.hold, robot.hold_reason = (HALTED if reason.startswith("halted") else FAULT), reason
+        again = []
+        for robot in fleet:
+            for u in point.unsettled.get(robot.id, ()):
+                if u.action is not None and u.action >= run.count(robot.agent):
+                    continue  # a command of an older plan
+                self.out.send(robot.id, u.command)
+                again.append([robot.id, u.command.id, u.command.TYPE])
+                kind = u.command.TYPE
+                if kind in ("drive", "turn", "stop"):
+                    target = ((u.command.x, u.command.y) if kind == "drive"  # type: ignore[union-attr]
+                              else (u.command.angle,) if kind == "turn" else ())  # type: ignore[union-attr]
+                    robot.flight = InFlight(u.command.id, kind, u.action, now, target)
+                if kind == "drive" and robot.queue and robot.queue[0].index == u.action:
+                    self.driver.following.sent(robot.queue[0], u.hold)
+        self.started_at = point.began
+        self.out.record("resume", started=None, plan=point.plan, completed=done, sent=again,
+                        dropped=0, downtime=round(max(0.0, now - point.last_t), 3))
+        if point.began is not None:  # under way: nothing moves on before the robots are checked
+            self.driver.releasing = False
+            for robot in fleet:
+                if robot.hold is None:
+                    robot.hold = RESUMING
+            self.resuming = Resuming(point, now)
+            self.move("resumed", "resumed from {}: checking where the robots are".format(point.folder.name))
+
+    def say(self, reason: str) -> None:
+        """A new reason for the phase the run is in (recorded and versioned)."""
+        if reason != self.phase.reason:
+            self.phase.reason = reason
+            self._phase_changed()
 
     def switch_plan(self, plan: Plan, reason: str, now: float) -> None:
         """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out."""
         old = self.engine
+        self.standing.clear()
+        self.walls.clear()
         self.plan_id += 1
         self.plan = plan
         engine = self._engine(plan)
@@ -155,6 +354,8 @@ class Run:
             if why is not None:
                 engine.handle((Disabled if why == "disabled" else RobotFailed)(agent, now))
         self._drive(engine)
+        if self.started_at is not None:
+            self.plan_since = now  # the new plan's step 0 is now: behind-ness is measured from here
         name = plan_file(self.plan_id)
         starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
         sol = make_solution(self.grid, self.loaded.solution.map_file or "", plan, starts,
@@ -167,24 +368,36 @@ class Run:
         self.out.desk.bump("plan {} ({})".format(self.plan_id, reason))
         self.out.broadcast(self.setup())
 
-    def load(self, loaded: LoadedPlan, now: float) -> None:
-        """Another plan (the operator's `load`): a new run, in a new run folder, waiting for Start."""
+    def load(self, loaded: LoadedPlan, now: float, why: str = "another plan was loaded",
+             reason: str = "") -> None:
+        """Another plan (the operator's `load`, or the target again after `reset` or the way to
+        its starts): a new run, in a new run folder, waiting for Start."""
+        self._end(why)
+        self.target = self.loaded = loaded
+        self.purpose = PLAN
+        self._new_run(loaded.plan, now)
+        self.move("load" if self.phase.refusal("load") is None else "reset",
+                  reason or "{} loaded; waiting for Start".format(loaded.name))
+        self.out.broadcast(self.setup())
+
+    def _end(self, why: str) -> None:
+        self.out.summary.feed({"k": "end", "t": round(self.out.now, 4), "reason": why})
         summary = self.out.summary.summary()
-        self.out.record("end", reason="another plan was loaded", arrived=len(summary.arrived),
-                        robots=len(self.fleet), summary=summary.as_dict())
+        self.out.record("end", reason=why, arrived=len(summary.arrived), robots=len(self.fleet),
+                        summary=summary.as_dict())
         self.out.summary = SummaryBuilder()
-        self.loaded, self.plan = loaded, loaded.plan
-        self.started_at = None
+
+    def _new_run(self, plan: Plan, now: float) -> None:
+        self.plan = plan
+        self.started_at = self.plan_since = self.ended_at = None
         self.plan_id += 1
         old_out = self.engine.run.out
-        engine = self._engine(self.plan)
+        engine = self._engine(plan)
         for agent, why in enumerate(old_out):
             if why == "disabled":  # the operator's choice outlives the plan
                 engine.handle(Disabled(agent, now))
         self._begin()
         self._drive(engine)
-        self.move("load", "{} loaded; waiting for Start".format(loaded.name))
-        self.out.broadcast(self.setup())
 
     def _drive(self, engine: Engine) -> None:
         """Run `engine` from now on: robots keep their state, not the old plan's queue."""
@@ -196,7 +409,74 @@ class Run:
 
     def setup(self) -> RunSetup:
         return setup(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
-                     self.settings.step_time, self.settings.size)
+                     self.settings.step_time, self.settings.size, self.loaded.solution.orientation)
+
+    # ---- the way to the starts --------------------------------------------------------------
+
+    def plan_to_starts(self, cells: Sequence[Coord], now: float, reason: str) -> None:
+        """Plan the way from `cells` (where the robots stand) to the target's starts, off the
+        loop; the run waits meanwhile (`to_starts_ready` carries on)."""
+        out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] == "disabled"}
+        job = PlanJob(next(self._job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
+                      self.settings.to_starts_limit, "pp")
+        self.to_starts_job = job.id
+        self.out.add(job)
+        self.move("to_starts" if self.phase.refusal("to_starts") is None else "reset", reason)
+
+    def to_starts_ready(self, result: Optional[ReplanResult], error: Optional[str], now: float) -> None:
+        """The way to the starts is planned (or not): run it, or say why not."""
+        self.to_starts_job = None
+        if self.phase.phase != WAITING:
+            return  # nobody waits for it any more
+        name = self.target.name
+        if error is not None or result is None or result.plan is None or result.unreachable:
+            why = error or (result.message if result is not None else "no result")
+            if result is not None and result.unreachable:
+                why = "robot{} {} cannot reach {} start (a disabled robot stands in the way)".format(
+                    "s" if len(result.unreachable) > 1 else "",
+                    _ids([self.fleet[a].id for a in sorted(result.unreachable)]),
+                    "its" if len(result.unreachable) == 1 else "their")
+            self.move("no_way", "no way to the starts of {}: {}".format(name, why))
+            self.out.tell("run", None, "no way to the starts of {}: {}".format(name, why))
+            return
+        plan = result.plan
+        starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
+        sol = make_solution(self.fleet_map, self.target.solution.map_file or "", plan, starts,
+                            list(self.target.starts), "fleetcontrol-to-starts", True,
+                            round(result.comp_time_ms))
+        sol.orientation = self.target.solution.orientation
+        way = LoadedPlan(plan, self.fleet_map, starts, list(self.target.starts),
+                         "to the starts of {}".format(name), sol, self.target.show, result.message)
+        self._end("the robots drive to the starts first (a run of its own)")
+        self.loaded, self.purpose = way, TO_STARTS
+        self._new_run(plan, now)
+        self.begin_clock(now)
+        self.move("start", "driving every robot to its start for {} ({} moves)".format(
+            name, sum(action_counts(plan))))
+        self.driver.handle(Resume(now), now)  # an engine starts paused
+        self.out.broadcast(self.setup())
+        self.out.tell("run", None, "robots driving to the starts of {}".format(name))
+
+    def arrived(self, now: float) -> None:
+        """Every robot taking part is at its goal: the run is done (the way to the starts: the
+        target plan waits for Start)."""
+        self.ended_at = now
+        disabled = self.disabled()
+        if self.purpose == TO_STARTS:
+            self.move("arrived", "every robot is on its start")
+            self.load(self.target, now, "every robot is on its start",
+                      "every robot is on its start: press Start to run {}".format(self.target.name))
+            self.out.tell("run", None, "every robot is on its start of {}: ready for Start".format(self.target.name))
+            return
+        self.move("arrived", "every enabled robot is at its goal{}".format(
+            "" if not disabled else " (disabled: robot{} {})".format("s" if len(disabled) > 1 else "",
+                                                                     _ids(disabled))))
+
+    def new_leg(self, robot: Robot, now: float) -> None:
+        """A robot enabled again after the run was done drives on to its goal: a new leg."""
+        self.ended_at = None
+        self.move("leg", "robot {} enabled again after the end: a new leg to its goal".format(robot.id))
+        self.out.tell("run", robot.id, "robot {} enabled after the end: a new leg of the run".format(robot.id))
 
 
 def _ids(ids: List[int]) -> str:

@@ -2,16 +2,21 @@
 
     waiting --start--> running <--pause/start--> paused
        |                  |  --stop--> stopped --start--> running
-       |                  '--(every robot at its goal)--> done
+       |                  '--(every robot at its goal)--> done --leg--> running
        '--step--> paused (one round released)
+    waiting, paused, stopped, done --reset--> waiting (the same plan, from its starts)
+    waiting --to_starts--> waiting (the way to the starts is planned, then run as a run of its own)
 
 `TRANSITIONS` is the whole machine: (phase, trigger) -> the next phase. A
 trigger the table does not have for the current phase is refused with the
 reason from `REFUSALS` (or a general one) and changes nothing, as h11 refuses
 an illegal event. Triggers are the operator's requests that move the run
-(start, pause, stop, step, halt, load, replan) and the run's own news
-(arrived: every robot taking part is at its goal; resume: a replan was
-answered). The phase names are what consoles and run logs show.
+(start, pause, stop, step, halt, load, replan, reset, to_starts) and the
+run's own news (arrived: every robot taking part is at its goal; resume: a
+replan was answered; leg: a robot enabled again after the end drives on;
+no_way: the way to the starts could not be planned; resumed: a manager
+started again on the folder of a run under way takes it over, paused). The
+phase names are what consoles and run logs show.
 """
 from __future__ import annotations
 
@@ -43,17 +48,30 @@ TRANSITIONS: Dict[Tuple[str, str], str] = {
     (PAUSED, "replan"): PAUSED,
     (STOPPED, "replan"): STOPPED,
     (PAUSED, "resume"): RUNNING,
+    (WAITING, "resumed"): PAUSED,
+    (DONE, "leg"): RUNNING,
+    (WAITING, "reset"): WAITING,
+    (PAUSED, "reset"): WAITING,
+    (STOPPED, "reset"): WAITING,
+    (DONE, "reset"): WAITING,
+    (WAITING, "to_starts"): WAITING,
+    (WAITING, "no_way"): WAITING,
 }
 
 #: Why a trigger is refused in a phase, where "not now" needs saying better.
 REFUSALS: Dict[Tuple[str, str], str] = {
     (RUNNING, "start"): "already running",
-    (DONE, "start"): "the run is done; load a plan to run again",
+    (DONE, "start"): "the run is done; Reset runs it again from the starts",
     (DONE, "step"): "the run is done",
     (WAITING, "halt"): "nothing is moving (the run is waiting)",
     (DONE, "halt"): "nothing is moving (the run is done)",
     (WAITING, "replan"): "replanning is for a run under way (the run is waiting)",
     (DONE, "replan"): "replanning is for a run under way (the run is done)",
+    (RUNNING, "reset"): "pause or stop the run first",
+    (RUNNING, "to_starts"): "the run is under way: pause or stop it, then Reset",
+    (PAUSED, "to_starts"): "the run has begun: Reset sends the robots back to their starts",
+    (STOPPED, "to_starts"): "the run has begun: Reset sends the robots back to their starts",
+    (DONE, "to_starts"): "the run is done: Reset sends the robots back to their starts",
 }
 
 

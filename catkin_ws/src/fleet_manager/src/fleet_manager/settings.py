@@ -8,7 +8,10 @@ from typing import List, Optional
 from fleet_common.control.messages import DEFAULT_ENDPOINT
 from fleet_common.robot_size import TURTLEBOT2, RobotSize
 
-__all__ = ["ManagerSettings"]
+__all__ = ["ManagerSettings", "STALE_AFTER"]
+
+#: Seconds without a pose before a robot's position (its own, or Vicon's) counts as stale.
+STALE_AFTER = 0.5
 
 
 @dataclass
@@ -20,12 +23,15 @@ class ManagerSettings:
     step_time: float = 2.5       # s a plan step is expected to take (the planned-position ghost)
     state_rate: float = 20.0     # state messages per second, at least
     state_max_rate: float = 50.0  # and at most, when news (poses, replies) comes faster
-    stale_after: float = 1.0     # s without a pose before a robot's position is stale
+    stale_after: float = STALE_AFTER  # s without a pose before a robot's position is stale
     replan_limit: float = 5.0    # s a replan may take
+    to_starts_limit: float = 10.0  # s planning the way to the starts may take
     preturn: bool = True         # robots turn towards their next cell while they wait
     definitions: Optional[Path] = None
     map_dirs: List[Path] = field(default_factory=list)  # where `load` looks for map files
+    plan_dirs: List[Path] = field(default_factory=list)  # folders whose plans consoles may load by name
     vicon_port: Optional[int] = None  # Vicon Tracker's UDP stream (None: no Vicon)
     vicon_bind: str = "0.0.0.0"
     frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)
     size: RobotSize = TURTLEBOT2      # the robots' size (the definitions' size line)
+    accept: bool = False              # take every replan proposal at once (--accept, for scripts)

@@ -8,7 +8,7 @@ waits for whom.
 from __future__ import annotations
 
 import math
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, RobotState, RunInfo, RunSetup,
                                   State, Waiting)
@@ -53,13 +53,16 @@ def robot_waits(engine: Engine, fleet: Fleet, following: Following) -> Dict[int,
     return out
 
 
-def build_state(seq: int, version: int, now: float, clock: float, step_time: float, engine: Engine,
+def build_state(seq: int, version: int, now: float, clock: float, plan_steps: float, engine: Engine,
                 fleet: Fleet, phase: RunPhase, plan_id: int, replanner: Replanner,
                 min_distance: Optional[float], collisions: int,
-                waits: Dict[int, Waiting], following: Following) -> State:
-    """The State at `now`; `clock` is the seconds since the run started (0 before)."""
+                waits: Dict[int, Waiting], following: Following, purpose: str = "plan",
+                allowed: Optional[Tuple[str, ...]] = None) -> State:
+    """The State at `now`; `clock` is the seconds since the run started (0 before), `plan_steps`
+    the plan steps since the current plan's step 0 (a robot's `behind` is measured from it; the
+    plan's clock shown stops at the makespan)."""
     run = engine.run
-    plan_time = clock / step_time if step_time > 0 else 0.0
+    plan_time = plan_steps
     running = phase.phase == RUNNING
     leaders = {agent: following.leader_of(agent) for agent in following.holds}
     robots: List[RobotState] = []
@@ -92,9 +95,9 @@ def build_state(seq: int, version: int, now: float, clock: float, step_time: flo
     info = RunInfo(
         state=phase.phase, reason=phase.reason, strategy=engine.strategy.name,
         lookahead=int(getattr(engine.strategy, "lookahead", 1)), clock=round(clock, 3),
-        plan_time=round(plan_time, 3), plan_id=plan_id, arrived=arrived, robots=len(fleet),
-        min_distance=min_distance, collisions=collisions, proposal=replanner.proposal_id,
-        replanning=replanner.busy)
+        plan_time=round(min(plan_time, float(engine.table.makespan)), 3), plan_id=plan_id, arrived=arrived,
+        robots=len(fleet), min_distance=min_distance, collisions=collisions, proposal=replanner.proposal_id,
+        replanning=replanner.busy, purpose=purpose, allowed=allowed)
     return State(seq, version, info, tuple(robots))
 
 
@@ -103,12 +106,13 @@ def plan_data(plan_id: int, plan: Plan, fleet: Fleet, name: str = "") -> PlanDat
 
 
 def setup(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_time: float,
-          size: RobotSize) -> RunSetup:
+          size: RobotSize, orientation: str = "mapf-ir") -> RunSetup:
     rows = tuple("".join("." if grid.free[y, x] else "@" for x in range(grid.width))
                  for y in range(grid.height - 1, -1, -1))
     robots = tuple(RobotInfo(r.id, r.colour, r.vicon_name) for r in fleet)
     return RunSetup(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
-                    tuple(STRATEGIES), step_time, (size.diameter, size.margin, size.cell))
+                    tuple(STRATEGIES), step_time, (size.diameter, size.margin, size.cell),
+                    "base" if orientation == "base" else "mapf-ir")
 
 
 def proposal(pending: Pending, fleet: Fleet, name: str) -> Proposal:

@@ -23,12 +23,15 @@ from fleet_common.vicon.base_grid import ViconFix, fix_of
 from fleet_common.limits import VICON_MAX_DATAGRAMS as MAX_DATAGRAMS
 from fleet_common.vicon.stream import ViconCounters, ViconStream
 
+from .settings import STALE_AFTER
+
 __all__ = ["ViconProvider", "ViconFix", "DEFAULT_PORT", "DEFAULT_STALE_AFTER"]
 
 #: Tracker's default UDP Object Stream port.
 DEFAULT_PORT = 51001
-#: Seconds without a sighting after which a robot's Vicon pose is stale (50 frames at 100 Hz).
-DEFAULT_STALE_AFTER = 0.5
+#: Seconds without a sighting after which a robot's Vicon pose is stale (50 frames at 100 Hz), as
+#: for a robot's own poses.
+DEFAULT_STALE_AFTER = STALE_AFTER
 _RECEIVE_BYTES = 65535  # a whole datagram: an oversized one is refused by size, not cut
 
 

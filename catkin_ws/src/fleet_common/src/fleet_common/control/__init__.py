@@ -16,9 +16,9 @@ from .codec import ControlProtocolError, decode, encode
 from .messages import (PROTOCOL_VERSION, Activity, Answer, Bye, Heartbeat, Hello, Notice, PlanData,
                        Proposal, Request, RobotInfo, RobotState, RunInfo, RunSetup, State, Waiting,
                        Welcome)
-from .requests import ACTIONS
+from .requests import ACTIONS, RUN_ACTIONS
 
-__all__ = ["ControlProtocolError", "decode", "encode", "ACTIONS", "PROTOCOL_VERSION", "Activity",
+__all__ = ["ControlProtocolError", "decode", "encode", "ACTIONS", "RUN_ACTIONS", "PROTOCOL_VERSION", "Activity",
            "Answer", "Bye", "Heartbeat", "Hello", "Notice", "PlanData", "Proposal", "Request",
            "RobotInfo", "RobotState", "RunInfo", "RunSetup", "State", "Waiting", "Welcome"]
 

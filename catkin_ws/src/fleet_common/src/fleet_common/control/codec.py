@@ -117,7 +117,8 @@ _RUN = Record(m.RunInfo, {
     "state": Str(choices=m.RUN_STATES), "reason": _TEXT, "strategy": _NAME, "lookahead": Int(1, 1000),
     "clock": _TIME, "plan_time": Num(0.0, 1e9), "plan_id": _ID, "arrived": Int(), "robots": Int(),
     "min_distance": Opt(Num(0.0, 1e9)), "collisions": Int(), "proposal": Opt(_ID),
-    "replanning": Bool()}, optional={"replanning": False})
+    "replanning": Bool(), "purpose": Str(choices=m.PURPOSES), "allowed": Opt(ListOf(Str(40), 50))},
+    optional={"replanning": False, "purpose": "plan", "allowed": None})
 
 #: Fields of each message type (the frame's "t" and "v" aside).
 SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, fields, optional in (
@@ -130,7 +131,8 @@ SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, f
                "robots": ListOf(Record(m.RobotInfo, {"id": _ROBOT, "colour": _NAME, "vicon_name": _NAME}),
                                 100000),
                "plan": _PLAN, "strategies": ListOf(_NAME, 50), "step_time": Num(0.001, 1e6),
-               "robot_size": _SIZE}, {"robot_size": (0.7, 0.0, 0.7)}),
+               "robot_size": _SIZE, "orientation": Str(choices=m.ORIENTATIONS)},
+     {"robot_size": (0.7, 0.0, 0.7), "orientation": "base"}),
     (m.State, {"seq": _ID, "version": _ID, "run": _RUN, "robots": _RobotColumns()}, None),
     (m.Answer, {"id": _ID, "ok": Bool(), "reason": _TEXT, "version": _ID}, None),
     (m.Notice, {"seq": _ID, "time": _TIME, "kind": Str(40), "robot": Opt(_ROBOT), "text": _TEXT}, None),

@@ -12,7 +12,10 @@ out and calls `answer`. What the desk decides alone:
 - a request based on an older `version` than the desk's is refused, naming
   the changes made since (thesis 5.1.1: nobody acts on an outdated picture);
 - heartbeats: a console silent for 1 s is sent one; a console silent for
-  `timeout` is forgotten (its socket identity may come back with a hello).
+  `timeout` is forgotten (its socket identity may come back with a hello);
+- States go to each console at most once per `min_interval` (`states`),
+  whatever asks for them: requests, hellos and news together never make a
+  console's stream faster than the manager's configured rate.
 
 The version is the Lamport clock of the controlled state: `bump(why, robot)`
 when the manager changes something a decision may rest on, naming the robot
@@ -47,6 +50,7 @@ class Console:
     name: str
     live: Liveness
     requests: int = 0
+    last_state: float = float("-inf")  # when it was last sent a State
 
 
 @dataclass(frozen=True)
@@ -113,8 +117,9 @@ class ControlDesk:
             return intake
         if console is not None:
             console.live.heard(now)
-        if isinstance(message, m.Hello):
-            self.consoles[peer] = Console(message.name, Liveness(now, self.interval, self.timeout))
+        if isinstance(message, m.Hello):  # a console saying hello again keeps its State pace
+            self.consoles[peer] = Console(message.name, Liveness(now, self.interval, self.timeout),
+                                          last_state=console.last_state if console else float("-inf"))
             intake.out.append((peer, encode(m.Welcome(self.session, self.version))))
             intake.joined = peer
         elif isinstance(message, m.Bye):
@@ -167,6 +172,24 @@ class ControlDesk:
         for console in self.consoles.values():
             console.live.sent(self._now if now is None else now)
         return [(peer, data) for peer in self.consoles]
+
+    def state_due(self, now: float, min_interval: float, only: Optional[Peer] = None) -> bool:
+        """Would `states` send anything now (so that a State is built only when it goes out)?"""
+        return any((only is None or peer == only) and now - c.last_state >= min_interval - 1e-9
+                   for peer, c in self.consoles.items())
+
+    def states(self, state: Any, now: float, min_interval: float, only: Optional[Peer] = None) -> Out:
+        """`state` (a State) to every console (or `only`) not sent one in the last `min_interval`
+        seconds (encoded once)."""
+        due = [(peer, c) for peer, c in self.consoles.items()
+               if (only is None or peer == only) and now - c.last_state >= min_interval - 1e-9]
+        if not due:
+            return []
+        data = encode(state)
+        for _, console in due:
+            console.last_state = now
+            console.live.sent(now)
+        return [(peer, data) for peer, _ in due]
 
     def to(self, peer: Peer, message: Any) -> Out:
         return [(peer, encode(message))] if peer in self.consoles else []

@@ -41,6 +41,8 @@ DEFAULT_ENDPOINT = "tcp://127.0.0.1:7100"
 HELLO_FIRST = "say hello first"
 
 RUN_STATES = ("waiting", "running", "paused", "stopped", "done", "failed")
+PURPOSES = ("plan", "to-starts")
+ORIENTATIONS = ("mapf-ir", "base")
 LINK_STATES = ("connecting", "up", "down", "failed")
 SOURCES = ("robot", "vicon")
 
@@ -124,6 +126,9 @@ class RunSetup:
     step_time: float  # seconds a plan step is expected to take, for the planned-position ghost
     #: the robots' diameter, safety margin and the cell, metres (a manager of old: as large as a cell)
     robot_size: Tuple[float, float, float] = (0.7, 0.0, 0.7)
+    #: how the plan's file counts rows: "mapf-ir" (from the top) or "base" (from the bottom); a
+    #: console shows cells and positions as the file writes them (a manager of old: "base")
+    orientation: str = "base"
 
 
 @dataclass(frozen=True)
@@ -178,8 +183,8 @@ class RunInfo:
     reason: str
     strategy: str
     lookahead: int
-    clock: float          # seconds since the run started (0 before)
-    plan_time: float      # clock / step_time: where the plan's clock stands, in steps
+    clock: float          # seconds since the run started (0 before); it stops when the run is done
+    plan_time: float      # steps since the current plan's step 0 (a replan's too), at most its makespan
     plan_id: int
     arrived: int
     robots: int
@@ -187,6 +192,12 @@ class RunInfo:
     collisions: int
     proposal: Optional[int]        # id of the replan proposal awaiting an answer
     replanning: bool = False       # a replan is being computed (or waits for a safe point)
+    #: what the run is for: "plan" (the plan loaded) or "to-starts" (the robots driving to the
+    #: plan's starts, a run of its own before it)
+    purpose: str = "plan"
+    #: the run actions (requests.RUN_ACTIONS) the manager would carry out now; None: a manager
+    #: of old that does not say
+    allowed: Optional[Tuple[str, ...]] = None
 
 
 @dataclass(frozen=True)
@@ -217,7 +228,7 @@ class Notice:
     TYPE: ClassVar[str] = "event"
     seq: int
     time: float
-    kind: str             # "fault", "link", "operator", "strategy", "run", "plan", "vicon", ...
+    kind: str             # "fault", "link", "operator", "strategy", "run", "plan", "vicon", "pass", ...
     robot: Optional[int]
     text: str
 

@@ -26,7 +26,7 @@ from .engine import Engine
 from .errors import EventError, PlanError, UnknownStrategyError
 from .events import (
     ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume, RobotFailed,
-    StepRound, SwitchStrategy, Wait,
+    StepRound, SwitchStrategy, Tick, Wait,
 )
 from .metrics import Metrics, RobotMetrics
 from .reorder import Pass, ReorderStrategy
@@ -37,7 +37,7 @@ __all__ = [
     "Action", "ActionTable", "ActionDependencyGraph", "build_adg", "AdgStrategy", "Engine",
     "EventError", "PlanError", "UnknownStrategyError", "ActionCompleted", "ActionStarted",
     "Disabled", "Dispatch", "Enabled", "Pause", "Resume", "RobotFailed", "StepRound",
-    "SwitchStrategy", "Wait",
+    "SwitchStrategy", "Tick", "Wait",
     "Metrics", "RobotMetrics", "Pass", "ReorderStrategy", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
     "register",
 ]

@@ -129,7 +129,7 @@ def build_adg(table: ActionTable, show: Callable[[Coord], Coord] = _identity) ->
     v_enter = np.concatenate([np.full(n, -1, dtype=np.int64), acts])
     v_leave = np.concatenate([np.where(has_moves, first[:-1], -1), np.where(acts < last_of_agent, acts + 1, -1)])
     order = np.argsort(v_cell * (table.makespan + 2) + v_begin, kind="stable")
-    cell_o, agent_o = v_cell[order], v_agent[order]
+    cell_o = v_cell[order]
     # consecutive visits by one robot are linked too (a type-1 path already orders them): each
     # cell's visits then form one chain through dep/succ, which a re-ordering strategy edits
     pair = np.nonzero(cell_o[1:] == cell_o[:-1])[0]

@@ -16,6 +16,11 @@ dispatched when
    dispatched: the safety rule, the same for every strategy,
 5. the strategy does not hold it (the discrete time step's barrier).
 
+A strategy that re-orders (`reorder`) may, when rule 4 stops a ready robot,
+change the cell's order so that the robot goes first (`Strategy.overtake`);
+the move it passes, if dispatched and not begun, is first taken back from the
+caller (`take_back`). Rule 4 itself never changes.
+
 So a completion costs O(1) plus the dispatches it causes, whatever the
 fleet's size. No sockets, threads or clocks: time is a number in each event,
 used only for the metrics. An event that contradicts the progress raises
@@ -50,6 +55,7 @@ nobody may enter a cell before its previous occupant's move out is complete
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -61,7 +67,7 @@ from .blocking import blocked_by
 from .errors import EventError, UnknownStrategyError
 from .events import (
     CELL, FOLLOW, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
-    RobotFailed, StepRound, SwitchStrategy, Wait,
+    RobotFailed, StepRound, SwitchStrategy, Tick, Wait,
 )
 from .metrics import Metrics
 from .run import DISABLED, FAILED, PlanClock, RunState
@@ -109,11 +115,16 @@ class Engine:
         self.strategy = make_strategy(strategy, **settings) if isinstance(strategy, str) else strategy
         self.strategy.attach(self.run)
         self.metrics = Metrics([self.run.count(r) for r in range(self.run.num_agents)])
+        # per action, when it was last dispatched, and when the cell it leaves was freed for the
+        # next visitor (completed, or dispatched when robots follow): what makes a wait forced
+        self._sent_at = [math.inf] * table.num_actions
+        self._freed_at = [math.inf] * table.num_actions
         self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
         self._handlers: Dict[type, Callable[..., Recheck]] = {
             ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
             Disabled: self._disabled, Enabled: self._enabled, Resume: self._resume,
             Pause: self._pause, StepRound: self._step_round, SwitchStrategy: self._switch,
+            Tick: self._tick,
         }
 
     def handle(self, event: object) -> List[Dispatch]:
@@ -174,6 +185,72 @@ class Engine:
         """For each out robot, the robots now waiting for it, directly or transitively."""
         return blocked_by(self.waiting() + self.following(), self.out_agents())
 
+    def restore(self, completed: Sequence[int], started: Sequence[int], dispatched: Sequence[int],
+                time: float) -> List[Dispatch]:
+        """Progress known from elsewhere, before any event: a manager started again on a run
+        folder reads it from the run log. Agent r completed its first `completed[r]` actions,
+        began those up to `started[r]` and was sent those up to `dispatched[r]`. Followers sent
+        before their leader completed need the leader's move dispatched: it is counted so. The
+        progress must be one the dependency rule allows (EventError otherwise, changing
+        nothing). The run stays paused; the actions dispatched and not completed are returned
+        (their robots are carrying them out, or are to)."""
+        run = self.run
+        n = run.num_agents
+        if run.version or not (len(completed) == len(started) == len(dispatched) == n):
+            raise EventError("restore needs the progress of all {} agents before any event".format(n))
+        done = [int(c) for c in completed]
+        disp = [max(int(c), int(s), int(d)) for c, s, d in zip(completed, started, dispatched)]
+        for r in range(n):
+            if not 0 <= done[r] <= disp[r] <= run.count(r):
+                raise EventError("agent {} has {} actions; cannot restore {} completed, {} sent".format(
+                    r, run.count(r), done[r], disp[r]), r)
+        first, dep, agent = run.first, run.dep, run.agent
+
+        def index(a: int) -> int:
+            return a - first[agent[a]]
+
+        grown = True
+        while grown:  # a follower sent early needs its leader's move sent (and that one's leader)
+            grown = False
+            for r in range(n):
+                for a in range(first[r] + done[r], first[r] + disp[r]):
+                    d = dep[a]
+                    if d < 0 or agent[d] == r or index(d) < done[agent[d]]:
+                        continue
+                    if not self.follow:
+                        raise EventError("agent {} was sent action {} before agent {} completed "
+                                         "action {}".format(r, a - first[r], agent[d], index(d)), r)
+                    if index(d) >= disp[agent[d]]:
+                        disp[agent[d]] = index(d) + 1
+                        grown = True
+        for r in range(n):
+            for a in range(first[r], first[r] + done[r]):
+                d = dep[a]
+                if d >= 0 and agent[d] != r and index(d) >= (disp if self.follow else done)[agent[d]]:
+                    raise EventError("agent {} completed action {} before agent {} began action {}".format(
+                        r, a - first[r], agent[d], index(d)), r)
+        for r in range(n):
+            for a in range(first[r], first[r] + done[r]):
+                run.done[a] = 1
+            run.completed[r] = done[r]
+            run.started[r] = min(max(done[r], int(started[r])), disp[r])
+            run.dispatched[r] = run.sent[r] = disp[r]
+        out = []
+        for r in range(n):
+            for a in range(first[r] + done[r], first[r] + disp[r]):
+                d = dep[a]
+                leader = None
+                if d >= 0 and not run.done[d] and agent[d] != r:
+                    self.early[a] = d
+                    leader = (agent[d], index(d))
+                out.append(Dispatch(r, a - first[r], run.step[a], self.table.coord(run.src[a]),
+                                    self.table.coord(run.dst[a]), leader))
+        self.strategy.attach(run)  # strategies derive their state from the progress
+        self.metrics.restored(done, time)
+        self._cap = list(run.dispatched)
+        run.version += 1
+        return out
+
     # ---- events -------------------------------------------------------------------------
     def _agent(self, r: object, event: object) -> int:
         if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.run.num_agents:
@@ -198,6 +275,8 @@ class Engine:
                              "is {} and it was sent {}".format(r, k, run.completed[r], run.sent[r]), r)
         a = run.first[r] + k
         run.done[a] = 1
+        if self._freed_at[a] > e.time:
+            self._freed_at[a] = e.time
         run.completed[r] = k + 1
         run.started[r] = max(run.started[r], k + 1)
         run.dispatched[r] = max(run.dispatched[r], k + 1)
@@ -254,7 +333,10 @@ class Engine:
                 return False  # a robot already follows it out of its cell: it must go
         if not self._give_back(r, k):
             return False
+        for a in range(first[r] + k, first[r] + dispatched[r]):
+            self._sent_at[a] = self._freed_at[a] = math.inf
         run.dispatched[r] = run.sent[r] = k
+        self.metrics.taken_back(r, k, run.now)
         self._forget_early(r)
         self._out[:] = [d for d in self._out if d.agent != r or d.index < k]  # decided a moment ago
         return True
@@ -281,6 +363,14 @@ class Engine:
         limits = self.strategy.round()
         self._cap = [max(c, d) for c, d in zip(limits, self.run.dispatched)]
         return range(self.run.num_agents), None
+
+    def _tick(self, e: Tick) -> Recheck:
+        return self.strategy.on_tick(), None
+
+    @property
+    def tick_every(self) -> float:
+        """How often (plan steps) the strategy wants a `Tick` while the run runs (0: never)."""
+        return 0.0 if self.paused else self.strategy.tick_every
 
     def _switch(self, e: SwitchStrategy) -> Recheck:
         new = e.strategy
@@ -323,6 +413,11 @@ class Engine:
         for r, (done, sent, began) in enumerate(progress):
             for a in range(first[r], first[r] + done):
                 run.done[a] = 1
+                self._freed_at[a] = time
+            for a in range(first[r] + done, first[r] + done + sent):
+                self._sent_at[a] = time
+                if self.follow:
+                    self._freed_at[a] = time
             run.completed[r] = done
             run.dispatched[r] = run.sent[r] = done + sent
             run.started[r] = done + (1 if began and sent else 0)
@@ -349,6 +444,30 @@ class Engine:
         for r in range(n):
             out += self._dispatch([r], charged.get(r), time)
         return out
+    def _forced(self, r: int, a: int, now: float) -> float:
+        """Of robot r's wait for action `a`, ending now, the time the cell was taken in a way no
+        change of order could undo: the robot before it there was in it or had been sent its
+        move in, or the cell is r's goal (`metrics`)."""
+        ready = self.metrics.ready_at(r)
+        if ready is None or now <= ready:
+            return 0.0
+        run = self.run
+        d = run.dep[a]
+        if d < 0 or run.agent[d] == r:
+            return 0.0  # it waited for no cell: the strategy held it
+        end = min(now, self._freed_at[d])
+        if end <= ready:
+            return 0.0
+        p = run.agent[d]
+        ep = d - 1
+        if ep < run.first[p] or a == run.first[r + 1] - 1:
+            return end - ready  # p started in the cell, or the cell is r's goal
+        lo = run.dep[ep]
+        there = self._freed_at[lo] if lo >= 0 and run.agent[lo] != p else -math.inf
+        sent = self._sent_at[ep]
+        if sent <= there:
+            return end - ready
+        return max(0.0, min(end, there) - ready) + max(0.0, end - max(ready, sent))
 
     # ---- decisions ----------------------------------------------------------------------
     def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
@@ -372,26 +491,36 @@ class Engine:
             while a < limit:
                 d = dep[a]
                 leader = None
+                by = released_by
                 if d >= 0 and not done[d] and agent[d] != r:
                     # the leader's move out of the cell: complete, or (following) dispatched
                     if not follow or dispatched[agent[d]] <= d - first[agent[d]]:
                         if not (reorders and strategy.overtake(a)):
                             break
+                        by = agent[d]  # it waited for the robot it passed
                         d = dep[a]  # passed the late robots ahead: a new leader, if any
+                        if not run.released(d) and agent[d] != r:
+                            break  # rule 4 holds whatever a strategy says
                     if d >= 0 and not done[d] and agent[d] != r:
                         leader = (agent[d], d - first[agent[d]])
+                        by = agent[d]  # it waited for the robot it follows
                 if strategy.holds(a):
                     break
                 k = a - base
+                forced = 0.0
                 if dispatched[r] == run.completed[r]:
                     run.dispatched_at[r] = time
+                    forced = self._forced(r, a, time)
+                self._sent_at[a] = time
+                if follow:
+                    self._freed_at[a] = time
                 dispatched[r] = k + 1
                 if k >= run.sent[r]:
                     run.sent[r] = k + 1
                 if leader is not None:
                     early[a] = d
                 out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a]), leader))
-                self.metrics.record_dispatch(r, k, time, released_by)
+                self.metrics.record_dispatch(r, k, time, by, forced)
                 if follow and succ[a] >= 0 and not done[a]:
                     todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1

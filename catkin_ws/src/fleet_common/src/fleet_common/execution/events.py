@@ -4,7 +4,8 @@ Every input is an event carrying `time`, a number the caller chooses (seconds
 of a wall clock, simulated time, plan steps): the engine never reads a clock,
 it only passes times on to the metrics. Robots report progress (`ActionStarted`,
 `ActionCompleted`, `RobotFailed`); the operator or the manager controls the run
-(`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`).
+(`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`), and
+time passes (`Tick`, for strategies that read the plan's clock).
 A run starts paused: the first `Resume` starts it.
 
 `Engine.handle(event)` answers with `Dispatch` decisions: agent r may start
@@ -73,6 +74,14 @@ class Enabled:
 @dataclass(frozen=True)
 class Resume:
     """Start the run, or continue it after `Pause` or `StepRound`."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class Tick:
+    """Time passes. A strategy that decides by the plan's clock (`Strategy.tick_every`, in plan
+    steps) looks again at the robots waiting; the caller sends one that often while the run runs."""
 
     time: float
 

@@ -9,6 +9,18 @@ robot enabled again), or to "held" when the operator released it (resume,
 step, strategy switch). The executed makespan is the last completion; the
 sum of costs adds each robot's arrival (its last completion, 0 if it never
 moves) over the robots that reached their goals.
+
+Waits not held by the operator are *forced* or *avoidable* (the engine says
+how much of each wait was forced, `Engine._forced`): forced while the cell
+the robot needs was taken by the plan's order in a way no change of order
+could undo (the robot ahead of it there was in the cell or had been sent its
+move into it, or the cell is the robot's goal), avoidable otherwise (the
+robot ahead had not set off into the cell; a strategy's own holds).
+
+A robot's *own time* adds, move by move, the time from when it was sent the
+move (or finished the one before, if it had it already) until it completed
+it: its moves with its own delays, without its waits. The *lower bound* of
+a run is the largest own time: the makespan had every robot been alone.
 """
 from __future__ import annotations
 
@@ -26,8 +38,15 @@ class RobotMetrics:
     waits: int = 0
     wait_time: float = 0.0
     held_time: float = 0.0
+    forced_time: float = 0.0
+    own_time: float = 0.0
     blocked_by: Dict[int, float] = field(default_factory=dict)
     arrival: Optional[float] = None
+
+    @property
+    def avoidable_time(self) -> float:
+        """Waiting that was neither held by the operator nor forced by the plan's order."""
+        return max(0.0, self.wait_time - self.held_time - self.forced_time)
 
 
 class Metrics:
@@ -40,9 +59,13 @@ class Metrics:
         self.last_completion: Optional[float] = None
         self._ready: List[Optional[float]] = [None] * len(self.counts)
         self._done = [0] * len(self.counts)
+        self._busy: List[Optional[float]] = [None] * len(self.counts)  # since when on its move
+        self._ahead = [0] * len(self.counts)  # actions dispatched (sent ahead included)
         #: per robot, the wait its latest waiting dispatch ended (a caller logging each dispatch
         #: clears it before an event and takes what the event's dispatches left)
         self.last_wait: Dict[int, float] = {}
+        #: the same for the forced part of those waits
+        self.last_forced: Dict[int, float] = {}
         #: per robot, its moves in the run before the first move of the plan the engine runs now
         #: (a run handed over to a new plan: `rebase`); action indices count from there
         self.offset = [0] * len(self.counts)
@@ -58,6 +81,8 @@ class Metrics:
             self._ready[event.agent] = event.time
         elif isinstance(event, (Disabled, RobotFailed)):
             self._ready[event.agent] = None
+            self._ahead[event.agent] = self._done[event.agent]
+            self._busy[event.agent] = None  # what it may still finish counts from its completion
 
     def rebase(self, offsets: List[int], counts: List[int]) -> None:
         """The run goes on with a new plan: robot r made `offsets[r]` moves before its first one,
@@ -71,8 +96,29 @@ class Metrics:
             else:
                 m.arrival = None
 
-    def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int]) -> None:
+    def restored(self, completed: List[int], time: float) -> None:
+        """The run goes on from progress known from elsewhere (`Engine.restore`): robots are
+        ready for their next action from `time`."""
+        self._done = list(completed)
+        self._ahead = list(completed)
+        self._busy = [None] * len(self.counts)
+        self._ready = [time] * len(self.counts)
+        for r, done in enumerate(completed):
+            if done and done == self.counts[r]:
+                self.agents[r].arrival = time - (self.begin or 0.0)
+
+    def ready_at(self, agent: int) -> Optional[float]:
+        """Since when the robot has been ready for an action it was not sent (None: it has one)."""
+        return self._ready[agent]
+
+    def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int],
+                        forced: float = 0.0) -> None:
+        """Robot `agent` was sent its action `index` at `time`; `forced`: how much of the wait
+        that ends here was forced (see the module docstring)."""
         index += self.offset[agent]
+        self._ahead[agent] = max(self._ahead[agent], index + 1)
+        if index == self._done[agent] and self._busy[agent] is None:
+            self._busy[agent] = time
         ready = self._ready[agent]
         if index != self._done[agent] or ready is None:
             return  # sent ahead (lookahead) or not ready: no wait
@@ -82,17 +128,36 @@ class Metrics:
             return
         self.last_wait[agent] = waited
         m = self.agents[agent]
+        if released_by is not None and released_by != agent:
+            self.last_forced[agent] = min(max(forced, 0.0), waited)
         m.waits += 1
         m.wait_time += waited
         if released_by is None or released_by == agent:
             m.held_time += waited
         else:
+            m.forced_time += min(max(forced, 0.0), waited)
             m.blocked_by[released_by] = m.blocked_by.get(released_by, 0.0) + waited
+
+    def taken_back(self, agent: int, index: int, time: float) -> None:
+        """The robot's actions from `index` on were taken back (another robot passes it): from
+        now on it waits to be sent its action again."""
+        index += self.offset[agent]
+        self._ahead[agent] = min(self._ahead[agent], index)
+        if index == self._done[agent]:
+            m = self.agents[agent]
+            if self._busy[agent] is not None:
+                m.own_time += max(0.0, time - self._busy[agent])  # it stood still meanwhile
+            self._busy[agent] = None
+            self._ready[agent] = time
 
     def _completed(self, agent: int, time: float) -> None:
         self._done[agent] += 1
         m = self.agents[agent]
         m.moves += 1
+        since = self._busy[agent]
+        if since is not None:
+            m.own_time += max(0.0, time - since)
+        self._busy[agent] = time if self._ahead[agent] > self._done[agent] else None
         self._ready[agent] = time
         self._last[agent] = time
         self.last_completion = time
@@ -113,6 +178,23 @@ class Metrics:
     @property
     def soc(self) -> float:
         return sum(m.arrival for m in self.agents if m.arrival is not None)
+
+    @property
+    def lower_bound(self) -> float:
+        """The makespan had every robot run alone, with its own delays: the largest own time."""
+        return max((m.own_time for m in self.agents), default=0.0)
+
+    @property
+    def total_forced_time(self) -> float:
+        return sum(m.forced_time for m in self.agents)
+
+    @property
+    def total_avoidable_time(self) -> float:
+        return sum(m.avoidable_time for m in self.agents)
+
+    @property
+    def total_held_time(self) -> float:
+        return sum(m.held_time for m in self.agents)
 
     @property
     def total_waits(self) -> int:

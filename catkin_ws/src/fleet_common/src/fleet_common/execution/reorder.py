@@ -1,51 +1,61 @@
-"""Re-ordering: a robot that is ready passes one that is late, where no cycle of waits follows.
+"""Re-ordering: a robot that is ready passes late ones, where no cycle of waits follows.
 
-The ADG keeps the plan's order of robots at every cell. When the robot that
-should pass a cell first is late, every robot behind it waits, down the
-chain, though most of those waits are not forced: the late robot has not even
-set off towards the cell. This strategy changes the order online, as delays
-happen, in the spirit of BTPG (Su et al., AAAI-24: "whoever comes first
-passes" on pairs whose order may switch), decided per pair when a robot is
-ready, with a cycle check instead of a precomputed set of switchable pairs.
+The ADG keeps the plan's order of robots at every cell. When the robot due
+first at a cell is late, every robot behind it waits, down the chain, though
+some of those waits are not forced: the late robot has not even set off into
+the cell. This strategy changes the order online, as delays happen, in the
+spirit of BTPG (Su et al., AAAI-24: "whoever comes first passes" on pairs
+whose order may switch), decided when a robot is ready, with a check on the
+graph itself instead of a precomputed set of switchable pairs.
 
 Theory of operation. Each cell's visits form a chain in the dependency graph:
 visit o, then p, then q, ... with edges leave(o) -> enter(p) and
-leave(p) -> enter(q) (`adg`). Robot Q is ready to enter cell c and waits for
-robot P, the visit before it, which has not been sent its move into c. Q
-*passes* P when
+leave(p) -> enter(q) (`adg`; a robot's own consecutive visits are linked
+too, so the chain is never broken). Robot Q is ready for its next move and
+waits for robot P's move out of the cell it needs. Q looks along its next
+cells (at most `reach`): it *passes* P there, and the robots ahead of it in
+the cells after, when at every one of them
 
-1. P is late: it has at least `gap` moves still to make before its move into
-   c (or it is out: disabled or failed), and has never been sent that move
-   (`sent`, not `dispatched`: a robot taken out may still begin a move it was
-   sent, so a move once sent is never overtaken);
-2. Q will not stay in c: Q's visit is not its last (it has a move out of c),
-   and that move's own dependency is already met, so Q passes through;
-3. passing closes no cycle: after the swap P's move into c waits for Q's
-   move out of it, so there is a cycle exactly when Q's move out depends,
-   through the new graph, on P's move into c. `_closes_cycle` searches
-   backwards from Q's move out over incomplete actions (a robot's reached
-   actions are a range, so each is looked at once); when the search exceeds
-   `budget` actions the pass is refused, which is always safe.
+1. the robot ahead (P) has not set off into the cell: it was never sent its
+   move in (`sent`, not `dispatched`: a robot taken out may still begin a
+   move it was sent), or it was sent the move, has not begun it, and the
+   caller takes it back (`RunState.take_back`: the manager, if it has not
+   handed the drive over; the simulator, if the robot stands still);
+2. P is late: behind the plan's clock (`RunState.clock`, running time in plan
+   steps) by `gap` steps or more, at least one move from the cell (so Q is
+   through before P comes), or out (disabled, failed);
+3. the robot before P in the cell has left it (Q can go now), and the cell is
+   not Q's goal (Q would stay);
 
-The swap rewires three edges, leaving the chain o, q, p, ... Each action keeps
-at most one predecessor and one successor at a cell (`RunState.dep`/`succ`),
-so the engine's O(1) rules are unchanged, and every strategy after this one
-sees a graph that is acyclic.
+and the cell after the last passed one is free for Q now (its previous
+visitor's move out released): Q goes through without stopping. Each pass
+swaps two visits of the chain (o, p, q, s becomes o, q, p, s: three edges
+rewired, `_swap`), so each action keeps one predecessor and one successor at
+a cell, and the engine's O(1) rules are unchanged.
 
-Why it stays safe, whatever the delays: the engine still starts a move into a
+Why it is safe, whatever the delays: the engine still starts a move into a
 cell only once the previous visitor's move out of it has completed (or, for
-robots of their real size, has been dispatched, with the follower held at the
-safe distance from the leader's reported position). The swap changes who the
-previous visitor is, never the rule, and it only ever touches moves nobody
-has been sent: P is not in c nor moving into it (its move in was never sent),
-so Q entering c cannot meet it there; P will enter only behind Q, by the same
-rule. A stale or lost pose changes nothing here: the decision reads only the
-engine's record of what was sent and completed, and a follower's hold point
-is computed from the last report, which is never ahead of the leader.
-Why no deadlock: every run of the engine is deadlock-free on an acyclic graph
-(each chain of waits ends at an action whose dependencies are met), and a
-swap is made only when the search shows it closes no cycle; a budget
-exceeded refuses the swap, keeping the graph as it was.
+robots of their real size, has been dispatched, the follower held at the safe
+distance from the leader's reported position). A pass changes who the
+previous visitor is, never the rule, and touches only moves no robot is on:
+P is not in the cell nor moving into it (its move in was never sent, or was
+taken back before it began), so Q entering cannot meet it there; P will
+enter behind Q, by the same rule. A stale or lost pose changes nothing here:
+the decision reads only the engine's record of what was sent, begun and
+completed, and a follower's hold point comes from the last report, which is
+never ahead of the leader.
+
+Why no deadlock: the engine cannot deadlock on an acyclic graph (each chain
+of waits ends at a move whose dependencies are met), and after the swaps
+every new edge (Q's move out of a cell -> P's move in) is checked
+(`_closes_cycle`): a search backwards from Q's move out over the moves not
+yet dispatched (a dispatched move waits only for dispatched or completed
+ones, as a move with a robot following it is never taken back) for P's move
+in. Because Q's way is free at the time, the only cycles possible are
+through a move that is taken back in the same pass (P standing in the cell Q
+goes to next, heading for Q's cell: head-on); the search finds those. A
+search that exceeds `budget` moves refuses the pass, which is always safe.
+Any pass refused leaves the graph as it was.
 """
 from __future__ import annotations
 
@@ -57,14 +67,16 @@ from .strategy import Strategy, register
 
 
 class Pass(NamedTuple):
-    """Robot `agent` went into cell `cell` (base cell index) before robot `passed`; `action` is the
-    passing robot's move into the cell, `passed_action` the other's."""
+    """Robot `agent` goes into cell `cell` (a cell index of the action table) before robot
+    `passed`; `action` is the passing robot's move into the cell, `passed_action` the other's."""
 
     agent: int
     passed: int
     cell: int
     action: int
     passed_action: int
+    #: The passed robot had been sent its move into the cell and gave it back (it stood still).
+    taken_back: bool = False
 
 
 @register
@@ -75,6 +87,7 @@ class ReorderStrategy(Strategy):
     summary = "ADG whose order at a cell may change: a ready robot passes a late one, never into a cycle"
     SETTINGS = ("gap", "reach", "budget")
     reorders = True
+    tick_every = 0.5  # a robot that stands still becomes passable as time passes
 
     def __init__(self, gap: int = 1, reach: int = 4, budget: int = 400) -> None:
         super().__init__()
@@ -110,22 +123,12 @@ class ReorderStrategy(Strategy):
             cells.add(run.dst[e])
             ep = d - 1
             p = agent[d]
-            if ep < first[p]:
-                return False  # p starts the plan in the cell: it is there
-            k = ep - first[p]
-            stands = False
-            if k < run.sent[p]:
-                if run.started[p] > k or k >= run.dispatched[p] or run.out[p] is not None or standing >= 0:
-                    return False  # p was sent its move into the cell and may be on its way
-                stands = True  # p stands still with it: passed only if it gives it back
-            if run.out[p] is None and not self._late(run, p, k, stands):
-                return False  # p is on time, or so near that it would wait for q
-            lo = dep[ep]
-            if not (lo < 0 or agent[lo] == q or run.released(lo)):
-                return False  # whoever is before p in the cell is still there
+            stands = self._passable(run, q, ep)
+            if stands is None or stands and standing >= 0:
+                return False
             if stands:
                 standing = len(swaps)
-            swaps.append((e, ep, p, k))
+            swaps.append((e, ep, p, ep - first[p]))
             e += 1
         undo = [self._swap(run, e, ep) for e, ep, _, _ in swaps]
         for e, ep, _, _ in swaps:
@@ -140,8 +143,8 @@ class ReorderStrategy(Strategy):
         if standing >= 0 and not run.take_back(swaps[standing][2], swaps[standing][3]):
             self._undo(undo)
             return False
-        for e, ep, p, _ in swaps:
-            run.passes.append(Pass(q, p, run.dst[e], e, ep))
+        for j, (e, ep, p, _) in enumerate(swaps):
+            run.passes.append(Pass(q, p, run.dst[e], e, ep, j == standing))
         return True
 
     def on_completed(self, a: int) -> Sequence[int]:
@@ -151,6 +154,20 @@ class ReorderStrategy(Strategy):
         if e < 0:
             return ()
         return self._behind(run, e)  # type: ignore[arg-type]
+
+    def on_tick(self) -> Sequence[int]:
+        """Robots ready and waiting for a cell whose previous visitor has not moved out: as the
+        plan's clock runs, the one they wait for may now count as late."""
+        run = self._attached()
+        first, dep, agent, out = run.first, run.dep, run.agent, []
+        for r in range(run.num_agents):
+            k = run.completed[r]
+            if run.out[r] is not None or run.dispatched[r] != k or first[r] + k >= first[r + 1]:
+                continue
+            d = dep[first[r] + k]
+            if d >= 0 and agent[d] != r and not run.released(d):
+                out.append(r)
+        return out
 
     def on_out(self, agent: int) -> Sequence[int]:
         """Robots queued behind an out robot's next cell may pass it."""
@@ -201,6 +218,27 @@ class ReorderStrategy(Strategy):
             dep[es] = lp
         return old
 
+    def _passable(self, run: RunState, q: int, ep: int) -> Optional[bool]:
+        """May robot q go into the cell before the robot whose move into it is `ep`? None: no;
+        False: yes; True: yes, if that robot gives back the move, which it was sent and has not
+        begun (it stands still)."""
+        p = run.agent[ep + 1]
+        first = run.first[p]
+        if ep < first:
+            return None  # p starts the plan in the cell: it is there
+        k = ep - first
+        stands = False
+        if k < run.sent[p]:
+            if run.started[p] > k or k >= run.dispatched[p] or run.out[p] is not None:
+                return None  # p was sent its move into the cell and may be on its way
+            stands = True
+        if run.out[p] is None and not self._late(run, p, k, stands):
+            return None  # p is on time, or so near that it would wait for q
+        lo = run.dep[ep]
+        if not (lo < 0 or run.agent[lo] == q or run.released(lo)):
+            return None  # whoever is before p in the cell is still there
+        return stands
+
     def _late(self, run: RunState, p: int, k: int, standing: bool) -> bool:
         """Is robot p, whose move k enters the cell, behind the plan by `gap` steps or more, and
         at least a move from starting it (so that q is through before it comes)?"""
@@ -241,3 +279,31 @@ class ReorderStrategy(Strategy):
                 if d >= 0:
                     stack.append(d)
         return False
+
+
+def replay(run: RunState, passes: Sequence[Tuple[int, int, int, int]]) -> List[Pass]:
+    """Make again, in order, passes made in an earlier life of this run (a manager resumed on
+    its folder): (robot, its action index, robot passed, that one's action index), each the
+    moves into the cell. Raises ValueError, changing nothing, when one does not fit the graph."""
+    dep, first, count = list(run.dep), run.first, len(run.dep)
+    succ = list(run.succ)
+    made: List[Pass] = []
+    for agent, k, passed, j in passes:
+        if not (0 <= agent < run.num_agents and 0 <= passed < run.num_agents):
+            raise ValueError("a pass names robots not in this plan: {} and {}".format(agent, passed))
+        eq, ep = first[agent] + k, first[passed] + j
+        if not (first[agent] <= eq < first[agent + 1] - 1 and first[passed] <= ep < first[passed + 1] - 1
+                and eq < count and dep[eq] == ep + 1):
+            raise ValueError("agent {}'s action {} was not next after agent {}'s action {} at a cell".format(
+                agent, k, passed, j))
+        view = _Chains(dep, succ)
+        ReorderStrategy._swap(view, eq, ep)  # type: ignore[arg-type]
+        made.append(Pass(agent, passed, run.dst[eq], eq, ep))
+    run.dep[:], run.succ[:] = dep, succ
+    run.passes.extend(made)
+    return made
+
+
+class _Chains(NamedTuple):
+    dep: List[int]
+    succ: List[int]

@@ -53,7 +53,7 @@ from ..plan import Plan
 from ..robot_size import RobotSize
 from .approach import Approach, Safety, judge
 from .engine import Engine
-from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed
+from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed, Tick
 from .following import hold_fraction
 from .handover import hand_over
 from .metrics import Metrics
@@ -61,7 +61,7 @@ from .motion import Feedback, Motion
 from .reroute import Reroute, RerouteRule, Rerouter
 from .trace import Collision, Trace, find_collisions
 
-_WAKE, _CONTROL, _RECHECK = 0, 1, 2
+_WAKE, _CONTROL, _RECHECK, _TICK = 0, 1, 2, 3
 _EPS = 1e-9
 
 
@@ -81,6 +81,15 @@ class SimResult:
     #: (time, reroute) for each change of plan, in order; the engine runs the last plan
     reroutes: Tuple[Tuple[float, Reroute], ...] = ()
     rerouter: Optional[Rerouter] = None
+    #: Per robot, the time its moves take with its own delays and no waiting (from the fates).
+    alone: Optional[np.ndarray] = None
+
+    @property
+    def lower_bound(self) -> float:
+        """The makespan had every robot been alone: its moves with its own delays, no waits."""
+        if self.alone is None or not len(self.alone):
+            return self.metrics.lower_bound
+        return float(self.alone.max())
 
     @property
     def metrics(self) -> Metrics:
@@ -169,7 +178,8 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
     engine.allow_take_back(sim.take_back)
     sim.rerouter = rerouter
     sim.run(controls)
-    engine = sim.engine
+    table = engine.table  # the run's first plan: the fates are its moves'
+    engine = sim.engine  # the engine of the plan the run ended with
     total = nominal * fates.slowdown + fates.stall + fates.dropout
     paths = [m.knots for m in sim.paths]
     if size is None or size.cell_sized:
@@ -179,8 +189,9 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
         safety = judge(paths, size.safe_cells, sim.now)
         collisions = [Collision("too-close", a.agents, (a.place,), a.time, (True, True))  # type: ignore[arg-type]
                       for a in safety.violations]
+    alone = np.bincount(table.agent, weights=fates.wait + total, minlength=engine.run.num_agents)
     return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
-                     sim.journal, paths, safety, size, tuple(sim.reroutes), rerouter)
+                     sim.journal, paths, safety, size, alone, tuple(sim.reroutes), rerouter)
 
 
 class _Simulation:
@@ -208,7 +219,9 @@ class _Simulation:
         self.feedback = feedback
         self.journal: Optional[List[Tuple[float, str, dict]]] = [] if journal else None
         self._waits_seen: object = ()
-        self._charged: Dict[int, Tuple[float, Dict[int, float]]] = {}
+        self._passes_seen = 0
+        self._ticking = False  # a Tick is on the heap
+        self._charged: Dict[int, Tuple[float, float, Dict[int, float]]] = {}
         # the ordinal of the move before which each robot to disable stops (its first of that step)
         self.disable = {r: k for r, k in ((r, self._first_at(engine, r, step)) for r, step in disable.items())
                         if k is not None}
@@ -218,6 +231,7 @@ class _Simulation:
         self.queue: List[Deque[Dispatch]] = [deque() for _ in range(n)]
         self.busy: List[Optional[Tuple[Dispatch, float, int]]] = [None] * n  # action, start, token
         self.completed_at: Dict[int, float] = {}  # fate id (a robot's ordinal) -> when it completed
+        self.stand_until: Dict[int, float] = {}  # fate id (a robot's ordinal) taken back -> its wait's end
         self.held_by: Dict[int, Set[int]] = {}  # leader -> followers held until it moves
         self.heap: List[tuple] = []
         self.seq = 0
@@ -228,10 +242,14 @@ class _Simulation:
         for event in controls:
             self._push(event.time, _CONTROL, event)  # type: ignore[attr-defined]
         self._deliver(self.engine.handle(Resume(0.0)))
+        self._tick_later()
         while self.heap:
             time, _, kind, payload = heapq.heappop(self.heap)
             self.now = time
-            if kind == _CONTROL:
+            if kind == _TICK:
+                self._ticking = False
+                self._deliver(self.engine.handle(Tick(time)))
+            elif kind == _CONTROL:
                 self._control(payload)
             else:
                 r, token = payload
@@ -244,8 +262,17 @@ class _Simulation:
                     self._drive_on(r)
             if self.rerouter is not None:
                 self._reroute()
+            if not self._ticking:
+                self._tick_later()
             if self.journal is not None:
                 self._note_waits()
+
+    def _tick_later(self) -> None:
+        """The strategy's next `Tick`, while something else is still to happen."""
+        every = self.engine.tick_every
+        if every > 0 and self.heap:
+            self._ticking = True
+            self._push(self.now + every, _TICK, None)
 
     @staticmethod
     def _first_at(engine: Engine, r: int, step: int) -> Optional[int]:
@@ -298,6 +325,7 @@ class _Simulation:
         self.engine = new
         self.rerouter.restart()
         self.reroutes.append((self.now, found))
+        self._passes_seen = 0
         run = new.run
 
         def moved(d: Dispatch) -> Dispatch:
@@ -336,11 +364,12 @@ class _Simulation:
             path.resume(self.now)
             self._begin(r, d, path.began)
             return
-        path.start(a, d.src, d.dst, self.now, self.wait[a], self.drive[a],
+        wait = self.wait[a] if a not in self.stand_until else max(0.0, self.stand_until.pop(a) - self.now)
+        path.start(a, d.src, d.dst, self.now, wait, self.drive[a],
                    (self.stall_at[a], self.stall[a]), (self.drop_at[a], self.drop[a]))
-        if self.wait[a] > 0:  # it stays in its cell for the wait, then starts moving
+        if wait > 0:  # it stays in its cell for the wait, then starts moving
             self._set_busy(r, d, self.now)
-            self._schedule(r, _WAKE, self.now + self.wait[a])
+            self._schedule(r, _WAKE, self.now + wait)
             return
         self._begin(r, d, self.now)
 
@@ -353,13 +382,12 @@ class _Simulation:
             if path.moving:
                 return False
             a = self._fid(r, self.offset[r] + busy[0].index)
-            self.wait[a] = max(0.0, path.began - self.now)
+            self.stand_until[a] = path.began  # it stands still till then, sent the move or not
             self.busy[r] = None
             path.forget()
         queue = self.queue[r]
         while queue and queue[-1].index >= k:
             queue.pop()
-        self._note("taken back", robot=r, index=k)
         return True
 
     def _begin(self, r: int, d: Dispatch, began: float) -> None:
@@ -479,12 +507,19 @@ class _Simulation:
             self._try_start(agent)  # type: ignore[arg-type]
 
     def _deliver(self, dispatches: List[Dispatch]) -> None:
+        passes = self.engine.run.passes
+        if self.journal is not None and len(passes) > self._passes_seen:
+            table = self.engine.table
+            for p in passes[self._passes_seen:]:
+                self._note("pass", robot=p.agent, passed=p.passed, cell=table.coord(p.cell),  # type: ignore[attr-defined]
+                           taken_back=p.taken_back)  # type: ignore[attr-defined]
+            self._passes_seen = len(passes)
         for d in dispatches:
             self.queue[d.agent].append(d)
             if self.journal is not None:
-                waited, by = self._waited(d.agent)
+                waited, forced, by = self._waited(d.agent)
                 self._note("dispatch", robot=d.agent, index=d.index, step=d.step, src=d.src, dst=d.dst,
-                           waited=waited, released_by=by)
+                           waited=waited, forced=forced, released_by=by)
         for d in dispatches:
             self._try_start(d.agent)
 
@@ -494,14 +529,16 @@ class _Simulation:
         if self.journal is not None:
             self.journal.append((self.now, kind, fields))
 
-    def _waited(self, r: int) -> Tuple[float, Optional[int]]:
-        """What the metrics charged robot r since its last dispatch: time waited, and to whom."""
+    def _waited(self, r: int) -> Tuple[float, float, Optional[int]]:
+        """What the metrics charged robot r since its last dispatch: time waited, of it forced,
+        and to whom."""
         m = self.engine.metrics.agents[r]
-        seen = self._charged.get(r, (0.0, {}))
+        seen = self._charged.get(r, (0.0, 0.0, {}))
         waited = m.wait_time - seen[0]
-        by = next((q for q, t in m.blocked_by.items() if t > seen[1].get(q, 0.0)), None)
-        self._charged[r] = (m.wait_time, dict(m.blocked_by))
-        return round(waited, 6), by
+        forced = m.forced_time - seen[1]
+        by = next((q for q, t in m.blocked_by.items() if t > seen[2].get(q, 0.0)), None)
+        self._charged[r] = (m.wait_time, m.forced_time, dict(m.blocked_by))
+        return round(waited, 6), round(forced, 6), by
 
     def _note_waits(self) -> None:
         waits = tuple((w.agent, w.on, w.cell, w.reason) for w in self.engine.waiting())

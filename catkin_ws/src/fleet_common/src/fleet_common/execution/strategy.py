@@ -11,7 +11,7 @@ questions from the shared `RunState`:
 - `window`: how many actions a robot may have been sent and not completed;
 - `holds(a)`: is action `a` held back now (its dependencies aside), and
   `hold_reason(a)`: why, for the console;
-- `on_completed`, `on_out`, `on_back`: which robots may now start something
+- `on_completed`, `on_out`, `on_back`, `on_tick`: which robots may now start something
   besides those the dependency graph names (the robot itself, the waiter);
 - `overtake(a)`: only for strategies that re-order (`reorders`): may action
   `a`'s robot go before the robot it waits for at a cell (`reorder`);
@@ -48,6 +48,8 @@ class Strategy:
     SETTINGS: ClassVar[Tuple[str, ...]] = ()
     #: True when the strategy may change a cell's order of robots (the engine asks `overtake`).
     reorders: ClassVar[bool] = False
+    #: How often (plan steps) the strategy wants a `Tick` while the run runs; 0: never.
+    tick_every: ClassVar[float] = 0.0
 
     def __init__(self) -> None:
         self.run: Optional[RunState] = None
@@ -78,6 +80,10 @@ class Strategy:
 
     def on_out(self, agent: int) -> Sequence[int]:
         """`robot` was disabled or failed: robots that may now start an action."""
+        return ()
+
+    def on_tick(self) -> Sequence[int]:
+        """Time passed (`Tick`): robots to look at again."""
         return ()
 
     def on_back(self, agent: int) -> Sequence[int]:

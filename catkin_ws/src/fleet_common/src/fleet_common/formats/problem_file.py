@@ -11,14 +11,15 @@ import re
 from pathlib import Path
 from typing import List, Optional, Sequence, Tuple, Union
 
-from ..grid import Coord
+from ..grid import Coord, Grid
 from .header import read_text
 from .instance import Instance, parse_instance
 from .solution import Solution, parse_solution
 
-__all__ = ["is_solution_text", "read_problem", "starts_and_goals"]
+__all__ = ["is_solution_text", "read_problem", "starts_and_goals", "map_file_of"]
 
 _SOLUTION_LINE = re.compile(r"^\s*(solution|starts)\s*=", re.M)
+_MAP_FILE = re.compile(r"^map_file=([^\r\n]*)", re.M)
 
 
 def is_solution_text(text: str) -> bool:
@@ -26,13 +27,22 @@ def is_solution_text(text: str) -> bool:
 
 
 def read_problem(path: Union[str, Path], map_dirs: Sequence[Path] = (),
-                 text: Optional[str] = None) -> Union[Instance, Solution]:
-    """The instance or solution in `path` (or in `text`, named `path`)."""
+                 text: Optional[str] = None, grid: Optional[Grid] = None) -> Union[Instance, Solution]:
+    """The instance or solution in `path` (or in `text`, named `path`); on `grid` if given (its
+    map_file= is then not looked up)."""
     name = str(path)
     if text is None:
         text = read_text(name)
     dirs = [Path(name).parent, *map_dirs]
-    return parse_solution(text, name, dirs) if is_solution_text(text) else parse_instance(text, name, dirs)
+    if is_solution_text(text):
+        return parse_solution(text, name, dirs, grid)
+    return parse_instance(text, name, dirs, grid)
+
+
+def map_file_of(text: str) -> Optional[str]:
+    """The `map_file=` of a problem's text (None if it names none)."""
+    found = _MAP_FILE.search(text)
+    return found.group(1).strip() if found else None
 
 
 def starts_and_goals(problem: Union[Instance, Solution]) -> Tuple[List[Coord], List[Coord]]:

@@ -36,6 +36,8 @@ Solver = Callable[..., SolveResult]
 
 #: Solvers that stop by themselves at `max_timestep`; for the others `solve` checks the plan.
 _STEP_LIMITED = ("pibt",)
+#: Solvers whose distance tables cover the free cells only (`goal_distances`); the others' cover every cell.
+_FREE_CELL_TABLES = ("pibt", "lacam")
 
 
 def _lazy(module: str, function: str) -> Solver:
@@ -90,7 +92,7 @@ def solve(name: str, grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord]
     starts = [(int(c[0]), int(c[1])) for c in starts]
     goals = [(int(c[0]), int(c[1])) for c in goals]
     check_problem(grid, starts, goals)
-    check_size(grid, len(set(goals)))
+    check_size(grid, len(set(goals)), free_cells_only=name in _FREE_CELL_TABLES)
     limit = DEFAULT_MAX_TIMESTEP if max_timestep is None else int(max_timestep)
     if name in _STEP_LIMITED:
         options["max_timestep"] = limit

@@ -55,6 +55,9 @@ class AgentDistances:
             self.lazy = rows
             self.dist = rows.views()
             self.limit = [rows.radius(i) - MARGIN for i in range(n)]
+            # the same, as arrays: which rows to check is one numpy expression over all agents
+            self._rows = np.asarray(rows.row_of, dtype=np.int64)
+            self._limits = np.asarray(self.limit, dtype=np.int64)
 
     def cover(self, q: Sequence[int], agents: Optional[Sequence[int]] = None) -> None:
         """Make the agents' rows (default: all) exact around their cells in `q`.
@@ -65,10 +68,14 @@ class AgentDistances:
         if self.lazy is None:
             return
         dist, limit = self.dist, self.limit
+        cells = np.asarray(q, dtype=np.int64)
         if agents is None:
-            short = [i for i, v in enumerate(q) if dist[i][v] > limit[i]]
+            late = self.lazy.table[self._rows, cells] > self._limits
+            short = np.nonzero(late)[0].tolist()
         else:
-            short = [i for i in agents if dist[i][q[i]] > limit[i]]
+            which = np.asarray(agents, dtype=np.int64)
+            late = self.lazy.table[self._rows[which], cells[which]] > self._limits[which]
+            short = which[late].tolist()
         if short:
             lazy = self.lazy
             lazy.cover(short, [q[i] for i in short], MARGIN)
@@ -76,13 +83,13 @@ class AgentDistances:
             if grow:  # a little further than needed now: the agent is heading out
                 lazy.cover(grow, [q[i] for i in grow], MARGIN + GROW_AT_LEAST)
             for i in short:
-                limit[i] = lazy.radius(i) - MARGIN
+                limit[i] = self._limits[i] = lazy.radius(i) - MARGIN
 
     def far(self, i: int, cell: int) -> int:
         """Agent i's distance at `cell`, growing its lazy row if it does not reach that far yet."""
         d = self.dist[i][cell]
         if d > self.limit[i] + MARGIN and self.lazy is not None and self.lazy.radius(i) < COMPLETE:
             self.lazy.cover([i], [cell], 0)
-            self.limit[i] = self.lazy.radius(i) - MARGIN
+            self.limit[i] = self._limits[i] = self.lazy.radius(i) - MARGIN
             d = self.dist[i][cell]
         return d

@@ -41,13 +41,16 @@ class ProblemTooLargeError(FleetError):
     """More agents x cells than the built-in solvers' distance tables fit in memory."""
 
 
-def check_size(grid: Grid, num_agents: int) -> None:
+def check_size(grid: Grid, num_agents: int, free_cells_only: bool = False) -> None:
     """Refuse, before allocating anything, problems whose distance tables would not fit.
 
     `num_agents` counts distinct goals: agents sharing a goal share its table.
+    `free_cells_only`: the solver's tables cover the free cells only (PIBT and
+    LaCAM, see `goal_distances`), not every cell of the map.
     """
-    goals = min(num_agents, int(grid.free.sum()))
-    entries = goals * grid.num_cells
+    free = int(grid.free.sum())
+    goals = min(num_agents, free)
+    entries = goals * ((free + 1) if free_cells_only else grid.num_cells)
     if entries > MAX_TABLE_ENTRIES:
         raise ProblemTooLargeError(
             "{} agents on a {}x{} map need {} million distance-table entries (about {:.1f} GB of "

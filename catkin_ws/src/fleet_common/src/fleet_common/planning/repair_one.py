@@ -4,20 +4,25 @@ For the rotation from step t to t + 1, tried in turn until one works:
 
 1. windows with a fixed end, t - w .. t + 1 + w for w = 1, 2, 4, 8 (`detour`):
    the agents re-planned arrive where they were, so nobody else changes;
-2. open windows, from t - 1, t - 8, t - 32, ... to the plan's end: the agents may
-   arrive later (the plan may grow);
-3. every agent re-planned from the configuration at step t, t - 8, t - 32,
-   ..., 0 by LaCAM (`replan`, complete): the plan before that step is kept.
+   the agents are, in turn, those of the cycle; with the agents of every
+   rotation in the window linked to it by shared agents (rotations come in
+   swirls in crowded places, and a kept rotation pins its agents' moves);
+   then with the neighbours of all of them too;
+2. every agent re-planned from the configuration at step t, t - 8, t - 32,
+   ..., 0 by LaCAM (`replan`, complete): the plan before that step is kept,
+   and no rotation is left after it.
 
-In 1 and 2 the agents are, in turn, those of the cycle; with the agents of
-every rotation in the window linked to it by shared agents (rotations come in
-swirls in crowded places, and a kept rotation pins its agents' moves); then
-with the neighbours of all of them too. Only 3 says "no" for good: a
+1 repairs most rotations in a few milliseconds. 2 is for crowds that turn
+round at full speed, where nobody has a step to spare in any window: there,
+going round one another means some agents arriving later, and those waiting
+behind them later still, and so on to the plan's end; LaCAM re-plans that
+whole future at once, in C, instead of agent by agent in Python (see
+bench/README.md, "Rotation repair"). Only 2 says "no" for good: a
 configuration from which no rotation-free plan exists.
 """
 from __future__ import annotations
 
-from typing import Iterator, List, Optional, Sequence, Set, Tuple
+from typing import Iterator, List, Optional, Sequence, Set
 
 import numpy as np
 
@@ -26,13 +31,16 @@ from ..grid import Grid
 from ..rotations import step_cycles
 from .deadline import Deadline
 from .detour import replan_window
+from .occupancy import Occupancy
 from .replan import replan
 from .st_astar import DeadlineReached
 
 #: Half-widths of the windows with a fixed end, tried in turn.
 FIXED_WINDOWS = (1, 2, 4, 8)
-#: Open windows and LaCAM start this far back, then 4 times as far each time.
+#: LaCAM starts this far back, then 4 times as far each time ...
 FIRST_BACK = 8
+#: ... each time with this share of the time left (the last time, from step 0, with all of it).
+LACAM_SHARE = 0.5
 #: Neighbours join a cycle's agents when within this many cells of one of its cells.
 NEIGHBOUR_REACH = 2
 
@@ -47,42 +55,35 @@ class RepairError(FleetError):
         self.agents = tuple(agents)
 
 
-def repair_one(grid: Grid, moves: List[List[int]], ids: np.ndarray, t: int, cycle: Sequence[int],
-               budget: Deadline, names: Optional[Sequence[int]] = None) -> Tuple[np.ndarray, int, int]:
-    """`ids` (cell ids, (steps, agents)) without the rotation from step t, and the steps t0..t1 that changed.
+def repair_one(grid: Grid, moves: List[List[int]], occ: Occupancy, t: int, cycle: Sequence[int],
+               budget: Deadline, names: Optional[Sequence[int]] = None) -> None:
+    """Re-plan `occ` (in place) without the rotation from step t, closing no other rotation.
 
     `moves` is `cells.moves(grid)`. Raises `RepairError` naming the rotation
     (its agents as `names[i]`, robots, when given).
     """
-    last = ids.shape[0] - 1
     what = "the rotation at t={}->{} ({} {})".format(t, t + 1, "agents" if names is None else "robots",
                                                     ", ".join(str(a if names is None else names[a]) for a in cycle))
     try:
-        for t0, t1, open_end in _windows(t, last):
-            for agents in _groups(grid, ids, t0, min(t1, t + 1 + FIXED_WINDOWS[-1]), t, cycle):
-                if budget.expired():  # small searches never look at the clock themselves
-                    raise DeadlineReached()
-                # an open window reserves everyone to the plan's end: a few orders only
-                block = replan_window(grid, moves, ids, t0, t1, agents, open_end, budget, 2 if open_end else 8)
-                if block is None:
-                    continue
-                new = _splice(ids, t0, agents, block)
-                end = t0 + block.shape[0] - 1
-                # a rotation closed through the crop's outside cell (see detour): try wider
-                if not any(set(a) & set(agents) for _, a in step_cycles(new[t0:end + 1])):
-                    return new, t0, end
+        for w in FIXED_WINDOWS:
+            if t + 1 + w > occ.last:
+                break
+            if _window(grid, moves, occ, max(0, t - w), t + 1 + w, t, cycle, budget):
+                return
+        last = occ.last
         for t0 in _backwards(t):
-            # LaCAM's time varies a lot with the configuration: an earlier one may be quicker
+            # LaCAM's time varies with the configuration: an earlier one may be quicker
             left = budget.remaining()
-            share = budget if t0 == 0 or left is None else Deadline(left / 4)
+            share = budget if t0 == 0 or left is None else Deadline(left * LACAM_SHARE)
+            ids = occ.ids
             result = replan(grid, [grid.coord(c) for c in ids[t0].tolist()],
                             [grid.coord(c) for c in ids[last].tolist()], set(), share, method="lacam")
             if budget.expired():
                 raise DeadlineReached()
             if result.plan is not None:
                 pos = result.plan.positions
-                tail = pos[:, :, 1].astype(np.int64) * grid.width + pos[:, :, 0]
-                return np.concatenate([ids[:t0], tail]), t0, t0 + tail.shape[0] - 1
+                occ.replace_from(t0, pos[:, :, 1].astype(np.int64) * grid.width + pos[:, :, 0])
+                return
     except DeadlineReached:
         raise RepairError("time limit of {:g} s reached while repairing {}".format(
             budget.seconds or 0, what), t, cycle) from None
@@ -90,18 +91,20 @@ def repair_one(grid: Grid, moves: List[List[int]], ids: np.ndarray, t: int, cycl
                       "complete, searched every configuration)".format(what), t, cycle)
 
 
-def _windows(t: int, last: int) -> Iterator[Tuple[int, int, bool]]:
-    """Windows (t0, t1, open end) around the rotation from step t, ever wider."""
-    for w in FIXED_WINDOWS:
-        if t + 1 + w >= last:
-            break
-        yield max(0, t - w), t + 1 + w, False
-    for t0 in _backwards(t, 1):
-        yield t0, last, True
+def _window(grid: Grid, moves: List[List[int]], occ: Occupancy, t0: int, t1: int, t: int, cycle: Sequence[int],
+            budget: Deadline) -> bool:
+    """Re-plan steps t0..t1 around the rotation from step t for each group of agents in turn, until one works."""
+    for agents in _groups(grid, occ.ids, t0, t1, t, cycle):
+        if budget.expired():  # small searches never look at the clock themselves
+            raise DeadlineReached()
+        if replan_window(moves, occ, t0, t1, agents, budget):
+            return True
+    return False
 
 
-def _backwards(t: int, back: int = 0) -> Iterator[int]:
-    """t - back, then FIRST_BACK steps before t, then 4 times as far back each time, down to 0."""
+def _backwards(t: int) -> Iterator[int]:
+    """t, then FIRST_BACK steps before t, then 4 times as far back each time, down to 0."""
+    back = 0
     while True:
         yield max(0, t - back)
         if t - back <= 0:
@@ -139,13 +142,3 @@ def _neighbours(grid: Grid, ids: np.ndarray, t: int, agents: Sequence[int]) -> S
         for c in cells.tolist():
             near |= (np.abs(row % w - c % w) + np.abs(row // w - c // w)) <= NEIGHBOUR_REACH
     return set(np.nonzero(near)[0].tolist())
-
-
-def _splice(ids: np.ndarray, t0: int, agents: List[int], block: np.ndarray) -> np.ndarray:
-    end = t0 + block.shape[0]
-    if end > ids.shape[0]:  # the plan grows: everyone else waits at their goals
-        ids = np.concatenate([ids, np.repeat(ids[-1:], end - ids.shape[0], axis=0)])
-    else:
-        ids = ids.copy()
-    ids[t0:end, agents] = block
-    return ids

@@ -12,13 +12,24 @@ ignore what they do not know), so later versions can add detail.
                time_unit ("s" | "step"), plan (file name), definitions (file
                name or null), robots [ids by agent], strategy, settings {},
                size {diameter_m, margin_m, cell_m, safe_m} (the robots' size;
-               absent in older folders: robots as large as a cell)
+               absent in older folders: robots as large as a cell), epoch (the
+               manager's command epoch, so that a manager started again on the
+               folder speaks to the robots as the same manager)
+    resume     started (ISO 8601, UTC), plan (the file being run), completed
+               [actions of it completed, by agent], sent [commands sent again:
+               [robot, id, type]], dropped (bytes of a torn last line cut off),
+               downtime (s since the last record): a manager started again on
+               this folder (`fleetctl manager --resume`) continues the run here;
+               the records after it are that manager's, on the same clock
     plan       file, robots [ids by agent], reason ("loaded" | "replan"),
                at (plan step of the old plan the new one starts from, or null)
     state      run ("waiting" | "running" | "paused" | "stopped" | "done" |
                "failed"), reason
     strategy   name, settings {}, by ("start" | operator's console id)
-    operator   console, action, args {}, ok (bool), reason
+    operator   console, action, args {}, ok (bool), reason (refused requests: the
+               first of each console a minute; the rest are counted in `refused`)
+    refused    console, requests (how many refused requests were not recorded),
+               seconds (the window they came in)
     command    robot, id, type ("drive" | "turn" | "stop" | "get_status"),
                x, y, time (drive) | angle (turn), action (plan action index or null)
     reply      robot, id, type ("accepted" | "completed" | "failed" | "status"),
@@ -27,6 +38,10 @@ ignore what they do not know), so later versions can add detail.
                before it), released_by (robot id or null)
     action     robot, index, phase ("started" | "completed"), src, dst
     out        robot, why ("disabled" | "failed" | null = back in), reason
+    pass       robot, passed (robot ids), cell [x, y], taken_back (bool), index,
+               passed_index (their moves into the cell): a re-ordering strategy lets
+               `robot` into `cell` before `passed`, which was due first (taken_back:
+               `passed` had been sent that move, stood still, and gave it back)
     link       robot, state ("up" | "down" | "failed"), reason, restarted
     fault      robot, faults [strings] (a change of the robot's fault list)
     poses      p [[robot, x, y, theta, source ("robot" | "vicon"), age_s], ...]
@@ -57,13 +72,21 @@ KINDS: Dict[str, Tuple[str, ...]] = {
     "dispatch": ("robot", "index", "step", "src", "dst"),
     "action": ("robot", "index", "phase"),
     "out": ("robot", "why"),
+    "pass": ("robot", "passed", "cell"),
     "link": ("robot", "state"),
     "fault": ("robot", "faults"),
     "poses": ("p",),
     "waits": ("w",),
     "vicon": ("robot", "event"),
     "end": ("reason",),
+    "resume": ("started", "plan"),
+    "refused": ("console", "requests"),
 }
+
+#: Kinds a manager started again on the folder needs (what was decided and sent): written
+#: through at once, so that a killed manager loses none of them (poses wait for the flush).
+DURABLE = frozenset(("run", "plan", "state", "strategy", "command", "reply", "dispatch", "action",
+                     "out", "resume", "end"))
 
 EVENTS_FILE = "events.jsonl"
 DEFINITIONS_FILE = "robot_definitions.txt"

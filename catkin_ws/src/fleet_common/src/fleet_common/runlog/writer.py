@@ -3,9 +3,14 @@
 `RunLog.record(kind, **fields)` writes one line; the file is flushed when a
 second has passed since the last flush (and by `flush()`/`close()`), so a
 crash loses at most the last second while a busy run does not pay a system
-call per line. Times are taken from the clock given (monotonic by default)
-relative to the log's start, unless the caller passes `t` (the simulator's
-plan steps).
+call per line. The records a manager started again on the folder needs
+(`records.DURABLE`: commands, replies, actions ...) are written through at
+once: a killed process loses none of them (the kernel has them), only poses.
+Times are taken from the clock given (monotonic by default) relative to the
+log's start, unless the caller passes `t` (the simulator's plan steps).
+
+`cut_torn_tail` makes a folder whose writer was killed mid-line ready to be
+appended to again: the torn last line is cut off.
 """
 from __future__ import annotations
 
@@ -18,9 +23,9 @@ from pathlib import Path
 from typing import Any, Callable, Optional, TextIO, Union
 
 from ..errors import FleetError
-from .records import DEFINITIONS_FILE, EVENTS_FILE, FORMAT_VERSION, KINDS
+from .records import DEFINITIONS_FILE, DURABLE, EVENTS_FILE, FORMAT_VERSION, KINDS
 
-__all__ = ["RunLog", "new_run_folder"]
+__all__ = ["RunLog", "new_run_folder", "cut_torn_tail"]
 
 FLUSH_EVERY = 1.0  # seconds: the most a crash may lose
 
@@ -43,6 +48,34 @@ def new_run_folder(parent: Union[str, Path], now: Optional[datetime] = None) -> 
     except OSError as err:
         raise FleetError("cannot make a run folder in {}: {}".format(parent, err.strerror)) from err
     raise FleetError("cannot make a run folder in {}: 999 runs in one second".format(parent))
+
+
+def cut_torn_tail(folder: Union[str, Path]) -> int:
+    """Cut a torn last line (no newline: its writer was killed while writing it) off the
+    folder's events.jsonl, so that lines appended after it stay lines; the bytes cut."""
+    path = Path(folder) / EVENTS_FILE
+    try:
+        with open(path, "rb+") as f:
+            size = f.seek(0, 2)
+            if size == 0:
+                return 0
+            end = size
+            while end > 0:  # back to the last newline, a block at a time
+                start = max(0, end - 65536)
+                f.seek(start)
+                block = f.read(end - start)
+                cut = block.rfind(b"\n")
+                if cut >= 0:
+                    keep = start + cut + 1
+                    break
+                end = start
+            else:
+                keep = 0
+            if keep < size:
+                f.truncate(keep)
+            return size - keep
+    except OSError as err:
+        raise FleetError("cannot repair {}: {}".format(path, err.strerror)) from err
 
 
 def _clean(value: Any) -> Any:
@@ -98,7 +131,7 @@ class RunLog:
         self._file.write(text + "\n")
         self.lines += 1
         now = self.clock()
-        if now - self._last_flush >= FLUSH_EVERY:
+        if kind in DURABLE or now - self._last_flush >= FLUSH_EVERY:
             self.flush(now)
 
     def run_started(self, *, source: str, time_unit: str, plan: str, robots: list,

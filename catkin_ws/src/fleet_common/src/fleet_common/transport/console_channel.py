@@ -10,7 +10,12 @@ state, not a backlog.
 
 With keys, the channel is a CURVE server with the manager's key pair and
 admits only clients holding the console key (checked by the context's ZAP
-handler, which the manager serves from its loop).
+handler, which the manager serves from its loop); clients that fail the
+handshake before ZAP is asked (no key, or not the manager's public key) are
+logged from the socket's monitor (`monitor`, which the manager polls too).
+Each side logs what the other got wrong once a minute, then a count: the
+server's refusals and malformed messages, the console's failed handshakes
+(`ConsoleClient.problem`).
 """
 from __future__ import annotations
 
@@ -21,7 +26,9 @@ import zmq
 
 from ..control.messages import DEFAULT_ENDPOINT
 from ..errors import FleetError
+from ..ratelimit import RateLimitedLog
 from .curve_keys import ConsoleKeys, ManagerKeys
+from .peers import ClientHandshake, HandshakeMonitor
 from .zap import ZapHandler
 
 __all__ = ["ConsoleServer", "ConsoleClient", "DEFAULT_ENDPOINT", "MAX_FRAME"]
@@ -39,6 +46,8 @@ class ConsoleServer:
                  zap: Optional[ZapHandler] = None, max_frame: int = 32 * 1024 * 1024,
                  log: Optional[logging.Logger] = None) -> None:
         self.log = log or logging.getLogger("fleet_manager.consoles")
+        self.refusals = RateLimitedLog(self.log)
+        self.monitor: Optional[HandshakeMonitor] = None
         self.socket = context.socket(zmq.ROUTER)
         self.socket.linger = 100
         self.socket.setsockopt(zmq.MAXMSGSIZE, max_frame)
@@ -50,15 +59,16 @@ class ConsoleServer:
             if keys.console_public is None:
                 raise FleetError("the key folder has no console.key: run `fleetctl keys` again "
                                  "to add the console's pair (existing keys are kept)")
-            zap.allow("consoles", [keys.console_public])
+            zap.allow("consoles", [keys.console_public], "the console key (console.key) it was given")
             self.socket.zap_domain = b"consoles"
             self.socket.curve_secretkey = keys.secret
             self.socket.curve_publickey = keys.public
             self.socket.curve_server = True
+        self.monitor = HandshakeMonitor(self.socket, self.refusals, "this manager", keys is not None)
         try:
             self.socket.bind(endpoint)
         except zmq.ZMQError as err:
-            self.socket.close(linger=0)
+            self.close()
             raise FleetError("cannot listen for consoles on {}: {}".format(endpoint, err.strerror)) from err
         self.endpoint = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
 
@@ -73,8 +83,10 @@ class ConsoleServer:
             if len(frames) == 2:
                 out.append((frames[0], frames[1]))
             else:
-                self.log.warning("console channel: dropped a message of %d parts from %r",
-                                 len(frames), frames[0][:16] if frames else b"")
+                peer = frames[0][:16] if frames else b""
+                self.refusals.event(logging.WARNING, "console {!r}".format(peer), "refused frames",
+                                    "console channel: dropped a message of %d parts from %r",
+                                    len(frames), peer)
         return out
 
     def send(self, peer: bytes, data: bytes) -> None:
@@ -86,14 +98,29 @@ class ConsoleServer:
             self.log.debug("console channel: send to %r failed: %s", peer[:16], err)
 
     def close(self) -> None:
+        if self.monitor is not None:
+            self.monitor.close()
+            self.monitor = None
         self.socket.close(linger=100)
+
+
+_HANDSHAKES: List[RateLimitedLog] = []
+
+
+def _handshakes() -> RateLimitedLog:
+    """One limiter for every client of this process: a console that makes a new client for each
+    attempt still logs a failing handshake once a minute per manager."""
+    if not _HANDSHAKES:
+        _HANDSHAKES.append(RateLimitedLog(logging.getLogger("fleet_console")))
+    return _HANDSHAKES[0]
 
 
 class ConsoleClient:
     """A console's end: DEALER connected to the manager (reconnects by itself, as ZeroMQ does)."""
 
     def __init__(self, context: zmq.Context, endpoint: str, *,
-                 keys: Optional[ConsoleKeys] = None, max_frame: int = MAX_FRAME) -> None:
+                 keys: Optional[ConsoleKeys] = None, max_frame: int = MAX_FRAME,
+                 log: Optional[logging.Logger] = None) -> None:
         self.endpoint = endpoint
         self.socket = context.socket(zmq.DEALER)
         self.socket.linger = 0
@@ -102,13 +129,22 @@ class ConsoleClient:
             self.socket.curve_secretkey = keys.secret
             self.socket.curve_publickey = keys.public
             self.socket.curve_serverkey = keys.manager_public
+        self.handshake = ClientHandshake(
+            self.socket, _handshakes() if log is None else RateLimitedLog(log),
+            "the manager at {}".format(endpoint), keys is not None, "console.key_secret", "manager.key")
         try:
             self.socket.connect(endpoint)
         except zmq.ZMQError as err:
-            self.socket.close(linger=0)
+            self.close()
             raise FleetError("cannot connect to a manager at {}: {}".format(endpoint, err.strerror)) from err
 
+    @property
+    def problem(self) -> Optional[str]:
+        """Why the handshake with the manager fails (None: it does not, or not yet known)."""
+        return self.handshake.problem
+
     def receive(self, budget: int = 1000) -> List[bytes]:
+        self.handshake.check()  # a failing handshake is logged (once a minute) and kept in `problem`
         out: List[bytes] = []
         for _ in range(budget):
             try:
@@ -124,4 +160,5 @@ class ConsoleClient:
             pass  # not connected yet: the session's heartbeat timing notices
 
     def close(self) -> None:
+        self.handshake.close()
         self.socket.close(linger=0)

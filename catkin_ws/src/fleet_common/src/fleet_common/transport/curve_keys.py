@@ -11,7 +11,9 @@ A robot needs `robot.key_secret` and `manager.key`; the manager needs
 `manager.key_secret`, `robot.key` and `console.key`; a console needs
 `console.key_secret` and `manager.key`. The folder is $FLEETCONTROL_KEYS, else
 $XDG_CONFIG_HOME/fleetcontrol/keys (~/.config/fleetcontrol/keys); secret files
-are made readable by their owner only. Keys never go into the repository.
+are made readable by their owner only, and a secret file that group or others
+may read is refused with the `chmod` that fixes it (as OpenSSH refuses such
+a private key). Keys never go into the repository.
 """
 from __future__ import annotations
 
@@ -98,6 +100,8 @@ def _load(folder: Path, name: str, secret: bool) -> Tuple[bytes, Optional[bytes]
     if not path.is_file():
         raise FleetError("{} not found: make the keys with `fleetctl keys --dir {}` (or set "
                          "${})".format(path, folder, ENV_VAR))
+    if secret:
+        check_private(path)
     try:
         public, secret_key = zmq.auth.load_certificate(str(path))
     except (OSError, ValueError) as err:
@@ -108,6 +112,18 @@ def _load(folder: Path, name: str, secret: bool) -> Tuple[bytes, Optional[bytes]
         if key is not None and not _valid_z85_key(key):
             raise FleetError("{}: the {} key is not a 40-character Z85 CURVE key".format(path, what))
     return public, secret_key
+
+
+def check_private(path: Path) -> None:
+    """FleetError if the secret key file `path` may be read by its group or by others: whoever
+    reads it can drive the robots (or pose as the manager to consoles)."""
+    try:
+        mode = os.stat(str(path)).st_mode
+    except OSError as err:
+        raise FleetError("{}: cannot read: {}".format(path, err.strerror)) from err
+    if mode & 0o077:
+        raise FleetError("{} may be read by others (mode {:04o}): a secret key must be its owner's "
+                         "alone; run `chmod 600 {}`".format(path, mode & 0o7777, path))
 
 
 def _valid_z85_key(key: bytes) -> bool:

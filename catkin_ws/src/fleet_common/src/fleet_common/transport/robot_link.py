@@ -17,6 +17,13 @@ good (`LinkDown(fatal=True)`): retrying cannot help.
 
 Commands may be issued while the link is down; they are sent once it is up.
 
+Keys: until the robot's welcome, the command socket's handshake is watched
+(`peers.ClientHandshake`): a robot that refuses our key, or whose public key
+is not the one we were given, or that runs without CURVE while we do not,
+is logged once a minute with a count, and said once as a `LinkDown` whose
+reason the manager shows ("not connected: robots 1, 2 (robot 1 refused our
+key ...)").
+
 A hostile or broken robot cannot stop the manager: frames beyond the limits
 are dropped by libzmq (MAXMSGSIZE), anything else that does not decode is a
 protocol error (the link says bye and reconnects), each frame is handled
@@ -44,6 +51,7 @@ from ..wire import (Bye, Command, Completed, Connection, DriveToPosition, Failed
                     VersionMismatchError, Welcome)
 from .curve_keys import ManagerKeys
 from ..wire.link_events import OUTCOME_UNKNOWN, LinkDown, LinkEvent, LinkUp, RobotReply
+from .peers import ClientHandshake
 from .pose_feedback import poses_in, secure_client, subscribe_feedback
 
 __all__ = ["RobotLink", "LinkUp", "LinkDown", "RobotReply", "LinkEvent", "OUTCOME_UNKNOWN"]
@@ -85,6 +93,8 @@ class RobotLink:
         self._next_id = 1
         # id -> (command, session it was last sent to, None: not sent yet)
         self._unsettled: "OrderedDict[int, Tuple[Command, Optional[str]]]" = OrderedDict()
+        self._handshake: Optional[ClientHandshake] = None  # watched until the welcome
+        self.key_problem: Optional[str] = None  # why the handshake fails, once known
         self._connect(clock())
 
     # ---- commands (the thesis's navigation API, remote) ---------------------------
@@ -197,7 +207,8 @@ class RobotLink:
                 self.robot_id, what, self.live.timeout), now, retry=0.0)
             return events, now
         if self.state != "up":  # no heartbeats before the welcome: wait for it or give up
-            return events, self.live.last_heard + self.live.timeout
+            events += self._check_handshake()
+            return events, min(self.live.last_heard + self.live.timeout, now + 1.0)
         if self.live.heartbeat_due(now):
             self._send(Heartbeat(), now)
         stream_due = self._feedback_heard + self.live.timeout
@@ -209,7 +220,8 @@ class RobotLink:
         return events, min(self.live.next_deadline(), stream_due + self.live.timeout)
 
     def close(self) -> None:
-        if self.command is not None and self.conn.can_send(Bye("manager closing")):
+        self._unwatch()
+        if self.command is not None and self.state == "up" and self.conn.can_send(Bye("manager closing")):
             self._send(Bye("manager closing", "shutdown"), self.clock())
         for sock in self.sockets():
             sock.close(linger=100)
@@ -236,11 +248,14 @@ class RobotLink:
         self._send(command, now)
 
     def _connect(self, now: float) -> None:
+        self._unwatch()
         if self.command is not None:
             self.command.close(linger=0)
         sock = self.context.socket(zmq.DEALER)
         sock.linger = 0
         secure_client(sock, self.keys)
+        self._handshake = ClientHandshake(sock, self.refusals, "robot {}".format(self.robot_id),
+                                          self.keys is not None, "manager.key", "robot.key")
         sock.connect(self.address)
         self.command = sock
         self.conn = Connection(Role.MANAGER, self.robot_id)
@@ -296,7 +311,22 @@ class RobotLink:
             return []
         return [RobotReply(self.robot_id, message)]
 
+    def _check_handshake(self) -> List[LinkEvent]:
+        """A handshake problem newly known, as a LinkDown saying it (once per change)."""
+        problem = self._handshake.check() if self._handshake is not None else None
+        if problem is None or problem == self.key_problem:
+            return []
+        self.key_problem = problem
+        return [LinkDown(self.robot_id, problem)]
+
+    def _unwatch(self) -> None:
+        if self._handshake is not None:
+            self._handshake.close()
+            self._handshake = None
+
     def _on_welcome(self, welcome: Welcome, now: float) -> List[LinkEvent]:
+        self._unwatch()
+        self.key_problem = None
         restarted = self.session is not None and welcome.session != self.session
         self.session = welcome.session
         self.state = "up"
@@ -326,6 +356,7 @@ class RobotLink:
         was_up = self.state == "up"
         self.state = "down"
         self.retry_at = now + retry
+        self._unwatch()
         if self.command is not None:
             self.command.close(linger=0)
             self.command = None
@@ -334,6 +365,7 @@ class RobotLink:
 
     def _fail(self, reason: str) -> List[LinkEvent]:
         self.state = "failed"
+        self._unwatch()
         if self.command is not None:
             self.command.close(linger=0)
             self.command = None

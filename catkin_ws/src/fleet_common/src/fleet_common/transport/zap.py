@@ -3,9 +3,10 @@
 With CURVE, libzmq asks the context's ZAP handler (a REP socket bound to
 inproc://zeromq.zap.01) about every client that completes the handshake,
 passing its public key. This handler allows the keys it was given for the
-socket's ZAP domain and refuses the rest, logging each refused address and
-key (a refused client keeps reconnecting: once a minute per domain, address
-and key, then a count, through `RateLimitedLog`). A request it cannot read,
+socket's ZAP domain and refuses the rest, logging each refused address
+with the key it offered (a refused client keeps reconnecting, perhaps with a
+new key each time: once a minute per domain and address, then a count,
+through `RateLimitedLog`; `flush` says the counts, so call it now and then). A request it cannot read,
 or a failure of its own, is answered 500 and logged: the REP socket must
 always answer, or no client would ever be admitted again. Served from the
 caller's loop, not a thread, so one handler serves 300 virtual robots in one
@@ -42,11 +43,14 @@ class ZapHandler:
         self.clock = clock
         self.refusals = RateLimitedLog(log, clock=clock)
         self._allowed: Dict[str, Set[bytes]] = {}
+        self._expected: Dict[str, str] = {}
         self.refused = 0  # refusals so far, for tests and status
 
-    def allow(self, domain: str, z85_keys: List[bytes]) -> None:
-        """Clients of sockets with `zap_domain == domain` must have one of these keys."""
+    def allow(self, domain: str, z85_keys: List[bytes], expected: str = "the manager key it was given") -> None:
+        """Clients of sockets with `zap_domain == domain` must have one of these keys (`expected`
+        says which, for the log)."""
         self._allowed[domain] = {z85.decode(k) for k in z85_keys}
+        self._expected[domain] = expected
 
     def handle(self) -> None:
         """Answer every request waiting on the socket (call when it is readable)."""
@@ -81,9 +85,10 @@ class ZapHandler:
         shown = (z85.encode(key).decode("ascii") if len(key) == 32
                  else "(mechanism {})".format(mechanism.decode("ascii", "replace")))
         self.refusals.event(
-            logging.WARNING, "{} with key {} to {}".format(address, shown, domain),
-            "refused connections", "%s: refused a connection from %s with key %s: not the "
-            "manager key it was given; nothing from it is executed", domain, address, shown)
+            logging.WARNING, "{} to {}".format(address, domain),
+            "refused connections", "%s: refused a connection from %s with key %s: not %s; "
+            "nothing from it is executed", domain, address, shown,
+            self._expected.get(domain, "a key it was given"))
         return [b"1.0", request_id, b"400", b"key not allowed", b"", b""]
 
     @staticmethod

@@ -35,6 +35,9 @@ class Sighting:
     obj: ViconObject
     frame: int
     received: float
+    #: Tracker restarts the stream had counted when it was taken: frame numbers of two counts
+    #: do not compare (any frame after a restart is newer)
+    restarts: int = 0
 
     def age(self, now: float) -> float:
         return max(0.0, now - self.received)
@@ -95,9 +98,9 @@ class ViconStream:
             if last is None and len(self.sightings) >= self.max_objects:
                 _bump(self.counters.dropped, "too-many")
                 continue
-            if last is not None and last.frame >= packet.frame_number:
+            if last is not None and last.restarts == self.counters.restarts and last.frame >= packet.frame_number:
                 continue
-            sighting = Sighting(obj, packet.frame_number, now)
+            sighting = Sighting(obj, packet.frame_number, now, self.counters.restarts)
             self.sightings[obj.name] = sighting
             updated.append(sighting)
         return updated
@@ -113,10 +116,7 @@ class ViconStream:
         if newest is None or abs(frame - newest) > MAX_FRAME_GAP:
             if newest is not None:
                 c.restarts += 1
-                self._gaps.clear()
-                # objects keep their pose and age, but any frame of the new count is newer
-                self.sightings = {n: Sighting(s.obj, -1, s.received)
-                                  for n, s in self.sightings.items()}
+                self._gaps.clear()  # objects keep their pose, age and frame; any new frame is newer
             self.newest = frame
             c.frames += 1
         elif frame > newest:

@@ -1,0 +1,291 @@
+"""A manager started again on a run folder: where the run stood, and where the robots stand.
+
+Theory of operation. A manager may die mid-run (SIGKILL, a crash, the lab
+PC's power button) while the robots go on: each finishes the command it
+was running and waits, a follower at its hold point. Its run folder holds
+every decision it made: the records a restart needs reach the file as they
+are made (`fleet_common.runlog.records.DURABLE`), and the `run` record names
+the manager's command epoch. A new manager started on the folder
+(`fleetctl manager --resume RUNDIR`):
+
+1. reads the records (`read_resume`): the plan being run (the last
+   plan-N.txt), the actions of it each robot completed, began and was sent,
+   the commands no reply settled (at most each robot's running motion), the
+   robots out and why, the strategy, whether the run had started;
+2. rebuilds the engine's progress from them (`Engine.restore`) and speaks to
+   the robots as the same manager (the same epoch, command ids above the
+   old ones): it sends each unsettled command again with its id, so a robot
+   still running one reports its outcome to the new manager, one that
+   finished reports that, and none runs a command twice;
+3. once every robot has answered and reported a pose (`Resuming.waiting_for`
+   says for whom it waits), compares where each robot stands with where the
+   run left it (`off_plan`): on the cell of its last completed action, or on
+   the move it is making. Robots elsewhere are named; one standing on a cell
+   is replanned from there with everyone else (a proposal, as any replan);
+   one between cells cannot be driven to a cell without a plan for it, so
+   it is held and planned around, its neighbouring cells walled off.
+
+Nothing moves until that check is done: no release of a follower, no new
+action (the resumed run is paused until Start). The run log goes on in the
+same folder after a `resume` record, on the same clock.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Set, Tuple
+
+from fleet_common.grid import Coord, Grid
+from fleet_common.runlog.reader import RunFolder
+from fleet_common.runlog.records import plan_file
+from fleet_common.wire import Command, DriveToPosition, Stop, Turn
+
+from .driver import AT_CELL
+from .robot import Fleet, Robot
+
+__all__ = ["ResumePoint", "Unsettled", "read_resume", "Resuming", "OffPlan", "off_plan", "walls_around",
+           "ID_MARGIN"]
+
+Record = Dict[str, Any]
+Point = Tuple[float, float]
+
+#: Command ids the new manager skips past the highest one in the log: releases of hold points
+#: are not logged, and a robot refuses an id at or below one it has seen from the epoch.
+ID_MARGIN = 10000
+
+
+@dataclass
+class Unsettled:
+    """A command the old manager sent that no reply settled."""
+
+    robot: int
+    command: Command
+    action: Optional[int]
+    hold: Optional[Point]
+    accepted: bool = False
+
+
+@dataclass
+class ResumePoint:
+    """Where a run stood when its manager stopped, from its folder's records alone."""
+
+    folder: Path
+    run: Record
+    records: List[Record]
+    plan: str = plan_file(1)                        # the plan being run
+    completed: Dict[int, int] = field(default_factory=dict)   # robot id -> actions completed
+    started: Dict[int, int] = field(default_factory=dict)     # robot id -> actions begun
+    unsettled: Dict[int, List[Unsettled]] = field(default_factory=dict)
+    next_id: Dict[int, int] = field(default_factory=dict)     # robot id -> first id to use
+    out: Dict[int, Tuple[str, str]] = field(default_factory=dict)  # robot id -> (why, reason)
+    strategy: str = "adg"
+    settings: Dict[str, Any] = field(default_factory=dict)
+    phase: str = "waiting"
+    #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
+    passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
+    began: Optional[float] = None                   # t of the run's first "running"
+    last_t: float = 0.0
+    torn: bool = False
+
+    @property
+    def epoch(self) -> Optional[str]:
+        epoch = self.run.get("epoch")
+        return epoch if isinstance(epoch, str) and epoch else None
+
+    @property
+    def robots(self) -> List[int]:
+        return [int(r) for r in self.run.get("robots") or []]
+
+    @property
+    def plan_number(self) -> int:
+        try:
+            return int(self.plan.rsplit("-", 1)[1].split(".")[0])
+        except (IndexError, ValueError):
+            return 1
+
+    def dispatched(self, robot: int) -> int:
+        """Actions of the current plan robot `robot` was sent a drive for (or began)."""
+        sent = [u.action + 1 for u in self.unsettled.get(robot, ())
+                if isinstance(u.command, DriveToPosition) and u.action is not None]
+        return max(sent + [self.started.get(robot, 0), self.completed.get(robot, 0)])
+
+
+def read_resume(run: RunFolder) -> ResumePoint:
+    """Where the run of `run` (a folder read back) stood at its last record."""
+    point = ResumePoint(run.folder, run.run, run.records, torn=run.torn)
+    point.strategy = str(run.run.get("strategy") or "adg")
+    point.settings = dict(run.run.get("settings") or {})
+    pending: Dict[int, Dict[int, Unsettled]] = {}
+    highest: Dict[int, int] = {}
+    for r in run.records:
+        kind = r.get("k")
+        point.last_t = max(point.last_t, _number(r.get("t")))
+        robot = r.get("robot")
+        if kind == "plan" and r.get("reason") != "loaded":
+            point.plan = str(r.get("file") or point.plan)
+            point.completed.clear()
+            point.started.clear()
+            point.passes.clear()
+        elif kind == "pass" and all(isinstance(r.get(f), int) for f in ("robot", "index", "passed",
+                                                                           "passed_index")):
+            point.passes.append((r["robot"], r["index"], r["passed"], r["passed_index"]))
+        elif kind == "action" and isinstance(robot, int) and isinstance(r.get("index"), int):
+            counts = point.completed if r.get("phase") == "completed" else point.started
+            counts[robot] = max(counts.get(robot, 0), r["index"] + 1)
+        elif kind == "command" and isinstance(robot, int) and isinstance(r.get("id"), int):
+            highest[robot] = max(highest.get(robot, 0), r["id"])
+            command = _command(r)
+            if command is not None:
+                action = r.get("action") if isinstance(r.get("action"), int) else None
+                pending.setdefault(robot, {})[r["id"]] = Unsettled(robot, command, action, _point(r.get("hold")))
+        elif kind == "reply" and isinstance(robot, int) and isinstance(r.get("id"), int):
+            highest[robot] = max(highest.get(robot, 0), r["id"])
+            sent = pending.get(robot, {}).get(r["id"])
+            if r.get("type") in ("completed", "failed"):
+                pending.get(robot, {}).pop(r["id"], None)
+            elif r.get("type") == "accepted" and sent is not None:
+                sent.accepted = True
+        elif kind == "out" and isinstance(robot, int):
+            if r.get("why") is None:
+                point.out.pop(robot, None)
+            else:
+                point.out[robot] = (str(r["why"]), str(r.get("reason") or ""))
+        elif kind == "strategy" and isinstance(r.get("name"), str):
+            point.strategy = r["name"]
+            point.settings.update(r.get("settings") or {})
+        elif kind == "state" and isinstance(r.get("run"), str):
+            point.phase = r["run"]
+            if r["run"] == "running" and point.began is None:
+                point.began = _number(r.get("t"))
+    point.unsettled = {robot: [u for _, u in sorted(commands.items())]
+                       for robot, commands in pending.items() if commands}
+    point.next_id = {robot: top + 1 + ID_MARGIN for robot, top in highest.items()}
+    return point
+
+
+def _number(value: Any) -> float:
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else 0.0
+
+
+def _point(value: Any) -> Optional[Point]:
+    if isinstance(value, list) and len(value) == 2 and all(isinstance(v, (int, float)) for v in value):
+        return float(value[0]), float(value[1])
+    return None
+
+
+def _command(r: Record) -> Optional[Command]:
+    """The wire command a `command` record describes (None: one not to send again)."""
+    kind, cid = r.get("type"), r["id"]
+    try:
+        if kind == "drive":
+            return DriveToPosition(cid, float(r["x"]), float(r["y"]), float(r.get("time") or 0.0),
+                                   _point(r.get("hold")))
+        if kind == "turn":
+            return Turn(cid, float(r["angle"]))
+        if kind == "stop":
+            return Stop(cid)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return None
+
+
+class Resuming:
+    """A resumed run before its check: whom it still waits for."""
+
+    def __init__(self, point: ResumePoint, since: float) -> None:
+        self.point = point
+        self.since = since
+
+    def waiting_for(self, fleet: Fleet, out: List[Optional[str]]) -> str:
+        """Why the check cannot be made yet ("" when it can): robots not connected, without a
+        pose since the restart, or that have not answered a command sent again."""
+        reasons: Dict[str, List[int]] = {}
+        for robot in fleet:
+            if out[robot.agent] is not None:
+                continue
+            seen = robot.seen()
+            if not robot.link_up:
+                reasons.setdefault("not connected", []).append(robot.id)
+            elif seen is None or seen.at < self.since:
+                reasons.setdefault("no pose yet", []).append(robot.id)
+            elif robot.flight is not None and not robot.flight.accepted:
+                reasons.setdefault("no answer to its command yet", []).append(robot.id)
+        if not reasons:
+            return ""
+        return "resuming {}: waiting for {}".format(self.point.folder.name, "; ".join(
+            "robot{} {} ({})".format("s" if len(ids) > 1 else "", _ids(ids), why) for why, ids in reasons.items()))
+
+
+@dataclass(frozen=True)
+class OffPlan:
+    """A robot not where the run left it: at `pose`, where its plan has it at `expected`
+    (its last cell, or the move it makes), standing on `cell` (None: between cells)."""
+
+    robot: Robot
+    pose: Point
+    expected: Coord
+    cell: Optional[Coord]
+
+
+def off_plan(fleet: Fleet, positions: List[Coord], out: List[Optional[str]], grid: Grid) -> List[OffPlan]:
+    """The robots taking part that stand neither on the cell of their last completed action
+    (`positions`, by agent) nor on the move they are making."""
+    found: List[OffPlan] = []
+    taken: Set[Coord] = set()
+    for robot in fleet:
+        pose = robot.pose
+        if out[robot.agent] is not None or pose is None:
+            continue
+        here = positions[robot.agent]
+        flight = robot.flight
+        if flight is not None and flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index:
+            d = robot.queue[0]
+            if _to_segment((pose.x, pose.y), d.src, d.dst) <= AT_CELL:
+                continue
+        elif math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL:
+            taken.add(here)
+            continue
+        cell = (int(round(pose.x)), int(round(pose.y)))
+        on_cell = (math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL and grid.in_bounds(cell)
+                   and bool(grid.free[cell[1], cell[0]]))
+        found.append(OffPlan(robot, (pose.x, pose.y), here, cell if on_cell else None))
+    # two robots cannot be replanned from one cell: the second is between cells for planning
+    out_cells: List[OffPlan] = []
+    for o in found:
+        if o.cell is not None and o.cell in taken:
+            o = OffPlan(o.robot, o.pose, o.expected, None)
+        if o.cell is not None:
+            taken.add(o.cell)
+        out_cells.append(o)
+    return out_cells
+
+
+def walls_around(pose: Point, reach: float, grid: Grid, keep: Set[Coord]) -> Set[Coord]:
+    """Cells whose centre is closer than `reach` (cells) to `pose`, but for those in `keep`
+    (cells robots stand on): a robot between cells, planned around."""
+    walls: Set[Coord] = set()
+    r = int(math.ceil(reach))
+    cx, cy = int(round(pose[0])), int(round(pose[1]))
+    for x in range(cx - r, cx + r + 1):
+        for y in range(cy - r, cy + r + 1):
+            if (x, y) not in keep and grid.in_bounds((x, y)) and math.hypot(x - pose[0], y - pose[1]) < reach:
+                walls.add((x, y))
+    return walls
+
+
+def passes_near(start: Point, end: Coord, pose: Point, distance: float) -> bool:
+    """The straight drive from `start` to `end` comes closer than `distance` to `pose`."""
+    return _to_segment(pose, start, end) < distance
+
+
+def _to_segment(p: Point, a: Tuple[float, float], b: Tuple[float, float]) -> float:
+    ax, ay = float(a[0]), float(a[1])
+    dx, dy = float(b[0]) - ax, float(b[1]) - ay
+    length = dx * dx + dy * dy
+    f = 0.0 if length == 0 else min(1.0, max(0.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / length))
+    return math.hypot(p[0] - (ax + f * dx), p[1] - (ay + f * dy))
+
+
+def _ids(ids: List[int]) -> str:
+    return ", ".join(str(i) for i in ids)

@@ -1,0 +1,222 @@
+"""A demonstration repeated from a console, in memory: go to starts, run, reset, run again.
+
+The manager's run core with in-memory robots (`memory_fleet`): the robots drive
+to the plan's starts as a run of its own (planned, then executed by the same
+engine and driver, recorded in its own run folder), the plan runs, Reset brings
+them back and the plan runs again. Also what a State says the manager would
+accept (`allowed`, the console's greyed buttons), the run's clock across a
+replan and at its end, a robot enabled after the end, and the manager's
+terminal lines.
+"""
+from __future__ import annotations
+
+from typing import Dict, List
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from fleet_common.formats.solution import format_solution, make_solution
+from fleet_common.lab import lab_instance_path
+from fleet_common.plan_loading import LoadedPlan, load_plan
+from fleet_common.planning import solve
+from fleet_common.formats.mapfile import read_map
+from fleet_common.wire import Pose
+from fleet_manager import operator
+from fleet_manager.settings import ManagerSettings
+from memory_fleet import MemoryFleet, lab_fleet
+
+_LAB: List[LoadedPlan] = []
+
+
+def lab() -> LoadedPlan:
+    if not _LAB:
+        _LAB.append(load_plan(lab_instance_path(), 5, "the lab fleet", []))
+    return _LAB[0]
+
+
+def at_goals_poses() -> Dict[int, Pose]:
+    """Every robot standing on its goal: where a finished demonstration leaves them."""
+    return {i + 1: Pose(float(g[0]), float(g[1]), 0.0) for i, g in enumerate(lab().goals)}
+
+
+def folders(f: MemoryFleet) -> List[List[tuple]]:
+    """The records of each run folder, in order (a NewRunFolder starts the next)."""
+    out: List[List[tuple]] = []
+    for kind, t, fields in f.records:
+        if kind == "run":
+            out.append([])
+        out[-1].append((kind, t, fields))
+    return out
+
+
+def purpose(folder: List[tuple]) -> str:
+    return folder[0][2].get("purpose", "plan")
+
+
+def finished(folder: List[tuple]) -> bool:
+    return any(k == "state" and fields.get("run") == "done" for k, _, fields in folder)
+
+
+def ready(f: MemoryFleet) -> bool:
+    return f.phase == "waiting" and f.core.run.purpose == "plan" and not f.core.run.not_ready()
+
+
+def test_go_to_starts_run_reset_and_run_again():
+    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
+    ops = f.console()
+    f.link_up()
+    refusal = f.ask(ops, "start")
+    assert not refusal.ok and "Go to starts drives them there" in refusal.reason
+    assert f.ask(ops, "to_starts").ok
+    f.advance(0.1)
+    assert f.core.run.purpose == "to-starts" and f.phase == "running"
+    assert ops.state.run.purpose == "to-starts" and "start" not in ops.state.run.allowed
+    assert f.run_until(lambda: ready(f))
+    assert "start" in ops.state.run.allowed and "to_starts" not in ops.state.run.allowed
+    for turn in (1, 2):
+        assert f.ask(ops, "start").ok
+        assert f.run_until(lambda: f.phase == "done")
+        assert f.at_goals()
+        if turn == 1:
+            assert "start" not in ops.state.run.allowed and "reset" in ops.state.run.allowed
+            answer = f.ask(ops, "reset")
+            assert answer.ok and "drive back to their starts" in answer.reason
+            assert f.run_until(lambda: ready(f))
+    runs = folders(f)
+    # the first plan folder (never started), the way to the starts, run 1, the way back, run 2
+    assert [purpose(r) for r in runs] == ["plan", "to-starts", "plan", "to-starts", "plan"]
+    assert [finished(r) for r in runs] == [False, True, True, True, True]
+    for run in runs[:-1]:  # each closed with its summary (the last one is still open)
+        end = [fields for k, _, fields in run if k == "end"]
+        assert len(end) == 1
+        if finished(run):
+            assert end[0]["summary"]["collisions"] == 0 and end[0]["arrived"] == 5
+    last = f.core.summary()
+    assert len(last.arrived) == 5 and last.collisions == 0
+    # the way to the starts was planned from where the robots stood, on the fleet's map
+    way = runs[1][0][2]
+    assert way["for_plan"] == lab().name and way["starts"] == [list(g) for g in lab().goals]
+    assert any("every robot is on its start" in n.text for n in ops.notices())
+
+
+def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reason():
+    poses = at_goals_poses()
+    poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)  # between two cells
+    f = MemoryFleet(lab(), lab_fleet(), poses=poses)
+    ops = f.console()
+    f.link_up()
+    answer = f.ask(ops, "to_starts")
+    goal = lab().show(lab().goals[1])
+    assert not answer.ok
+    assert "robot 2 stands at ({:.1f}, {:.1f}), not on a cell's centre".format(goal[0] + 0.5, goal[1]) \
+        in answer.reason
+    assert not f.jobs and f.folders == 1 and f.phase == "waiting"
+
+
+def test_robots_already_on_their_starts_need_no_way_there():
+    f = MemoryFleet(lab(), lab_fleet())
+    ops = f.console()
+    f.link_up()
+    answer = f.ask(ops, "to_starts")
+    assert not answer.ok and "already stands on its start" in answer.reason
+    f.advance(0.1)
+    assert "to_starts" not in ops.state.run.allowed and "start" in ops.state.run.allowed
+
+
+def test_a_plan_for_another_map_is_refused_with_both_maps_named(shared_data):
+    other = read_map(str(shared_data / "maps" / "random-32-32-20.map")).grid
+    starts = [c for c in other.free_cells()][:5]
+    goals = [c for c in other.free_cells()][-5:]
+    result = solve("lacam", other, starts, goals)
+    text = format_solution(make_solution(other, "random-32-32-20.map", result.plan, starts, goals, "lacam",
+                                         True, 0))
+    f = MemoryFleet(lab(), lab_fleet(), ManagerSettings(step_time=0.5, map_dirs=[shared_data / "maps"]))
+    ops = f.console()
+    f.link_up()
+    answer = f.ask(ops, "load", text=text, name="random.txt")
+    assert not answer.ok
+    assert "a plan for map random-32-32-20.map (32 x 32); this fleet runs on lab.map (13 x 14)" in answer.reason
+    assert f.folders == 1
+
+
+def test_the_clock_starts_again_at_a_replans_step_0_and_stops_at_the_end():
+    f = MemoryFleet(lab(), lab_fleet())
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    f.advance(1.5)
+    f.ask(ops, "disable", robot=5)
+    f.ask(ops, "replan")
+    f.advance(2.0)
+    proposal = [x for x in ops.received if type(x).__name__ == "Proposal"][-1]
+    assert f.ask(ops, "accept", proposal=proposal.id).ok
+    f.advance(0.05)
+    run = ops.state.run
+    assert run.plan_time < 0.5, "the new plan's clock starts at its step 0"
+    assert run.clock > 3.0, "the run's own clock goes on"
+    assert all(r.behind < 1.0 for r in ops.state.robots), "nobody is behind a plan that just began"
+    assert f.run_until(lambda: f.phase == "done")
+    end = ops.state.run
+    f.advance(3.0)
+    assert ops.state.run.clock == end.clock, "the clock stops when the run is done"
+    assert ops.state.run.plan_time <= f.core.run.plan.makespan
+
+
+def test_a_robot_enabled_after_the_end_drives_on_in_a_new_leg():
+    f = MemoryFleet(lab(), lab_fleet())
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    run = f.core.run.engine.run
+
+    def left() -> List[int]:
+        return [a for a in range(run.num_agents) if not run.finished_agent(a)]
+
+    assert f.run_until(lambda: len(left()) == 1)  # the last robot on its way: nobody waits for it
+    last = f.core.fleet[left()[0]].id
+    assert f.ask(ops, "disable", robot=last).ok
+    assert f.run_until(lambda: f.phase == "done")
+    assert "robot {}".format(last) in ops.state.run.reason and "disabled" in ops.state.run.reason
+    assert ops.state.run.arrived == 4 and ops.state.run.robots == 5
+    answer = f.ask(ops, "enable", robot=last)
+    assert answer.ok and "a new leg" in answer.reason
+    assert f.phase == "running" and "new leg" in f.core.run.phase.reason
+    assert f.run_until(lambda: f.phase == "done")
+    assert f.at_goals() and ops.state.run.arrived == 5
+    assert [r["run"] for r in f.kinds("state")][-3:] == ["done", "running", "done"]
+
+
+def test_the_terminal_names_the_robot_of_a_request_and_says_refusals_without_flooding():
+    f = MemoryFleet(lab(), lab_fleet())
+    ops = f.console("console@vm")
+    f.link_up()
+    f.advance(0.1)  # the console sees the robots up
+    assert f.ask(ops, "disable", robot=3).ok
+    assert any(line.endswith("console@vm: disable robot 3") for line in f.said)
+    for _ in range(20):
+        assert not f.ask(ops, "pause").ok
+    refused = [line for line in f.said if "refused" in line]
+    assert refused[0].endswith("console@vm: pause refused: not running (the run is waiting)")
+    assert len(refused) == 3
+    f.advance(61.0)
+    assert any("console@vm: 17 more refused requests in the last 60 s" in line for line in f.said)
+
+
+RUN_REQUESTS = ["start", "pause", "stop", "step", "halt", "reset", "to_starts"]
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(st.sampled_from(RUN_REQUESTS), st.floats(0.0, 2.0)), min_size=1, max_size=10),
+       st.booleans())
+def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goals):
+    """The console greys a button when the State does not list its action: that must be the
+    manager's own answer, whatever happened before (and every run stays safe)."""
+    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses() if from_goals else None)
+    ops = f.console()
+    f.link_up()
+    for action, wait in steps:
+        allowed = operator.allowed(f.core.run, f.now)
+        answer = f.ask(ops, action)
+        assert answer.ok == (action in allowed), (action, allowed, answer.reason)
+        f.advance(wait)
+    assert f.core.summary().collisions == 0

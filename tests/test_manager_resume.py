@@ -1,0 +1,319 @@
+"""A manager that dies mid-run and another that takes the run over from its records, in memory.
+
+The robots go on while no manager runs (each finishes what it was running; a
+follower waits at its hold point); the new manager reads the records the
+dead one left (`MemoryFleet.resume_manager`, as `fleetctl manager --resume`
+reads a run folder), checks where every robot stands, and the run ends with
+every robot at its goal, no command run twice and the robots' distance kept.
+The engine's `restore` is held to the progress it was given.
+"""
+from __future__ import annotations
+
+import math
+import random
+from pathlib import Path
+from typing import List, Tuple
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fleet_common.execution import ActionCompleted, ActionStarted, Engine, EventError, Resume
+from fleet_common.lab import lab_instance_path
+from fleet_common.plan_loading import LoadedPlan, load_plan
+from fleet_common.robot_size import TURTLEBOT2
+from fleet_common.runlog.reader import RunFolder
+from fleet_common.runlog.summary import SummaryBuilder
+from fleet_common.wire import Pose
+from fleet_manager.resume import read_resume
+from fleet_manager.settings import ManagerSettings
+from memory_fleet import MemoryFleet, lab_fleet
+from test_manager_core import closest_truth, train
+
+_LAB: List[LoadedPlan] = []
+
+
+def lab() -> LoadedPlan:
+    if not _LAB:
+        _LAB.append(load_plan(lab_instance_path(), 5, "the lab fleet", []))
+    return _LAB[0]
+
+
+def executions(f: MemoryFleet) -> List[Tuple[int, int]]:
+    """Every (robot, command id) a robot starts from now on (a motion, or a stop), in order."""
+    ran: List[Tuple[int, int]] = []
+    for robot in f.robots.values():
+        robot.executor.on_execute = lambda epoch, command, rid=robot.id: ran.append((rid, command.id))
+    return ran
+
+
+def far_cell(f: MemoryFleet) -> Tuple[float, float]:
+    """The free cell farthest from every robot."""
+    grid = f.loaded.grid
+    poses = [r.navigator.true_pose() for r in f.robots.values()]
+    cells = [(x, y) for y in range(grid.height) for x in range(grid.width) if grid.free[y, x]]
+    x, y = max(cells, key=lambda c: min(math.hypot(c[0] - p.x, c[1] - p.y) for p in poses))
+    return float(x), float(y)
+
+
+def idle_robot(f: MemoryFleet) -> int:
+    """A robot running no command, not at its goal yet."""
+    goals = dict(zip(f.robots, f.loaded.goals))
+    return next(rid for rid, r in f.robots.items() if r.executor.current is None
+                and math.hypot(r.navigator.true_pose().x - goals[rid][0], r.navigator.true_pose().y - goals[rid][1]) > 0.5)
+
+
+def carry(f: MemoryFleet, rid: int, x: float, y: float) -> None:
+    """Robot `rid` (standing still) is carried by hand to (x, y)."""
+    navigator = f.robots[rid].navigator
+    assert not navigator.moving
+    navigator._rest = Pose(float(x), float(y), 0.0)
+
+
+def started_run(loaded: LoadedPlan, n: int = 5, **kwargs) -> MemoryFleet:
+    f = MemoryFleet(loaded, lab_fleet(n), **kwargs)
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    return f
+
+
+def test_a_manager_killed_mid_run_is_replaced_and_the_run_completes():
+    f = started_run(lab())
+    ran = executions(f)
+    total = f.core.run.engine.table.num_actions
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= total // 3)
+    moving = {r.id for r in f.core.fleet if r.flight is not None and r.flight.kind == "drive"}
+    assert moving, "the manager should die while robots drive"
+    f.kill_manager()
+    f.advance(3.0)  # the robots finish their moves without it
+    f.resume_manager()
+    resume = f.kinds("resume")[0]
+    assert {robot for robot, _, kind in resume["sent"] if kind == "drive"} == moving
+    assert f.phase == "paused"
+    f.advance(0.2)
+    assert "every robot where the run left it" in f.core.run.phase.reason
+    ops = f.console()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert len(ran) == len(set(ran)), "a command ran twice"
+    summary = f.core.summary()
+    assert len(summary.arrived) == 5 and summary.collisions == 0 and summary.resumes == 1
+    # every action completed once in the run's records, before and after the restart
+    completed = [(fields["robot"], fields["index"]) for fields in f.kinds("action") if fields["phase"] == "completed"]
+    assert len(completed) == len(set(completed)) == total
+
+
+def test_a_follower_at_its_hold_point_waits_for_the_new_manager_and_keeps_its_distance():
+    size = TURTLEBOT2
+    f = started_run(train(), 3, settings=ManagerSettings(step_time=0.5, size=size), speed=1.0)
+    f.robots[1].navigator.stalls = {2: 4.0}  # the leader halts 4 s in the middle of its second move
+    seen: List[float] = []
+
+    def released_since_logged() -> bool:
+        """Robot 2 got a release (not logged) after its last logged command: a new manager must not
+        give its ids again."""
+        logged = max([fields["id"] for kind, _, fields in f.records
+                      if kind in ("command", "reply") and fields["robot"] == 2] + [0])
+        return any(getattr(c, "TYPE", "") == "release" and c.id > logged for c in f.robots[2].commands)
+
+    assert f.run_until(lambda: bool(f.core.run.driver.following.holds) and f.robots[1].navigator.moving
+                       and f.core.run.engine.run.completed[0] >= 1 and released_since_logged(), 30)
+    f.kill_manager()
+    for _ in range(100):  # 5 s without a manager: the leader's stall ends, its followers wait
+        f.advance(0.05)
+        closest_truth(f, seen)
+    follower = f.robots[2].navigator
+    assert follower.moving and follower._held_at is not None, "the follower should stand at its hold point"
+    sent = len(f.robots[2].commands)
+    f.resume_manager(up=[1, 2])  # robot 3 answers later: nothing may move on before it has
+    f.advance(1.0)
+    assert "robot 3 (not connected)" in f.core.run.not_ready()
+    assert not any(getattr(c, "TYPE", "") == "release" for c in f.robots[2].commands[sent:])
+    f.link_up(3)
+    f.advance(0.2)
+    assert f.ask(f.console(), "start").ok
+    end = f.now + 60
+    while f.phase != "done" and f.now < end:
+        f.advance(0.05)
+        closest_truth(f, seen)
+    assert f.phase == "done" and f.at_goals()
+    assert min(seen) >= size.safe_cells - 0.01
+    assert any(getattr(c, "TYPE", "") == "release" for c in f.robots[2].commands[-30:])
+
+
+def test_a_robot_moved_while_no_manager_ran_is_named_and_replanned_from_where_it_stands():
+    f = started_run(lab())
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
+    f.kill_manager()
+    f.advance(3.0)
+    rid = idle_robot(f)
+    carry(f, rid, *far_cell(f))  # an operator carried it to a free cell away from the rest
+    f.resume_manager()
+    ops = f.console()
+    f.advance(0.5)
+    told = [n.text for n in ops.notices()] + f.said
+    assert any("robot {} stands at".format(rid) in t and "replanned from" in t for t in told), told
+    proposals = [x for x in ops.received if type(x).__name__ == "Proposal"]
+    assert proposals and f.core.run.replanner.proposal_id is not None
+    assert not f.ask(ops, "start").ok  # not before the proposal is answered
+    assert f.ask(ops, "accept", proposal=proposals[-1].id).ok
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert f.core.summary().collisions == 0
+
+
+def test_a_robot_left_between_cells_is_held_and_planned_around():
+    size = TURTLEBOT2
+    settings_ = ManagerSettings(step_time=0.5, size=size, accept=True)
+    f = started_run(lab(), settings=settings_)
+    grids = []
+    solve = f.solve
+    f.solve = lambda job: grids.append(job.grid) or solve(job)
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
+    core = f.core  # the dead manager's, for where its plan wanted the robots next
+    f.kill_manager()
+    f.advance(3.0)
+    rid = idle_robot(f)
+    stray = f.robots[rid].navigator
+    here = stray.true_pose()
+    x, y = round(here.x), round(here.y)
+    robot = core.fleet.by_id[rid]
+    nxt = core.run.engine.run.next_incomplete(robot.agent)
+    taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y)) for r in f.robots.values()}
+    if nxt >= 0:
+        taken.add(core.run.engine.table.coord(core.run.engine.run.dst[nxt]))
+    grid = f.loaded.grid
+    dx, dy = next((dx, dy) for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)) if grid.in_bounds((x + dx, y + dy))
+                  and grid.free[y + dy, x + dx] and (x + dx, y + dy) not in taken)
+    carry(f, rid, x + dx / 2, y + dy / 2)  # pushed half a cell towards a free cell nobody needs now
+    f.resume_manager()
+    f.advance(0.5)
+    robot = f.core.fleet.by_id[rid]
+    assert f.core.run.engine.run.out[robot.agent] == "failed" and "between cells" in robot.hold_reason
+    assert not grids[-1].free[y + dy, x + dx], "the cell it leans into is walled off for the replan"
+    told = " ".join(f.said)
+    assert "robot {} stands at".format(rid) in told and "between cells, held and planned around" in told
+    assert f.kinds("plan"), "--accept switches to the replan at once"
+    pose = (stray.true_pose().x, stray.true_pose().y)
+    near = [(x, y) for x in range(f.loaded.grid.width) for y in range(f.loaded.grid.height)
+            if math.hypot(x - pose[0], y - pose[1]) < size.safe_cells and f.loaded.grid.free[y, x]
+            and (x, y) not in {tuple(c) for c in f.core.run.plan.positions[0]}]
+    assert near and not any(grids[-1].free[y, x] for x, y in near), "the cells around it were walled off"
+    plan = f.core.run.plan.positions
+    others = [a for a in range(plan.shape[1]) if a != robot.agent]
+    nearest = min(math.hypot(plan[t, a, 0] - pose[0], plan[t, a, 1] - pose[1])
+                  for t in range(1, plan.shape[0]) for a in others if tuple(plan[t, a]) != tuple(plan[0, a]))
+    assert nearest >= size.safe_cells, "a replanned robot passes the held one"
+
+
+def test_a_run_that_had_not_started_is_resumed_waiting_for_start():
+    f = MemoryFleet(lab(), lab_fleet())
+    f.link_up()
+    f.kill_manager()
+    f.resume_manager()
+    assert f.phase == "waiting" and f.core.run.resuming is None
+    assert f.ask(f.console(), "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+
+
+def test_the_records_of_a_resumed_run_read_as_one_run():
+    f = started_run(lab())
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 15)
+    f.kill_manager()
+    f.advance(2.0)
+    f.resume_manager()
+    f.advance(0.2)
+    f.ask(f.console(), "start")
+    assert f.run_until(lambda: f.phase == "done")
+    records = [dict(fields, k=kind, t=t) for kind, t, fields in f.records]
+    builder = SummaryBuilder()
+    for record in records:
+        builder.feed(record)
+    again = builder.summary()
+    assert again.lines() == f.core.summary().lines()
+    assert "resumed: 1 time after its manager stopped (2.0 s without one)" in again.lines()
+    point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
+    assert point.phase == "done" and not point.unsettled
+
+
+# ---- Engine.restore ---------------------------------------------------------------------------
+
+def _progress(loaded: LoadedPlan, follow: bool, seed: int, events: int) -> Tuple[Engine, List[int], List[int],
+                                                                                    List[int]]:
+    """An engine run `events` steps into the plan, robots starting and completing moves in a random
+    order the engine and the robots allow (a follower arrives only once its leader has set off)."""
+    engine = Engine(loaded.plan, "adg", follow=follow)
+    run = engine.run
+    rng = random.Random(seed)
+    engine.handle(Resume(0.0))
+    for t in range(events):
+        moves = []
+        for r in range(run.num_agents):
+            if run.started[r] < run.dispatched[r]:
+                moves.append(("start", r, run.started[r]))
+            elif run.completed[r] < run.started[r]:
+                a = run.first[r] + run.completed[r]
+                d = run.dep[a]
+                if d < 0 or run.done[d] or run.started[run.agent[d]] > d - run.first[run.agent[d]]:
+                    moves.append(("complete", r, run.completed[r]))
+        if not moves:
+            break
+        kind, r, index = rng.choice(moves)
+        engine.handle((ActionStarted if kind == "start" else ActionCompleted)(r, index, float(t)))
+    return engine, list(run.completed), list(run.started), list(run.dispatched)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 60), st.booleans(), st.booleans())
+def test_restore_gives_the_progress_it_was_given_and_the_run_goes_on_to_the_end(seed, events, follow, logged):
+    engine, completed, started, dispatched = _progress(lab(), follow, seed, events)
+    if not logged:  # what a run log tells: what robots began, not every dispatch
+        dispatched = list(started)
+    again = Engine(lab().plan, "adg", follow=follow)
+    pending = again.restore(completed, started, dispatched, 100.0)
+    run = again.run
+    for d in pending:  # a follower sent early has its leader's move dispatched
+        if d.follows is not None:
+            assert run.dispatched[d.follows[0]] > d.follows[1]
+    assert list(again.run.completed) == completed
+    assert bytes(again.run.done) == bytes(engine.run.done)
+    assert all(again.run.dispatched[r] >= dispatched[r] for r in range(len(completed)))
+    assert again.run.dispatched == engine.run.dispatched or not logged
+    assert {(d.agent, d.index) for d in pending} == {
+        (r, k) for r in range(len(completed)) for k in range(completed[r], again.run.dispatched[r])}
+    # carried on from there, the run reaches the end
+    queue = {(d.agent, d.index) for d in pending} | {(d.agent, d.index) for d in again.handle(Resume(101.0))}
+    for _ in range(again.table.num_actions + 1):
+        if not queue:
+            break
+        agent, index = min(queue, key=lambda q: (q[1], q[0]))
+        if index != again.run.completed[agent]:
+            agent, index = next((a, i) for a, i in sorted(queue) if i == again.run.completed[a])
+        queue.discard((agent, index))
+        queue |= {(d.agent, d.index) for d in again.handle(ActionCompleted(agent, index, 102.0))}
+    assert again.finished
+
+
+def test_restore_counts_the_leader_of_a_follower_that_set_off_first_as_dispatched():
+    engine = Engine(train().plan, "adg", follow=True)
+    engine.handle(Resume(0.0))  # robot 0 leads robots 1 and 2 east along a row
+    engine.handle(ActionStarted(1, 0, 0.1))  # the follower drives to its hold point; its leader turns
+    again = Engine(train().plan, "adg", follow=True)
+    pending = again.restore([0, 0, 0], [0, 1, 0], [0, 1, 0], 1.0)  # what a run log says
+    assert {(d.agent, d.index) for d in pending} == {(0, 0), (1, 0)}
+    follower = next(d for d in pending if d.agent == 1)
+    assert follower.follows == (0, 0) and list(again.run.dispatched) == [1, 1, 0]
+
+
+def test_restore_refuses_progress_the_dependencies_do_not_allow():
+    engine = Engine(lab().plan, "adg")
+    run = engine.run
+    # an action whose dependency (another robot leaving the cell) is not complete
+    a = next(a for a in range(len(run.dep)) if run.dep[a] >= 0)
+    r = run.agent[a]
+    completed = [0] * run.num_agents
+    completed[r] = a - run.first[r] + 1
+    with pytest.raises(EventError):
+        engine.restore(completed, completed, completed, 0.0)
+    assert sum(engine.run.completed) == 0 and engine.run.version == 0  # nothing changed
