@@ -2,7 +2,7 @@
 that judge runs by the robots' paths: following, re-ordering)."""
 from __future__ import annotations
 
-from typing import Dict
+from typing import Dict, Tuple
 
 import numpy as np
 from hypothesis import strategies as st
@@ -15,11 +15,16 @@ from fleet_common.planning import solve
 from fleet_common.planning.problem import InvalidProblemError
 from fleet_common.robot_size import RobotSize
 
-_PLANS: Dict[int, Plan] = {}
+_PLANS: Dict[int, Tuple[Plan, Grid]] = {}
 
 
 def random_plan(seed: int) -> Plan:
     """A plan of a built-in solver on a random map (cached per seed)."""
+    return random_problem(seed)[0]
+
+
+def random_problem(seed: int) -> Tuple[Plan, Grid]:
+    """A plan of a built-in solver on a random map, and the map (cached per seed)."""
     key = seed
     if key not in _PLANS:
         rng = np.random.default_rng(seed)
@@ -36,7 +41,7 @@ def random_plan(seed: int) -> Plan:
             except InvalidProblemError:  # a goal another start cannot reach: draw again
                 continue
             if result.solved and result.plan.num_agents >= 2:
-                _PLANS[key] = result.plan
+                _PLANS[key] = (result.plan, grid)
                 break
     return _PLANS[key]
 

@@ -76,6 +76,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "as many agents as robot_definitions.txt has robots runs on the lab fleet")
     parser.add_argument("--robot-size", type=robot_size, default=None, metavar="D:M|cell",
                         help=ROBOT_SIZE_HELP)
+    parser.add_argument("--reroute", choices=["none", "auto"], default="none",
+                        help="auto: give robots that a late robot holds up new paths around it, mid-run, "
+                             "when the rule of fleet_common.execution.reroute says it pays (default none)")
     add_repair_options(parser)
 
 
@@ -103,9 +106,13 @@ def run(args: argparse.Namespace) -> int:
         disable[agent] = step
     settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
     size = args.robot_size or read_robot_size(args.definitions)
+    if args.reroute != "none" and args.log is not None:
+        raise SimulateOptionError("--log with --reroute {}: a run folder records one plan, and a rerouted run "
+                                  "changes plans (run without --log, or with --reroute none)".format(args.reroute))
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
-                          journal=args.log is not None, size=size, **settings)
+                          journal=args.log is not None, size=size, reroute=args.reroute, grid=sol.grid,
+                          **settings)
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
@@ -146,7 +153,7 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
     partial = "" if not missing else " (robots that reached their goals only)"
     lines = [
         "robots: {}, moves: {}, plan makespan {}, plan soc {}".format(
-            n, engine.table.num_actions, makespan, soc),
+            n, len(result.durations), makespan, soc),  # the moves of the plan given (fates)
         "fleet: " + names.describe(),
         "strategy: {}; delays: {}; seed {}".format(engine.strategy.describe(), delays, seed),
         "executed makespan: {:.2f} (time unit: one nominal move, one plan step){}".format(
@@ -160,6 +167,8 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
         "lower bound: {:.2f} (every robot alone, with its own delays); executed makespan {:.2f}x it".format(
             result.lower_bound, m.makespan / result.lower_bound if result.lower_bound > 0 else 1.0),
     ]
+    if result.rerouter is not None:
+        lines.append(_reroutes(result, names))
     if engine.run.passes:
         lines.append("passes: {} (a robot went into a cell before a late one that was due first)".format(
             len(engine.run.passes)))
@@ -180,6 +189,18 @@ def _summary(result: SimResult, makespan: int, soc: int, delays: str, seed: int,
         reached += "; not reached: robot{} {}".format("s" if len(missing) > 1 else "", names.all(missing))
     lines.append(reached)
     return lines
+
+
+def _reroutes(result: SimResult, names: Names) -> str:
+    """How many reroutes happened, how many robots they moved, and the first few."""
+    done = result.reroutes
+    if not done:
+        return "reroutes: none (no robot held up by a late one where a new path paid)"
+    moved = sorted({r for _, rr in done for r in rr.agents})
+    line = "reroutes: {}, {} robot{} given new paths ({} different: {})".format(
+        len(done), sum(len(rr.agents) for _, rr in done), "" if sum(len(rr.agents) for _, rr in done) == 1 else "s",
+        len(moved), names.all(moved))
+    return line + "; first: " + "; ".join("t={:.2f} {}".format(t, rr.describe(names)) for t, rr in done[:3])
 
 
 def _safety(result: SimResult, names: Names) -> List[str]:

@@ -400,16 +400,9 @@ class Engine:
             if done < 0 or sent < 0 or done + sent > run.count(r):
                 raise EventError("adopt: robot {} has {} moves in the new plan, not {} done and {} sent".format(
                     r, run.count(r), done, sent), r)
-        for r, (done, sent, _) in enumerate(progress):
-            for a in range(first[r] + done, first[r] + done + sent):
-                d = dep[a]
-                if d < 0 or agent[d] == r:
-                    continue
-                q = agent[d]
-                k = d - first[q]
-                if not (k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1])):
-                    raise EventError("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot "
-                                     "{}'s move {}, which was not".format(r, a - first[r], q, k), r)
+        misfit = self._misfit(progress)
+        if misfit is not None:
+            raise EventError(misfit)
         for r, (done, sent, began) in enumerate(progress):
             for a in range(first[r], first[r] + done):
                 run.done[a] = 1
@@ -444,6 +437,24 @@ class Engine:
         for r in range(n):
             out += self._dispatch([r], charged.get(r), time)
         return out
+
+    def _misfit(self, progress: Sequence[Tuple[int, int, bool]]) -> Optional[str]:
+        """Why this plan does not fit a run with `progress` (see `adopt`), or None: a move sent
+        that waits in this plan for a move not completed (robots of real size: not sent)."""
+        run = self.run
+        first, agent, dep = run.first, run.agent, run.dep
+        for r, (done, sent, _) in enumerate(progress):
+            for a in range(first[r] + done, first[r] + done + sent):
+                d = dep[a]
+                if d < 0 or agent[d] == r:
+                    continue
+                q = agent[d]
+                k = d - first[q]
+                if not (k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1])):
+                    return ("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot {}'s "
+                            "move {}, which was not".format(r, a - first[r], q, k))
+        return None
+
     def _forced(self, r: int, a: int, now: float) -> float:
         """Of robot r's wait for action `a`, ending now, the time the cell was taken in a way no
         change of order could undo: the robot before it there was in it or had been sent its

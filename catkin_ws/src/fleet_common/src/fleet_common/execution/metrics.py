@@ -107,6 +107,16 @@ class Metrics:
             if done and done == self.counts[r]:
                 self.agents[r].arrival = time - (self.begin or 0.0)
 
+    def own_delay(self, agent: int, now: float, nominal: float) -> float:
+        """How much longer than `nominal` a move the robot's moves have taken it so far (its own
+        time less its moves' nominal time), the move it is on counted up to `now`: its own delays,
+        none of its waits."""
+        m = self.agents[agent]
+        since = self._busy[agent]
+        if since is None:
+            return m.own_time - nominal * m.moves
+        return m.own_time + max(0.0, now - since) - nominal * (m.moves + 1)
+
     def ready_at(self, agent: int) -> Optional[float]:
         """Since when the robot has been ready for an action it was not sent (None: it has one)."""
         return self._ready[agent]

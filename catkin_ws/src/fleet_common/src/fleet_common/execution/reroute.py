@@ -9,7 +9,8 @@ anyone. Pure: values in (an engine, its grid, the time), a plan out.
 Who. A robot waits for the cell it enters (`Engine.waiting`, reason CELL) for
 the robot that must leave it first; that one may wait for another, or follow
 one. A robot is *held up* when that chain reaches a *late* robot: one that is
-out, or behind the plan's clock (`RunState.clock`) by `gap` steps or more.
+out, or behind the plan's clock (`RunState.clock`) by `gap` steps or more
+(against the step a run without delays would start its next move: `expected_steps`).
 
 The rule, for each late robot L and the robots H it holds up, tried in turn:
 reroute L alone (the robot waiting outside its goal goes in, L goes round),
@@ -116,21 +117,46 @@ class Reroute:
             robots(self.agents), name(self.around), late, robots(self.held), sooner)
 
 
-def behind(engine: Engine, r: int, now: float) -> Optional[int]:
+def expected_steps(engine: Engine) -> List[int]:
+    """Per action, the step of the plan's clock at which a run without delays starts it: as soon
+    as the dependency graph allows (`forecast`), which for robots as large as a cell is later
+    than the plan's own step wherever a robot follows another (it waits for the move out to
+    complete). Lateness is measured against it, so that a run without delays has no late robot
+    and never reroutes. Computed once per plan (re-orderings later do not change it)."""
+    run = engine.run
+    n = run.num_agents
+    schedule = earliest_starts(run, [0] * n, engine.follow, [0] * n)
+    return [schedule.start.get(a, run.step[a]) for a in range(len(run.step))]
+
+
+def behind(engine: Engine, r: int, now: float, expected: Optional[Sequence[int]] = None) -> Optional[int]:
     """Whole steps robot r is behind the plan's clock (its next move should have started that long
-    ago; 0 when it is not), or None when it is out (late for good)."""
+    ago by `expected`, default `expected_steps`; 0 when it is not), or None when it is out (late
+    for good)."""
     run = engine.run
     if run.out[r] is not None:
         return None
     a = run.next_incomplete(r)
     if a < 0:
         return 0
-    return max(0, int(run.clock.steps(now) - run.step[a]))
+    due = (expected_steps(engine) if expected is None else expected)[a]
+    return max(0, int(run.clock.steps(now) - due))
 
 
-def held_up(engine: Engine, now: float, gap: int) -> Dict[int, List[int]]:
+def delayed(engine: Engine, r: int, now: float) -> bool:
+    """Robot r's own moves have taken it half a step or more longer than planned (it is not only
+    behind because it waited for others, nor because the run is slower than the plan without any
+    delay: robots as large as a cell, the step barrier)."""
+    step = engine.run.clock.step_time
+    return engine.metrics.own_delay(r, now, step) >= 0.5 * step
+
+
+def held_up(engine: Engine, now: float, gap: int,
+            expected: Optional[Sequence[int]] = None) -> Dict[int, List[int]]:
     """Late robot -> the robots it holds up (waiting for a cell, directly or down a chain), those
-    waiting for it directly first."""
+    waiting for it directly first; `expected`: see `behind`."""
+    if expected is None:
+        expected = expected_steps(engine)
     on: Dict[int, int] = {}
     waiters: List[int] = []
     for w in engine.waiting():
@@ -145,8 +171,8 @@ def held_up(engine: Engine, now: float, gap: int) -> Dict[int, List[int]]:
         q, depth, seen = on[h], 0, {h}
         while q not in seen:
             if q not in late:
-                lag = behind(engine, q, now)
-                late[q] = lag is None or lag >= gap
+                lag = behind(engine, q, now, expected)
+                late[q] = lag is None or (lag >= gap and delayed(engine, q, now))
             if late[q]:
                 out.setdefault(q, []).append((depth, h))
                 break
@@ -159,9 +185,12 @@ def held_up(engine: Engine, now: float, gap: int) -> Dict[int, List[int]]:
 
 
 def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
-           deadline: Optional[Deadline] = None) -> Optional[Reroute]:
-    """A reroute that pays now, by `rule`, or None (see the module docstring)."""
-    groups = held_up(engine, now, rule.gap)
+           deadline: Optional[Deadline] = None, expected: Optional[Sequence[int]] = None) -> Optional[Reroute]:
+    """A reroute that pays now, by `rule`, or None (see the module docstring); `expected`: the
+    engine's `expected_steps`, if known."""
+    if expected is None:
+        expected = expected_steps(engine)
+    groups = held_up(engine, now, rule.gap, expected)
     if not groups:
         return None
     deadline = deadline or Deadline(rule.budget)
@@ -213,7 +242,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     report = validate_plan(proposal.plan, grid, strict_rotations=True, max_findings_per_kind=1)
     if not report.ok:  # never, by construction (reroute_plan); refused all the same
         raise RerouteError("a reroute's plan is not valid: {}".format(report.errors[0]))
-    lag = behind(engine, late, now)
+    lag = behind(engine, late, now, expected)
     return Reroute(proposal.plan, cut, proposal.agents, late, lag,
                    sum(before.arrival) - sum(proposal.arrival), before.makespan, max(proposal.arrival),
                    tuple(groups[late]))
@@ -232,6 +261,7 @@ class Rerouter:
         self.timed = timed
         self._clock = clock
         self._next = -1.0
+        self._expected: Optional[Tuple[object, List[int]]] = None  # (run, its expected_steps)
         #: looks taken, their total seconds, and reroutes found
         self.looks = 0
         self.seconds = 0.0
@@ -244,8 +274,10 @@ class Rerouter:
             return None
         self._next = steps + self.rule.every
         began = self._clock()
+        if self._expected is None or self._expected[0] is not engine.run:
+            self._expected = (engine.run, expected_steps(engine))
         found = decide(engine, self.maps, now, self.rule,
-                       Deadline(self.rule.budget if self.timed else None, self._clock))
+                       Deadline(self.rule.budget if self.timed else None, self._clock), self._expected[1])
         self.looks += 1
         self.seconds += self._clock() - began
         self.found += found is not None

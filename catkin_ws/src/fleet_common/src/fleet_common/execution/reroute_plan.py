@@ -224,7 +224,7 @@ def _hold_targets(run: RunState, grid: Grid, kept_s: Schedule, schedule: Schedul
                   chosen: Sequence[int], res: Reservations) -> None:
     """Reserve the target of every move sent (and of a failed robot's next move: it may be
     halfway) from the cut until its robot enters it."""
-    table, v = run.table, grid.num_cells
+    table = run.table
     mine = set(chosen)
     for r in range(run.num_agents):
         a = run.first[r] + base[r]

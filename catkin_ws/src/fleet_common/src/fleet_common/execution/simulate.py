@@ -55,7 +55,7 @@ from .approach import Approach, Safety, judge
 from .engine import Engine
 from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed, Tick
 from .following import hold_fraction
-from .handover import hand_over
+from .handover import HandoverError, hand_over
 from .metrics import Metrics
 from .motion import Feedback, Motion
 from .reroute import Reroute, RerouteRule, Rerouter
@@ -81,6 +81,8 @@ class SimResult:
     #: (time, reroute) for each change of plan, in order; the engine runs the last plan
     reroutes: Tuple[Tuple[float, Reroute], ...] = ()
     rerouter: Optional[Rerouter] = None
+    #: reroutes found whose hand-over was refused (the plan did not fit the run): never, by design
+    refused: int = 0
     #: Per robot, the time its moves take with its own delays and no waiting (from the fates).
     alone: Optional[np.ndarray] = None
 
@@ -118,8 +120,8 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
              **settings: object) -> SimResult:
     """Run `plan` under `strategy` with robots of `size` (None: as large as a cell); each move's
     fate drawn from `delays` with `seed`, or given as `fates`, or as plain `durations` (and
-    `waits`); no delays by default. `reroute` ("auto", a rule or a `Rerouter`; None or "off":
-    never) replans robots held up by late ones on `grid` (see `reroute`)."""
+    `waits`); no delays by default. `reroute` ("auto", a rule or a `Rerouter`; None, "none" or
+    "off": never) replans robots held up by late ones on `grid` (see `reroute`)."""
     follow = size is not None and not size.cell_sized
     engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
     more = None
@@ -133,10 +135,12 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
 
 
 def _rerouter(reroute: Union[None, str, RerouteRule, Rerouter], grid: Optional[Grid]) -> Optional[Rerouter]:
-    if reroute is None or reroute == "off" or isinstance(reroute, Rerouter):
-        return reroute  # type: ignore[return-value]
+    if reroute is None or reroute in ("none", "off"):
+        return None
+    if isinstance(reroute, Rerouter):
+        return reroute
     if reroute != "auto" and not isinstance(reroute, RerouteRule):
-        raise ValueError("reroute: expected off, auto or a RerouteRule, got {!r}".format(reroute))
+        raise ValueError("reroute: expected none, auto or a RerouteRule, got {!r}".format(reroute))
     if grid is None:
         raise ValueError("rerouting needs the map (grid=)")
     return Rerouter(grid, reroute if isinstance(reroute, RerouteRule) else None, timed=False)
@@ -191,7 +195,8 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
                       for a in safety.violations]
     alone = np.bincount(table.agent, weights=fates.wait + total, minlength=engine.run.num_agents)
     return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
-                     sim.journal, paths, safety, size, alone, tuple(sim.reroutes), rerouter)
+                     sim.journal, paths, safety, size, reroutes=tuple(sim.reroutes), rerouter=rerouter, refused=sim.refused,
+                     alone=alone)
 
 
 class _Simulation:
@@ -209,6 +214,7 @@ class _Simulation:
         self._extra: Dict[Tuple[int, int], int] = {}
         self.rerouter: Optional[Rerouter] = None
         self.reroutes: List[Tuple[float, Reroute]] = []
+        self.refused = 0  # reroutes whose hand-over was refused
         self.wait: List[float] = fates.wait.tolist()
         self.drive: List[float] = (nominal * fates.slowdown).tolist()
         self.stall: List[float] = fates.stall.tolist()
@@ -318,7 +324,11 @@ class _Simulation:
         if found is None:
             return
         old = self.engine
-        new, dispatches = hand_over(old, found, self.now)
+        try:
+            new, dispatches = hand_over(old, found, self.now)
+        except HandoverError:  # never at the cut's own moment; a run goes on with its plan all the same
+            self.refused += 1
+            return
         shift = found.cut.base  # the hand-over is at the cut: a robot's moves from its base on
         for r in range(old.run.num_agents):
             self.offset[r] += shift[r]

@@ -1,0 +1,215 @@
+"""Rerouting held-up robots mid-run (`execution.reroute`, `handover`), judged by what happened.
+
+Every run is judged from the robots' executed paths in continuous time
+(`approach.judge`: no pair closer than the safe distance, in metres for robots
+of a real size, a cell for robots as large as one), from the executed trace
+(every move one step between free neighbouring cells of the map, each from
+where the last one ended) and by the engine (every robot at its goal). Runs:
+random maps, plans, sizes, strategies and standing delays, with a rule eager
+enough that reroutes happen in most runs (the test says how many did).
+The negative control hands a run over to an engine that forgets whom the
+robots in flight follow; the same checks catch it. (A new plan that ignores
+the moves in flight cannot even get that far: the plan's validation, the
+dependency graph's own vertex check and the hand-over's fit check
+(`Engine.adopt`) each refuse it.)
+"""
+from __future__ import annotations
+
+from typing import Iterator, Tuple
+
+import numpy as np
+import pytest
+
+from fleet_common.delays import DelayModel, EventDelays
+from fleet_common.execution import ActionCompleted, ActionStarted, Engine, Resume
+from fleet_common.execution import engine as engine_module
+from fleet_common.execution.cut import cut_of
+from fleet_common.execution.motion import Feedback
+from fleet_common.execution.reroute import RerouteRule, Rerouter, decide, held_up
+from fleet_common.execution.reroute_plan import Maps
+from fleet_common.execution.simulate import simulate
+from fleet_common.grid import Grid
+from fleet_common.plan import Plan
+from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
+from random_runs import PLAN_SEEDS, random_problem
+
+STRATEGIES = ("adg", "step", "reorder")
+EAGER = RerouteRule(gap=1, margin=1.0, cost=0.5, per_move=0.2)
+
+
+def run_one(plan_seed: int, seed: int, strategy: str) -> Tuple[Plan, Grid, RobotSize, object]:
+    """One seeded run: its plan, map, robot size and result (a rerouter on)."""
+    plan, grid = random_problem(plan_seed)
+    rng = np.random.default_rng([plan_seed, seed])
+    if rng.random() < 0.3:
+        size = cell_sized()
+    else:
+        diameter = float(rng.uniform(0.05, 0.6))
+        size = RobotSize(diameter, float(rng.uniform(0.0, 0.64 - diameter)), 0.7)
+    low = float(rng.uniform(0.6, 1.0))
+    model = DelayModel(factor=(low, float(rng.uniform(low, 1.6))),
+                       events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.4)), 1, int(rng.integers(3, 9))))
+    result = simulate(plan, strategy, model, seed=seed, size=size, reroute=EAGER, grid=grid,
+                      feedback=Feedback(0.05, float(rng.uniform(0.0, 0.3))))
+    return plan, grid, size, result
+
+
+def runs() -> Iterator[Tuple[Plan, Grid, RobotSize, object]]:
+    for plan_seed in PLAN_SEEDS:
+        for seed in range(4):
+            yield run_one(plan_seed, seed, STRATEGIES[(plan_seed + seed) % 3])
+
+
+def assert_valid_moves(plan: Plan, grid: Grid, result) -> None:
+    """Each robot's executed moves: from its start, one free neighbouring cell at a time."""
+    for r, moves in enumerate(result.trace.moves):
+        here = plan.starts[r]
+        for m in moves:
+            assert tuple(m.src) == tuple(here), (r, m, here)
+            assert abs(m.dst[0] - m.src[0]) + abs(m.dst[1] - m.src[1]) == 1, (r, m)
+            assert grid.is_free(m.dst), (r, m)
+            here = m.dst
+
+
+def assert_safe_and_complete(plan: Plan, grid: Grid, size: RobotSize, result) -> None:
+    assert result.refused == 0
+    assert result.safety.violations == (), result.safety.violations[:2]
+    assert result.collisions == []
+    assert result.finished and not result.engine.stuck, result.unfinished()
+    assert result.trace.final_cells() == plan.goals
+    if result.closest is not None:
+        assert result.closest.distance >= size.safe_cells - 1e-9
+    assert_valid_moves(plan, grid, result)
+
+
+def test_rerouted_runs_are_safe_complete_and_valid_under_every_strategy():
+    rerouted = total = 0
+    for plan, grid, size, result in runs():
+        assert_safe_and_complete(plan, grid, size, result)
+        total += 1
+        rerouted += bool(result.reroutes)
+    assert rerouted >= total // 3, (rerouted, total)  # the property is about runs that reroute
+
+
+def _forgets_leaders(adopt):
+    """Wrong on purpose: the new engine forgets whom the robots in flight follow."""
+    def wrong(self, *args, **kwargs):
+        out = adopt(self, *args, **kwargs)
+        self.early.clear()
+        return out
+    return wrong
+
+
+def test_a_hand_over_that_forgets_whom_robots_in_flight_follow_is_caught(monkeypatch):
+    """The negative control: at the hand-over, followers in flight lose their leader (they drive
+    to the end of their move whatever the robot ahead does); the same checks catch it."""
+    monkeypatch.setattr(engine_module.Engine, "adopt", _forgets_leaders(engine_module.Engine.adopt))
+    caught = rerouted = 0
+    for plan, grid, size, result in runs():
+        if not result.reroutes or size.cell_sized:
+            continue
+        rerouted += 1
+        try:
+            assert_safe_and_complete(plan, grid, size, result)
+        except AssertionError:
+            caught += 1
+    assert rerouted and caught >= rerouted // 4, (caught, rerouted)
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_without_delays_nothing_is_rerouted_and_the_run_is_the_same(strategy):
+    for plan_seed in PLAN_SEEDS[:8]:
+        plan, grid = random_problem(plan_seed)
+        size = cell_sized() if plan_seed % 2 else TURTLEBOT2
+        plain = simulate(plan, strategy, DelayModel(), seed=1, size=size)
+        rerouting = simulate(plan, strategy, DelayModel(), seed=1, size=size, reroute="auto", grid=grid)
+        assert rerouting.reroutes == () and rerouting.rerouter.looks > 0  # it looked, and found nothing
+        assert rerouting.metrics.makespan == plain.metrics.makespan
+        assert rerouting.trace.moves == plain.trace.moves
+
+
+# ---- the rule: "it pays" ------------------------------------------------------------------------
+
+# robot 0 (L) crosses from (0, 1) to (4, 1); robot 1 (H) waits at (2, 2) for L to pass (2, 1), then goes
+# up to (2, 0): in the plan H goes after L
+CROSS = Plan(np.array([
+    [[0, 1], [2, 2]],
+    [[1, 1], [2, 2]],
+    [[2, 1], [2, 2]],
+    [[3, 1], [2, 1]],
+    [[4, 1], [2, 0]],
+], dtype=np.int32))
+OPEN = Grid(np.ones((3, 5), dtype=bool))
+WALLED = Grid(np.array([[0, 0, 1, 0, 0], [1, 1, 1, 1, 1], [0, 0, 1, 0, 0]], dtype=bool))
+
+
+def standing_late() -> Engine:
+    """The crossing: L was sent its first move at 0 and has not begun it (the rule looks later)."""
+    engine = Engine(CROSS)
+    engine.handle(Resume(0.0))
+    assert engine.run.dispatched == [1, 0]
+    return engine
+
+
+def test_a_robot_held_up_by_a_late_one_is_rerouted_when_it_pays():
+    engine = standing_late()
+    assert held_up(engine, 6.0, EAGER.gap) == {0: [1]}
+    found = decide(engine, Maps(OPEN), 6.0, RerouteRule())
+    assert found is not None and found.around == 0 and found.late == 6
+    assert found.gain >= RerouteRule().margin
+    assert found.after < found.before  # the run predicted shorter
+    # the new plan starts where the robots are, L's move sent is its first move
+    assert found.plan.starts == CROSS.starts and found.plan.goals == CROSS.goals
+    assert "late 6 steps" in found.describe()
+
+
+def test_a_robot_on_time_or_a_small_gain_is_not_worth_a_reroute():
+    engine = standing_late()
+    assert held_up(engine, 0.5, 2) == {}
+    assert decide(engine, Maps(OPEN), 0.5, RerouteRule()) is None
+    engine = standing_late()
+    assert decide(engine, Maps(OPEN), 6.0, RerouteRule(margin=50.0)) is None  # the gain is below the margin
+    assert decide(engine, Maps(OPEN), 6.0, RerouteRule(cost=20.0)) is None  # a replan costs more than it gains
+
+
+def test_a_reroute_needs_a_way_round():
+    """On the walled map H's only way up is L's cell: no new path arrives sooner for it; at most
+    L itself is put after H."""
+    engine = standing_late()
+    found = decide(engine, Maps(WALLED), 6.0, RerouteRule())
+    assert found is None or found.agents == (0,)
+
+
+def test_the_rerouter_looks_at_most_once_a_step():
+    rerouter = Rerouter(OPEN, RerouteRule(every=2.0), timed=False)
+    engine = standing_late()
+    assert rerouter.consider(engine, 6.0) is not None
+    assert rerouter.consider(engine, 7.0) is None and rerouter.looks == 1
+    assert rerouter.consider(engine, 8.0) is not None and rerouter.looks == 2
+
+
+# ---- the cut ----------------------------------------------------------------------------------------
+
+# a train: robot 0 leaves (1, 0) for (2, 0) as robot 1 comes in from (0, 0); then both go on one cell
+TRAIN = Plan(np.array([
+    [[1, 0], [0, 0]],
+    [[2, 0], [1, 0]],
+    [[3, 0], [2, 0]],
+], dtype=np.int32))
+
+
+def test_the_cut_counts_a_follower_in_before_its_leader_left_as_still_making_that_move():
+    engine = Engine(TRAIN, follow=True)
+    engine.handle(Resume(0.0))
+    assert engine.run.dispatched == [1, 1]  # the follower was sent its move with its leader's
+    engine.handle(ActionStarted(0, 0, 0.1))
+    engine.handle(ActionStarted(1, 0, 0.2))
+    engine.handle(ActionCompleted(1, 0, 0.9))  # in, before its leader has left (a robot of real size)
+    cut = cut_of(engine, 1.0)
+    assert cut.completed == (0, 1) and cut.committed == (1, 0) and cut.started == (True, False)
+    assert cut.base == (0, 0)  # a new plan starts the follower with that move again, in its leader's step
+    engine.handle(ActionCompleted(0, 0, 1.0))
+    later = cut_of(engine, 1.1)
+    assert later.base == (1, 1)
+    assert later.moved(cut, [0, 1]) == [0, 1] and later.moved(cut, []) == []
+    assert cut_of(engine, 1.2).moved(later, [0, 1]) == []
