@@ -10,7 +10,9 @@ With `disable`, the robot stops for good at that plan step; with `recover:
 replan`, once the run stalls (nothing moves and robots wait for the disabled
 one), the others are replanned from where they stand (`planning.replan`,
 the disabled robot an obstacle) and the new plan runs under the same
-strategy and delay model (seed + 1); times add up.
+strategy and delay model (seed + 1); times add up. With `reroute: auto`
+robots a late one holds up get new paths mid-run when that pays
+(`execution.reroute`); the row counts the changes of plan (`reroutes`).
 """
 from __future__ import annotations
 
@@ -41,14 +43,16 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
         robot, step = cell.disable.split("@")
         disable[int(robot) % p.num_agents] = int(step)
     size = cell.robot_size
-    first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, size=size, **settings)
+    reroute = {} if cell.reroute == "none" else {"reroute": cell.reroute, "grid": plan.grid}
+    first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, size=size, **reroute, **settings)
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():
         current = first.trace.final_cells()
         result = replan(plan.grid, current, plan.goals, set(first.disabled_at), deadline=30.0,
                         seed=cell.seed)
         if result.plan is not None:
-            second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, size=size, **settings)
+            second = simulate(result.plan, cell.strategy, model, seed=cell.seed + 1, size=size, **reroute,
+                              **settings)
     row = _row(cell, plan, p, first, second)
     row["wall_s"] = round(time.perf_counter() - began, 4)
     return row
@@ -88,4 +92,5 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, first: SimResult, second: Option
     return make_row(cell, plan, p, makespan=makespan, soc=float(sum(reached)), waits=waits,
                     count=count, held=held, blocked=blocked, collisions=collisions,
                     reached=len(reached), replanned=second is not None, moves=moves,
-                    closest_m=min(closest) * cell_m if closest else None)
+                    closest_m=min(closest) * cell_m if closest else None,
+                    reroutes=sum(len(r.reroutes) for r in (first, second) if r is not None))

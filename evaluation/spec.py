@@ -13,6 +13,7 @@
     seeds: 30                           # 0..29, or a list
     disable: [none, "0@10"]             # optional: robot ROBOT out for good at plan step STEP
     recover: [none, replan]             # optional: replan the others when the run stalls
+    reroute: [none, auto]               # optional: reroute robots a late one holds up (default none)
     chain: [engine, wire]               # optional: engine alone (default), or also virtual
                                         # robots and the manager over loopback (wire_cell.py)
     time_scale: 10                      # wire cells: the virtual fleet's time scale
@@ -36,11 +37,12 @@ from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
-        "time_scale", "sizes")
+        "time_scale", "sizes", "reroute")
 #: Robot sizes a sweep names: "turtlebot" (the lab's robots, 354 mm on 700 mm cells, 0.1 m margin),
 #: "cell" (as large as a cell: the cell rule of robots before they had a size), or D:M (metres).
 SIZES = ("turtlebot", "cell")
 RECOVER = ("none", "replan")
+REROUTE = ("none", "auto")
 CHAINS = ("engine", "wire")
 
 
@@ -73,6 +75,7 @@ class Cell:
     chain: str = "engine"     # or "wire": virtual robots and the manager (wire_cell.py)
     time_scale: float = 10.0  # wire cells: the virtual fleet's
     size: str = "turtlebot"   # the robots' size (SIZES, or D:M in metres)
+    reroute: str = "none"     # REROUTE: new paths mid-run for robots a late one holds up
 
     @property
     def robot_size(self) -> RobotSize:
@@ -87,6 +90,8 @@ class Cell:
             parts.append("{}:x{:g}".format(self.chain, self.time_scale))
         if self.size != "cell":  # tables from before robots had a size were of cell-sized robots
             parts.append("size={}".format(self.size))
+        if self.reroute != "none":  # tables from before rerouting never rerouted
+            parts.append("reroute={}".format(self.reroute))
         return "|".join(parts)
 
 
@@ -127,9 +132,15 @@ def read_experiment(path: Path) -> Experiment:
     chains = [str(c) for c in _list(path, data, "chain", ["engine"])]
     if any(c not in CHAINS for c in chains):
         raise _error(path, data, "chain", "expected engine or wire, got {!r}".format(chains))
+    reroute = [str(r) for r in _list(path, data, "reroute", ["none"])]
+    if any(r not in REROUTE for r in reroute):
+        raise _error(path, data, "reroute", "expected none or auto, got {!r}".format(reroute))
     if "wire" in chains and (disable != ["none"] or recover != ["none"]):
         raise _error(path, data, "chain", "wire cells cannot disable robots or replan (an "
                      "operator's acts in the manager); sweep those on the engine alone")
+    if "wire" in chains and reroute != ["none"]:
+        raise _error(path, data, "chain", "wire cells cannot reroute (the manager does not reroute yet); "
+                     "sweep reroute on the engine alone")
     scale = data.get("time_scale", 10.0)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale <= 100:
         raise _error(path, data, "time_scale", "expected a number over 0 and at most 100, got {!r}".format(scale))
@@ -141,9 +152,9 @@ def read_experiment(path: Path) -> Experiment:
             raise _error(path, data, "sizes", "expected turtlebot, cell or DIAMETER:MARGIN in metres "
                          "(e.g. 0.354:0.1), got {!r}".format(z)) from None
     cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec,
-                  chain, float(scale), size)
-             for plan, (s, settings), (d, p), seed, dis, rec, chain, size in itertools.product(
-                 plans, strategies, delays, seeds, disable, recover, chains, sizes)
+                  chain, float(scale), size, rr)
+             for plan, (s, settings), (d, p), seed, dis, rec, chain, size, rr in itertools.product(
+                 plans, strategies, delays, seeds, disable, recover, chains, sizes, reroute)
              if not (dis == "none" and rec != "none")]
     return Experiment(str(data.get("name") or path.stem), path, plans, cells)
 

@@ -21,14 +21,15 @@ import pyarrow.parquet as pq
 from fleet_common.errors import FormatError
 from fleet_common.formats.lines import read_text
 
-from .row import COLUMNS, Row
+from .row import ADDED, COLUMNS, Row
 
 CSV_NAME = "results.csv"
 PARQUET_NAME = "results.parquet"
 
-_INT = ("agents", "seed", "plan_makespan", "plan_soc", "waits", "collisions", "reached", "moves")
+_INT = ("agents", "seed", "plan_makespan", "plan_soc", "waits", "collisions", "reached", "moves", "reroutes")
 _BOOL = ("finished", "replanned")
-_STR = ("key", "plan", "solver", "strategy", "size", "delay", "disable", "recover", "wait_by_robot", "blocked_by")
+_STR = ("key", "plan", "solver", "strategy", "size", "delay", "disable", "recover", "reroute", "wait_by_robot",
+        "blocked_by")
 TYPES: Dict[str, pa.DataType] = {
     c: pa.int64() if c in _INT else pa.bool_() if c in _BOOL else pa.string() if c in _STR else pa.float64()
     for c in COLUMNS}
@@ -60,15 +61,18 @@ def read_csv(path: Path) -> List[Row]:
     header = next(reader, None)
     if header is None:
         return []
-    if tuple(header) != COLUMNS:
+    columns = tuple(header)
+    if columns != COLUMNS and columns != tuple(c for c in COLUMNS if c not in ADDED):
         raise ResultsTableError("not a results table of this version: columns {}".format(",".join(header[:4])),
                                 str(path), 1)
     rows = []
     for number, fields in enumerate(reader, 2):
-        if len(fields) != len(COLUMNS):
-            raise ResultsTableError("expected {} fields, got {}".format(len(COLUMNS), len(fields)), str(path), number)
+        if len(fields) != len(columns):
+            raise ResultsTableError("expected {} fields, got {}".format(len(columns), len(fields)), str(path), number)
         try:
-            rows.append({c: _parse(c, f) for c, f in zip(COLUMNS, fields)})
+            row = dict(ADDED)  # an older table's rows: what its runs were
+            row.update((c, _parse(c, f)) for c, f in zip(columns, fields))
+            rows.append({c: row[c] for c in COLUMNS})
         except ValueError as err:
             raise ResultsTableError("bad value: {}".format(err), str(path), number) from None
     return rows

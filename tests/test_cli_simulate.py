@@ -141,3 +141,24 @@ def test_an_invalid_plan_is_not_simulated(tmp_path):
     assert proc.returncode == 1
     assert "error: vertex conflict at t=1: agents 0, 1 all at (1, 3)" in proc.stdout
     assert "INVALID: 1 problem(s); not simulated" in proc.stdout
+
+
+def test_rerouting_is_off_by_default_and_auto_says_how_many_robots_it_moved(shared_data):
+    path = shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"
+    delays = ("--delay-model", "events=bernoulli:0.1:1-5", "--robot-size", "0.354:0.1")
+    plain, auto = simulate(path, *delays), simulate(path, *delays, "--reroute", "auto")
+    assert plain.returncode == 0 and "reroutes" not in plain.stdout
+    assert auto.returncode == 0, auto.stdout + auto.stderr
+    m = re.search(r"^reroutes: (\d+), (\d+) robots? given new paths \((\d+) different", auto.stdout, re.M)
+    assert m and int(m.group(1)) >= 1 and int(m.group(2)) >= int(m.group(3)) >= 1, auto.stdout
+    assert "rerouted" in auto.stdout and "collisions: 0" in auto.stdout
+    assert "reached goal: 30 of 30 enabled robots" in auto.stdout
+    assert figure(auto.stdout, "executed makespan") < figure(plain.stdout, "executed makespan")
+    quiet = simulate(path, "--delay-model", "none", "--robot-size", "0.354:0.1", "--reroute", "auto")
+    assert "reroutes: none" in quiet.stdout
+
+
+def test_a_rerouted_run_is_not_logged_as_one_plan(tmp_path, shared_data):
+    proc = simulate(shared_data / "solutions" / "pibt_sample.txt", "--reroute", "auto", "--log", tmp_path)
+    assert proc.returncode == 2 and proc.stdout == "" and list(tmp_path.iterdir()) == []
+    assert proc.stderr.strip().startswith("fleetctl simulate: --log with --reroute auto: a run folder records one plan")

@@ -6,6 +6,8 @@ replanning), run as a user runs them, in real processes.
 """
 from __future__ import annotations
 
+import csv
+import io
 import json
 from pathlib import Path
 
@@ -166,3 +168,38 @@ def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tm
     bad.write_text("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: [0]\nsizes: [huge]\n")
     refused = fleetctl("experiment", bad, "-o", tmp_path / "o2")
     assert refused.returncode == 2 and "expected turtlebot, cell or DIAMETER:MARGIN" in refused.stderr
+
+
+def test_a_reroute_column_sweeps_rerouting_beside_the_same_runs_without(tmp_path, shared_data):
+    """reroute: [none, auto] on the same delays; the rows count the reroutes; a table written
+    before the column existed resumes (its rows are the runs without rerouting)."""
+    spec = tmp_path / "reroute.yaml"
+    spec.write_text("plans: [{{solution: {}}}]\nstrategies: [adg, reorder]\ndelays: [\"events=bernoulli:0.1:1-5\"]\n"
+                    "seeds: [0, 1]\nreroute: [none, auto]\n".format(
+                        shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"))
+    out = tmp_path / "out"
+    proc = fleetctl("experiment", spec, "-o", out, "--jobs", "1", timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_table(out)
+    assert len(rows) == 8
+    plain = [r for r in rows if r["reroute"] == "none"]
+    auto = [r for r in rows if r["reroute"] == "auto"]
+    assert {r["strategy"] for r in plain} == {"adg", "reorder"}
+    assert {r["strategy"] for r in auto} == {"adg +reroute", "reorder +reroute"}
+    assert all(r["reroutes"] == 0 and "reroute=" not in r["key"] for r in plain)
+    assert all(r["key"].endswith("|reroute=auto") for r in auto) and sum(r["reroutes"] for r in auto) >= 2
+    assert all(r["finished"] and r["collisions"] == 0 for r in rows)
+    # a table from before the column: its header and rows without reroute and reroutes, and only the
+    # runs without rerouting (the only ones it could have)
+    written = list(csv.reader(io.StringIO((out / "results.csv").read_text())))
+    keep = [i for i, c in enumerate(written[0]) if c not in ("reroute", "reroutes")]
+    with open(out / "results.csv", "w", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        for fields in written:
+            if "reroute=" not in fields[0]:
+                writer.writerow([fields[i] for i in keep])
+    (out / "results.parquet").unlink()
+    exp = read_experiment(spec)
+    again = run_sweep(exp, out, jobs=1, progress=None)
+    assert (again.ran, again.resumed) == (4, 4)
+    assert without_wall_time(again.rows) == without_wall_time(rows)
