@@ -262,10 +262,11 @@ class Rerouter:
         self._clock = clock
         self._next = -1.0
         self._expected: Optional[Tuple[object, List[int]]] = None  # (run, its expected_steps)
-        #: looks taken, their total seconds, and reroutes found
+        #: looks taken, their total seconds, reroutes found and the seconds of the looks that found one
         self.looks = 0
         self.seconds = 0.0
         self.found = 0
+        self.found_seconds = 0.0
 
     def consider(self, engine: Engine, now: float) -> Optional[Reroute]:
         """A reroute that pays now, if it is time to look and one does."""
@@ -278,9 +279,12 @@ class Rerouter:
             self._expected = (engine.run, expected_steps(engine))
         found = decide(engine, self.maps, now, self.rule,
                        Deadline(self.rule.budget if self.timed else None, self._clock), self._expected[1])
+        spent = self._clock() - began
         self.looks += 1
-        self.seconds += self._clock() - began
-        self.found += found is not None
+        self.seconds += spent
+        if found is not None:
+            self.found += 1
+            self.found_seconds += spent
         return found
 
     def restart(self) -> None:

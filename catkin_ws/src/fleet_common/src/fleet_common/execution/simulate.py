@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import time
 from collections import deque
 from dataclasses import dataclass
 from typing import Callable, Deque, Dict, List, Mapping, Optional, Sequence, Set, Tuple, Union
@@ -83,6 +84,8 @@ class SimResult:
     rerouter: Optional[Rerouter] = None
     #: reroutes found whose hand-over was refused (the plan did not fit the run): never, by design
     refused: int = 0
+    #: wall-clock seconds the hand-overs took (the only clock the simulator reads: a figure, never a time)
+    handover_seconds: float = 0.0
     #: Per robot, the time its moves take with its own delays and no waiting (from the fates).
     alone: Optional[np.ndarray] = None
 
@@ -196,6 +199,7 @@ def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
     alone = np.bincount(table.agent, weights=fates.wait + total, minlength=engine.run.num_agents)
     return SimResult(engine, sim.trace, total, collisions, sim.now, sim.disabled_at, fates.wait,
                      sim.journal, paths, safety, size, reroutes=tuple(sim.reroutes), rerouter=rerouter, refused=sim.refused,
+                     handover_seconds=sim.handover_seconds,
                      alone=alone)
 
 
@@ -215,6 +219,7 @@ class _Simulation:
         self.rerouter: Optional[Rerouter] = None
         self.reroutes: List[Tuple[float, Reroute]] = []
         self.refused = 0  # reroutes whose hand-over was refused
+        self.handover_seconds = 0.0  # wall-clock seconds the hand-overs took (bench/reroute.py)
         self.wait: List[float] = fates.wait.tolist()
         self.drive: List[float] = (nominal * fates.slowdown).tolist()
         self.stall: List[float] = fates.stall.tolist()
@@ -324,6 +329,7 @@ class _Simulation:
         if found is None:
             return
         old = self.engine
+        began = time.perf_counter()
         try:
             new, dispatches = hand_over(old, found, self.now)
         except HandoverError:  # never at the cut's own moment; a run goes on with its plan all the same
@@ -333,6 +339,7 @@ class _Simulation:
         for r in range(old.run.num_agents):
             self.offset[r] += shift[r]
         self.engine = new
+        self.handover_seconds += time.perf_counter() - began
         self.rerouter.restart()
         self.reroutes.append((self.now, found))
         self._passes_seen = 0

@@ -1,0 +1,107 @@
+"""Rerouting held-up robots (issue 28, deliverable 2): what it gains, what a decision costs.
+
+The evaluation's two plans (random-32-32-20, 70 agents, planned by LaCAM; the
+300-robot arena, planned by PIBT, as experiments/evaluation.yaml plans them),
+robots of the lab's size, LoRR delay events p = 0.1 of 1-5 moves, paired
+seeds (every configuration meets the same delays): adg, adg + reroute,
+reorder, reorder + reroute. Prints per configuration the executed makespan
+over the planned one (mean and 95 % interval, 1.96 standard errors), the
+paired change against adg, the lower bound (every robot alone with its own
+delays) over the planned makespan, reroutes per run and robots moved per
+run, and the rule's cost: ms per look (a decision: who is held up, the
+prediction, the planning when someone is) and ms per look that found a
+reroute (a replan), plus the hand-over. Then p = 0: every configuration's
+makespan, and the number of reroutes (none).
+
+    .venv/bin/python bench/reroute.py [SEEDS]     # default 10
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Dict, List
+
+import numpy as np
+
+from fleet_common.delays import parse_delay_model
+from fleet_common.execution.simulate import simulate
+from fleet_common.formats import default_map_dirs
+from fleet_common.plan_loading import load_plan
+from fleet_common.robot_size import TURTLEBOT2
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
+PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
+         "arena300": ("arena_300agents_1.txt", "pibt", 300)}
+CONFIGS = (("adg", "none"), ("adg", "auto"), ("reorder", "none"), ("reorder", "auto"))
+
+
+def interval(values: List[float]) -> str:
+    a = np.asarray(values, dtype=float)
+    half = 1.96 * a.std(ddof=1) / math.sqrt(a.size) if a.size > 1 else 0.0
+    return "{:.3f} +- {:.3f}".format(a.mean(), half)
+
+
+def main() -> None:
+    seeds = int(sys.argv[1]) if len(sys.argv) > 1 else 10
+    model = parse_delay_model("events=bernoulli:0.1:1-5")
+    print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+    for name, (file, solver, n) in PLANS.items():
+        loaded = load_plan(SHARED / "instances" / file, n, name, [SHARED / "maps"] + default_map_dirs(),
+                           solver=solver, seed=0)
+        plan, grid = loaded.plan, loaded.grid
+        print("\n{}: {} robots, planned by {}, makespan {}; {} paired seeds, p = 0.1, {}".format(
+            name, n, solver, plan.makespan, seeds, TURTLEBOT2.describe()))
+        ratio: Dict[tuple, List[float]] = {c: [] for c in CONFIGS}
+        reroutes: Dict[tuple, List[int]] = {c: [] for c in CONFIGS}
+        moved: Dict[tuple, List[int]] = {c: [] for c in CONFIGS}
+        wall: Dict[tuple, float] = {c: 0.0 for c in CONFIGS}
+        bound: List[float] = []
+        looks = found = 0
+        look_s = found_s = hand_s = 0.0
+        for seed in range(seeds):
+            for config in CONFIGS:
+                strategy, reroute = config
+                began = time.perf_counter()
+                result = simulate(plan, strategy, model, seed=seed, size=TURTLEBOT2, reroute=reroute, grid=grid)
+                wall[config] += time.perf_counter() - began
+                assert result.finished and not result.collisions and result.refused == 0, (name, config, seed)
+                ratio[config].append(result.metrics.makespan / plan.makespan)
+                reroutes[config].append(len(result.reroutes))
+                moved[config].append(sum(len(r.agents) for _, r in result.reroutes))
+                if config == CONFIGS[0]:
+                    bound.append(result.lower_bound / plan.makespan)
+                if result.rerouter is not None:
+                    rr = result.rerouter
+                    looks, found = looks + rr.looks, found + rr.found
+                    look_s, found_s = look_s + rr.seconds, found_s + rr.found_seconds
+                    hand_s += result.handover_seconds
+        base = ratio[CONFIGS[0]]
+        print("  lower bound / planned makespan: {}".format(interval(bound)))
+        print("  {:<18} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
+            "configuration", "executed/planned", "paired vs adg", "reroutes", "robots moved", "s a run"))
+        for config in CONFIGS:
+            label = config[0] + (" + reroute" if config[1] == "auto" else "")
+            change = [100.0 * (x - b) / b for x, b in zip(ratio[config], base)]
+            print("  {:<18} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
+                label, interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
+                float(np.mean(moved[config])), wall[config] / seeds))
+        print("  the rule's cost ({} robots): {:.2f} ms a look ({} looks), {:.1f} ms a look that found a reroute "
+              "({}), {:.1f} ms a hand-over".format(n, 1e3 * look_s / max(looks, 1), looks,
+                                                   1e3 * found_s / max(found, 1), found,
+                                                   1e3 * hand_s / max(found, 1)))
+        zero = parse_delay_model("none")
+        flat = []
+        for strategy, reroute in CONFIGS:
+            result = simulate(plan, strategy, zero, seed=0, size=TURTLEBOT2, reroute=reroute, grid=grid)
+            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, " + reroute" if reroute == "auto" else "",
+                                                          result.metrics.makespan / plan.makespan,
+                                                          len(result.reroutes)))
+        print("  p = 0: " + "; ".join(flat))
+    print("\nload average after: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
+
+
+if __name__ == "__main__":
+    main()
