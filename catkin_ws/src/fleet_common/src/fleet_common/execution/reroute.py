@@ -9,29 +9,63 @@ anyone. Pure: values in (an engine, its grid, the time), a plan out.
 Who. A robot waits for the cell it enters (`Engine.waiting`, reason CELL) for
 the robot that must leave it first; that one may wait for another, or follow
 one. A robot is *held up* when that chain reaches a *late* robot: one that is
-out, or behind the plan's clock (`RunState.clock`) by `gap` steps or more
-(against the step a run without delays would start its next move: `expected_steps`).
+out, or that is both behind the plan's clock (`RunState.clock`) by `gap`
+steps or more, measured against the step a run without delays would start
+its next move (`expected_steps`), and delayed itself (its own moves took it
+half a step or more longer than nominal, `Metrics.own_delay`). So a run
+without delays never has a late robot and never reroutes, whatever the
+strategy or the robots' size.
 
-The rule, for each late robot L and the robots H it holds up, tried in turn:
-reroute L alone (the robot waiting outside its goal goes in, L goes round),
-H alone, or both:
+The rule ("it pays"), for each late robot L and the robots H it holds up
+(the `tries` late robots holding up the most first), trying to reroute L
+alone (the robot waiting outside its goal goes in, L goes round), those of H
+that could arrive sooner by a shortest path, or both:
 
 1. predict the rest of the run as it stands (`forecast`: every move as soon
    as the dependency graph allows, each cell's order kept, L standing still
    as long again as it has stood with its move sent);
 2. plan the chosen robots anew around the others (`reroute_plan`), and
    predict the run on that plan the same way;
-3. the gain is the predicted arrival steps saved, summed over all robots
-   (kept robots only gain: they lose nobody in front of them); it *pays*
-   when gain - `cost` x (robots rerouted) >= `margin` steps and the predicted
-   makespan is not longer. The best variant that pays is taken.
+3. gain = predicted arrival steps saved, summed over all robots, less
+   `per_move` (a move's expected delay) for each move the new paths add;
+   it *pays* when gain - `cost` x (robots rerouted) >= `margin` steps and no
+   robot is predicted to arrive later (by more than `later`, extra moves
+   counted). The variant with the largest net gain is taken.
 
-A plan is only a prediction: what keeps the run safe is unchanged. The new
-plan goes to the engine as a plan like any other; its dependency graph keeps
-each cell's order of robots, and the robots' moves already sent are the
-first moves of the new plan, with every cell they enter kept free for them
-(`reroute_plan`), so the engine's one rule (nobody enters a cell before the
-previous visitor's move out of it is released) holds across the hand-over.
+Why a hand-over is safe (`handover`, `Engine.adopt`). A plan is only a
+prediction: what keeps the run safe is the engine's one rule, unchanged
+(nobody enters a cell before the previous visitor's move out of it is
+released: completed, or for robots of real size dispatched, the follower
+then held at the safe distance behind its leader).
+
+- Moves in flight finish: nothing sent is taken back. Every robot's moves
+  sent and not completed at the cut are exactly its first moves in the new
+  plan (a follower that completed its move into a cell its leader has not
+  finished leaving makes that move again in the new plan, done already:
+  `cut.Cut.base`), so the new engine knows them as dispatched and their
+  completions arrive as the new plan's moves.
+- The new plan holds every cell a move in flight enters for that robot
+  until it is in (`reroute_plan`: its target is reserved from the cut), so
+  in the new plan's dependency graph no move sent waits for a move not sent;
+  `Engine.adopt` checks exactly that and refuses the plan otherwise (as the
+  plan's validation and the graph's own conflict checks refuse a plan with
+  two robots in a cell).
+- Followers keep their leader: a follower in flight keeps, in the new
+  graph, its dependency on the leader's move out of the cell (the same move
+  in both plans), so the driver goes on holding it behind that leader.
+
+With a live fleet (the manager, not built yet: the planning would run in its
+worker thread) poses are stale. The cut is taken from the engine's events,
+never from poses: a robot only moves on moves it was sent, so wherever a late
+pose shows it, it is between the cell of its last completed move and the
+target of its last move sent, all of which the new plan keeps for it; a
+rerouted robot would go from that target along its new path. If by the
+hand-over the rerouted robots' progress differs from the cut, or a robot
+went out or came back, the plan is dropped (`HandoverError`); a completion
+that arrives after the hand-over is one of the moves in flight, counted in
+the new plan. A follower's hold point comes from its leader's last pose,
+which is never ahead of the leader: a stale pose stops it earlier, never
+later.
 
 Cost: two predictions (a pass over the incomplete moves each) and one
 space-time A* per robot rerouted, per variant tried, within `budget` seconds
