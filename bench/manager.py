@@ -29,9 +29,12 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Dict, List, Tuple
+from typing import TYPE_CHECKING, Dict, List, Optional, Tuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from fleet_common.robot_size import RobotSize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -126,6 +129,16 @@ def inst_map(instance: Path, name: str) -> Path:
     """The map of an instance: beside it, else among the shared maps."""
     beside = instance.parent / name
     return beside if beside.is_file() else SHARED / "maps" / name
+
+
+def run_size(fields: object) -> Optional["RobotSize"]:
+    """The robots' size the run record gives (None: a run of old, robots as large as a cell)."""
+    from fleet_common.robot_size import RobotSize
+
+    try:
+        return RobotSize(float(fields["diameter_m"]), float(fields["margin_m"]), float(fields["cell_m"]))  # type: ignore[index]
+    except (TypeError, KeyError, ValueError):
+        return None
 
 
 def main() -> int:
@@ -227,9 +240,10 @@ def bench(work: Path) -> int:
     rtt = round_trips(records)
     outbound, back = split_round_trips(records, run.run["started"], run.run["t"], truths)
     plan = read_solution(str(run.plan_files()[0]), map_dirs=[SHARED / "maps", args.instance.parent]).plan
-    engine = Engine(plan, args.strategy)
+    size = run_size(run.run.get("size"))
+    engine = Engine(plan, args.strategy, follow=size is not None and not size.cell_sized)
     durations = move_durations(records, run.robots, engine.table.first)
-    engine_only = simulate_engine(engine, durations).metrics.makespan
+    engine_only = simulate_engine(engine, durations, size=size).metrics.makespan
     executed = float([line for line in out.splitlines() if line.startswith("executed makespan")][0]
                      .split(":")[1].split()[0])
     running = [t for t in states if cpu0 is not None and cpu0[0] <= t <= cpu1[0]]

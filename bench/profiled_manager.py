@@ -26,17 +26,20 @@ sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__)
 from fleet_common.runlog.writer import RunLog  # noqa: E402
 from fleet_common.transport.links import LinkSet  # noqa: E402
 from fleet_common.transport.robot_link import RobotLink  # noqa: E402
+from fleet_manager.core import RunCore  # noqa: E402
 from fleet_manager.manager import Manager  # noqa: E402
+from fleet_manager.run_phase import RUNNING, RunPhase  # noqa: E402
 from fleetctl.cli import main  # noqa: E402
 
 #: (class, method, label): the loop's parts, outermost first.
 PARTS: List[Tuple[type, str, str]] = [
     (LinkSet, "poll", "replies: reading the command sockets and what follows"),
-    (Manager, "_link_event", "  every event: the engine, commands sent, the log"),
+    (RunCore, "link_event", "  every event: the engine, commands sent, the log"),
     (LinkSet, "drain_poses", "poses: the newest of each robot's stream"),
     (Manager, "_publish", "State: build and send to consoles"),
     (Manager, "_log_poses", "run log: every robot's pose"),
-    (Manager, "_timers", "timers: replanning, console desk"),
+    (Manager, "_timers", "timers: plans ready, the core's tick"),
+    (RunCore, "tick", "  the core's tick: safe points, the run's end, console desk"),
     (RobotLink, "tick", "  link timers (heartbeats, reconnects), per robot"),
     (RobotLink, "_send", "  frames encoded and sent to robots"),
     (RunLog, "record", "  run-log records written"),
@@ -61,14 +64,15 @@ def run(profile: Path, args: List[str]) -> int:
     for cls, name, label in PARTS:
         setattr(cls, name, _timed(getattr(cls, name), spent, label))
     marks: List[Tuple[float, float, Dict[str, List[float]]]] = []  # (wall, thread CPU, counters)
-    set_state = Manager.set_state
+    move = RunPhase.move
 
-    def marked(self: Manager, state: str, reason: str = "") -> None:
-        if (state == "running") == (not marks) and len(marks) < 2:
+    def marked(self: RunPhase, trigger: str, reason: str = "") -> bool:
+        changed = move(self, trigger, reason)
+        if (self.phase == RUNNING) == (not marks) and len(marks) < 2:  # the run starts, then ends
             marks.append((time.monotonic(), time.thread_time(), {k: list(v) for k, v in spent.items()}))
-        set_state(self, state, reason)
+        return changed
 
-    Manager.set_state = marked  # type: ignore[method-assign]
+    RunPhase.move = marked  # type: ignore[method-assign]
     try:
         return main(["manager"] + args)
     finally:

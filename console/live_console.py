@@ -12,6 +12,8 @@ for is done:
 - `close_when_done`: close that many seconds after the run is done;
 - `start_when_ready`: press Start once every robot is connected and has a
   pose, as an operator would (the demo's console does);
+- `switch_when_stalled`: switch the run to that strategy once, as an operator
+  would who sees a robot wait for a stalled one (`fleetctl demo --switch`);
 - `present`: open in the presentation view for visitors (full screen; on a
   private Xvfb, a 1600 x 1000 screen unless `size` says otherwise).
 
@@ -42,7 +44,7 @@ from .view_options import ViewOptions
 if TYPE_CHECKING:
     from .ui.live_app import LiveApp
 
-__all__ = ["LiveOptions", "LiveOutcome", "run_live_console", "AutoStart"]
+__all__ = ["LiveOptions", "LiveOutcome", "run_live_console", "AutoStart", "AutoSwitch"]
 
 #: The live console's canvas fits this box (the panels take the rest of a laptop screen).
 LIVE_CANVAS = (820, 620)
@@ -60,6 +62,7 @@ class LiveOptions:
     every: float = 1.0
     close_when_done: Optional[float] = None
     start_when_ready: bool = False
+    switch_when_stalled: Optional[str] = None
     present: bool = False
     view: ViewOptions = field(default_factory=ViewOptions)
 
@@ -93,6 +96,29 @@ class AutoStart:
         self._last = now
         self.tries -= 1
         self.ask("start", based_on=state.version)
+
+
+class AutoSwitch:
+    """Switches the running run to `strategy` once a robot waits for a stalled one (the story
+    told both), as an operator watching would; once: a refused switch is not asked again, and
+    a run already under `strategy` is left alone."""
+
+    def __init__(self, ask: Callable[..., None], strategy: str) -> None:
+        self.ask, self.strategy = ask, strategy
+        self.done = False
+
+    def __call__(self, model: LiveModel, now: float) -> None:
+        state = model.state
+        if self.done or not model.connected or state is None or state.run.state != "running" \
+                or state.run.purpose != "plan":
+            return
+        if state.run.strategy == self.strategy:
+            self.done = True
+            return
+        stalled = set(model.ticker.stalled())
+        if any(r.waiting is not None and stalled.intersection(r.waiting.on) for r in state.robots):
+            self.done = True
+            self.ask("strategy", based_on=state.version, name=self.strategy)
 
 
 def run_live_console(endpoint: str, keys: Optional[ConsoleKeys], options: LiveOptions) -> LiveOutcome:
@@ -139,6 +165,7 @@ class _Run:
             self.recorder = Recorder(options.record, lambda p: capture.grab(self.root, p), options.every)
             self.outcome.frames = self.recorder.frames
         self.starter = AutoStart(ask) if options.start_when_ready else None
+        self.switcher = AutoSwitch(ask, options.switch_when_stalled) if options.switch_when_stalled else None
         self.done_at: Optional[float] = None
         self.closing = False
         app.after_frame.append(self.after_frame)
@@ -164,6 +191,8 @@ class _Run:
                 self.recorder = None
         if self.starter is not None:
             self.starter(model, now)
+        if self.switcher is not None:
+            self.switcher(model, now)
         if self.stopping:
             self.close("stopped by {}".format(self.stopping[0]))
         elif self.options.close_when_done is not None and run is not None and run.state == "done":

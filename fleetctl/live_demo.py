@@ -7,12 +7,15 @@ the lab's addresses:
 1. `fleetctl virtual-fleet`: the five lab robots on a definitions copy, with
    moderate random delays and one planned stall (`pick_stall`: the move of one
    robot that another robot's next move depends on most closely, about a third
-   into the run), so a visitor sees one robot wait for another;
+   into the run), so a visitor sees one robot wait for another; with `switch`, a
+   stall a re-ordering strategy can get around (`pick_passing_stall`);
 2. `fleetctl manager` on the demo's plan, ADG, until the run is done, writing
    its run folder;
 3. `fleetctl console`, the live console in its presentation view for visitors
    (`--present`: the map full screen, a legend, the run's story in words), which
-   presses Start once every robot is connected (`--start-when-ready`), closes a
+   presses Start once every robot is connected (`--start-when-ready`), with
+   `switch` switches the run to that strategy once a robot waits for the
+   stalled one (`--switch-when-stalled`, as an operator would), closes a
    few seconds after the run is done, and records frames into the run folder when
    it runs headless (frames.txt gives the sentences told at each frame).
 
@@ -42,7 +45,7 @@ from fleet_common.robots import RobotDefinition
 
 from virtual_fleet.stalls import parse_stall
 
-__all__ = ["StallChoice", "pick_stall", "DemoSettings", "run_live_demo"]
+__all__ = ["StallChoice", "pick_stall", "pick_passing_stall", "DemoSettings", "run_live_demo"]
 
 #: The virtual robots' driving speed (cells per fleet second): a nominal move of 2 s.
 SPEED = 0.5
@@ -82,6 +85,52 @@ def pick_stall(plan: Plan, at: float = 0.35) -> Optional[StallChoice]:
     return None if best is None else best[1]
 
 
+def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
+                       at: float = 0.35) -> Optional[StallChoice]:
+    """A stall `strategy` gets around: robot A halts `moves` moves halfway through one drive,
+    under the ADG robot B then waits for it at a cell A has yet to reach, and switched to
+    `strategy` a moment later B goes first and arrives sooner. Tried on the simulator with
+    robots of the lab's size and no other delay; among the stalls that save B half the stall
+    or more, the one nearest `at` of the way through the plan (then the larger saving). The
+    choice's `cell` is where B goes first. None if no stall does."""
+    import numpy as np
+
+    from fleet_common.delays.draw import MoveFates
+    from fleet_common.execution import make_strategy
+    from fleet_common.execution.events import SwitchStrategy
+    from fleet_common.execution.simulate import simulate
+    from fleet_common.robot_size import RobotSize
+
+    size = RobotSize()
+    table = simulate(plan, "adg", size=size).engine.table
+    n = len(table.agent)
+    best = None
+    for i in range(n):
+        stall = np.zeros(n)
+        stall[i] = moves
+        fates = MoveFates(np.zeros(n), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+        step = float(table.step[i])
+        switched = simulate(plan, "adg", size=size, fates=fates,
+                            controls=[SwitchStrategy(make_strategy(strategy), step + 1.0)])
+        passes = [p for p in switched.engine.run.passes if p.passed == table.agent[i]]  # type: ignore[attr-defined]
+        if not passes or switched.collisions:
+            continue
+        fixed = simulate(plan, "adg", size=size, fates=fates)
+        b = passes[0].agent  # type: ignore[attr-defined]
+        gain = (fixed.metrics.agents[b].arrival or 0.0) - (switched.metrics.agents[b].arrival or 0.0)
+        if gain <= 0:
+            continue
+        a = int(table.agent[i])
+        k = int(np.count_nonzero(table.agent[:i + 1] == a))
+        cell = table.coord(passes[0].cell)  # type: ignore[attr-defined]
+        if gain < moves / 2:
+            continue  # a pass a visitor would hardly notice
+        key = (abs(step - at * plan.makespan), -round(gain, 3), i)
+        if best is None or key < best[0]:
+            best = (key, StallChoice(a, k, b, cell, int(step)))  # type: ignore[arg-type]
+    return None if best is None else best[1]
+
+
 @dataclass
 class DemoSettings:
     log_dir: Optional[Path] = None  # where run folders go (None: the manager's default)
@@ -90,6 +139,7 @@ class DemoSettings:
     seed: int = 0
     stall: str = "auto"          # auto, none, or R:K:S as `fleetctl virtual-fleet --stall`
     stall_seconds: float = 8.0   # fleet seconds of the automatic stall
+    switch: Optional[str] = None  # the console switches to this strategy once a robot waits for the stall
     headless: bool = False
     record: bool = False
     linger: float = 3.0
@@ -102,7 +152,11 @@ def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDef
         return None
     if settings.stall != "auto":
         return settings.stall
-    choice = pick_stall(plan)
+    choice = None
+    if settings.switch is not None:
+        choice = pick_passing_stall(plan, settings.stall_seconds * SPEED, settings.switch)
+    if choice is None:
+        choice = pick_stall(plan)
     if choice is None:
         return None
     return "{}:{}:{:g}".format(robots[choice.agent].id, choice.move, settings.stall_seconds)
@@ -124,9 +178,11 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
                       "--speed", "{:g}".format(SPEED), "--log-level", "warning"]
         if stall is not None:
             fleet_args += ["--stall", stall]
-        say("live run: {} virtual robots on 127.0.0.1 (time x{:g}, delays {}{}), manager with ADG, "
+        say("live run: {} virtual robots on 127.0.0.1 (time x{:g}, delays {}{}), manager with ADG{}, "
             "console on {}".format(plan.num_agents, settings.time_scale, settings.delay_model,
-                                   "; " + parse_stall(stall).describe() if stall else "", endpoint))
+                                   "; " + parse_stall(stall).describe() if stall else "",
+                                   " (the console switches to {} once a robot waits for a stalled one)".format(
+                                       settings.switch) if settings.switch else "", endpoint))
         children.append(Child.start("fleet", fleet_args, log=work / "virtual-fleet.log"))
         # a plan step as the virtual robots take it: the drive, the mean start delay, a slow move now
         # and then, a turn at corners (the robots turn ahead while they wait, so less than a full one)
@@ -171,6 +227,8 @@ def _start_console(endpoint: str, folder: Path, settings: DemoSettings, work: Pa
         env.pop("DISPLAY", None)  # the console starts its own Xvfb
     args = ["console", "--manager", endpoint, "--no-curve", "--name", "demo console", "--present",
             "--start-when-ready", "--close-when-done", "{:g}".format(settings.linger if not headless else 1.0)]
+    if settings.switch is not None:
+        args += ["--switch-when-stalled", settings.switch]
     if headless or settings.record:
         args += ["--record", str(folder / "frames")]
     say("console: {}".format("headless on a private Xvfb, recording frames into {}".format(folder / "frames")

@@ -14,6 +14,7 @@ from console.live.describe import BEHIND_MARK, blocked_chain, greyed, row
 from console.live.fit import fit
 from console.live.report import report_html
 from console.live.ticker import Ticker
+from console.live_console import AutoSwitch
 from console.live.feed import CONNECTED, LOST, LinkStatus, LiveFeed, Reply
 from console.live.model import LiveModel, LiveSource
 from console.live.picture import WaitMark, WaitMarks, picture
@@ -24,7 +25,7 @@ from fleet_common.control import (Activity, Notice, PlanData, Proposal, RobotInf
 from fleet_common.grid import Grid
 from fleet_common.errors import FleetError
 from fleet_common.plan import Plan
-from fleetctl.live_demo import pick_stall
+from fleetctl.live_demo import pick_passing_stall, pick_stall
 from virtual_fleet.kinematics import VirtualNavigator
 from virtual_fleet.stalls import parse_stall, stalls_by_robot
 from fleet_common.wire.messages import Pose
@@ -254,6 +255,24 @@ def test_lab_plan_stalls_green_where_blue_follows_it() -> None:
     assert entering and entering[0] - t <= 1
 
 
+def test_lab_plan_has_a_stall_the_reordering_strategy_gets_around() -> None:
+    from fleet_common.formats.instance import read_instance
+    from fleet_common.lab import lab_instance_path, lab_map_path
+    from fleet_common.planning import solve
+
+    inst = read_instance(lab_instance_path(), map_dirs=[lab_map_path().parent])
+    plan = solve("cbs", inst.grid, inst.starts, inst.goals, seed=0).plan
+    choice = pick_passing_stall(plan, moves=4.0)
+    a, b, cell = choice.agent, choice.waiter, choice.cell
+    # the stalled robot reaches the cell later in the plan, the waiter right after it
+    a_enters = [u for u in range(choice.step + 1, plan.makespan) if tuple(plan.positions[u + 1, a]) == cell]
+    b_enters = [u for u in range(plan.makespan) if tuple(plan.positions[u + 1, b]) == cell]
+    assert a_enters and b_enters and a_enters[0] < b_enters[0]
+    assert 0 < choice.step <= plan.makespan // 2  # the robots are under way, the run not half over
+    # a plan where nobody's order could change has no such stall
+    assert pick_passing_stall(Plan.from_paths([[(0, 0), (1, 0)], [(3, 3), (3, 2)]]), moves=4.0) is None
+
+
 def test_planned_stall_halts_the_kth_drive_halfway() -> None:
     now = [0.0]
     nav = VirtualNavigator(Pose(0.0, 0.0, 0.0), speed=1.0, clock=lambda: now[0])
@@ -362,6 +381,41 @@ def test_a_crowd_is_counted_and_the_end_and_a_replan_are_told() -> None:
     assert ticker.notice(Notice(9, 3.0, "plan", None, "replanned 4 robots: plan 2 (planned by pp)")) == \
         ["replanned 4 robots"]
     assert ticker.notice(Notice(10, 3.0, "operator", None, "console: start")) == []
+    assert ticker.notice(Notice(11, 4.0, "strategy", None, "strategy switched: adg (lookahead 1) -> "
+                                "reorder (gap 1, reach 4, budget 400)")) == ["strategy now reorder"]
+    assert ticker.notice(Notice(12, 4.0, "pass", 3, "robot 3 goes before robot 2 at (5, 5)")) == \
+        ["robot 3 goes before robot 2"]
+
+
+def test_the_console_switches_strategy_once_a_robot_waits_for_a_stalled_one() -> None:
+    model = connected_model()
+    model.ticker.step_time = 1.0
+    asked: List[tuple] = []
+    switch = AutoSwitch(lambda action, **args: asked.append((action, args)), "reorder")
+    waits = Waiting((2,), (3, 0), "cell")
+    frames = [(0.0, state(1, [drive(2, 1.0, 0.0), robot(3, waiting=waits)], version=5)),  # 2 drives
+              (0.5, state(2, [drive(2, 1.2, 0.0), robot(3, waiting=waits)], version=5)),
+              (1.6, state(3, [drive(2, 1.2, 0.0), robot(3, waiting=waits)], version=6))]  # 2 stalled
+    for at, item in frames:
+        model.apply(item, at, at)
+        switch(model, at)
+        if at < 1.6:
+            assert asked == []  # a robot waiting for one that moves is no reason to switch
+    assert asked == [("strategy", {"based_on": 6, "name": "reorder"})]
+    model.apply(state(4, [drive(2, 1.2, 0.0), robot(3, waiting=waits)], version=7), 1.7, 1.7)
+    switch(model, 1.7)
+    assert len(asked) == 1  # once
+    # a run already under the strategy, or not running, is left alone
+    for run_info, expected in ((dataclasses.replace(run(), strategy="reorder"), 0),
+                               (run("paused"), 0), (run(), 1)):
+        other = connected_model()
+        other.ticker.step_time = 1.0
+        mine: List[tuple] = []
+        switch = AutoSwitch(lambda action, **args: mine.append(action), "reorder")
+        for at, item in frames:
+            other.apply(dataclasses.replace(item, run=run_info), at, at)
+            switch(other, at)
+        assert len(mine) == expected, run_info
 
 
 def test_the_models_story_goes_to_the_event_list_and_the_ticker() -> None:

@@ -76,6 +76,23 @@ def test_only_changes_that_concern_a_request_make_it_outdated() -> None:
     assert intake.request is None and "older than this manager remembers" in got[0][0].reason
 
 
+def test_a_consoles_own_changes_do_not_make_its_picture_outdated() -> None:
+    desk = ControlDesk("s1", 0.0)
+    ops, other = joined(desk, "ops", b"A"), joined(desk, "other", b"B")
+    looked = desk.version
+    desk.acting = b"A"  # the manager carries out ops' pause
+    desk.bump("run paused")
+    desk.acting = None
+    _, frame = ops.request("start", 0.0, based_on=looked)  # ops knows: it paused the run
+    assert wire(desk, ops, b"A", frame)[0].request is not None
+    _, frame = other.request("start", 0.0, based_on=looked)  # the other console did not see it
+    intake, got = wire(desk, other, b"B", frame)
+    assert intake.request is None and "run paused" in got[0][0].reason
+    desk.bump("robot 3 failed", 3)  # the manager's own news counts for everybody
+    _, frame = ops.request("disable", 0.0, based_on=looked, robot=3)
+    assert wire(desk, ops, b"A", frame)[0].request is None
+
+
 def test_a_console_that_did_not_say_hello_is_refused() -> None:
     desk = ControlDesk("s1", 0.0)
     stranger = ConsoleSession("x", 0.0)

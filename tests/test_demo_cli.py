@@ -72,7 +72,9 @@ def start_demo(folder: Path) -> Tuple["subprocess.Popen[str]", List[str]]:
     scratch.mkdir()
     demo = subprocess.Popen([sys.executable, "-m", "fleetctl", "demo", "--log", str(folder)],
                             env=dict(headless(), TMPDIR=str(scratch)),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            # as from a terminal: Ctrl-C is not ignored (a suite run in the background ignores it)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines: List[str] = []
     try:
         assert demo.stdout is not None

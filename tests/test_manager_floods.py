@@ -84,3 +84,17 @@ def test_refusal_counts_per_console_and_window():
     assert counts.first(b"a", "ops", 61.0)  # a new window: its first is recorded again
     assert [(h.console, h.requests) for h in counts.due(61.0)] == [("ops", 2)]
     assert counts.due(200.0) == []  # "b" had nothing held back
+
+
+def test_a_console_may_act_again_on_its_own_change_before_its_state_arrives():
+    """States keep to the rate, so a console that just switched the strategy may not have seen
+    it yet: its next request still goes ahead (it knows what it did), another console's not."""
+    f = fleet(rate=1.0)
+    ops, other = f.console("ops"), f.console("other")
+    f.link_up()
+    f.advance(0.5)
+    looked = max(ops.version, other.version)
+    assert f.ask(ops, "strategy", based_on=looked, name="step").ok
+    assert f.ask(ops, "strategy", based_on=looked, name="adg").ok
+    refused = f.ask(other, "strategy", based_on=looked, name="step")
+    assert not refused.ok and "changed since you looked" in refused.reason

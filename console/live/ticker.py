@@ -57,6 +57,10 @@ class Ticker:
         self._run: Optional[RunInfo] = None
         self.step_time = STALL_AFTER  # seconds a plan step takes (the run setup's)
 
+    def stalled(self) -> List[int]:
+        """The robots stalled now (standing still in the middle of a drive, as told)."""
+        return [rid for rid, seen in self._robots.items() if seen.stalled]
+
     def reset(self) -> None:
         """Another manager, or another plan: what was seen no longer counts."""
         self._robots = {}
@@ -151,9 +155,14 @@ class Ticker:
         return said + _few(stalls, "stalled") + _few(waits, "wait for others") + others
 
     def notice(self, notice: Notice) -> List[str]:
-        """The manager's notices a visitor should read: replans."""
+        """The manager's notices a visitor should read: replans, a new strategy, a robot that
+        goes before a late one."""
         if notice.kind == "plan" and notice.text.startswith("replanned"):
             return [notice.text.split(":")[0]]
+        if notice.kind == "strategy" and " -> " in notice.text:
+            return ["strategy now {}".format(notice.text.rsplit(" -> ", 1)[1].split(" (")[0])]
+        if notice.kind == "pass":
+            return [notice.text.split(" at ")[0]]
         return []
 
 

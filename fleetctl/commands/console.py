@@ -53,6 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="close the window S seconds after the run is done")
     live.add_argument("--start-when-ready", action="store_true",
                       help="press Start once every robot is connected (the demo's console)")
+    live.add_argument("--switch-when-stalled", default=None, metavar="STRATEGY",
+                      help="switch the run to STRATEGY once a robot waits for a stalled one, as an "
+                           "operator would (`fleetctl demo --switch`)")
     live.add_argument("--present", action="store_true",
                       help="open in the presentation view for visitors: the map full screen, robots "
                            "large, a legend and the run's story in words (F11 switches)")
@@ -105,10 +108,17 @@ def _live(args: argparse.Namespace) -> int:
         keys = None if args.no_curve else load_console_keys(args.keys or default_keys_dir())
     except FleetError as err:
         raise FleetError("{}; or run with --no-curve (and the manager too)".format(err)) from err
+    if args.switch_when_stalled is not None:
+        from fleet_common.execution import STRATEGIES
+
+        if args.switch_when_stalled not in STRATEGIES:
+            raise FleetError("--switch-when-stalled {}: expected one of {}".format(
+                args.switch_when_stalled, ", ".join(sorted(STRATEGIES))))
     options = LiveOptions(
         name=args.name or "console@{}".format(socket.gethostname()), size=args.size,
         screenshot=args.screenshot, after=args.after, record=args.record, every=args.every,
         close_when_done=args.close_when_done, start_when_ready=args.start_when_ready, present=args.present,
+        switch_when_stalled=args.switch_when_stalled,
         view=_view(args))
     outcome = run_live_console(args.manager, keys, options)
     if outcome.screenshot is not None:

@@ -64,6 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     live.add_argument("--stall", default="auto", metavar="auto|none|R:K:S",
                       help="the stall: auto (a move another robot soon depends on), none, or "
                            "robot R halts S s in its K-th move (default auto)")
+    live.add_argument("--switch", default=None, metavar="STRATEGY",
+                      help="the console switches the run to STRATEGY once a robot waits for the stalled "
+                           "one, as an operator would; the automatic stall is then one STRATEGY can get "
+                           "around (e.g. reorder: the waiting robot goes first)")
     live.add_argument("--headless", action="store_true",
                       help="no window even with a display: a private Xvfb, frames recorded")
     live.add_argument("--record", action="store_true",
@@ -156,9 +160,13 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
 
     if not args.time_scale > 0 or args.linger < 0:
         raise FleetError("--time-scale must be positive and --linger not negative")
+    from fleet_common.execution import STRATEGIES
+
+    if args.switch is not None and args.switch not in STRATEGIES:
+        raise FleetError("--switch {}: expected one of {}".format(args.switch, ", ".join(sorted(STRATEGIES))))
     settings = DemoSettings(log_dir=args.log, time_scale=args.time_scale,
                             seed=args.seed, stall=args.stall, headless=args.headless,
-                            record=args.record, linger=args.linger)
+                            record=args.record, linger=args.linger, switch=args.switch)
     if args.fleet_delays is not None:
         settings.delay_model = args.fleet_delays
     with tempfile.TemporaryDirectory(prefix="fleetcontrol-plan-") as folder:

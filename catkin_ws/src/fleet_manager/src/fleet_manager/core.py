@@ -141,7 +141,11 @@ class RunCore:
             console = self.desk.consoles.get(peer)
             name = console.name if console is not None else "?"
             action = intake.request.action
-            ok, reason = operator.apply(self.run, action, intake.args, now)
+            self.desk.acting = peer  # what the request changes is this console's own doing
+            try:
+                ok, reason = operator.apply(self.run, action, intake.args, now)
+            finally:
+                self.desk.acting = None
             if ok or self._refused.first(peer, name, now):  # refusals: the first a minute, then counted
                 self.out.record("operator", console=name, action=action, args=intake.args, ok=ok, reason=reason)
             asked = request_words(action, intake.args)
@@ -151,9 +155,8 @@ class RunCore:
             elif self._refusals.allow(name, now):
                 self.out.say("[{:7.1f} s] {}: {} refused: {}".format(now, name, asked, reason))
             self.out.frames(self.desk.answer(peer, intake.request, ok, reason))
-            if ok:  # what changed goes out at once: to the console that asked whatever its rate
-                self.news = True  # (it acts on what it sees next), to the others within theirs
-                self._state_to(now, peer, at_once=True)
+            if ok:  # what changed goes out to every console as soon as its rate allows
+                self.news = True
                 self.publish(now)
         if intake.refusal is None:
             return None

@@ -238,13 +238,14 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
     except FleetError as err:
         return False, str(err)
     old = run.engine.strategy.describe()
+    # said first: the passes the new strategy makes at once are told (and logged) after it
+    run.out.record("strategy", name=name, settings=settings, by="operator")
+    run.out.desk.bump("strategy {} -> {}".format(old, new.describe()))
+    run.out.tell("strategy", None, "strategy switched: {} -> {}".format(old, new.describe()))
     run.driver.handle(SwitchStrategy(new, now), now)
     run.settings.strategy = name
     if "lookahead" in settings:
         run.settings.lookahead = settings["lookahead"]
-    run.out.record("strategy", name=name, settings=settings, by="operator")
-    run.out.desk.bump("strategy {} -> {}".format(old, new.describe()))
-    run.out.tell("strategy", None, "strategy switched: {} -> {}".format(old, new.describe()))
     return True, ""
 
 

@@ -25,7 +25,10 @@ the request acts on: anything that concerns the whole run, or the robot the
 request names. So an operator disabling robot 3 is refused if robot 3 failed
 (or another console enabled it) since they looked, but not because robot 7's
 link blinked; a strategy switch is refused after another switch or a pause,
-not because a robot restarted.
+not because a robot restarted. A console's own changes are no conflict for
+it (`acting`: the console whose request the manager is carrying out): it knows
+what it asked, so it may act again before the State that shows it arrives,
+and that State keeps to the console's rate like any other.
 """
 from __future__ import annotations
 
@@ -83,8 +86,10 @@ class ControlDesk:
         self.consoles: Dict[Peer, Console] = {}
         self.timeout = timeout
         self.interval = interval
-        self._changes: Deque[Tuple[int, str, Optional[int]]] = deque(maxlen=history)
+        self._changes: Deque[Tuple[int, str, Optional[int], Optional[Peer]]] = deque(maxlen=history)
         self._now = now
+        #: the console whose request is being carried out (its changes are its own)
+        self.acting: Optional[Peer] = None
 
     # ---- the clock ------------------------------------------------------------------------
 
@@ -92,16 +97,18 @@ class ControlDesk:
         """The controlled state changed (`why`, for refusals), concerning `robot` (None: the
         whole run): the next version."""
         self.version += 1
-        self._changes.append((self.version, why, robot))
+        self._changes.append((self.version, why, robot, self.acting))
         return self.version
 
-    def conflicts(self, version: int, robot: Optional[int]) -> Optional[List[str]]:
+    def conflicts(self, version: int, robot: Optional[int], peer: Optional[Peer] = None) -> Optional[List[str]]:
         """The changes since `version` that concern a request on `robot` (None: on the whole
-        run); None when they go back further than the desk remembers (all count)."""
+        run) from `peer` (its own changes do not count); None when they go back further than
+        the desk remembers (all count)."""
         if version < self.version and (not self._changes or self._changes[0][0] > version + 1):
             return None
-        return [why for v, why, r in self._changes
-                if v > version and (r is None or (robot is not None and r == robot))]
+        return [why for v, why, r, by in self._changes
+                if v > version and (r is None or (robot is not None and r == robot))
+                and (by is None or by != peer)]
 
     # ---- frames in ----------------------------------------------------------------------
 
@@ -146,7 +153,7 @@ class ControlDesk:
             return
         if request.based_on < self.version:
             robot = args.get("robot") if request.action in ("enable", "disable", "source") else None
-            changes = self.conflicts(request.based_on, robot)
+            changes = self.conflicts(request.based_on, robot, peer)
             if changes is None or changes:
                 what = "; ".join(changes[-3:]) if changes else "older than this manager remembers"
                 refuse("refused: the state changed since you looked (version {} -> {}: {}); "
