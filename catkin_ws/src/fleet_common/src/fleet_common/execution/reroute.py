@@ -29,8 +29,10 @@ that could arrive sooner by a shortest path, or both:
 3. gain = predicted arrival steps saved, summed over all robots, less
    `per_move` (a move's expected delay) for each move the new paths add;
    it *pays* when gain - `cost` x (robots rerouted) >= `margin` steps and no
-   robot is predicted to arrive later (by more than `later`, extra moves
-   counted). The variant with the largest net gain is taken.
+   robot is predicted to arrive later by more than `later` steps (extra
+   moves counted). The variant with the largest net gain is taken. By
+   default: late from 1 step, a robot rerouted costs half a step, and the
+   net gain must reach 1 step with nobody more than 1 step later.
 
 Why a hand-over is safe (`handover`, `Engine.adopt`). A plan is only a
 prediction: what keeps the run safe is the engine's one rule, unchanged
@@ -100,15 +102,17 @@ class RerouteError(FleetError):
 
 @dataclass(frozen=True)
 class RerouteRule:
-    """The rule's settings (steps are plan steps, one nominal move each)."""
+    """The rule's settings (steps are plan steps, one nominal move each). The defaults were
+    chosen on bench/reroute.py's plans (random70 seeds 0-9, arena300 seeds 0-3) among eight
+    settings; the figures in bench/README.md are on other seeds."""
 
-    gap: int = 2            # late: this many steps behind the plan's clock, or more
-    margin: float = 2.0     # reroute when the gain, less the cost, reaches this many steps
-    cost: float = 1.0       # charged per robot given a new path
+    gap: int = 1            # late: this many steps behind the plan's clock, or more
+    margin: float = 1.0     # reroute when the gain, less the cost, reaches this many steps
+    cost: float = 0.5       # charged per robot given a new path
     every: float = 1.0      # a driver looks at most once per this many steps
     budget: float = 0.25    # seconds of search per look
     tries: int = 3          # late robots looked at per look, the most robots held up first
-    later: float = 0.0      # no robot's predicted arrival may be later by more than this
+    later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
 
     def __post_init__(self) -> None:
