@@ -83,7 +83,9 @@ def split_round_trips(records: List[dict], started: str, at: float,
                       truths: List[Path]) -> Tuple[List[float], List[float]]:
     """Each round trip cut where the virtual robot started the command (its truth file, wall
     clock), the run log's times put on the wall clock by the run's start: the manager's side
-    and the robot's side of the latency (to about a millisecond)."""
+    and the robot's side of the latency (to about a millisecond). It needs the `run` record's
+    `started` to be the wall clock at that record's `t` (a manager that wrote it later, as one
+    did after issue 24, shifts every send later and the robot's side to nil)."""
     import json
     from datetime import datetime
 
