@@ -17,6 +17,11 @@ one definitions file (`--robots a-b`), as several hosts would serve them. Prints
   wire adds (replies, decisions, commands), nothing else.
 
     .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--fleets 1]
+                                      [--robot-size turtlebot|cell] [--keep FOLDER]
+
+`--robot-size cell` writes a `size` line making the robots as large as a cell (no followers, no
+hold points, no Releases: the run of before issue 25), to tell that work from the rest;
+`--keep FOLDER` copies the run's files there (run folder, truth files, logs) for a closer look.
 
 A 1,000-robot instance: bench/make_instance.py den520d.map 1000 OUT.txt --radius 60.
 """
@@ -42,6 +47,8 @@ from fleet_common.execution import Engine  # noqa: E402
 from fleet_common.execution.simulate import simulate_engine  # noqa: E402
 from fleet_common.formats.instance import make_instance, read_instance, write_instance  # noqa: E402
 from fleet_common.formats.solution import read_solution  # noqa: E402
+from fleet_common.robot_size import LAB_CELL_M  # noqa: E402
+from fleet_common.robots import SIZE_LINE  # noqa: E402
 from fleet_common.runlog import read_run  # noqa: E402
 from fleet_common.transport.curve_keys import make_keys  # noqa: E402
 from live import Proc, fleetctl_args, free_port_block  # noqa: E402
@@ -76,7 +83,9 @@ def split_round_trips(records: List[dict], started: str, at: float,
                       truths: List[Path]) -> Tuple[List[float], List[float]]:
     """Each round trip cut where the virtual robot started the command (its truth file, wall
     clock), the run log's times put on the wall clock by the run's start: the manager's side
-    and the robot's side of the latency (to about a millisecond)."""
+    and the robot's side of the latency (to about a millisecond). It needs the `run` record's
+    `started` to be the wall clock at that record's `t` (a manager that wrote it later, as one
+    did after issue 24, shifts every send later and the robot's side to nil)."""
     import json
     from datetime import datetime
 
@@ -156,6 +165,9 @@ def bench(work: Path) -> int:
     parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
     parser.add_argument("--strategy", default="adg")
     parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
+    parser.add_argument("--robot-size", choices=("turtlebot", "cell"), default="turtlebot",
+                        help="the robots' size: a TurtleBot 2 (followers, hold points) or a whole cell")
+    parser.add_argument("--keep", type=Path, help="copy the run's files (run folder, truth, logs) here")
     parser.add_argument("--profile", action="store_true",
                         help="run the manager as bench/profiled_manager.py: CPU of its loop's parts")
     args = parser.parse_args()
@@ -171,7 +183,8 @@ def bench(work: Path) -> int:
         write_instance(first, str(args.instance))
         (work / inst.map_file).write_text(source.read_text())
     base = free_port_block(2 * args.robots + 1)
-    (work / "robots.txt").write_text("".join(
+    size_line = "{} diameter={:g} margin=0\n".format(SIZE_LINE, LAB_CELL_M) if args.robot_size == "cell" else ""
+    (work / "robots.txt").write_text(size_line + "".join(
         "{} 127.0.0.1 {} u tb{} red\n".format(i + 1, base + i, i + 1) for i in range(args.robots)))
     console_port, feedback = base + 2 * args.robots, base + args.robots
     parts = np.array_split(np.arange(1, args.robots + 1), args.fleets)
@@ -233,6 +246,8 @@ def bench(work: Path) -> int:
             manager.stop()
         for fleet in fleets:
             fleet.stop()
+    if args.keep is not None:
+        shutil.copytree(str(work), str(args.keep), dirs_exist_ok=True)
     out = manager.text()
     folder = Path(out.split("run folder: ")[1].split()[0])
     run = read_run(folder)
@@ -252,9 +267,10 @@ def bench(work: Path) -> int:
     windows = windows or [0]
     span = cpu1[0] - cpu0[0]
     ms = 1000.0
-    print("robots {} ({} fleet process{}), instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
-        args.robots, args.fleets, "" if args.fleets == 1 else "es", args.instance.name, args.strategy,
-        args.time_scale, elapsed))
+    print("robots {} ({} fleet process{}, {}), instance {}, strategy {}, time scale {:g}; whole run {:.1f} s".format(
+        args.robots, args.fleets, "" if args.fleets == 1 else "es",
+        "as large as a cell" if args.robot_size == "cell" else "TurtleBot size", args.instance.name,
+        args.strategy, args.time_scale, elapsed))
     print("state at the console: min {} per 1 s window, mean {:.1f}/s while running".format(
         min(windows), len(running) / max(1e-9, running[-1] - running[0]) if len(running) > 1 else 0))
     print("command sent -> Accepted: p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms over {}".format(

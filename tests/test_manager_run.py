@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from datetime import datetime
 from pathlib import Path
 from typing import Dict, List, Tuple
 
@@ -111,9 +112,26 @@ def run_plan(tmp_path: Path, plan: Path, robots: int, strategy: str, switch: boo
     assert summary_value(out, "collisions").split()[0] == "0"
     folder = Path(summary_value(out, "run folder"))
     check_truth(truth, goals_of(folder))
+    check_clock(folder, truth)
     strategies = [r["name"] for r in read_run(folder).of("strategy")]
     assert strategies == (["step", "adg"] if switch else [])
     check_trace(folder, out)
+
+
+def check_clock(folder: Path, truth: Path) -> None:
+    """The run log's times, put on the wall clock by its `run` record (`started` is the wall
+    clock at that record's t), line up with the robots': no robot started a command before the
+    manager sent it (to the milliseconds of the rounding)."""
+    run = read_run(folder)
+    zero = datetime.fromisoformat(run.run["started"]).timestamp() - run.run["t"]
+    began = {}
+    for e in exec_lines(truth):
+        began.setdefault((e["robot"], e["id"]), e["t"])
+    early = [(r["robot"], r["id"], round(zero + r["t"] - began[(r["robot"], r["id"])], 4))
+             for r in run.of("command") if (r["robot"], r["id"]) in began
+             and began[(r["robot"], r["id"])] < zero + r["t"] - 0.002]
+    assert not early, "robots started commands before they were sent, by the run log's clock: " \
+        "(robot, id, seconds) {}".format(early[:5])
 
 
 def check_trace(folder: Path, manager_output: str) -> None:

@@ -75,6 +75,23 @@ def test_what_a_resumed_manager_needs_is_on_disk_at_once_poses_wait_for_the_flus
     log.close()
 
 
+def test_a_batch_of_records_is_on_disk_once_the_batch_ends(tmp_path: Path) -> None:
+    """The manager writes a batch's records, then sends its commands: when the batch ends, what
+    a resumed manager needs of it is on disk (a killed writer loses none of it)."""
+    clock = FakeClock()
+    log = started(tmp_path, clock)
+    with log.batch():
+        log.record("poses", p=[[3, 1.0, 2.0, 0.0, "robot", 0.05]])
+        log.record("command", robot=3, id=7, type="drive", x=1.0, y=2.0, time=0.0, action=0)
+        log.record("reply", robot=3, id=6, type="completed")
+    kinds = [json.loads(line)["k"] for line in (tmp_path / "events.jsonl").read_text().splitlines()]
+    assert kinds == ["run", "poses", "command", "reply"]
+    with log.batch():  # nothing durable: the poses wait for the second's flush, as outside a batch
+        log.record("poses", p=[[3, 1.0, 2.0, 0.0, "robot", 0.05]])
+    assert (tmp_path / "events.jsonl").read_text().count("\n") == 4
+    log.close()
+
+
 def test_a_torn_tail_is_cut_before_a_resumed_manager_appends(tmp_path: Path) -> None:
     with started(tmp_path) as log:
         log.record("state", run="running")

@@ -10,6 +10,8 @@ from typing import Iterator, List, Tuple
 
 import pytest
 import zmq
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fleet_common.errors import RobotDefinitionsError
 from fleet_common.robots import RobotDefinition
@@ -242,3 +244,53 @@ def test_robots_sharing_a_command_port_cannot_all_run_on_localhost() -> None:
         VirtualFleet(robots)
     assert str(err.value) == ("robot_definitions.txt:4: robots 1 and 2 both use command port "
                               "10001; on one host (127.0.0.1) every robot needs its own")
+
+
+def _on_knots(knots: List[Tuple[float, float, float]], t: float) -> Tuple[float, float]:
+    """Where a truth path puts a robot at `t`: straight between knots, still after the last."""
+    for (t0, x0, y0), (t1, x1, y1) in zip(knots, knots[1:]):
+        if t0 <= t <= t1:
+            f = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+            return x0 + (x1 - x0) * f, y0 + (y1 - y0) * f
+    return knots[-1][1], knots[-1][2]
+
+
+@given(st.lists(st.tuples(st.sampled_from(["drive", "turn", "halt", "wait"]),
+                          st.sampled_from([(1, 0), (0, 1), (-1, 0), (0, -1)]),
+                          st.floats(0.05, 3.0)), min_size=1, max_size=12))
+@settings(max_examples=60, deadline=None)
+def test_the_truth_knots_are_the_exact_path_and_a_robot_at_rest_adds_none(steps) -> None:
+    """The ground truth's knots, drained at any moments (the fleet drains them 20 times a
+    second), give the robot's true position at every instant, rests included; a robot standing
+    still adds no knot (300 of them would otherwise write 6,000 a second)."""
+    clock = FakeClock()
+    nav = VirtualNavigator(Pose(5, 5, 0), speed=1.0, turn_speed=1.5, clock=clock)
+    knots: List[Tuple[float, float, float]] = []
+    samples: List[Tuple[float, float, float]] = []  # (fleet second, true x, true y)
+    for kind, (dx, dy), seconds in steps:
+        clock.t += 0.1  # between two drains
+        nav.poll()
+        here = nav.true_pose()
+        samples.append((nav.now(), here.x, here.y))
+        if kind == "drive":
+            nav.start_drive(round(here.x) + dx, round(here.y) + dy, 0.0)
+        elif kind == "turn":
+            nav.start_turn(math.atan2(dy, dx))
+        elif kind == "halt":
+            nav.halt()
+        for _ in range(4):  # drained and sampled along the way
+            clock.t += seconds / 4
+            nav.poll()
+            p = nav.true_pose()
+            samples.append((nav.now(), p.x, p.y))
+            knots += nav.drain_knots()
+    for _ in range(100):  # to the end of the last motion (a few seconds), then at rest
+        if nav.poll() is not None or not nav.moving:
+            break
+        clock.t += 0.5
+    knots += nav.drain_knots()
+    clock.t += 5.0
+    assert nav.drain_knots() == []  # at rest
+    for t, x, y in samples:
+        kx, ky = _on_knots(knots, t)
+        assert math.hypot(kx - x, ky - y) < 1e-6, (t, (x, y), (kx, ky))

@@ -190,7 +190,9 @@ class VirtualFleet:
         out = {}
         for r, n in self.navigators.items():
             now = n.now()
-            out[r] = [(wall - (now - t) / n.time_scale, x, y) for t, x, y in n.drain_knots()]
+            knots = n.drain_knots()
+            if knots:  # a robot at rest has none
+                out[r] = [(wall - (now - t) / n.time_scale, x, y) for t, x, y in knots]
         return out
 
     def close(self) -> None:

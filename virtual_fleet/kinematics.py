@@ -202,8 +202,11 @@ class VirtualNavigator:
 
     def drain_knots(self) -> List[Tuple[float, float, float]]:
         """The path since the last call, exactly: (fleet second, x, y) at every change of its
-        motion, and now (for the ground truth)."""
-        self._mark()
+        motion, and now if it is under way (for the ground truth). A robot at rest adds none:
+        its path stays where its last knot put it (every stop is marked), and the fleet, which
+        asks 20 times a second, would otherwise write a knot a robot each time."""
+        if self._segments:
+            self._mark()
         knots, self._knots = self._knots, []
         return knots
 

@@ -60,6 +60,9 @@ class Following:
         self.holds: Dict[int, Optional[Point]] = {}
         #: leader agent -> follower agents whose drives it holds
         self.followers: Dict[int, Set[int]] = {}
+        #: follower agent -> its leader (the same pairs, looked up the other way: the loop asks
+        #: for every held follower's leader each turn, so no scan of `followers`)
+        self._leader: Dict[int, int] = {}
 
     def hold_for(self, d: Dispatch) -> Optional[Point]:
         """The hold point of a drive for dispatch `d` (None: nothing holds it)."""
@@ -80,6 +83,7 @@ class Following:
         if hold is not None and d.follows is not None:
             self.holds[d.agent] = hold
             self.followers.setdefault(d.follows[0], set()).add(d.agent)
+            self._leader[d.agent] = d.follows[0]
 
     def moved(self, leader: int) -> Dict[int, Optional[Point]]:
         """Leader `leader` reported a pose or completed a move: its followers whose hold point
@@ -102,15 +106,16 @@ class Following:
         return out
 
     def leader_of(self, agent: int) -> Optional[int]:
-        for leader, agents in self.followers.items():
-            if agent in agents:
-                return leader
-        return None
+        return self._leader.get(agent)
 
     def _forget(self, agent: int) -> None:
         self.holds.pop(agent, None)
-        for agents in self.followers.values():
+        leader = self._leader.pop(agent, None)
+        if leader is not None:
+            agents = self.followers[leader]
             agents.discard(agent)
+            if not agents:
+                del self.followers[leader]
 
     def _leader_path(self, leader: int, lead: int):
         """From where leader is known to be along the move it is making, to the end of `lead`."""

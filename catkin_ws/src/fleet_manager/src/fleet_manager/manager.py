@@ -22,7 +22,8 @@ import queue
 import secrets
 import threading
 import time
-from datetime import datetime, timezone
+from contextlib import nullcontext
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Callable, List, Optional, Sequence, Tuple
 
@@ -216,16 +217,26 @@ class Manager:
     # ---- carrying out the core's effects ----------------------------------------------------
 
     def _apply(self, effects: List[Effect]) -> None:
+        if not effects:
+            return
+        # the batch's records reach the kernel at its end, in one system call, before its commands
+        with self.runlog.batch() if self.runlog is not None else nullcontext():
+            sends = self._carry_out(effects)
+        for send in sends:
+            self.links[send.robot].send(send.command)
+
+    def _carry_out(self, effects: List[Effect]) -> List[Send]:
+        """Every effect but the commands, which are returned (sent after the records saying so)."""
         sends: List[Send] = []
         for effect in effects:
             if isinstance(effect, Record):
                 if self.runlog is not None:
                     fields = effect.fields
                     if effect.kind == "run":
-                        fields = dict(fields, started=_utc_now(), definitions=self._definitions,
+                        fields = dict(fields, started=self._wall_at(effect.t), definitions=self._definitions,
                                       epoch=self.epoch)
                     elif effect.kind == "resume":
-                        fields = dict(fields, started=_utc_now(), dropped=self._dropped)
+                        fields = dict(fields, started=self._wall_at(effect.t), dropped=self._dropped)
                     self.runlog.record(effect.kind, t=effect.t, **fields)
             elif isinstance(effect, Send):
                 sends.append(effect)  # after the records that say it was sent
@@ -241,8 +252,13 @@ class Manager:
                 self._resume_folder(effect.folder)
             elif isinstance(effect, WriteFile) and self.runlog is not None:
                 self.runlog.write_text(effect.name, effect.text)
-        for send in sends:
-            self.links[send.robot].send(send.command)
+        return sends
+
+    def _wall_at(self, t: float) -> str:
+        """The wall clock (UTC) at the run log's time `t`: a record made earlier in the turn (the
+        core's time of its input) says when it was made, to the millisecond, not when written."""
+        return (datetime.now(timezone.utc) - timedelta(seconds=max(0.0, self.now() - t))).isoformat(
+            timespec="milliseconds")
 
     def _new_folder(self, plan_text: str) -> None:
         if self.runlog is not None:
@@ -313,10 +329,6 @@ class Manager:
         if zap is not None:
             zap.socket.close(linger=0)
         self.context.destroy(linger=200)
-
-
-def _utc_now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 
 def resume_offset(point: ResumePoint) -> float:

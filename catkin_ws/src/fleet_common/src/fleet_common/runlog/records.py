@@ -8,14 +8,16 @@ map plan agents to robot ids (`robots[i]` is agent i's robot). Cells are
 base-grid `[x, y]`; headings radians. Fields not listed are allowed (readers
 ignore what they do not know), so later versions can add detail.
 
-    run        version, started (ISO 8601, UTC), source ("manager" | "simulate"),
+    run        version, started (ISO 8601, UTC: the wall clock at this record's
+               `t`; in a manager's run, started + t - t_of_run puts any record
+               on the wall clock to the millisecond), source ("manager" | "simulate"),
                time_unit ("s" | "step"), plan (file name), definitions (file
                name or null), robots [ids by agent], strategy, settings {},
                size {diameter_m, margin_m, cell_m, safe_m} (the robots' size;
                absent in older folders: robots as large as a cell), epoch (the
                manager's command epoch, so that a manager started again on the
                folder speaks to the robots as the same manager)
-    resume     started (ISO 8601, UTC), plan (the file being run), completed
+    resume     started (ISO 8601, UTC, at this record's `t`), plan (the file being run), completed
                [actions of it completed, by agent], sent [commands sent again:
                [robot, id, type]], dropped (bytes of a torn last line cut off),
                downtime (s since the last record): a manager started again on

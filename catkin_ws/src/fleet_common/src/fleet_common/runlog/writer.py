@@ -6,6 +6,9 @@ crash loses at most the last second while a busy run does not pay a system
 call per line. The records a manager started again on the folder needs
 (`records.DURABLE`: commands, replies, actions ...) are written through at
 once: a killed process loses none of them (the kernel has them), only poses.
+Within `batch()` they are written through once, at the end of the block: the
+manager writes a batch's records before its commands leave, so one system call
+a batch does what one a record did.
 Times are taken from the clock given (monotonic by default) relative to the
 log's start, unless the caller passes `t` (the simulator's plan steps).
 
@@ -18,9 +21,10 @@ import json
 import math
 import shutil
 import time
+from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Callable, Optional, TextIO, Union
+from typing import Any, Callable, Iterator, Optional, TextIO, Union
 
 from ..errors import FleetError
 from .records import DEFINITIONS_FILE, DURABLE, EVENTS_FILE, FORMAT_VERSION, KINDS
@@ -107,6 +111,8 @@ class RunLog:
         except OSError as err:
             raise FleetError("cannot write {}: {}".format(self.folder / EVENTS_FILE, err.strerror)) from err
         self.lines = 0
+        self._batched = False  # inside batch(): flushes wait for its end
+        self._owed = False  # a flush is owed at the end of the batch
 
     def now(self) -> float:
         """Seconds since the log started, by its clock."""
@@ -132,7 +138,22 @@ class RunLog:
         self.lines += 1
         now = self.clock()
         if kind in DURABLE or now - self._last_flush >= FLUSH_EVERY:
-            self.flush(now)
+            if self._batched:
+                self._owed = True
+            else:
+                self.flush(now)
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Records written in the block are flushed (if one was due) once, when it ends."""
+        self._batched = True
+        try:
+            yield
+        finally:
+            self._batched = False
+            if self._owed:
+                self._owed = False
+                self.flush()
 
     def run_started(self, *, source: str, time_unit: str, plan: str, robots: list,
                     strategy: str, **more: Any) -> None:
