@@ -102,6 +102,18 @@ def test_any_bytes_give_a_value_or_our_error(kind: str, raw: bytes) -> None:
     read_quietly(READERS[kind][0], raw.decode("utf-8", "surrogateescape"))
 
 
+@pytest.mark.parametrize("encoding", ["x-unknown", "rot13", "base64", "shift_jis", "utf-32", "idna",
+                                      "undefined", "punycode", "mbcs"])
+def test_an_xml_declaration_naming_an_unreadable_encoding_is_our_error_at_line_1(encoding: str) -> None:
+    """Found by the fuzz test above (rarely): expat asks Python's codecs for the encoding the
+    declaration names, and they raise LookupError, ValueError or UnicodeError."""
+    data = '<?xml version="1.0" encoding="{}"?>\n<plan>\xe9</plan>\n'.format(encoding).encode("latin-1")
+    for parse in (parse_legacy_plan, parse_legacy_node_map):
+        with pytest.raises(FleetError) as caught:
+            parse(data, "plan.xml")
+        assert str(caught.value).startswith("plan.xml:1: the encoding its XML declaration names cannot be read")
+
+
 # ---- the command line, as the issue found it -------------------------------------------------
 
 def run(*args: object) -> tuple:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Callable, Dict, List, Optional, Type, Union
 from xml.parsers import expat
 
-from ..errors import FormatError
+from ..errors import FleetError, FormatError
 from ..limits import (EXCERPT_CHARS, MAX_INT_DIGITS, MAX_XML_BYTES, MAX_XML_DEPTH, DecodeError,
                       one_line, parse_int)
 from .lines import read_bytes
@@ -69,6 +69,12 @@ def parse_xml(data: Union[str, bytes], path: Optional[str] = None,
                     path, err.lineno, err.offset + 1) from None
     except UnicodeEncodeError:  # text given in code, with characters UTF-8 cannot hold
         raise error("not UTF-8 text", path, 1) from None
+    except FleetError:
+        raise  # ours, from a handler: it says where
+    except (LookupError, ValueError, UnicodeError) as err:  # what the declared encoding makes expat do
+        raise error("the encoding its XML declaration names cannot be read ({}); expected UTF-8 or a "
+                    "one-byte encoding such as ISO-8859-1".format(one_line(str(err), EXCERPT_CHARS)),
+                    path, 1) from None
     return roots[0]
 
 
