@@ -91,46 +91,66 @@ class Truth:
             return self.latest[rid]
 
 
+class TwoTurtleBots:
+    """Two simulated TurtleBots on the lab (sim_robot.launch under one real roscore) and the
+    manager driving them from `robots`' starts to their goals: one test's files, ports and
+    processes (each started one is appended to `started`, for `leave_ros`)."""
+
+    def __init__(self, home: Path, robots: Robots, name: str, started: List[Proc]) -> None:
+        base = free_port_block(6)
+        self.home, self.robots, self.started = home, robots, started
+        master_port, self.console_port = base, base + 1
+        commands = {rid: base + 2 + k for k, rid in enumerate(sorted(robots))}
+        self.feedback = {rid: base + 4 + k for k, rid in enumerate(sorted(robots))}
+        self.env = ros_environment(master_port, home)
+        self.keys = home / "keys"
+        make_keys(self.keys)
+        self.definitions = home / "robot_definitions.txt"
+        self.definitions.write_text(format_robot_definitions([
+            RobotDefinition(rid, "127.0.0.1", commands[rid], "turtlebot", "turtlebot{}".format(rid), colour)
+            for rid, colour in zip(sorted(robots), ("red", "green"))]))
+        self.instance = home / name
+        self.instance.write_text("map_file=lab.map\nagents=2\norientation=base\n" + "".join(
+            "{},{},{},{}\n".format(s[0], s[1], g[0], g[1]) for s, g in robots.values()))
+
+    def start_robots(self) -> Proc:
+        """roscore, then both simulated robots' runners; the roslaunch process."""
+        env = self.env
+        roscore = Proc(["roscore", "-p", env["ROS_MASTER_URI"].rsplit(":", 1)[1]], self.home / "roscore.log", env)
+        self.started.append(roscore)
+        wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
+        launch = Proc(ROSLAUNCH + [str(launch_file(self.home, self.definitions, self.keys, self.feedback,
+                                                   self.robots))], self.home / "roslaunch.log", env)
+        self.started.append(launch)
+        wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)
+        return launch
+
+    def start_manager(self) -> Proc:
+        """`fleetctl manager` on the instance, ADG, started at once and until done."""
+        manager = Proc(fleetctl_args("manager", self.instance, "--definitions", self.definitions, "--keys",
+                                     self.keys, "--host", "127.0.0.1", "--bind",
+                                     "tcp://127.0.0.1:{}".format(self.console_port), "--start",
+                                     "--until-done", "--log", self.home / "runs", "--time-limit", "300",
+                                     "--connect-timeout", "120", "--strategy", "adg"),
+                       self.home / "manager.log", self.env)
+        self.started.append(manager)
+        return manager
+
+
 @inside_netns
 def test_the_manager_drives_simulated_turtlebots_through_a_lab_plan(tmp_path: Path) -> None:
-    home = tmp_path
-    base = free_port_block(6)
-    master_port, console_port = base, base + 1
-    commands = {1: base + 2, 2: base + 3}
-    feedback = {1: base + 4, 2: base + 5}
-    env = ros_environment(master_port, home)
-    keys = home / "keys"
-    make_keys(keys)
-    definitions = home / "robot_definitions.txt"
-    definitions.write_text(format_robot_definitions([
-        RobotDefinition(rid, "127.0.0.1", commands[rid], "turtlebot", "turtlebot{}".format(rid), colour)
-        for rid, colour in zip(ROBOTS, ("red", "green"))]))
-    instance = home / "crossing.txt"
-    instance.write_text("map_file=lab.map\nagents=2\norientation=base\n" + "".join(
-        "{},{},{},{}\n".format(s[0], s[1], g[0], g[1]) for s, g in ROBOTS.values()))
     started: List[Proc] = []
     saved: Optional[Dict[str, Optional[str]]] = None
     try:
-        roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
-        started.append(roscore)
-        wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
-        launch = Proc(ROSLAUNCH + [str(launch_file(home, definitions, keys, feedback))],
-                      home / "roslaunch.log", env)
-        started.append(launch)
-        wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)
-        saved = set_ros_variables(env)
+        lab = TwoTurtleBots(tmp_path, ROBOTS, "crossing.txt", started)
+        launch = lab.start_robots()
+        saved = set_ros_variables(lab.env)
         import rospy
 
         rospy.init_node("fleet_test_truth", anonymous=True, disable_signals=True)
         truth = Truth()
         wait_for(lambda: len(truth.latest) == 2, 30.0, "ground truth of both robots", launch)
-        manager = Proc(fleetctl_args("manager", instance, "--definitions", definitions, "--keys", keys,
-                                     "--host", "127.0.0.1", "--bind",
-                                     "tcp://127.0.0.1:{}".format(console_port), "--start",
-                                     "--until-done", "--log", home / "runs", "--time-limit", "300",
-                                     "--connect-timeout", "120", "--strategy", "adg"),
-                       home / "manager.log", env)
-        started.append(manager)
+        manager = lab.start_manager()
         assert manager.wait(420) == 0, manager.tail(60) + "\n" + launch.tail(30)
         out = manager.text()
         assert "arrived: 2/2" in out and "collisions: 0" in out, out

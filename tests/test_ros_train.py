@@ -17,13 +17,9 @@ import pytest
 
 from agv_package.grid_frame import GridFrame
 from fleet_common.robot_size import TURTLEBOT2
-from fleet_common.robots import RobotDefinition, format_robot_definitions
-from fleet_common.transport.curve_keys import make_keys
-from helpers import free_port_block
-from live import Proc, fleetctl_args
-from ros_procs import (ROSLAUNCH, leave_ros, master_up, netns_marker, ros_environment, run_inside_netns,
-                       set_ros_variables, wait_for)
-from test_ros_manager import Robots, Truth, launch_file
+from live import Proc
+from ros_procs import leave_ros, netns_marker, run_inside_netns, set_ros_variables, wait_for
+from test_ros_manager import Robots, Truth, TwoTurtleBots
 
 pytestmark = pytest.mark.slow
 inside_netns = netns_marker(__file__)
@@ -38,32 +34,12 @@ def test_ros_train_in_own_network_namespace() -> None:
 
 @inside_netns
 def test_a_follower_stops_short_of_a_simulated_turtlebot_held_mid_move(tmp_path: Path) -> None:
-    home = tmp_path
-    base = free_port_block(6)
-    master_port, console_port = base, base + 1
-    commands = {1: base + 2, 2: base + 3}
-    feedback = {1: base + 4, 2: base + 5}
-    env = ros_environment(master_port, home)
-    keys = home / "keys"
-    make_keys(keys)
-    definitions = home / "robot_definitions.txt"
-    definitions.write_text(format_robot_definitions([
-        RobotDefinition(rid, "127.0.0.1", commands[rid], "turtlebot", "turtlebot{}".format(rid), colour)
-        for rid, colour in zip(TRAIN, ("red", "green"))]))
-    instance = home / "train.txt"
-    instance.write_text("map_file=lab.map\nagents=2\norientation=base\n" + "".join(
-        "{},{},{},{}\n".format(s[0], s[1], g[0], g[1]) for s, g in TRAIN.values()))
     started: List[Proc] = []
     saved: Optional[Dict[str, Optional[str]]] = None
     try:
-        roscore = Proc(["roscore", "-p", str(master_port)], home / "roscore.log", env)
-        started.append(roscore)
-        wait_for(lambda: master_up(env["ROS_MASTER_URI"]), 30.0, "roscore", roscore)
-        launch = Proc(ROSLAUNCH + [str(launch_file(home, definitions, keys, feedback, TRAIN))],
-                      home / "roslaunch.log", env)
-        started.append(launch)
-        wait_for(lambda: launch.text().count("serving commands") >= 2, 90.0, "both runners", launch)
-        saved = set_ros_variables(env)
+        lab = TwoTurtleBots(tmp_path, TRAIN, "train.txt", started)
+        launch = lab.start_robots()
+        saved = set_ros_variables(lab.env)
         import rospy
         from std_msgs.msg import Float64
 
@@ -71,13 +47,7 @@ def test_a_follower_stops_short_of_a_simulated_turtlebot_held_mid_move(tmp_path:
         truth = Truth(TRAIN)
         hold = rospy.Publisher("/robot1/sim/hold", Float64, queue_size=1, latch=True)
         wait_for(lambda: len(truth.latest) == 2, 30.0, "ground truth of both robots", launch)
-        manager = Proc(fleetctl_args("manager", instance, "--definitions", definitions, "--keys", keys,
-                                     "--host", "127.0.0.1", "--bind",
-                                     "tcp://127.0.0.1:{}".format(console_port), "--start",
-                                     "--until-done", "--log", home / "runs", "--time-limit", "300",
-                                     "--connect-timeout", "120", "--strategy", "adg"),
-                       home / "manager.log", env)
-        started.append(manager)
+        manager = lab.start_manager()
         # halfway through the leader's second move, a hand holds it where it is for 10 s
         wait_for(lambda: truth.where(1).x >= 3.5, 180.0, "the leader halfway from (3, 2) to (4, 2)", manager)
         hold.publish(Float64(10.0))

@@ -20,7 +20,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from .deadline import Deadline
 from .occupancy import Occupancy
-from .st_astar import DeadlineReached
+from .st_astar import DeadlineReached, _path  # the space-time search's own walk back
 
 #: Check the deadline every this many expansions.
 _CHECK_EVERY = 256
@@ -96,14 +96,3 @@ def _blocked(frm: int, to: int, agent: int, at_t: Dict[int, int], row_nt: List[i
             return False
         cell = ahead
     return False
-
-
-def _path(parent: Dict[int, int], key: int, nv: int) -> List[int]:
-    cells = [key % nv]
-    for _ in range(len(parent)):
-        if key not in parent:
-            break
-        key = parent[key]
-        cells.append(key % nv)
-    cells.reverse()
-    return cells
