@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import tkinter as tk
 from pathlib import Path
-from typing import Callable, Dict, Iterator, List
+from typing import Callable, Dict, List
 
-import pytest
 
 from console.ui import live_files
 from fleet_common.formats.instance import read_instance
@@ -22,18 +21,9 @@ from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.lab import lab_instance_path
 from fleet_common.planning import solve
 from fleet_common.runlog import read_run
-from test_console_live import Console, Lab, pump
+from test_console_live import Console, Lab, lab_fixture, pump  # noqa: F401 (the fixture `lab`)
 
 LAB = lab_instance_path()
-
-
-@pytest.fixture
-def lab(tmp_path: Path) -> Iterator[Lab]:
-    lab = Lab(tmp_path)
-    try:
-        yield lab
-    finally:
-        lab.stop()
 
 
 def reversed_lab(folder: Path) -> Path:

@@ -65,8 +65,9 @@ class Lab:
             proc.stop()
 
 
-@pytest.fixture
-def lab(tmp_path: Path) -> Iterator[Lab]:
+@pytest.fixture(name="lab")
+def lab_fixture(tmp_path: Path) -> Iterator[Lab]:
+    """The lab on virtual robots with a manager (test_console_demo uses it too)."""
     lab = Lab(tmp_path)
     try:
         yield lab
