@@ -96,13 +96,13 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     import numpy as np
 
     from fleet_common.delays.draw import MoveFates
-    from fleet_common.execution import make_strategy
+    from fleet_common.execution import Engine, make_strategy
     from fleet_common.execution.events import SwitchStrategy
     from fleet_common.execution.simulate import simulate
     from fleet_common.robot_size import RobotSize
 
     size = RobotSize()
-    table = simulate(plan, "adg", size=size).engine.table
+    table = Engine(plan, follow=True).table  # the moves, as every simulation below numbers them
     n = len(table.agent)
     best = None
     for i in range(n):

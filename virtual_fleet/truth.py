@@ -22,7 +22,7 @@ import math
 import os
 import time
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, TextIO, Tuple
+from typing import Callable, Dict, Iterator, List, Optional, TextIO, Tuple
 
 from fleet_common.errors import FleetError
 from fleet_common.limits import loads_frame, one_line
@@ -130,27 +130,25 @@ def truth_paths(path: Path) -> Dict[int, List[Tuple[float, float, float]]]:
     """Each robot's exact path in a truth file, knots (wall t, x, y) from its `knots` lines (a
     robot drives straight between two), for `fleet_common.execution.approach.judge`."""
     paths: Dict[int, List[Tuple[float, float, float]]] = {}
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
-        try:
-            record = json.loads(line)
-        except ValueError:
-            continue  # the last line of a killed fleet may be cut
-        if record.get("k") == "knots":
-            for r, t, x, y in record["p"]:
-                knots = paths.setdefault(int(r), [])
-                if not knots or t > knots[-1][0]:
-                    knots.append((float(t), float(x), float(y)))
+    for record in _lines(path, "knots"):
+        for r, t, x, y in record["p"]:
+            knots = paths.setdefault(int(r), [])
+            if not knots or t > knots[-1][0]:
+                knots.append((float(t), float(x), float(y)))
     return paths
 
 
 def exec_lines(path: Path) -> List[dict]:
     """The `exec` lines of a truth file (for tests: a command run twice appears twice)."""
-    out = []
+    return list(_lines(path, "exec"))
+
+
+def _lines(path: Path, kind: str) -> Iterator[dict]:
+    """The records of kind `kind` in a truth file (the last line of a killed fleet may be cut)."""
     for line in Path(path).read_text(encoding="utf-8").splitlines():
         try:
             record = json.loads(line)
         except ValueError:
-            continue  # the last line of a killed fleet may be cut
-        if record.get("k") == "exec":
-            out.append(record)
-    return out
+            continue
+        if isinstance(record, dict) and record.get("k") == kind:
+            yield record
