@@ -346,6 +346,21 @@ def test_the_story_tells_a_stall_a_wait_that_lasts_and_the_operators_hand() -> N
                      "robot 2 moves again", "robot 3 disabled by the operator"]
 
 
+def test_a_follower_held_behind_its_leader_stops_behind_it() -> None:
+    """Waiting for the cell, then (the cell released) driving in and held at the safe distance
+    behind a leader that stands: two waits, told as what a visitor sees."""
+    ticker = Ticker()
+    ticker.step_time = 1.0
+    cell = Waiting((2,), (3, 0), "cell")
+    held = Waiting((2,), (3, 0), "follow")
+    story = told(ticker, [(0.0, state(1, [drive(2, 1.0, 0.0), robot(3, waiting=cell)])),
+                          (0.6, state(2, [drive(2, 1.1, 0.0), robot(3, waiting=cell)])),
+                          (0.8, state(3, [drive(2, 1.2, 0.0), drive(3, 0.1, 0.0, follows=2)])),
+                          (1.0, state(4, [drive(2, 1.3, 0.0), drive(3, 0.2, 0.0, follows=2, waiting=held)])),
+                          (1.6, state(5, [drive(2, 1.3, 0.0), drive(3, 0.2, 0.0, follows=2, waiting=held)]))])
+    assert story[:2] == ["robot 3 waits for robot 2", "robot 3 stops behind robot 2"]
+
+
 def test_short_waits_and_standing_robots_that_wait_or_follow_are_no_news() -> None:
     ticker = Ticker()
     ticker.step_time = 1.0

@@ -3,8 +3,8 @@
 `Ticker` reads the manager's States as they arrive, with their arrival time,
 and its notices, and says in a few words what a visitor has just watched:
 the run starting and ending, a robot that stands still in the middle of a
-drive (stalled) and moves again, a robot that waits for others (once the wait
-has lasted a moment: under the ADG robots wait for a few milliseconds all the
+drive (stalled) and moves again, a robot that waits for others or stops behind
+the robot it follows (once the wait has lasted a moment: under the ADG robots wait for a few milliseconds all the
 time), a robot disabled or enabled by the operator, held by a fault, losing
 its link, and replans. The live console puts the sentences in its event list
 and in the presentation view's ticker. Pure (time comes with each State), and
@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
 from fleet_common.control import Notice, RunInfo, State
+from fleet_common.execution.events import FOLLOW
 
 __all__ = ["Ticker", "STALL_AFTER", "WAIT_AFTER"]
 
@@ -135,7 +136,9 @@ class Ticker:
                 seen.wait, seen.wait_since, seen.wait_told = on, at, False
             if on and running and not seen.wait_told and at - seen.wait_since >= wait_after:
                 seen.wait_told = True
-                waits.append("robot {} waits for {}".format(r.id, _robots(on)))
+                # a follower held at its hold point stops short behind its leader: say what is seen
+                verb = "stops behind" if r.waiting is not None and r.waiting.reason == FOLLOW else "waits for"
+                waits.append("robot {} {} {}".format(r.id, verb, _robots(on)))
             # taken out and back in, by the operator or a fault
             if r.out != seen.out:
                 if r.out == "disabled":

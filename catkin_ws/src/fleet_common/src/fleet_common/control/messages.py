@@ -134,8 +134,9 @@ class RunSetup:
 @dataclass(frozen=True)
 class Waiting:
     """The robot is ready to move but waits: for robots `on`, to enter `cell`, because `reason`
-    ("cell": the cell is not free yet; "barrier": the time step; "paused"; "link": its own
-    link is down; "fault")."""
+    ("cell": the cell is not free yet; "follow": it follows a robot into a cell and stands at
+    the safe distance behind it; "barrier": the time step; "paused"; "link": its own link is
+    down; "fault")."""
 
     on: Tuple[int, ...]
     cell: Optional[Tuple[int, int]]
