@@ -4,8 +4,8 @@
 and its notices, and says in a few words what a visitor has just watched:
 the run starting and ending, a robot that stands still in the middle of a
 drive (stalled) and moves again, a robot that waits for others or stops behind
-the robot it follows (once the wait has lasted a moment: under the ADG robots wait for a few milliseconds all the
-time), a robot disabled or enabled by the operator, held by a fault, losing
+the robot it follows (once the wait has lasted a moment: under the ADG robots
+wait for a few milliseconds all the time), a robot disabled or enabled by the operator, held by a fault, losing
 its link, and replans. The live console puts the sentences in its event list
 and in the presentation view's ticker. Pure (time comes with each State), and
 cheap enough for 300 robots twenty times a second.
