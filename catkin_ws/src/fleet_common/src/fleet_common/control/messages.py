@@ -198,6 +198,9 @@ class RunInfo:
     #: the run actions (requests.RUN_ACTIONS) the manager would carry out now; None: a manager
     #: of old that does not say
     allowed: Optional[Tuple[str, ...]] = None
+    #: rerouting robots a late robot holds up: "off", "propose" (a proposal for the operator) or
+    #: "auto" (at once)
+    reroute: str = "off"
 
 
 @dataclass(frozen=True)
