@@ -291,9 +291,8 @@ class RunCore:
             if moved:
                 self._drop_proposal("reroute {} dropped: {} since it was proposed".format(
                     pending[0], moved_words(moved, self.fleet.ids)))
-            return
-        if (rerouting.mode != "off" and run.phase.phase == RUNNING and run.purpose == PLAN
-                and not run.replanner.open and run.resuming is None and rerouting.due(run.engine, now)):
+        if (run.phase.phase == RUNNING and run.purpose == PLAN and not run.replanner.open
+                and run.resuming is None and rerouting.due(run.engine, now)):
             self.out.add(rerouting.ask(run.engine, now))
 
     def _drop_proposal(self, why: str) -> None:

@@ -359,6 +359,7 @@ def _answer_reroute(run: Run, args: Args, now: float, take: bool) -> Answer:
     pid, found = run.rerouting.pending  # type: ignore[misc]
     run.rerouting.resolved()
     if not take:
+        run.rerouting.rejected(run.engine, now)
         run.out.desk.bump("reroute {} rejected".format(pid))
         return True, "kept plan {}".format(run.plan_id)
     if run.phase.phase != RUNNING:

@@ -20,8 +20,9 @@ no clock:
    robots have moved away from since (`HandoverError`): the reroute is
    dropped with one operator line and a record, nothing changes.
    `propose`: the reroute is the consoles' proposal (the run does not pause);
-   accept hands over as in auto, reject clears it, and it is dropped by
-   itself as soon as a robot it reroutes moves on (`stale`).
+   accept hands over as in auto, reject clears it (and no look is made for
+   `REJECTED_PAUSE` plan steps), and it is dropped by itself as soon as a
+   robot it reroutes moves on (`moved_since`).
 
 A snapshot costs a deep copy of the engine (its immutable action table
 shared): see bench/README.md for the figure at 300 robots.
@@ -36,6 +37,9 @@ from fleet_common.execution.reroute import MODES, Reroute, RerouteRule, expected
 from fleet_common.execution.reroute_plan import Maps
 from fleet_common.grid import Grid
 from fleet_common.planning.deadline import Deadline
+
+#: Plan steps without a look after the operator rejected a reroute.
+REJECTED_PAUSE = 8.0
 
 __all__ = ["Rerouting", "RerouteJob", "look", "snapshot", "moved_since", "moved_words", "MODES"]
 
@@ -142,6 +146,12 @@ class Rerouting:
 
     def resolved(self) -> None:
         self.pending = None
+
+    def rejected(self, engine: Engine, now: float) -> None:
+        """The operator said no: no new proposal for `REJECTED_PAUSE` plan steps (the same robots
+        would most likely be proposed again at once)."""
+        self.pending = None
+        self._next = (engine.run, engine.run.clock.steps(now) + REJECTED_PAUSE)
 
 
 def moved_since(engine: Engine, found: Reroute) -> List[int]:

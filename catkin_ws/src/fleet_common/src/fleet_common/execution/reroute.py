@@ -144,15 +144,17 @@ class Reroute:
 
     def describe(self, name: Callable[[int], object] = str) -> str:
         """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
-        steps sooner"."""
+        steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
+        sooner" (`name`: an agent's name, e.g. its robot id)."""
         def robots(rs: Sequence[int]) -> str:
             return "robot{} {}".format("s" if len(rs) > 1 else "", ", ".join(str(name(r)) for r in rs))
         late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
         sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
         if self.around not in self.agents:
             return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
-        return "{} rerouted: robot {}, {}, held up {}; {}".format(
-            robots(self.agents), name(self.around), late, robots(self.held), sooner)
+        others = [a for a in self.agents if a != self.around]
+        return "robot {}, {}, rerouted{}: it held up {}; {}".format(
+            name(self.around), late, " with " + robots(others) if others else "", robots(self.held), sooner)
 
 
 def expected_steps(engine: Engine) -> List[int]:
