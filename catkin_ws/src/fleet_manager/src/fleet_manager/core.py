@@ -44,7 +44,7 @@ from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
-from .outbox import Effect, Outbox
+from .outbox import Effect, Outbox, REROUTE
 from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, walled
 from .rerouting import moved_since, moved_words
@@ -299,7 +299,7 @@ class RunCore:
         self.run.rerouting.resolved()
         self.run.rerouting.dropped += 1
         self.out.record("reroute_dropped", reason=why)
-        self.out.tell("plan", None, why)
+        self.out.tell(REROUTE, None, why)
         self.out.desk.bump(why)
         self.news = True
 
@@ -312,7 +312,7 @@ class RunCore:
             return  # a look given up (mode off) or of a plan no longer run
         if error is not None:
             self.out.record("reroute_dropped", reason="the look failed: " + error)
-            self.out.tell("plan", None, "reroute look failed: {}".format(error))
+            self.out.tell(REROUTE, None, "reroute look failed: {}".format(error))
             return
         if (found is None or rerouting.mode == "off" or run.phase.phase != RUNNING or run.engine.paused
                 or run.replanner.open):
@@ -325,7 +325,7 @@ class RunCore:
         text = found.describe(lambda a: self.fleet.ids[a])
         self.out.record("reroute_proposed", proposal=pid, robots=[self.fleet.ids[a] for a in found.agents],
                         text=text)
-        self.out.tell("plan", None, "reroute {} proposed: {}".format(pid, text))
+        self.out.tell(REROUTE, None, "reroute {} proposed: {}".format(pid, text))
         self.out.desk.bump("reroute {} proposed".format(pid))
         self.out.broadcast(reroute_proposal(pid, found, self.fleet, run.loaded.name))
         self.news = True

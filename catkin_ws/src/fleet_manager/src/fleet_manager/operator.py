@@ -32,6 +32,7 @@ from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRoun
 from fleet_common.execution.reroute import MODES as REROUTE_MODES
 from fleet_common.limits import one_line
 
+from .outbox import REROUTE
 from .plan_requests import load_requested
 from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
@@ -264,7 +265,7 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
     run.settings.reroute = mode
     run.out.record("reroute_mode", mode=mode, by="operator")
     run.out.desk.bump("reroute {} -> {}".format(old, mode))
-    run.out.tell("strategy", None, "reroute switched: {} -> {}{}".format(
+    run.out.tell(REROUTE, None, "reroute switched: {} -> {}{}".format(
         old, mode, "" if dropped is None else " (reroute {} dropped)".format(dropped)))
     return True, ""
 

@@ -38,7 +38,9 @@ __all__ = ["Outbox", "Send", "Record", "ToConsole", "Say", "PlanJob", "RerouteJo
            "ResumeRunFolder", "WriteFile", "Effect"]
 
 #: Console notice kinds also printed on the manager's terminal.
-SAID = ("fault", "link", "run", "plan", "strategy", "operator", "vicon")
+SAID = ("fault", "link", "run", "plan", "strategy", "operator", "vicon", "reroute")
+#: The notice kind of rerouting: the mode switched, a reroute made, proposed or dropped.
+REROUTE = "reroute"
 #: Notice kinds that change what a decision about the robot rests on (the desk's version).
 BUMPED = ("link", "fault", "run", "plan")
 

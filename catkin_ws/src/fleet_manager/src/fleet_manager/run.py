@@ -41,7 +41,7 @@ from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
 from .following import Following
-from .outbox import NewRunFolder, Outbox, PlanJob, ResumeRunFolder, WriteFile
+from .outbox import NewRunFolder, Outbox, PlanJob, REROUTE, ResumeRunFolder, WriteFile
 from .replanning import Replanner
 from .rerouting import Rerouting, moved_since, moved_words
 from .resume import ResumePoint, Resuming
@@ -390,7 +390,7 @@ class Run:
             why = "the reroute no longer fits: {}".format(
                 moved_words(moved, ids) + " since" if moved else err)
             self.out.record("reroute_dropped", reason=why, robots=[ids[a] for a in found.agents])
-            self.out.tell("plan", None, "reroute dropped: " + why)
+            self.out.tell(REROUTE, None, "reroute dropped: " + why)
             return why
         self.rerouting.done += 1
         base = found.cut.base
@@ -405,7 +405,7 @@ class Run:
         self.out.record("reroute", robots=[ids[a] for a in found.agents], around=ids[found.around],
                         late=found.late, gain=found.gain, text=text, plan=plan_file(self.plan_id),
                         base=list(base))
-        self.out.tell("plan", None, text)
+        self.out.tell(REROUTE, None, text)
         self.driver.hand_over(new, base, dispatches, now)
         self.engine = new
         return None

@@ -124,7 +124,7 @@ def reroute_proposal(pid: int, found: Reroute, fleet: Fleet, name: str) -> Propo
     ids = fleet.ids
     plan = found.plan
     return Proposal(pid, plan_data(pid + 1000, plan, fleet, name), found.describe(lambda a: ids[a]),
-                    int(plan.soc), int(plan.makespan), ())
+                    int(plan.soc), int(plan.makespan), (), "reroute")
 
 
 def proposal(pending: Pending, fleet: Fleet, name: str) -> Proposal:

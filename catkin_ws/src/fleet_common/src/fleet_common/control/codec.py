@@ -138,7 +138,8 @@ SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, f
     (m.Answer, {"id": _ID, "ok": Bool(), "reason": _TEXT, "version": _ID}, None),
     (m.Notice, {"seq": _ID, "time": _TIME, "kind": Str(40), "robot": Opt(_ROBOT), "text": _TEXT}, None),
     (m.Proposal, {"id": _ID, "plan": _PLAN, "message": _TEXT, "soc": Int(0, 2 ** 53),
-                  "makespan": Int(0, 2 ** 31), "unreachable": ListOf(_ROBOT)}, {"unreachable": ()}),
+                  "makespan": Int(0, 2 ** 31), "unreachable": ListOf(_ROBOT),
+                  "kind": Str(choices=m.PROPOSAL_KINDS)}, {"unreachable": (), "kind": "replan"}),
 )}
 assert set(SCHEMAS) == {cls.TYPE for cls in m.CONSOLE_MESSAGES + m.MANAGER_MESSAGES}  # at import
 
