@@ -476,8 +476,8 @@ def request_words(action: str, args: Dict) -> str:
                                       else " (lookahead {})".format(args["lookahead"]))
     if action == "load":
         return "load {}".format(args.get("path") or args.get("name"))
-    if action in ("accept", "reject"):
-        return "{} replan {}".format(action, args.get("proposal"))
+    if action in ("accept", "reject"):  # a replan's or a reroute's: proposals share one numbering
+        return "{} proposal {}".format(action, args.get("proposal"))
     if action == "to_starts":
         return "go to starts"
     if action == "reroute":
