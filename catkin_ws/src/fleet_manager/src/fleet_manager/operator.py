@@ -13,9 +13,12 @@ hold both cells and finish the move when started again); `stop` sends
 nothing new and lets robots finish the move they are making; `to_starts`
 sends the robots from where they stand to the plan's starts (a run of its
 own, planned first), `reset` starts the plan over in a new run folder, the
-robots driving back to their starts first. Strategy switches, enabling and
-disabling robots, and the position source apply at once, whatever the phase
-(a robot enabled after the end of the run drives on: a new leg).
+robots driving back to their starts first. Strategy switches, the reroute
+mode, enabling and disabling robots, and the position source apply at once,
+whatever the phase (a robot enabled after the end of the run drives on: a new
+leg). `accept` and `reject` answer a replan's proposal or a reroute's
+(`rerouting`: accepted, it is handed over at once if the robots it reroutes
+have not moved since; the run never paused for it).
 
 Each run action without arguments has its refusal written once (`why_not`),
 so that the State can say which of them the manager would carry out now
