@@ -6,8 +6,9 @@ executor (`fleet_common.wire.CommandExecutor`) driving the virtual fleet's
 kinematics (`virtual_fleet.kinematics.VirtualNavigator`), and to consoles
 that speak the console protocol's bytes. Time moves only when a test says so
 (`advance`), and everything the core asks for happens at once: commands reach
-their robot, replies and poses come back at the next tick, planning jobs are
-solved in place. The manager may die (`kill_manager`: the robots go on, what
+their robot, replies and poses come back at the next tick, planning jobs and
+looks for a reroute are run in place (a look by the function the manager's
+worker runs). The manager may die (`kill_manager`: the robots go on, what
 they answer is lost) and another take over from the records it left
 (`resume_manager`), as `fleetctl manager --resume` does from a run folder.
 """
@@ -28,7 +29,8 @@ from pathlib import Path
 from fleet_common.runlog.reader import RunFolder
 from fleet_manager.core import RunCore
 from fleet_manager.resume import read_resume
-from fleet_manager.outbox import NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
+from fleet_manager.outbox import NewRunFolder, PlanJob, Record, RerouteJob, Say, Send, ToConsole, WriteFile
+from fleet_manager.rerouting import look
 from fleet_common.plan_loading import LoadedPlan
 from fleet_manager.settings import ManagerSettings
 from virtual_fleet.kinematics import VirtualNavigator
@@ -123,6 +125,8 @@ class MemoryFleet:
             job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method)
         self.hold_plans = False  # keep planning jobs until `finish_plans` (a replan under way)
         self.jobs: List[PlanJob] = []
+        self.hold_looks = False  # keep looks for a reroute until `finish_looks`
+        self.looks: List[RerouteJob] = []
         #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
         self.pose_lag = pose_lag
         self._poses: List[Tuple[float, PoseFeedback]] = []
@@ -198,6 +202,10 @@ class MemoryFleet:
             self.jobs.append(effect)
             if not self.hold_plans:
                 self.finish_plans()
+        elif isinstance(effect, RerouteJob):
+            self.looks.append(effect)
+            if not self.hold_looks:
+                self.finish_looks()
         elif isinstance(effect, NewRunFolder):
             self.folders += 1
         elif isinstance(effect, WriteFile):
@@ -214,6 +222,12 @@ class MemoryFleet:
         jobs, self.jobs = self.jobs, []
         for job in jobs:
             self.core.plan_ready(job.id, self.solve(job), None, self.now)
+
+    def finish_looks(self) -> None:
+        """The looks for a reroute asked for, each run by the function the manager's worker runs."""
+        looks, self.looks = self.looks, []
+        for job in looks:
+            self.core.reroute_ready(job.id, look(job), None, self.now)
 
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
         for robot in self._chosen(robot_id):

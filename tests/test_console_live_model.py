@@ -402,6 +402,20 @@ def test_a_crowd_is_counted_and_the_end_and_a_replan_are_told() -> None:
         ["robot 3 goes before robot 2"]
 
 
+def test_the_ticker_tells_reroutes_made_and_the_mode_not_proposals() -> None:
+    ticker = Ticker()
+    assert ticker.notice(Notice(1, 1.0, "reroute", None, "reroute switched: off -> auto")) == \
+        ["rerouting now auto"]
+    assert ticker.notice(Notice(2, 2.0, "reroute", None, "robots 3, 7 rerouted around robot 12, late 6 "
+                                "steps: 9 steps sooner")) == ["robots 3, 7 rerouted around robot 12, late 6 steps"]
+    assert ticker.notice(Notice(3, 3.0, "reroute", None, "robot 4, late 5 steps, rerouted: it held up robot "
+                                "1; 1 step sooner")) == ["robot 4, late 5 steps, rerouted: it held up robot 1"]
+    for text in ("reroute 5 proposed: robot 4, late 5 steps, rerouted: it held up robot 1; 3 steps sooner",
+                 "reroute 5 dropped: robot 4 moved since it was proposed",
+                 "reroute dropped: the reroute no longer fits: robot 4 moved since"):
+        assert ticker.notice(Notice(4, 4.0, "reroute", None, text)) == [], text
+
+
 def test_the_console_switches_strategy_once_a_robot_waits_for_a_stalled_one() -> None:
     model = connected_model()
     model.ticker.step_time = 1.0

@@ -9,8 +9,8 @@ the robots' pose streams (every 50 ms), publish the state (soon after news,
 at most 50 times a second, and 20 times a second without), log poses (10 Hz).
 After each input the core's effects are carried out (`_apply`): commands to
 the robots' links, records to the run folder, frames to consoles, lines to
-the terminal, replanning to a worker thread whose result comes back on the
-next turn. A batch's run-log records are written before its commands leave,
+the terminal, replanning and looks for reroutes to worker threads whose
+results come back on a later turn. A batch's run-log records are written before its commands leave,
 so that a command the robots may run is always in the folder a manager
 started again on it reads (`resume.py`); such a manager takes the old one's
 epoch and clock from the folder and appends to it.
@@ -45,7 +45,9 @@ from fleet_common.transport.zap import ZapHandler
 from fleet_common.vicon.base_grid import load_vicon_to_base
 
 from .core import RunCore
-from .outbox import Effect, NewRunFolder, PlanJob, Record, ResumeRunFolder, Say, Send, ToConsole, WriteFile
+from .outbox import (Effect, NewRunFolder, PlanJob, Record, RerouteJob, ResumeRunFolder, Say, Send, ToConsole,
+                     WriteFile)
+from .rerouting import look
 from .resume import ResumePoint
 from .settings import ManagerSettings
 from .vicon_provider import ViconProvider
@@ -75,6 +77,7 @@ class Manager:
         self.context = fleet_context(len(robots))
         self.vicon: Optional[ViconProvider] = None
         self._plans: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()
+        self._looks: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()  # reroutes
         try:
             self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
             # bind before connecting: the links' outgoing connections take ephemeral ports
@@ -163,6 +166,9 @@ class Manager:
         while not self._plans.empty():
             job, result, error = self._plans.get()
             self.core.plan_ready(job, result, error, now)  # type: ignore[arg-type]
+        while not self._looks.empty():
+            job, found, error = self._looks.get()
+            self.core.reroute_ready(job, found, error, now)  # type: ignore[arg-type]
         self.core.tick(now)
         self._apply(self.core.take())
         if self.core.news:  # a change the consoles have not been sent yet
@@ -246,6 +252,8 @@ class Manager:
                 self.say(effect.text)
             elif isinstance(effect, PlanJob):
                 self._plan(effect)
+            elif isinstance(effect, RerouteJob):
+                self._look(effect)
             elif isinstance(effect, NewRunFolder):
                 self._new_folder(effect.plan_text)
             elif isinstance(effect, ResumeRunFolder):
@@ -293,6 +301,17 @@ class Manager:
                 self._plans.put((job.id, None, "{}: {}".format(type(err).__name__, err)))
 
         threading.Thread(target=work, name="replan", daemon=True).start()
+
+    def _look(self, job: RerouteJob) -> None:
+        """A look for a reroute in a worker thread, on the job's own snapshot of the engine (the
+        loop goes on); its result comes back on a later turn (`reroute_ready`)."""
+        def work() -> None:
+            try:
+                self._looks.put((job.id, look(job), None))
+            except Exception as err:  # a failing look must not kill the manager
+                self._looks.put((job.id, None, "{}: {}".format(type(err).__name__, err)))
+
+        threading.Thread(target=work, name="reroute", daemon=True).start()
 
     def start(self) -> Tuple[bool, str]:
         """Start the run as a console's Start would (--start)."""

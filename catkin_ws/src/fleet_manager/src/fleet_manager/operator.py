@@ -13,9 +13,12 @@ hold both cells and finish the move when started again); `stop` sends
 nothing new and lets robots finish the move they are making; `to_starts`
 sends the robots from where they stand to the plan's starts (a run of its
 own, planned first), `reset` starts the plan over in a new run folder, the
-robots driving back to their starts first. Strategy switches, enabling and
-disabling robots, and the position source apply at once, whatever the phase
-(a robot enabled after the end of the run drives on: a new leg).
+robots driving back to their starts first. Strategy switches, the reroute
+mode, enabling and disabling robots, and the position source apply at once,
+whatever the phase (a robot enabled after the end of the run drives on: a new
+leg). `accept` and `reject` answer a replan's proposal or a reroute's
+(`rerouting`: accepted, it is handed over at once if the robots it reroutes
+have not moved since; the run never paused for it).
 
 Each run action without arguments has its refusal written once (`why_not`),
 so that the State can say which of them the manager would carry out now
@@ -29,8 +32,10 @@ from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
+from fleet_common.execution.reroute import MODES as REROUTE_MODES
 from fleet_common.limits import one_line
 
+from .outbox import REROUTE
 from .plan_requests import load_requested
 from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
@@ -249,6 +254,25 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
     return True, ""
 
 
+def reroute(run: Run, args: Args, now: float) -> Answer:
+    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once)."""
+    mode = args["mode"]
+    if mode not in REROUTE_MODES:
+        return False, "unknown reroute mode {!r}; modes: {}".format(mode, ", ".join(REROUTE_MODES))
+    rerouting = run.rerouting
+    old = rerouting.mode
+    if mode == old:
+        return True, "rerouting is {} already".format(mode)
+    dropped = rerouting.proposal_id if mode != "propose" else None
+    rerouting.set_mode(mode)
+    run.settings.reroute = mode
+    run.out.record("reroute_mode", mode=mode, by="operator")
+    run.out.desk.bump("reroute {} -> {}".format(old, mode))
+    run.out.tell(REROUTE, None, "reroute switched: {} -> {}{}".format(
+        old, mode, "" if dropped is None else " (reroute {} dropped)".format(dropped)))
+    return True, ""
+
+
 def _robot(run: Run, robot_id: int) -> Optional[Robot]:
     return run.fleet.by_id.get(robot_id)
 
@@ -334,7 +358,27 @@ def replan(run: Run, args: Args, now: float) -> Answer:
     return True, "replanning; the proposal follows"
 
 
+def _answer_reroute(run: Run, args: Args, now: float, take: bool) -> Answer:
+    """accept (hand over now, if the robots have not moved since) or reject a reroute proposal."""
+    pid, found = run.rerouting.pending  # type: ignore[misc]
+    run.rerouting.resolved()
+    if not take:
+        run.rerouting.rejected(run.engine, now)
+        run.out.desk.bump("reroute {} rejected".format(pid))
+        return True, "kept plan {}".format(run.plan_id)
+    if run.phase.phase != RUNNING:
+        run.out.desk.bump("reroute {} dropped".format(pid))
+        return False, "the reroute is for a running run (the run is {}); it is dropped".format(run.phase.phase)
+    why = run.reroute(found, now)
+    if why is not None:
+        run.out.desk.bump("reroute {} dropped".format(pid))
+        return False, why + "; it is dropped"
+    return True, "switched to plan {}".format(run.plan_id)
+
+
 def accept(run: Run, args: Args, now: float) -> Answer:
+    if run.rerouting.proposal_id is not None and run.rerouting.proposal_id == args["proposal"]:
+        return _answer_reroute(run, args, now, True)
     pending = run.replanner.pending
     if run.replanner.proposal_id is None or pending is None or pending.id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
@@ -350,6 +394,8 @@ def accept(run: Run, args: Args, now: float) -> Answer:
 
 
 def reject(run: Run, args: Args, now: float) -> Answer:
+    if run.rerouting.proposal_id is not None and run.rerouting.proposal_id == args["proposal"]:
+        return _answer_reroute(run, args, now, False)
     if run.replanner.proposal_id is None or run.replanner.proposal_id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
     run.replanner.resolved()
@@ -371,7 +417,9 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "halt": lambda run: run.phase.refusal("halt"),
     "replan": lambda run: run.phase.refusal("replan") or (
         "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
-        "a replan is already being made or awaits accept/reject" if run.replanner.open else None),
+        "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
+        "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
+        else None),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):
@@ -381,7 +429,7 @@ if set(_WHY_NOT) != set(RUN_ACTIONS):
 ACTIONS: Dict[str, Callable[[Run, Args, float], Answer]] = {
     "start": start, "pause": pause, "stop": stop, "step": step, "halt": halt,
     "to_starts": to_starts, "reset": reset,
-    "strategy": strategy, "enable": enable, "disable": disable, "source": source,
+    "strategy": strategy, "reroute": reroute, "enable": enable, "disable": disable, "source": source,
     "load": load, "replan": replan, "accept": accept, "reject": reject,
 }
 if set(ACTIONS) != set(CONSOLE_ACTIONS):  # the protocol's table is the one list of actions
