@@ -7,9 +7,9 @@ drive (stalled) and moves again, a robot that waits for others or stops behind
 the robot it follows (once the wait has lasted a moment: under the ADG robots
 wait for a few milliseconds all the time), a robot disabled or enabled by the
 operator, held by a fault, losing its link, replans and reroutes. The live
-console puts the sentences in its event list
-and in the presentation view's ticker. Pure (time comes with each State), and
-cheap enough for 300 robots twenty times a second.
+console puts the sentences in its event list and in the presentation view's
+ticker. Pure (time comes with each State), and cheap enough for 300 robots
+twenty times a second.
 """
 from __future__ import annotations
 
