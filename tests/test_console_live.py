@@ -375,7 +375,7 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     assert pump(console, lambda: bool(app.canvas.find_withtag("proposal")), 2)
     header = app.header.text()
     # the header's status says what is proposed, in the manager's words, and the mode
-    assert "REROUTE PROPOSAL {} (dashed): {}: accept or reject".format(
+    assert "REROUTE PROPOSAL {} (dashed; accept or reject): {}".format(
         model.proposal.id, model.proposal.message) in header, header
     assert model.proposal.message.startswith("robot 4, late ") and header.endswith("reroute propose")
     assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)

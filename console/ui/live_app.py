@@ -298,8 +298,9 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
                      "strategy {}".format(run.strategy + (" (lookahead {})".format(run.lookahead)
                                                           if run.strategy == "adg" else ""))]
             proposal = self.model.proposal
-            if proposal is not None and proposal.kind == "reroute":  # the line says who goes round whom
-                parts.insert(0, "REROUTE PROPOSAL {} (dashed): {}: accept or reject".format(
+            # the line says who goes round whom; what to do comes first, as a long line is cut at its end
+            if proposal is not None and proposal.kind == "reroute":
+                parts.insert(0, "REROUTE PROPOSAL {} (dashed; accept or reject): {}".format(
                     proposal.id, proposal.message))
             elif proposal is not None:
                 parts.insert(0, "REPLAN PROPOSAL {} (dashed): accept or reject".format(proposal.id))
