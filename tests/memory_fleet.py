@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
+from fleet_common.errors import FleetError
 from fleet_common.control import codec
 from fleet_common.limits import MAX_MANAGER_BYTES
 from fleet_common.control import messages as m
@@ -29,7 +30,8 @@ from pathlib import Path
 from fleet_common.runlog.reader import RunFolder
 from fleet_manager.core import RunCore
 from fleet_manager.resume import read_resume
-from fleet_manager.outbox import NewRunFolder, PlanJob, Record, RerouteJob, Say, Send, ToConsole, WriteFile
+from fleet_manager.outbox import LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, Say, Send, ToConsole, WriteFile
+from fleet_manager.plan_requests import solve_requested
 from fleet_manager.rerouting import look
 from fleet_common.plan_loading import LoadedPlan
 from fleet_manager.settings import ManagerSettings
@@ -127,6 +129,8 @@ class MemoryFleet:
         self.jobs: List[PlanJob] = []
         self.hold_looks = False  # keep looks for a reroute until `finish_looks`
         self.looks: List[RerouteJob] = []
+        self.hold_loads = False  # keep instances to load until `finish_loads` (a solve under way)
+        self.loads: List[LoadJob] = []
         #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
         self.pose_lag = pose_lag
         self._poses: List[Tuple[float, PoseFeedback]] = []
@@ -206,6 +210,10 @@ class MemoryFleet:
             self.looks.append(effect)
             if not self.hold_looks:
                 self.finish_looks()
+        elif isinstance(effect, LoadJob):
+            self.loads.append(effect)
+            if not self.hold_loads:
+                self.finish_loads()
         elif isinstance(effect, NewRunFolder):
             self.folders += 1
         elif isinstance(effect, WriteFile):
@@ -228,6 +236,16 @@ class MemoryFleet:
         looks, self.looks = self.looks, []
         for job in looks:
             self.core.reroute_ready(job.id, look(job), None, self.now)
+
+    def finish_loads(self) -> None:
+        """The instances asked to be loaded, each solved by the function the manager's worker runs."""
+        loads, self.loads = self.loads, []
+        for job in loads:
+            try:
+                loaded, error = solve_requested(job.requested), None
+            except FleetError as err:  # as the manager's worker says it
+                loaded, error = None, "{}: {}".format(type(err).__name__, err)
+            self.core.load_ready(job.id, loaded, error, self.now)
 
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
         for robot in self._chosen(robot_id):

@@ -11,6 +11,7 @@ values, each with the time (seconds since the manager started):
     vicon(fixes, now)             Vicon's poses
     console_frame(peer, data, now)  bytes from a console (hello, request, ...)
     plan_ready(job, result, error, now)  the outcome of a PlanJob
+    load_ready(job, loaded, error, now)  the outcome of a LoadJob (an instance to load, solved)
     reroute_ready(job, found, error, now)  the outcome of a RerouteJob (`rerouting`)
     tick(now), publish(now), log_poses(now)  what is due with time
 
@@ -279,6 +280,19 @@ class RunCore:
                 self.out.tell("operator", None, "--accept: accept: {}".format(reason))
         elif replanner.was_running and self.run.phase.refusal("resume") is None:
             operator.resume(self.run, now, "resume")
+
+    def load_ready(self, job_id: int, loaded: Optional[LoadedPlan], error: Optional[str], now: float) -> None:
+        """The outcome of a LoadJob: the plan of an instance a console asked to load (loaded now if
+        the run still may), or why it could not be solved; every console is told."""
+        self._at(now)
+        if self.run.loading is None or self.run.loading[0] != job_id:
+            return
+        _, text = operator.solved(self.run, loaded, error, now)  # a plan loaded opens its own run folder
+        self.out.tell("plan", None, text)
+        self.out.desk.bump(text)
+        self.news = True
+        self._state_to(now, None, at_once=True)
+        self.publish(now)
 
     # ---- rerouting (`rerouting`) ----------------------------------------------------------
 

@@ -45,8 +45,9 @@ from fleet_common.transport.zap import ZapHandler
 from fleet_common.vicon.base_grid import load_vicon_to_base
 
 from .core import RunCore
-from .outbox import (Effect, NewRunFolder, PlanJob, Record, RerouteJob, ResumeRunFolder, Say, Send, ToConsole,
-                     WriteFile)
+from .outbox import (Effect, LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, ResumeRunFolder, Say, Send,
+                     ToConsole, WriteFile)
+from .plan_requests import solve_requested
 from .rerouting import look
 from .resume import ResumePoint
 from .settings import ManagerSettings
@@ -76,8 +77,8 @@ class Manager:
         self.epoch = (resume[0].epoch if resume is not None else None) or secrets.token_hex(8)
         self.context = fleet_context(len(robots))
         self.vicon: Optional[ViconProvider] = None
-        self._plans: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()
-        self._looks: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()  # reroutes
+        #: work done off the loop: (the core's input for its outcome, job id, result, error)
+        self._done: "queue.Queue[Tuple[Callable[..., None], int, object, Optional[str]]]" = queue.Queue()
         try:
             self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
             # bind before connecting: the links' outgoing connections take ephemeral ports
@@ -163,12 +164,9 @@ class Manager:
         self._apply(self.core.take())
 
     def _timers(self, now: float) -> None:
-        while not self._plans.empty():
-            job, result, error = self._plans.get()
-            self.core.plan_ready(job, result, error, now)  # type: ignore[arg-type]
-        while not self._looks.empty():
-            job, found, error = self._looks.get()
-            self.core.reroute_ready(job, found, error, now)  # type: ignore[arg-type]
+        while not self._done.empty():
+            ready, job, result, error = self._done.get()
+            ready(job, result, error, now)
         self.core.tick(now)
         self._apply(self.core.take())
         if self.core.news:  # a change the consoles have not been sent yet
@@ -251,9 +249,13 @@ class Manager:
             elif isinstance(effect, Say):
                 self.say(effect.text)
             elif isinstance(effect, PlanJob):
-                self._plan(effect)
-            elif isinstance(effect, RerouteJob):
-                self._look(effect)
+                self._off_loop("replan", effect.id, self.core.plan_ready, lambda job=effect: replan(
+                    job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method))
+            elif isinstance(effect, RerouteJob):  # on the job's own snapshot of the engine
+                self._off_loop("reroute", effect.id, self.core.reroute_ready, lambda job=effect: look(job))
+            elif isinstance(effect, LoadJob):
+                self._off_loop("solve", effect.id, self.core.load_ready,
+                               lambda job=effect: solve_requested(job.requested))
             elif isinstance(effect, NewRunFolder):
                 self._new_folder(effect.plan_text)
             elif isinstance(effect, ResumeRunFolder):
@@ -291,27 +293,16 @@ class Manager:
         self.runlog = RunLog(folder, clock=self.clock)
         self.runlog.start = self.t0
 
-    def _plan(self, job: PlanJob) -> None:
-        def work() -> None:
+    def _off_loop(self, name: str, job_id: int, ready: Callable[..., None], work: Callable[[], object]) -> None:
+        """`work` in a worker thread while the loop goes on; its outcome comes back on a later turn
+        as the core's input `ready` (job id, result, error)."""
+        def run() -> None:
             try:
-                result = replan(job.grid, job.current, job.goals, job.out, deadline=job.time_limit,
-                                method=job.method)
-                self._plans.put((job.id, result, None))
-            except Exception as err:  # a planning failure must not kill the manager
-                self._plans.put((job.id, None, "{}: {}".format(type(err).__name__, err)))
+                self._done.put((ready, job_id, work(), None))
+            except Exception as err:  # a failing job must not kill the manager
+                self._done.put((ready, job_id, None, "{}: {}".format(type(err).__name__, err)))
 
-        threading.Thread(target=work, name="replan", daemon=True).start()
-
-    def _look(self, job: RerouteJob) -> None:
-        """A look for a reroute in a worker thread, on the job's own snapshot of the engine (the
-        loop goes on); its result comes back on a later turn (`reroute_ready`)."""
-        def work() -> None:
-            try:
-                self._looks.put((job.id, look(job), None))
-            except Exception as err:  # a failing look must not kill the manager
-                self._looks.put((job.id, None, "{}: {}".format(type(err).__name__, err)))
-
-        threading.Thread(target=work, name="reroute", daemon=True).start()
+        threading.Thread(target=run, name=name, daemon=True).start()
 
     def start(self) -> Tuple[bool, str]:
         """Start the run as a console's Start would (--start)."""

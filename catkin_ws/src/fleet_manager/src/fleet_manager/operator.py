@@ -33,15 +33,17 @@ from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
 from fleet_common.execution.reroute import MODES as REROUTE_MODES
+from fleet_common.grid import Grid
 from fleet_common.limits import one_line
+from fleet_common.plan_loading import LoadedPlan
 
-from .outbox import REROUTE
-from .plan_requests import load_requested
+from .outbox import REROUTE, LoadJob
+from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "allowed", "why_not", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "why_not", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
@@ -93,6 +95,8 @@ def _busy(run: Run) -> Optional[str]:
         return _REPLAN_OPEN
     if run.to_starts_job is not None:
         return _TO_STARTS_BUSY
+    if run.loading is not None:
+        return "{} is being solved to be loaded; wait for it".format(run.loading[1])
     return None
 
 
@@ -325,23 +329,60 @@ def source(run: Run, args: Args, now: float) -> Answer:
 # ---- plans --------------------------------------------------------------------------------
 
 def load(run: Run, args: Args, now: float) -> Answer:
-    refusal = run.phase.refusal("load") or _busy(run)
-    if refusal is None and run.driver.moving:
-        refusal = "load another plan when no robot moves"
+    refusal = _load_refusal(run)
     if refusal:
         return False, refusal
     try:
-        loaded = load_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
+        loaded = read_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
                                 args["path"], args["text"], args["name"])
     except FleetError as err:
         return False, "cannot load: {}".format(one_line(str(err), 400))
-    if loaded.grid != run.fleet_map:
-        fleet, mine = run.fleet_map, loaded.grid
-        return False, "cannot load {}: it is a plan for map {} ({} x {}); this fleet runs on {} ({} x {})".format(
-            loaded.name, mine.name or "?", mine.width, mine.height, fleet.name or "?", fleet.width, fleet.height)
+    grid = loaded.instance.grid if isinstance(loaded, Requested) else loaded.grid
+    refusal = _other_map(run, loaded.name, grid)
+    if refusal:
+        return False, refusal
+    if isinstance(loaded, Requested):  # solved off the loop: the robots and consoles are served meanwhile
+        job = LoadJob(next(run.job_ids), loaded)
+        run.loading = (job.id, loaded.name)
+        run.out.add(job)
+        run.out.desk.bump("solving {}".format(loaded.name))
+        return True, "{} is an instance: solving it (at most {:g} s); it is loaded when solved".format(
+            loaded.name, SOLVE_LIMIT)
+    return True, _load(run, loaded, now)
+
+
+def solved(run: Run, loaded: Optional[LoadedPlan], error: Optional[str], now: float) -> Tuple[bool, str]:
+    """The instance being loaded (`run.loading`) was solved, or not (`error`): load its plan if the
+    run still may, and say what happened."""
+    name = run.loading[1] if run.loading is not None else "?"
+    run.loading = None
+    if error is not None or loaded is None:
+        return False, "cannot load {}: {}".format(name, one_line(error or "no plan", 400))
+    refusal = _load_refusal(run)
+    if refusal:
+        return False, "{} was solved but not loaded: {}".format(name, refusal)
+    return True, _load(run, loaded, now)
+
+
+def _load_refusal(run: Run) -> Optional[str]:
+    refusal = run.phase.refusal("load") or _busy(run)
+    if refusal is None and run.driver.moving:
+        refusal = "load another plan when no robot moves"
+    return refusal
+
+
+def _other_map(run: Run, name: str, mine: Grid) -> Optional[str]:
+    if mine == run.fleet_map:
+        return None
+    fleet = run.fleet_map
+    return "cannot load {}: it is a plan for map {} ({} x {}); this fleet runs on {} ({} x {})".format(
+        name, mine.name or "?", mine.width, mine.height, fleet.name or "?", fleet.width, fleet.height)
+
+
+def _load(run: Run, loaded: LoadedPlan, now: float) -> str:
     run.load(loaded, now)
     where = "" if run.on_target_starts() else "; the robots are not on its starts: Go to starts drives them there"
-    return True, "{} loaded ({}){}".format(loaded.name, loaded.note, where)
+    return "{} loaded ({}){}".format(loaded.name, loaded.note, where)
 
 
 def replan(run: Run, args: Args, now: float) -> Answer:

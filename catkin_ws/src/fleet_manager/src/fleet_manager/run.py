@@ -68,9 +68,10 @@ class Run:
         self.out = out
         self.settings = settings
         self.phase = RunPhase()
-        self._job_ids = iter(range(1, 2 ** 62))  # planning jobs: replans and ways to the starts
-        self.replanner = Replanner(settings.replan_limit, self._job_ids)
-        self.rerouting = Rerouting(loaded.grid, settings.reroute, self._job_ids, settings.reroute_timed)
+        #: ids of work done off the loop: replans, ways to the starts, reroutes, instances to load
+        self.job_ids = iter(range(1, 2 ** 62))
+        self.replanner = Replanner(settings.replan_limit, self.job_ids)
+        self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed)
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded
@@ -82,6 +83,7 @@ class Run:
         self.plan_since: Optional[float] = None   # the current plan's step 0 (a replan's accept)
         self.ended_at: Optional[float] = None     # the run was done (the clock stops)
         self.to_starts_job: Optional[int] = None  # the way to the starts being planned
+        self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
         #: a resumed run before its robots were checked (`resume.py`)
         self.resuming: Optional[Resuming] = None
         #: agent -> the cell a robot found off the plan stands on (replanned from there)
@@ -459,7 +461,7 @@ class Run:
         """Plan the way from `cells` (where the robots stand) to the target's starts, off the
         loop; the run waits meanwhile (`to_starts_ready` carries on)."""
         out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] == "disabled"}
-        job = PlanJob(next(self._job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
+        job = PlanJob(next(self.job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
                       self.settings.to_starts_limit, "pp")
         self.to_starts_job = job.id
         self.out.add(job)
