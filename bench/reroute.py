@@ -15,7 +15,12 @@ makespan, and the number of reroutes (none).
 
     .venv/bin/python bench/reroute.py [SEEDS [FIRST]]     # default 10 seeds from 10
         [--plans random70,arena300] [--configs adg,adg+reroute,reorder,reorder+reroute]
-        [--rule KEY=VALUE ...]                             # a RerouteRule's settings, e.g. span=10
+        [--rule KEY=VALUE ...]                             # a RerouteRule's settings, e.g. slack=none
+        [--baseline KEY=VALUE ...]                         # also adg + reroute by this rule, compared
+
+`--baseline` adds a configuration, adg + reroute by a second rule (settings
+as for `--rule`; none given: the defaults), and each seed's change from it
+to adg + reroute by `--rule`: two rules compared on the same delays.
 
 The seeds start at 10 by default: the rule's default settings were chosen on
 seeds 0-9 (random70) and 0-3 (arena300).
@@ -77,13 +82,19 @@ def main() -> None:
     parser.add_argument("--plans", default=",".join(PLANS))
     parser.add_argument("--configs", default="adg,adg+reroute,reorder,reorder+reroute")
     parser.add_argument("--rule", nargs="*", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--baseline", nargs="*", default=None, metavar="KEY=VALUE")
     args = parser.parse_args()
     seeds, first = args.seeds, args.first
     configs = tuple(parse_config(c) for c in args.configs.split(","))
-    rule = rule_of(args.rule)
+    rules = {"auto": rule_of(args.rule)}
+    if args.baseline is not None:
+        rules["baseline"] = rule_of(args.baseline)
+        configs += (("adg", "baseline"),)
+    labels = {"none": "", "auto": " + reroute", "baseline": " + reroute, baseline"}
     model = parse_delay_model("events=bernoulli:0.1:1-5")
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
-    print("rule: {}".format(rule))
+    for key, rule in rules.items():
+        print("{}: {}".format("rule" if key == "auto" else key, rule))
     for name in args.plans.split(","):
         file, solver, n = PLANS[name]
         loaded = load_plan(SHARED / "instances" / file, n, name, [SHARED / "maps"] + default_map_dirs(),
@@ -103,7 +114,7 @@ def main() -> None:
                 strategy, reroute = config
                 began = time.perf_counter()
                 result = simulate(plan, strategy, model, seed=seed, size=TURTLEBOT2, grid=grid,
-                                  reroute=rule if reroute == "auto" else reroute)
+                                  reroute=rules.get(reroute, reroute))
                 wall[config] += time.perf_counter() - began
                 assert result.finished and not result.collisions and result.refused == 0, (name, config, seed)
                 ratio[config].append(result.metrics.makespan / plan.makespan)
@@ -111,21 +122,24 @@ def main() -> None:
                 moved[config].append(sum(len(r.agents) for _, r in result.reroutes))
                 if config == configs[0]:
                     bound.append(result.lower_bound / plan.makespan)
-                if result.rerouter is not None:
+                if reroute == "auto":
                     rr = result.rerouter
+                    assert rr is not None
                     looks, found = looks + rr.looks, found + rr.found
                     look_s, found_s = look_s + rr.seconds, found_s + rr.found_seconds
                     hand_s += result.handover_seconds
         base = ratio[configs[0]]
         print("  lower bound / planned makespan: {}".format(interval(bound)))
-        print("  {:<18} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
+        print("  {:<26} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
             "configuration", "executed/planned", "paired vs adg", "reroutes", "robots moved", "s a run"))
         for config in configs:
-            label = config[0] + (" + reroute" if config[1] == "auto" else "")
             change = [100.0 * (x - b) / b for x, b in zip(ratio[config], base)]
-            print("  {:<18} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
-                label, interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
+            print("  {:<26} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
+                config[0] + labels[config[1]], interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
                 float(np.mean(moved[config])), wall[config] / seeds))
+        if ("adg", "baseline") in ratio and ("adg", "auto") in ratio:
+            change = [100.0 * (x - b) / b for x, b in zip(ratio[("adg", "auto")], ratio[("adg", "baseline")])]
+            print("  adg + reroute paired vs adg + reroute, baseline: {}%".format(interval(change)))
         print("  the rule's cost ({} robots): {:.2f} ms a look ({} looks), {:.1f} ms a look that found a reroute "
               "({}), {:.1f} ms a hand-over".format(n, 1e3 * look_s / max(looks, 1), looks,
                                                    1e3 * found_s / max(found, 1), found,
@@ -134,8 +148,8 @@ def main() -> None:
         flat = []
         for strategy, reroute in configs:
             result = simulate(plan, strategy, zero, seed=0, size=TURTLEBOT2, grid=grid,
-                              reroute=rule if reroute == "auto" else reroute)
-            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, " + reroute" if reroute == "auto" else "",
+                              reroute=rules.get(reroute, reroute))
+            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, labels[reroute],
                                                           result.metrics.makespan / plan.makespan,
                                                           len(result.reroutes)))
         print("  p = 0: " + "; ".join(flat))

@@ -114,18 +114,16 @@ class RerouteRule:
     tries: int = 3          # late robots looked at per look, the most robots held up first
     later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
-    span: float = 0.0       # weight of the predicted makespan's steps saved, added to the gain
-    last: Optional[float] = None  # also late robots predicted this close to the makespan (steps), alone
-    slack: Optional[float] = None  # `later` spares robots predicted this far (steps) before the makespan
+    slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps before the makespan
 
     def __post_init__(self) -> None:
         for key in ("gap", "tries"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
-        for key in ("margin", "cost", "every", "budget", "later", "per_move", "span", "last", "slack"):
+        for key in ("margin", "cost", "every", "budget", "later", "per_move", "slack"):
             value = getattr(self, key)
-            if key in ("last", "slack") and value is None:
+            if key == "slack" and value is None:  # None: `later` holds for every robot
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
                 raise UnknownStrategyError("reroute {} must be a number >= 0, got {!r}".format(key, value))
@@ -156,8 +154,6 @@ class Reroute:
         sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
         if self.around not in self.agents:
             return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
-        if not self.held:
-            return "robot {} rerouted, {}, predicted among the last: {}".format(name(self.around), late, sooner)
         return "{} rerouted: robot {}, {}, held up {}; {}".format(
             robots(self.agents), name(self.around), late, robots(self.held), sooner)
 
@@ -229,19 +225,16 @@ def held_up(engine: Engine, now: float, gap: int,
     return {q: [h for _, h in sorted(hs)] for q, hs in out.items()}
 
 
-def late_robots(engine: Engine, now: float, gap: int, expected: Sequence[int],
-                held: Dict[int, List[int]]) -> List[int]:
-    """The late robots (by `gap`, see `held_up`) not in `held`, that are not out: those a reroute
-    of their own may bring in sooner."""
-    run = engine.run
-    out = []
-    for r in range(run.num_agents):
-        if r in held or run.out[r] is not None:
-            continue
-        lag = behind(engine, r, now, expected)
-        if lag is not None and lag >= gap and delayed(engine, r, now):
-            out.append(r)
-    return out
+def later_by(before: Sequence[int], proposal: Proposal, per_move: float, spared: Optional[float]) -> float:
+    """How many steps later than `before` the proposal has the latest robot arrive, a move more
+    counted as `per_move` steps more; robots whose new arrival is still at or before `spared`
+    (None: none) are not counted (at most 0)."""
+    worst = 0.0
+    for r, (new, old) in enumerate(zip(proposal.arrival, before)):
+        extra = per_move * proposal.more.get(r, 0)
+        if spared is None or new + extra > spared:
+            worst = max(worst, new - old + extra)
+    return worst
 
 
 def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
@@ -251,8 +244,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     if expected is None:
         expected = expected_steps(engine)
     groups = held_up(engine, now, rule.gap, expected)
-    alone = [] if rule.last is None else late_robots(engine, now, rule.gap, expected, groups)
-    if not groups and not alone:
+    if not groups:
         return None
     deadline = deadline or Deadline(rule.budget)
     run, follow = engine.run, engine.follow
@@ -262,10 +254,6 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     before = earliest_starts(run, ready, follow, base)
     if unplaced(run, before, base, range(run.num_agents)):
         return None  # a prediction that cannot be made (nothing to compare with): no change
-    if rule.last is not None:  # the late robots predicted among the last, holding nobody up
-        for r in alone:
-            if before.arrival[r] >= before.makespan - rule.last:
-                groups[r] = []
     grid = maps.grid
     table = run.table
 
@@ -275,20 +263,16 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                                       if run.dispatched[h] > base[h] else run.src[run.first[h] + base[h]]))
         return before.arrival[h] - new_start(run, before, base, h) - maps.distances(goal)[here]
 
-    def lateness(g: Tuple[int, List[int]]) -> Tuple[int, ...]:
-        spread = sum(max(0, before.arrival[h] - before.arrival[g[0]]) for h in g[1])
-        if rule.span or rule.last is not None:  # the groups with the robots predicted last first
-            return (-max(before.arrival[r] for r in [g[0]] + g[1]), -spread, g[0])
-        return (-spread, g[0])
-
-    ranked = sorted(groups.items(), key=lateness)
+    ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
+                                                        for h in g[1]), g[0]))
     best: Optional[Tuple[float, Proposal, int]] = None
-    spared = None if rule.slack is None else before.makespan - rule.slack  # arrivals up to it may be later
+    # the makespan is the last robot's arrival: a robot predicted well before it may arrive later
+    spared = None if rule.slack is None else before.makespan - rule.slack
     try:
         for late, held in ranked[:rule.tries]:
             gaining = [h for h in held if potential(h) > rule.margin]
             variants: List[List[int]] = []
-            if run.out[late] is None and run.dispatched[late] < run.count(late) and (held or potential(late) > rule.margin):
+            if run.out[late] is None and run.dispatched[late] < run.count(late):
                 variants.append([late])
             if gaining:
                 variants.append(gaining)
@@ -300,12 +284,8 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                     continue
                 # a move more is a step more, and its expected delay
                 gain = sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
-                gain += rule.span * (before.makespan - max(proposal.arrival))
                 net = gain - rule.cost * len(chosen)
-                worse = max((new - old + rule.per_move * proposal.more.get(r, 0)
-                            for r, (new, old) in enumerate(zip(proposal.arrival, before.arrival))
-                            if spared is None or new + rule.per_move * proposal.more.get(r, 0) > spared),
-                            default=0.0)
+                worse = later_by(before.arrival, proposal, rule.per_move, spared)
                 if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
                     best = (net, proposal, late)
     except DeadlineReached:
