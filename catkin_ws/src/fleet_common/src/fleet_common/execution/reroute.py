@@ -30,9 +30,20 @@ that could arrive sooner by a shortest path, or both:
    `per_move` (a move's expected delay) for each move the new paths add;
    it *pays* when gain - `cost` x (robots rerouted) >= `margin` steps and no
    robot is predicted to arrive later by more than `later` steps (extra
-   moves counted). The variant with the largest net gain is taken. By
-   default: late from 1 step, a robot rerouted costs half a step, and the
-   net gain must reach 1 step with nobody more than 1 step later.
+   moves counted, `per_move` each), except robots whose new predicted
+   arrival (extra moves counted) is still `slack` steps or more before
+   the predicted makespan of step 1: the run's makespan is the last robot's
+   arrival, so a robot well before it may give way (a late robot stepping
+   aside for those it holds up, on a longer path) when the sum gains. The
+   variant with the largest net gain is taken. By default: late from 1
+   step, a robot rerouted costs half a step, the net gain must reach 1
+   step, and nobody predicted to arrive less than 5 steps before the
+   makespan may be more than 1 step later (`slack=None`: nobody at all,
+   the rule before the slack).
+
+The rule (`slack` included) only chooses which plan to hand over; the
+hand-over's safety below does not depend on it: any plan from the cut that
+`reroute_plan` builds and `Engine.adopt` accepts runs as safely.
 
 Why a hand-over is safe (`handover`, `Engine.adopt`). A plan is only a
 prediction: what keeps the run safe is the engine's one rule, unchanged
@@ -104,7 +115,8 @@ class RerouteError(FleetError):
 class RerouteRule:
     """The rule's settings (steps are plan steps, one nominal move each). The defaults were
     chosen on bench/reroute.py's plans (random70 seeds 0-9, arena300 seeds 0-3) among eight
-    settings; the figures in bench/README.md are on other seeds."""
+    settings, `slack` later among some twenty variants (random70 seeds 0-9, arena300 seeds
+    0-9); the figures in bench/README.md are on other seeds."""
 
     gap: int = 1            # late: this many steps behind the plan's clock, or more
     margin: float = 1.0     # reroute when the gain, less the cost, reaches this many steps
@@ -114,7 +126,7 @@ class RerouteRule:
     tries: int = 3          # late robots looked at per look, the most robots held up first
     later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
-    slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps before the makespan
+    slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps or more before the makespan
 
     def __post_init__(self) -> None:
         for key in ("gap", "tries"):
