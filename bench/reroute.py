@@ -23,7 +23,7 @@ as for `--rule`; none given: the defaults), and each seed's change from it
 to adg + reroute by `--rule`: two rules compared on the same delays.
 
 The seeds start at 10 by default: the rule's default settings were chosen on
-seeds 0-9 (random70) and 0-3 (arena300).
+seeds 0-9 (random70) and 0-3 (arena300; 0-9 for `slack`).
 """
 from __future__ import annotations
 
