@@ -138,9 +138,6 @@ def read_experiment(path: Path) -> Experiment:
     if "wire" in chains and (disable != ["none"] or recover != ["none"]):
         raise _error(path, data, "chain", "wire cells cannot disable robots or replan (an "
                      "operator's acts in the manager); sweep those on the engine alone")
-    if "wire" in chains and reroute != ["none"]:
-        raise _error(path, data, "chain", "wire cells cannot reroute (the manager does not reroute yet); "
-                     "sweep reroute on the engine alone")
     scale = data.get("time_scale", 10.0)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale <= 100:
         raise _error(path, data, "time_scale", "expected a number over 0 and at most 100, got {!r}".format(scale))

@@ -9,6 +9,8 @@ robot on each start, drawing its delays from the cell's model and seed (the
 same spec language, in units of a nominal move); `fleetctl manager --start
 --until-done` runs the cell's strategy and writes its run folder, from which
 the row is read (`runlog.summary`, the figures `fleetctl trace` prints).
+With `reroute: auto` the manager reroutes (`--reroute auto`) and the row
+counts its `reroute` records.
 
 Times in the row are in plan steps, as in engine rows: the run's seconds
 divided by a nominal move (one cell at the fleet's speed, in wall seconds at
@@ -69,7 +71,8 @@ def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, 
             manager = Child.start("manager", [
                 "manager", str(work / "plan.txt"), "--definitions", str(definitions), "--no-curve",
                 "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(port), "--strategy",
-                cell.strategy, *_settings(cell), "--robot-size", _size(cell), "--start", "--until-done", "--time-limit",
+                cell.strategy, *_settings(cell), "--robot-size", _size(cell), "--reroute",
+                "off" if cell.reroute == "none" else cell.reroute, "--start", "--until-done", "--time-limit",
                 "{:g}".format(limit), "--connect-timeout", "{:g}".format(_START_S), "--log",
                 str(work / "runs"), "--step-time", "{:.4f}".format(move_s)], log=work / "manager.log")
             if manager.wait(limit + _START_S) is None:
@@ -124,4 +127,5 @@ def _row(cell: Cell, plan: LoadedPlan, p: Plan, run, time_scale: float) -> Dict[
                     waits=[waits.get(r, 0.0) for r in robots], count=count,
                     held=0.0, blocked={},  # the engine's held and blocked-by figures: engine cells only
                     collisions=s.collisions, reached=len(s.arrived), replanned=False, moves=moves,
-                    closest_m=None if s.min_distance is None or s.cell_m is None else s.min_distance * s.cell_m)
+                    closest_m=None if s.min_distance is None or s.cell_m is None else s.min_distance * s.cell_m,
+                    reroutes=sum(1 for _ in run.of("reroute")))

@@ -140,6 +140,7 @@ class DemoSettings:
     stall: str = "auto"          # auto, none, or R:K:S as `fleetctl virtual-fleet --stall`
     stall_seconds: float = 8.0   # fleet seconds of the automatic stall
     switch: Optional[str] = None  # the console switches to this strategy once a robot waits for the stall
+    reroute: str = "off"         # the manager's --reroute mode
     headless: bool = False
     record: bool = False
     linger: float = 3.0
@@ -178,9 +179,10 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
                       "--speed", "{:g}".format(SPEED), "--log-level", "warning"]
         if stall is not None:
             fleet_args += ["--stall", stall]
-        say("live run: {} virtual robots on 127.0.0.1 (time x{:g}, delays {}{}), manager with ADG{}, "
+        say("live run: {} virtual robots on 127.0.0.1 (time x{:g}, delays {}{}), manager with ADG{}{}, "
             "console on {}".format(plan.num_agents, settings.time_scale, settings.delay_model,
                                    "; " + parse_stall(stall).describe() if stall else "",
+                                   "" if settings.reroute == "off" else ", reroute " + settings.reroute,
                                    " (the console switches to {} once a robot waits for a stalled one)".format(
                                        settings.switch) if settings.switch else "", endpoint))
         children.append(Child.start("fleet", fleet_args, log=work / "virtual-fleet.log"))
@@ -190,7 +192,7 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
         manager = Child.start("manager", [
             "manager", str(solution), "--definitions", str(definitions), "--no-curve", "--host", "127.0.0.1",
             "--bind", endpoint, "--strategy", "adg", "--until-done", "--time-limit", "{:g}".format(settings.time_limit),
-            "--connect-timeout", "30", "--step-time", "{:.3f}".format(step_time)]
+            "--connect-timeout", "30", "--step-time", "{:.3f}".format(step_time), "--reroute", settings.reroute]
             + (["--log", str(settings.log_dir)] if settings.log_dir is not None else []),
             on_line=lambda line: say("  manager: " + (line[9:] if line.startswith("manager: ") else line)))
         children.append(manager)

@@ -6,8 +6,9 @@ executor (`fleet_common.wire.CommandExecutor`) driving the virtual fleet's
 kinematics (`virtual_fleet.kinematics.VirtualNavigator`), and to consoles
 that speak the console protocol's bytes. Time moves only when a test says so
 (`advance`), and everything the core asks for happens at once: commands reach
-their robot, replies and poses come back at the next tick, planning jobs are
-solved in place. The manager may die (`kill_manager`: the robots go on, what
+their robot, replies and poses come back at the next tick, planning jobs and
+looks for a reroute are run in place (a look by the function the manager's
+worker runs). The manager may die (`kill_manager`: the robots go on, what
 they answer is lost) and another take over from the records it left
 (`resume_manager`), as `fleetctl manager --resume` does from a run folder.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
+from fleet_common.errors import FleetError
 from fleet_common.control import codec
 from fleet_common.limits import MAX_MANAGER_BYTES
 from fleet_common.control import messages as m
@@ -28,7 +30,9 @@ from pathlib import Path
 from fleet_common.runlog.reader import RunFolder
 from fleet_manager.core import RunCore
 from fleet_manager.resume import read_resume
-from fleet_manager.outbox import NewRunFolder, PlanJob, Record, Say, Send, ToConsole, WriteFile
+from fleet_manager.outbox import LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, Say, Send, ToConsole, WriteFile
+from fleet_manager.plan_requests import solve_requested
+from fleet_manager.rerouting import look
 from fleet_common.plan_loading import LoadedPlan
 from fleet_manager.settings import ManagerSettings
 from virtual_fleet.kinematics import VirtualNavigator
@@ -123,6 +127,10 @@ class MemoryFleet:
             job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method)
         self.hold_plans = False  # keep planning jobs until `finish_plans` (a replan under way)
         self.jobs: List[PlanJob] = []
+        self.hold_looks = False  # keep looks for a reroute until `finish_looks`
+        self.looks: List[RerouteJob] = []
+        self.hold_loads = False  # keep instances to load until `finish_loads` (a solve under way)
+        self.loads: List[LoadJob] = []
         #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
         self.pose_lag = pose_lag
         self._poses: List[Tuple[float, PoseFeedback]] = []
@@ -198,6 +206,14 @@ class MemoryFleet:
             self.jobs.append(effect)
             if not self.hold_plans:
                 self.finish_plans()
+        elif isinstance(effect, RerouteJob):
+            self.looks.append(effect)
+            if not self.hold_looks:
+                self.finish_looks()
+        elif isinstance(effect, LoadJob):
+            self.loads.append(effect)
+            if not self.hold_loads:
+                self.finish_loads()
         elif isinstance(effect, NewRunFolder):
             self.folders += 1
         elif isinstance(effect, WriteFile):
@@ -214,6 +230,22 @@ class MemoryFleet:
         jobs, self.jobs = self.jobs, []
         for job in jobs:
             self.core.plan_ready(job.id, self.solve(job), None, self.now)
+
+    def finish_looks(self) -> None:
+        """The looks for a reroute asked for, each run by the function the manager's worker runs."""
+        looks, self.looks = self.looks, []
+        for job in looks:
+            self.core.reroute_ready(job.id, look(job), None, self.now)
+
+    def finish_loads(self) -> None:
+        """The instances asked to be loaded, each solved by the function the manager's worker runs."""
+        loads, self.loads = self.loads, []
+        for job in loads:
+            try:
+                loaded, error = solve_requested(job.requested), None
+            except FleetError as err:  # as the manager's worker says it
+                loaded, error = None, "{}: {}".format(type(err).__name__, err)
+            self.core.load_ready(job.id, loaded, error, self.now)
 
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
         for robot in self._chosen(robot_id):

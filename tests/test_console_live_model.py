@@ -346,6 +346,21 @@ def test_the_story_tells_a_stall_a_wait_that_lasts_and_the_operators_hand() -> N
                      "robot 2 moves again", "robot 3 disabled by the operator"]
 
 
+def test_a_follower_held_behind_its_leader_stops_behind_it() -> None:
+    """Waiting for the cell, then (the cell released) driving in and held at the safe distance
+    behind a leader that stands: two waits, told as what a visitor sees."""
+    ticker = Ticker()
+    ticker.step_time = 1.0
+    cell = Waiting((2,), (3, 0), "cell")
+    held = Waiting((2,), (3, 0), "follow")
+    story = told(ticker, [(0.0, state(1, [drive(2, 1.0, 0.0), robot(3, waiting=cell)])),
+                          (0.6, state(2, [drive(2, 1.1, 0.0), robot(3, waiting=cell)])),
+                          (0.8, state(3, [drive(2, 1.2, 0.0), drive(3, 0.1, 0.0, follows=2)])),
+                          (1.0, state(4, [drive(2, 1.3, 0.0), drive(3, 0.2, 0.0, follows=2, waiting=held)])),
+                          (1.6, state(5, [drive(2, 1.3, 0.0), drive(3, 0.2, 0.0, follows=2, waiting=held)]))])
+    assert story[:2] == ["robot 3 waits for robot 2", "robot 3 stops behind robot 2"]
+
+
 def test_short_waits_and_standing_robots_that_wait_or_follow_are_no_news() -> None:
     ticker = Ticker()
     ticker.step_time = 1.0
@@ -385,6 +400,20 @@ def test_a_crowd_is_counted_and_the_end_and_a_replan_are_told() -> None:
                                 "reorder (gap 1, reach 4, budget 400)")) == ["strategy now reorder"]
     assert ticker.notice(Notice(12, 4.0, "pass", 3, "robot 3 goes before robot 2 at (5, 5)")) == \
         ["robot 3 goes before robot 2"]
+
+
+def test_the_ticker_tells_reroutes_made_and_the_mode_not_proposals() -> None:
+    ticker = Ticker()
+    assert ticker.notice(Notice(1, 1.0, "reroute", None, "reroute switched: off -> auto")) == \
+        ["rerouting now auto"]
+    assert ticker.notice(Notice(2, 2.0, "reroute", None, "robots 3, 7 rerouted around robot 12, late 6 "
+                                "steps: 9 steps sooner")) == ["robots 3, 7 rerouted around robot 12, late 6 steps"]
+    assert ticker.notice(Notice(3, 3.0, "reroute", None, "robot 4, late 5 steps, rerouted: it held up robot "
+                                "1; 1 step sooner")) == ["robot 4, late 5 steps, rerouted: it held up robot 1"]
+    for text in ("reroute 5 proposed: robot 4, late 5 steps, rerouted: it held up robot 1; 3 steps sooner",
+                 "reroute 5 dropped: robot 4 moved since it was proposed",
+                 "reroute dropped: the reroute no longer fits: robot 4 moved since"):
+        assert ticker.notice(Notice(4, 4.0, "reroute", None, text)) == [], text
 
 
 def test_the_console_switches_strategy_once_a_robot_waits_for_a_stalled_one() -> None:

@@ -137,10 +137,15 @@ def test_a_wire_cell_runs_the_plan_on_virtual_robots_through_the_manager(tmp_pat
     path = tmp_path / "wire.yaml"
     path.write_text("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\n"
                     "delays: [\"events=bernoulli:0.2:1-3\"]\nseeds: [3]\nchain: [engine, wire]\n"
-                    "time_scale: 10\n")
+                    "time_scale: 10\nreroute: [none, auto]\n")
     proc = fleetctl("experiment", path, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
     assert proc.returncode == 0, proc.stderr
-    engine, wire = read_table(tmp_path / "out")
+    rows = read_table(tmp_path / "out")
+    engine, wire = [r for r in rows if r["reroute"] == "none"]
+    # the manager reroutes in a wire cell too (--reroute auto), and the row counts its records
+    rerouted = next(r for r in rows if r["reroute"] == "auto" and "(wire)" in r["strategy"])
+    assert rerouted["strategy"] == "adg (wire) +reroute" and rerouted["finished"] and rerouted["reached"] == 5
+    assert rerouted["collisions"] == 0 and rerouted["closest_m"] >= 0.454 - 1e-6 and rerouted["reroutes"] >= 1
     assert (engine["strategy"], wire["strategy"]) == ("adg", "adg (wire)")
     assert wire["key"] == engine["key"].replace("|size=turtlebot", "|wire:x10|size=turtlebot")
     assert engine["size"] == wire["size"] == "turtlebot" and wire["closest_m"] >= 0.454 - 1e-6
@@ -149,7 +154,7 @@ def test_a_wire_cell_runs_the_plan_on_virtual_robots_through_the_manager(tmp_pat
     # the robots turn and the commands cross sockets: slower than the engine, not wildly so
     assert engine["makespan_ratio"] <= wire["makespan_ratio"] < 3 * engine["makespan_ratio"]
     again = fleetctl("experiment", path, "-o", tmp_path / "out", "--jobs", "1", timeout=300)
-    assert "0 run now, 2 already done" in again.stdout  # wire cells resume like the others
+    assert "0 run now, 4 already done" in again.stdout  # wire cells resume like the others
 
 
 def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tmp_path, shared_data):

@@ -161,6 +161,43 @@ def test_loads_a_console_may_not_make_are_refused_and_the_run_goes_on(place, tmp
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
 
+def test_an_instance_is_solved_off_the_loop_and_loaded_when_solved(place) -> None:
+    """Solving takes up to the solver's time limit: the manager answers at once, goes on serving
+    (States keep coming, the robots' links stay up), refuses to start the old plan meanwhile, and
+    loads the plan when it is solved; an instance without a plan is said, and nothing changes."""
+    served, _ = place
+    f = fleet([served])
+    ops = f.console()
+    f.link_up()
+    f.hold_loads = True
+    answer = f.ask(ops, "load", path="lab.txt")
+    assert answer.ok and "lab.txt is an instance: solving it" in answer.reason, answer.reason
+    assert len(f.loads) == 1 and f.folders == 1  # not solved in the request, nothing loaded yet
+    states = len(ops.states)
+    f.advance(1.0)
+    assert len(ops.states) > states  # the loop goes on
+    start = f.ask(ops, "start")
+    assert not start.ok and "lab.txt is being solved to be loaded" in start.reason
+    again = f.ask(ops, "load", path="lab.txt")
+    assert not again.ok and "being solved" in again.reason and len(f.loads) == 1
+    f.finish_loads()
+    f.advance(0.1)  # the manager's next turn carries out what the outcome asked for
+    assert any(n.text.startswith("lab.txt loaded (") for n in ops.notices()), [n.text for n in ops.notices()]
+    assert f.folders == 2 and f.phase == "waiting" and f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    # an instance its solver finds no plan for: the robots cannot reach their goals in 2 steps
+    text = (served / "lab.txt").read_text().replace("max_timestep=100", "max_timestep=2")
+    f.ask(ops, "reset")
+    assert f.run_until(lambda: f.phase == "waiting")
+    folders = f.folders
+    assert f.ask(ops, "load", text=text, name="clash.txt").ok
+    f.finish_loads()
+    f.advance(0.1)
+    told = [n.text for n in ops.notices() if "clash.txt" in n.text]
+    assert told and told[-1].startswith("cannot load clash.txt: "), told
+    assert f.folders == folders and f.ask(ops, "start").ok  # the plan there before runs
+
+
 def test_without_served_folders_a_name_is_refused_and_content_is_asked_for(place) -> None:
     f = fleet([])
     ops = f.console()
@@ -188,6 +225,12 @@ def test_a_live_manager_answers_a_fifo_at_once_and_keeps_its_robots(place, tmp_p
         for name in ("fifo", "link-fifo", "link-out", "/etc/shadow", "../../etc/passwd"):
             answer = console.ask("load", path=name, timeout=5.0)
             assert not answer.ok and "SECRET-MARKER" not in answer.reason and "root:" not in answer.reason
+        # an instance, solved in the manager's worker thread, then loaded: a new run
+        answer = console.ask("load", path="lab.txt", timeout=5.0)
+        assert answer.ok and "solving it" in answer.reason, answer.reason
+        console.wait_for(lambda c: any(n.text.startswith("lab.txt loaded (") for n in c.session.notices),
+                         why="the instance solved and loaded")
+        console.wait_for(lambda c: c.state and "start" in c.state.run.allowed, why="Start allowed again")
         assert console.ask("start").ok
         assert manager.wait(120) == 0, manager.text()[-3000:]
     finally:

@@ -100,8 +100,9 @@ class LiveModel:
             self.proposal = item
             self.proposal_plan = Plan(item.plan.positions)
             self.changes.add("proposal")
-            self._line(wall, "plan", None, "replan proposal {}: {} (soc {}, makespan {}); accept or "
-                       "reject it".format(item.id, item.message, item.soc, item.makespan))
+            if item.kind != "reroute":  # a reroute's proposal is told by the manager's own notice
+                self._line(wall, "plan", None, "replan proposal {}: {} (soc {}, makespan {}); accept or "
+                           "reject it".format(item.id, item.message, item.soc, item.makespan))
         elif isinstance(item, LinkStatus):
             if item.status == CONNECTED:
                 self.state = None  # a manager counts its states from 1: maybe a restarted one

@@ -3,20 +3,23 @@
 `Ticker` reads the manager's States as they arrive, with their arrival time,
 and its notices, and says in a few words what a visitor has just watched:
 the run starting and ending, a robot that stands still in the middle of a
-drive (stalled) and moves again, a robot that waits for others (once the wait
-has lasted a moment: under the ADG robots wait for a few milliseconds all the
-time), a robot disabled or enabled by the operator, held by a fault, losing
-its link, and replans. The live console puts the sentences in its event list
-and in the presentation view's ticker. Pure (time comes with each State), and
-cheap enough for 300 robots twenty times a second.
+drive (stalled) and moves again, a robot that waits for others or stops behind
+the robot it follows (once the wait has lasted a moment: under the ADG robots
+wait for a few milliseconds all the time), a robot disabled or enabled by the
+operator, held by a fault, losing its link, replans and reroutes. The live
+console puts the sentences in its event list and in the presentation view's
+ticker. Pure (time comes with each State), and cheap enough for 300 robots
+twenty times a second.
 """
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
 from fleet_common.control import Notice, RunInfo, State
+from fleet_common.execution.events import FOLLOW
 
 __all__ = ["Ticker", "STALL_AFTER", "WAIT_AFTER"]
 
@@ -135,7 +138,9 @@ class Ticker:
                 seen.wait, seen.wait_since, seen.wait_told = on, at, False
             if on and running and not seen.wait_told and at - seen.wait_since >= wait_after:
                 seen.wait_told = True
-                waits.append("robot {} waits for {}".format(r.id, _robots(on)))
+                # a follower held at its hold point stops short behind its leader: say what is seen
+                verb = "stops behind" if r.waiting is not None and r.waiting.reason == FOLLOW else "waits for"
+                waits.append("robot {} {} {}".format(r.id, verb, _robots(on)))
             # taken out and back in, by the operator or a fault
             if r.out != seen.out:
                 if r.out == "disabled":
@@ -156,14 +161,23 @@ class Ticker:
 
     def notice(self, notice: Notice) -> List[str]:
         """The manager's notices a visitor should read: replans, a new strategy, a robot that
-        goes before a late one."""
+        goes before a late one, robots rerouted round a late one and the reroute mode."""
         if notice.kind == "plan" and notice.text.startswith("replanned"):
             return [notice.text.split(":")[0]]
         if notice.kind == "strategy" and " -> " in notice.text:
             return ["strategy now {}".format(notice.text.rsplit(" -> ", 1)[1].split(" (")[0])]
         if notice.kind == "pass":
             return [notice.text.split(" at ")[0]]
+        if notice.kind == "reroute":  # the mode switched, or robots given new paths (not proposals)
+            if notice.text.startswith("reroute switched: "):
+                return ["rerouting now {}".format(notice.text.rsplit(" -> ", 1)[1].split(" (")[0])]
+            if notice.text.startswith("robot") and " rerouted" in notice.text:  # made, not proposed
+                return [_SOONER.sub("", notice.text)]
         return []
+
+
+#: The tail of a reroute's line a visitor need not read ("; 9 steps sooner").
+_SOONER = re.compile(r"[:;] \d+ steps? sooner$")
 
 
 def _few(lines: List[str], what: str) -> List[str]:

@@ -1,8 +1,8 @@
 """AdminPanel: the operator's controls on the left of the live console (thesis fig. 5.5).
 
 Top to bottom: the connection to the manager (in red when it is lost), the
-run (state, clock, arrivals), the run buttons, the strategy and position
-source selectors, the manager's last answer, and the robot list: id in the
+run (state, clock, arrivals), the run buttons, the strategy, reroute mode
+(off, propose, auto) and position source selectors, the manager's last answer, and the robot list: id in the
 robot's colour, link, pose source and age, an enabled box, the current
 action, whom it waits for. Greyed robots stay in the list, greyed, with why.
 
@@ -21,6 +21,7 @@ from tkinter import ttk
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 from fleet_common.control import RUN_ACTIONS, RunInfo
+from fleet_common.execution.reroute import MODES as REROUTE_MODES
 
 from ..live.describe import RobotRow
 from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
@@ -117,12 +118,19 @@ class AdminPanel(ttk.Frame):
         spin = ttk.Spinbox(box, from_=1, to=20, width=3, textvariable=self.lookahead, takefocus=0,
                            command=self._strategy)
         spin.grid(row=0, column=3, sticky=tk.W, padx=4)
-        ttk.Label(box, text="positions").grid(row=1, column=0, sticky=tk.W, pady=(4, 0))
+        ttk.Label(box, text="reroute").grid(row=1, column=0, sticky=tk.W, pady=(4, 0))
+        self.reroute = tk.StringVar(self, value="off")
+        self.reroute_box = ttk.Combobox(box, textvariable=self.reroute, state="readonly", width=8,
+                                        takefocus=0, values=list(REROUTE_MODES))
+        self.reroute_box.grid(row=1, column=1, sticky=tk.W, padx=4, pady=(4, 0))
+        self.reroute_box.bind("<<ComboboxSelected>>", lambda e: self._reroute())
+        row = 2
+        ttk.Label(box, text="positions").grid(row=row, column=0, sticky=tk.W, pady=(4, 0))
         self.source = tk.StringVar(self, value="robot")
         for k, (text, value) in enumerate((("Robot", "robot"), ("Vicon", "vicon"))):
             ttk.Radiobutton(box, text=text, value=value, variable=self.source, takefocus=0,
                             command=lambda: self.on_action("source", source=self.source.get())).grid(
-                row=1, column=1 + k, sticky=tk.W, pady=(4, 0))
+                row=row, column=1 + k, sticky=tk.W, pady=(4, 0))
 
     def _build_list(self) -> None:
         ttk.Label(self, text="Robots (click the box to enable / disable)", font=FONT).pack(anchor=tk.W)
@@ -180,6 +188,8 @@ class AdminPanel(ttk.Frame):
         try:
             if self.strategy.get() != run.strategy:
                 self.strategy.set(run.strategy)
+            if self.reroute.get() != run.reroute:
+                self.reroute.set(run.reroute)
             # Tk's own name of the focus: focus_get() raises KeyError while a menu or a drop-down
             # list has the focus (Tk's clones of them are no tkinter widgets), which froze this panel
             if not str(self.tk.call("focus")).endswith("spinbox"):
@@ -258,6 +268,10 @@ class AdminPanel(ttk.Frame):
             except ValueError:
                 pass
         self.on_action("strategy", **args)
+
+    def _reroute(self) -> None:
+        if not self._writing and self.reroute.get():
+            self.on_action("reroute", mode=self.reroute.get())
 
     def _clicked(self, event: "tk.Event[ttk.Treeview]") -> None:
         iid = self.tree.identify_row(event.y)

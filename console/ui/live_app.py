@@ -297,8 +297,15 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
                      "arrived {}/{}".format(run.arrived, run.robots),
                      "strategy {}".format(run.strategy + (" (lookahead {})".format(run.lookahead)
                                                           if run.strategy == "adg" else ""))]
-            if self.model.proposal is not None:
-                parts.insert(0, "REPLAN PROPOSAL {} (dashed): accept or reject".format(self.model.proposal.id))
+            proposal = self.model.proposal
+            # the line says who goes round whom; what to do comes first, as a long line is cut at its end
+            if proposal is not None and proposal.kind == "reroute":
+                parts.insert(0, "REROUTE PROPOSAL {} (dashed; accept or reject): {}".format(
+                    proposal.id, proposal.message))
+            elif proposal is not None:
+                parts.insert(0, "REPLAN PROPOSAL {} (dashed): accept or reject".format(proposal.id))
+            if run.reroute != "off":
+                parts.append("reroute {}".format(run.reroute))
             status = SEPARATOR.join(parts)
         self.header.set_status(status, self.scene.makespan)
 

@@ -68,6 +68,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="the console switches the run to STRATEGY once a robot waits for the stalled "
                            "one, as an operator would; the automatic stall is then one STRATEGY can get "
                            "around (e.g. reorder: the waiting robot goes first)")
+    live.add_argument("--reroute", choices=("off", "propose", "auto"), default="off",
+                      help="the manager's reroute mode: robots a late robot holds up get new paths "
+                           "(auto) or are proposed them in the console (propose); default off")
     live.add_argument("--headless", action="store_true",
                       help="no window even with a display: a private Xvfb, frames recorded")
     live.add_argument("--record", action="store_true",
@@ -166,7 +169,7 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
         raise FleetError("--switch {}: expected one of {}".format(args.switch, ", ".join(sorted(STRATEGIES))))
     settings = DemoSettings(log_dir=args.log, time_scale=args.time_scale,
                             seed=args.seed, stall=args.stall, headless=args.headless,
-                            record=args.record, linger=args.linger, switch=args.switch)
+                            record=args.record, linger=args.linger, switch=args.switch, reroute=args.reroute)
     if args.fleet_delays is not None:
         settings.delay_model = args.fleet_delays
     with tempfile.TemporaryDirectory(prefix="fleetcontrol-plan-") as folder:

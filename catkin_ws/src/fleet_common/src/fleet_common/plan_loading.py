@@ -27,7 +27,7 @@ from .planning.repair import RepairError, repair_rotations
 from .robots import RobotDefinition
 from .validate import Report, validate_plan
 
-__all__ = ["LoadedPlan", "PlanLoadError", "InvalidPlan", "load_plan", "from_solution", "from_instance",
+__all__ = ["LoadedPlan", "PlanLoadError", "InvalidPlan", "load_plan", "fit_fleet", "from_solution", "from_instance",
            "solve_instance", "check_solved", "check_valid", "file_coordinates", "pick_robots",
            "CBS_MAX_AGENTS"]
 
@@ -158,10 +158,15 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
         loaded = from_solution(problem, name, repair)
     else:
         loaded = from_instance(problem, name, solver, time_limit, seed)
+    return fit_fleet(loaded, fleet_size, fleet_name)
+
+
+def fit_fleet(loaded: LoadedPlan, fleet_size: int, fleet_name: str) -> LoadedPlan:
+    """`loaded`, if it has as many agents as the fleet (`fleet_name`) has robots."""
     if loaded.agents != fleet_size:
         raise PlanLoadError("{} has {} agents but {} has {} robots; plan agent i runs on the "
                             "i-th robot, so the counts must match (choose robots with --robots)".format(
-                                name, loaded.agents, fleet_name, fleet_size))
+                                loaded.name, loaded.agents, fleet_name, fleet_size))
     return loaded
 
 

@@ -11,6 +11,8 @@ values, each with the time (seconds since the manager started):
     vicon(fixes, now)             Vicon's poses
     console_frame(peer, data, now)  bytes from a console (hello, request, ...)
     plan_ready(job, result, error, now)  the outcome of a PlanJob
+    load_ready(job, loaded, error, now)  the outcome of a LoadJob (an instance to load, solved)
+    reroute_ready(job, found, error, now)  the outcome of a RerouteJob (`rerouting`)
     tick(now), publish(now), log_poses(now)  what is due with time
 
 and everything it decides comes out of `take()` as effects, in order
@@ -31,6 +33,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
+from fleet_common.execution.reroute import Reroute
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
@@ -42,15 +45,16 @@ from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
-from .outbox import Effect, Outbox
+from .outbox import Effect, Outbox, REROUTE
 from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, walled
+from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import RESUMING, Fleet, Seen
 from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
-from .state_view import build_state, proposal, robot_waits
+from .state_view import build_state, proposal, reroute_proposal, robot_waits
 from .vicon_watch import ViconWatch
 
 __all__ = ["RunCore"]
@@ -136,6 +140,10 @@ class RunCore:
                 pending = self.run.replanner.pending
                 if self.run.replanner.proposal_id is not None and pending is not None:
                     self.out.frames(self.desk.to(intake.joined, proposal(pending, self.fleet, self.run.loaded.name)))
+                rerouted = self.run.rerouting.pending
+                if rerouted is not None:
+                    self.out.frames(self.desk.to(intake.joined, reroute_proposal(
+                        rerouted[0], rerouted[1], self.fleet, self.run.loaded.name)))
             self._state_to(now, peer)
         if intake.request is not None:
             console = self.desk.consoles.get(peer)
@@ -182,6 +190,7 @@ class RunCore:
             here = run.positions()
             grid = _without(walled(run.grid, run.engine, self.fleet.robots, here, out), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
+        self._reroute_tick(now)
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
             if run.purpose == PLAN:
                 self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
@@ -272,6 +281,75 @@ class RunCore:
         elif replanner.was_running and self.run.phase.refusal("resume") is None:
             operator.resume(self.run, now, "resume")
 
+    def load_ready(self, job_id: int, loaded: Optional[LoadedPlan], error: Optional[str], now: float) -> None:
+        """The outcome of a LoadJob: the plan of an instance a console asked to load (loaded now if
+        the run still may), or why it could not be solved; every console is told."""
+        self._at(now)
+        if self.run.loading is None or self.run.loading[0] != job_id:
+            return
+        _, text = operator.solved(self.run, loaded, error, now)  # a plan loaded opens its own run folder
+        self.out.tell("plan", None, text)
+        self.out.desk.bump(text)
+        self.news = True
+        self._state_to(now, None, at_once=True)
+        self.publish(now)
+
+    # ---- rerouting (`rerouting`) ----------------------------------------------------------
+
+    def _reroute_tick(self, now: float) -> None:
+        """A look for a reroute when one is due; a proposal dropped when it went stale."""
+        run, rerouting = self.run, self.run.rerouting
+        pending = rerouting.pending
+        if pending is not None:
+            moved = moved_since(run.engine, pending[1])
+            if moved:
+                self._drop_proposal("reroute {} dropped: {} since it was proposed".format(
+                    pending[0], moved_words(moved, self.fleet.ids)))
+        if (run.phase.phase == RUNNING and run.purpose == PLAN and not run.replanner.open
+                and run.resuming is None and rerouting.due(run.engine, now)):
+            self.out.add(rerouting.ask(run.engine, now))
+
+    def _drop_proposal(self, why: str) -> None:
+        self.run.rerouting.resolved()
+        self.run.rerouting.dropped += 1
+        self.out.record("reroute_dropped", reason=why)
+        self.out.tell(REROUTE, None, why)
+        self.out.desk.bump(why)
+        self.news = True
+
+    def reroute_ready(self, job_id: int, found: Optional[Reroute], error: Optional[str], now: float) -> None:
+        """The outcome of a RerouteJob: a reroute that pays (None: none does), or why the look
+        raised. Auto mode hands over at once; propose mode proposes it."""
+        self._at(now)
+        run, rerouting = self.run, self.run.rerouting
+        if not rerouting.finished(job_id, run.engine):
+            return  # a look given up (mode off) or of a plan no longer run
+        if error is not None:
+            self.out.record("reroute_dropped", reason="the look failed: " + error)
+            self.out.tell(REROUTE, None, "reroute look failed: {}".format(error))
+            return
+        if (found is None or rerouting.mode == "off" or run.phase.phase != RUNNING or run.engine.paused
+                or run.replanner.open):
+            return
+        rerouting.found += 1
+        if rerouting.mode == "auto":
+            self.hand_over(found, now)
+            return
+        pid = rerouting.propose(found)
+        text = found.describe(lambda a: self.fleet.ids[a])
+        self.out.record("reroute_proposed", proposal=pid, robots=[self.fleet.ids[a] for a in found.agents],
+                        text=text)
+        self.out.tell(REROUTE, None, "reroute {} proposed: {}".format(pid, text))
+        self.out.desk.bump("reroute {} proposed".format(pid))
+        self.out.broadcast(reroute_proposal(pid, found, self.fleet, run.loaded.name))
+        self.news = True
+
+    def hand_over(self, found: Reroute, now: float) -> None:
+        """Run `found`'s plan from now (auto mode), or drop it with one line if it no longer fits."""
+        if self.run.reroute(found, now) is None:
+            self.news = True
+            self.publish(now)
+
     def waits(self) -> Dict[int, Waiting]:
         return robot_waits(self.run.engine, self.fleet, self.run.driver.following)
 
@@ -280,14 +358,15 @@ class RunCore:
         run = self.run
         return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
                            run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
-                           self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now))
+                           self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now),
+                           run.rerouting.mode, run.rerouting.proposal_id)
 
     def _allowed_now(self, now: float) -> Tuple[str, ...]:
         """What the manager would carry out now: again when anything decisive changed, else at
         most every ALLOWED_EVERY seconds (where 300 standing robots are costs milliseconds)."""
         run = self.run
         key = (self.desk.version, run.phase.phase, run.purpose, run.to_starts_job, run.replanner.state,
-               run.driver.moving)
+               run.driver.moving, run.rerouting.proposal_id)
         last = self._allowed
         if last is None or last[0] != key or now - last[1] >= ALLOWED_EVERY:
             self._allowed = (key, now, operator.allowed(run, now))
@@ -411,10 +490,12 @@ def request_words(action: str, args: Dict) -> str:
                                       else " (lookahead {})".format(args["lookahead"]))
     if action == "load":
         return "load {}".format(args.get("path") or args.get("name"))
-    if action in ("accept", "reject"):
-        return "{} replan {}".format(action, args.get("proposal"))
+    if action in ("accept", "reject"):  # a replan's or a reroute's: proposals share one numbering
+        return "{} proposal {}".format(action, args.get("proposal"))
     if action == "to_starts":
         return "go to starts"
+    if action == "reroute":
+        return "reroute {}".format(args.get("mode"))
     return action
 
 

@@ -44,7 +44,7 @@ from collections import deque
 from typing import Callable, Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
-from fleet_common.execution import (ActionCompleted, ActionStarted, Enabled, Engine,
+from fleet_common.execution import (ActionCompleted, ActionStarted, Dispatch, Enabled, Engine,
                                     EventError, Pass, RobotFailed)
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
@@ -95,13 +95,7 @@ class Driver:
         if len(run.passes) > passes:
             self._passed(run.passes[passes:])
         released = getattr(event, "agent", None) if isinstance(event, (ActionCompleted, Enabled)) else None
-        for d in dispatches:
-            robot = self.robots[d.agent]
-            robot.queue.append(d)
-            waited = waits.pop(d.agent, 0.0)  # a robot sent two actions at once waited once
-            self.out.record("dispatch", robot=robot.id, index=d.index, step=d.step, src=d.src,
-                            dst=d.dst, waited=round(waited, 3), forced=round(forced.pop(d.agent, 0.0), 3),
-                            released_by=None if released is None else self.robots[released].id)
+        self._queue(dispatches, released)
         if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed)):
             # progress frees only the robots dispatched now (and the robot itself, for its next turn)
             targets: Sequence[int] = sorted({d.agent for d in dispatches} | (
@@ -110,6 +104,43 @@ class Driver:
             targets = range(run.num_agents)
         for agent in targets:
             self.pump(self.robots[agent], now)
+
+    def _queue(self, dispatches: Sequence[Dispatch], released: Optional[int]) -> None:
+        """The engine's decisions into the robots' queues (and the run log)."""
+        waits, forced = self.engine.metrics.last_wait, self.engine.metrics.last_forced
+        for d in dispatches:
+            robot = self.robots[d.agent]
+            robot.queue.append(d)
+            waited = waits.pop(d.agent, 0.0)  # a robot sent two actions at once waited once
+            self.out.record("dispatch", robot=robot.id, index=d.index, step=d.step, src=d.src,
+                            dst=d.dst, waited=round(waited, 3), forced=round(forced.pop(d.agent, 0.0), 3),
+                            released_by=None if released is None else self.robots[released].id)
+
+    def hand_over(self, engine: Engine, base: Sequence[int], dispatches: Sequence[Dispatch],
+                  now: float) -> None:
+        """Go on with `engine`, a reroute's (`handover`), whose plan starts robot r with its move
+        `base[r]` of the old plan: what the robots were sent is renumbered (nothing is sent
+        again), the followers keep their leaders, then the engine's decisions now."""
+        self.engine = engine
+        self.following.engine = engine
+        run = engine.run
+
+        def moved(d: Dispatch) -> Dispatch:
+            k = d.index - base[d.agent]
+            a = run.first[d.agent] + k
+            lead = engine.early.get(a)
+            return d._replace(index=k, step=run.step[a], follows=None if lead is None else (
+                run.agent[lead], lead - run.first[run.agent[lead]]))
+        for robot in self.robots:
+            robot.queue = deque(moved(d) for d in robot.queue)
+            flight = robot.flight
+            if flight is not None and flight.index is not None:
+                shifted = flight.index - base[robot.agent]
+                # a turn towards an old plan's move beyond the new plan's is a turn for nothing
+                flight.index = shifted if 0 <= shifted < run.count(robot.agent) else None
+        self._queue(dispatches, None)
+        for robot in self.robots:
+            self.pump(robot, now)
 
     def _passed(self, passes: Sequence[Pass]) -> None:
         """A re-ordering strategy changed who goes first at cells: record it, tell the operator."""

@@ -5,7 +5,7 @@ cell, and on Start executes the plan under the chosen synchronization
 strategy, feeding the robots' acknowledgements and completions into the
 execution engine. Consoles connect to --bind (state stream 20 times a
 second, commands: start, pause, stop, step, halt, strategy, enable/disable,
-position source, load, replan). With --vicon, Vicon Tracker's stream is a
+position source, reroute mode, load, replan). With --vicon, Vicon Tracker's stream is a
 second position source, compared with the robots' own. Every run leaves a
 run folder; --resume RUNDIR continues the run of a manager that died there.
 """
@@ -34,6 +34,7 @@ LAST = "last"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from fleet_common.execution import STRATEGIES
+    from fleet_common.execution.reroute import MODES as REROUTE_MODES
     from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
 
     parser.add_argument("plan", type=Path, metavar="PLAN", nargs="?", default=None,
@@ -58,6 +59,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(127.0.0.1 for `fleetctl virtual-fleet`)")
     parser.add_argument("--strategy", choices=list(STRATEGIES), default="adg",
                         help="synchronization strategy (default adg; switchable from a console)")
+    parser.add_argument("--reroute", choices=list(REROUTE_MODES), default="off",
+                        help="reroute robots a late robot holds up when it pays: off (default), "
+                             "propose (the consoles show the new paths; accept or reject) or auto "
+                             "(at once, the run going on); switchable from a console")
     parser.add_argument("--lookahead", type=count, default=1, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
@@ -177,14 +182,15 @@ def run(args: argparse.Namespace) -> int:
         state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
         vicon_bind=args.vicon_bind, frames=args.frames, plan_dirs=list(args.plans),
-        size=args.robot_size or read_robot_size(definitions), accept=args.accept)
+        size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=args.reroute)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host, resume=resume)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, _frame: stopping.append(signal.Signals(signum).name))
-    print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}; consoles on {} ({}){}".format(
+    print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}{}; consoles on {} ({}){}".format(
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
-        loaded.plan.makespan, manager.core.run.engine.strategy.describe(), manager.consoles.endpoint,
+        loaded.plan.makespan, manager.core.run.engine.strategy.describe(),
+        "" if args.reroute == "off" else ", reroute " + args.reroute, manager.consoles.endpoint,
         ("CURVE" if keys is not None else "no CURVE") + (
             "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),

@@ -9,8 +9,8 @@ the robots' pose streams (every 50 ms), publish the state (soon after news,
 at most 50 times a second, and 20 times a second without), log poses (10 Hz).
 After each input the core's effects are carried out (`_apply`): commands to
 the robots' links, records to the run folder, frames to consoles, lines to
-the terminal, replanning to a worker thread whose result comes back on the
-next turn. A batch's run-log records are written before its commands leave,
+the terminal, replanning and looks for reroutes to worker threads whose
+results come back on a later turn. A batch's run-log records are written before its commands leave,
 so that a command the robots may run is always in the folder a manager
 started again on it reads (`resume.py`); such a manager takes the old one's
 epoch and clock from the folder and appends to it.
@@ -45,7 +45,10 @@ from fleet_common.transport.zap import ZapHandler
 from fleet_common.vicon.base_grid import load_vicon_to_base
 
 from .core import RunCore
-from .outbox import Effect, NewRunFolder, PlanJob, Record, ResumeRunFolder, Say, Send, ToConsole, WriteFile
+from .outbox import (Effect, LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, ResumeRunFolder, Say, Send,
+                     ToConsole, WriteFile)
+from .plan_requests import solve_requested
+from .rerouting import look
 from .resume import ResumePoint
 from .settings import ManagerSettings
 from .vicon_provider import ViconProvider
@@ -74,7 +77,8 @@ class Manager:
         self.epoch = (resume[0].epoch if resume is not None else None) or secrets.token_hex(8)
         self.context = fleet_context(len(robots))
         self.vicon: Optional[ViconProvider] = None
-        self._plans: "queue.Queue[Tuple[int, object, Optional[str]]]" = queue.Queue()
+        #: work done off the loop: (the core's input for its outcome, job id, result, error)
+        self._done: "queue.Queue[Tuple[Callable[..., None], int, object, Optional[str]]]" = queue.Queue()
         try:
             self.zap = ZapHandler(self.context, self.log, clock) if keys is not None else None
             # bind before connecting: the links' outgoing connections take ephemeral ports
@@ -160,9 +164,9 @@ class Manager:
         self._apply(self.core.take())
 
     def _timers(self, now: float) -> None:
-        while not self._plans.empty():
-            job, result, error = self._plans.get()
-            self.core.plan_ready(job, result, error, now)  # type: ignore[arg-type]
+        while not self._done.empty():
+            ready, job, result, error = self._done.get()
+            ready(job, result, error, now)
         self.core.tick(now)
         self._apply(self.core.take())
         if self.core.news:  # a change the consoles have not been sent yet
@@ -245,7 +249,13 @@ class Manager:
             elif isinstance(effect, Say):
                 self.say(effect.text)
             elif isinstance(effect, PlanJob):
-                self._plan(effect)
+                self._off_loop("replan", effect.id, self.core.plan_ready, lambda job=effect: replan(
+                    job.grid, job.current, job.goals, job.out, deadline=job.time_limit, method=job.method))
+            elif isinstance(effect, RerouteJob):  # on the job's own snapshot of the engine
+                self._off_loop("reroute", effect.id, self.core.reroute_ready, lambda job=effect: look(job))
+            elif isinstance(effect, LoadJob):
+                self._off_loop("solve", effect.id, self.core.load_ready,
+                               lambda job=effect: solve_requested(job.requested))
             elif isinstance(effect, NewRunFolder):
                 self._new_folder(effect.plan_text)
             elif isinstance(effect, ResumeRunFolder):
@@ -283,16 +293,16 @@ class Manager:
         self.runlog = RunLog(folder, clock=self.clock)
         self.runlog.start = self.t0
 
-    def _plan(self, job: PlanJob) -> None:
-        def work() -> None:
+    def _off_loop(self, name: str, job_id: int, ready: Callable[..., None], work: Callable[[], object]) -> None:
+        """`work` in a worker thread while the loop goes on; its outcome comes back on a later turn
+        as the core's input `ready` (job id, result, error)."""
+        def run() -> None:
             try:
-                result = replan(job.grid, job.current, job.goals, job.out, deadline=job.time_limit,
-                                method=job.method)
-                self._plans.put((job.id, result, None))
-            except Exception as err:  # a planning failure must not kill the manager
-                self._plans.put((job.id, None, "{}: {}".format(type(err).__name__, err)))
+                self._done.put((ready, job_id, work(), None))
+            except Exception as err:  # a failing job must not kill the manager
+                self._done.put((ready, job_id, None, "{}: {}".format(type(err).__name__, err)))
 
-        threading.Thread(target=work, name="replan", daemon=True).start()
+        threading.Thread(target=run, name=name, daemon=True).start()
 
     def start(self) -> Tuple[bool, str]:
         """Start the run as a console's Start would (--start)."""

@@ -13,9 +13,12 @@ hold both cells and finish the move when started again); `stop` sends
 nothing new and lets robots finish the move they are making; `to_starts`
 sends the robots from where they stand to the plan's starts (a run of its
 own, planned first), `reset` starts the plan over in a new run folder, the
-robots driving back to their starts first. Strategy switches, enabling and
-disabling robots, and the position source apply at once, whatever the phase
-(a robot enabled after the end of the run drives on: a new leg).
+robots driving back to their starts first. Strategy switches, the reroute
+mode, enabling and disabling robots, and the position source apply at once,
+whatever the phase (a robot enabled after the end of the run drives on: a new
+leg). `accept` and `reject` answer a replan's proposal or a reroute's
+(`rerouting`: accepted, it is handed over at once if the robots it reroutes
+have not moved since; the run never paused for it).
 
 Each run action without arguments has its refusal written once (`why_not`),
 so that the State can say which of them the manager would carry out now
@@ -29,14 +32,18 @@ from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
+from fleet_common.execution.reroute import MODES as REROUTE_MODES
+from fleet_common.grid import Grid
 from fleet_common.limits import one_line
+from fleet_common.plan_loading import LoadedPlan
 
-from .plan_requests import load_requested
+from .outbox import REROUTE, LoadJob
+from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "allowed", "why_not", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "why_not", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
@@ -88,6 +95,8 @@ def _busy(run: Run) -> Optional[str]:
         return _REPLAN_OPEN
     if run.to_starts_job is not None:
         return _TO_STARTS_BUSY
+    if run.loading is not None:
+        return "{} is being solved to be loaded; wait for it".format(run.loading[1])
     return None
 
 
@@ -249,6 +258,25 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
     return True, ""
 
 
+def reroute(run: Run, args: Args, now: float) -> Answer:
+    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once)."""
+    mode = args["mode"]
+    if mode not in REROUTE_MODES:
+        return False, "unknown reroute mode {!r}; modes: {}".format(mode, ", ".join(REROUTE_MODES))
+    rerouting = run.rerouting
+    old = rerouting.mode
+    if mode == old:
+        return True, "rerouting is {} already".format(mode)
+    dropped = rerouting.proposal_id if mode != "propose" else None
+    rerouting.set_mode(mode)
+    run.settings.reroute = mode
+    run.out.record("reroute_mode", mode=mode, by="operator")
+    run.out.desk.bump("reroute {} -> {}".format(old, mode))
+    run.out.tell(REROUTE, None, "reroute switched: {} -> {}{}".format(
+        old, mode, "" if dropped is None else " (reroute {} dropped)".format(dropped)))
+    return True, ""
+
+
 def _robot(run: Run, robot_id: int) -> Optional[Robot]:
     return run.fleet.by_id.get(robot_id)
 
@@ -301,23 +329,60 @@ def source(run: Run, args: Args, now: float) -> Answer:
 # ---- plans --------------------------------------------------------------------------------
 
 def load(run: Run, args: Args, now: float) -> Answer:
-    refusal = run.phase.refusal("load") or _busy(run)
-    if refusal is None and run.driver.moving:
-        refusal = "load another plan when no robot moves"
+    refusal = _load_refusal(run)
     if refusal:
         return False, refusal
     try:
-        loaded = load_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
+        loaded = read_requested(run.settings.plan_dirs, run.settings.map_dirs, len(run.fleet),
                                 args["path"], args["text"], args["name"])
     except FleetError as err:
         return False, "cannot load: {}".format(one_line(str(err), 400))
-    if loaded.grid != run.fleet_map:
-        fleet, mine = run.fleet_map, loaded.grid
-        return False, "cannot load {}: it is a plan for map {} ({} x {}); this fleet runs on {} ({} x {})".format(
-            loaded.name, mine.name or "?", mine.width, mine.height, fleet.name or "?", fleet.width, fleet.height)
+    grid = loaded.instance.grid if isinstance(loaded, Requested) else loaded.grid
+    refusal = _other_map(run, loaded.name, grid)
+    if refusal:
+        return False, refusal
+    if isinstance(loaded, Requested):  # solved off the loop: the robots and consoles are served meanwhile
+        job = LoadJob(next(run.job_ids), loaded)
+        run.loading = (job.id, loaded.name)
+        run.out.add(job)
+        run.out.desk.bump("solving {}".format(loaded.name))
+        return True, "{} is an instance: solving it (at most {:g} s); it is loaded when solved".format(
+            loaded.name, SOLVE_LIMIT)
+    return True, _load(run, loaded, now)
+
+
+def solved(run: Run, loaded: Optional[LoadedPlan], error: Optional[str], now: float) -> Tuple[bool, str]:
+    """The instance being loaded (`run.loading`) was solved, or not (`error`): load its plan if the
+    run still may, and say what happened."""
+    name = run.loading[1] if run.loading is not None else "?"
+    run.loading = None
+    if error is not None or loaded is None:
+        return False, "cannot load {}: {}".format(name, one_line(error or "no plan", 400))
+    refusal = _load_refusal(run)
+    if refusal:
+        return False, "{} was solved but not loaded: {}".format(name, refusal)
+    return True, _load(run, loaded, now)
+
+
+def _load_refusal(run: Run) -> Optional[str]:
+    refusal = run.phase.refusal("load") or _busy(run)
+    if refusal is None and run.driver.moving:
+        refusal = "load another plan when no robot moves"
+    return refusal
+
+
+def _other_map(run: Run, name: str, mine: Grid) -> Optional[str]:
+    if mine == run.fleet_map:
+        return None
+    fleet = run.fleet_map
+    return "cannot load {}: it is a plan for map {} ({} x {}); this fleet runs on {} ({} x {})".format(
+        name, mine.name or "?", mine.width, mine.height, fleet.name or "?", fleet.width, fleet.height)
+
+
+def _load(run: Run, loaded: LoadedPlan, now: float) -> str:
     run.load(loaded, now)
     where = "" if run.on_target_starts() else "; the robots are not on its starts: Go to starts drives them there"
-    return True, "{} loaded ({}){}".format(loaded.name, loaded.note, where)
+    return "{} loaded ({}){}".format(loaded.name, loaded.note, where)
 
 
 def replan(run: Run, args: Args, now: float) -> Answer:
@@ -334,7 +399,27 @@ def replan(run: Run, args: Args, now: float) -> Answer:
     return True, "replanning; the proposal follows"
 
 
+def _answer_reroute(run: Run, args: Args, now: float, take: bool) -> Answer:
+    """accept (hand over now, if the robots have not moved since) or reject a reroute proposal."""
+    pid, found = run.rerouting.pending  # type: ignore[misc]
+    run.rerouting.resolved()
+    if not take:
+        run.rerouting.rejected(run.engine, now)
+        run.out.desk.bump("reroute {} rejected".format(pid))
+        return True, "kept plan {}".format(run.plan_id)
+    if run.phase.phase != RUNNING:
+        run.out.desk.bump("reroute {} dropped".format(pid))
+        return False, "the reroute is for a running run (the run is {}); it is dropped".format(run.phase.phase)
+    why = run.reroute(found, now)
+    if why is not None:
+        run.out.desk.bump("reroute {} dropped".format(pid))
+        return False, why + "; it is dropped"
+    return True, "switched to plan {}".format(run.plan_id)
+
+
 def accept(run: Run, args: Args, now: float) -> Answer:
+    if run.rerouting.proposal_id is not None and run.rerouting.proposal_id == args["proposal"]:
+        return _answer_reroute(run, args, now, True)
     pending = run.replanner.pending
     if run.replanner.proposal_id is None or pending is None or pending.id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
@@ -350,6 +435,8 @@ def accept(run: Run, args: Args, now: float) -> Answer:
 
 
 def reject(run: Run, args: Args, now: float) -> Answer:
+    if run.rerouting.proposal_id is not None and run.rerouting.proposal_id == args["proposal"]:
+        return _answer_reroute(run, args, now, False)
     if run.replanner.proposal_id is None or run.replanner.proposal_id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
     run.replanner.resolved()
@@ -371,7 +458,9 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "halt": lambda run: run.phase.refusal("halt"),
     "replan": lambda run: run.phase.refusal("replan") or (
         "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
-        "a replan is already being made or awaits accept/reject" if run.replanner.open else None),
+        "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
+        "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
+        else None),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):
@@ -381,7 +470,7 @@ if set(_WHY_NOT) != set(RUN_ACTIONS):
 ACTIONS: Dict[str, Callable[[Run, Args, float], Answer]] = {
     "start": start, "pause": pause, "stop": stop, "step": step, "halt": halt,
     "to_starts": to_starts, "reset": reset,
-    "strategy": strategy, "enable": enable, "disable": disable, "source": source,
+    "strategy": strategy, "reroute": reroute, "enable": enable, "disable": disable, "source": source,
     "load": load, "replan": replan, "accept": accept, "reject": reject,
 }
 if set(ACTIONS) != set(CONSOLE_ACTIONS):  # the protocol's table is the one list of actions

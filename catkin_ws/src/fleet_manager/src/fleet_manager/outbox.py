@@ -11,6 +11,9 @@ out in order:
 - `ToConsole`: an encoded frame for one console (States, answers, notices);
 - `Say`: a line for the manager's terminal;
 - `PlanJob`: planning to run off the loop (its result comes back as an input);
+- `RerouteJob`: a look for a reroute to run off the loop (`rerouting`; likewise);
+- `LoadJob`: an instance a console asked to load, solved off the loop (`plan_requests`;
+  its plan comes back as a PlanJob's does);
 - `NewRunFolder`: close the run folder (if one is open) and open a new one
   with the plan in it (the run began, or a new plan was loaded); the records
   after it go there. Its first record, `run`, leaves `started` (the wall
@@ -31,11 +34,16 @@ from fleet_common.grid import Coord, Grid
 from fleet_common.runlog.summary import SummaryBuilder
 from fleet_common.wire import Command
 
-__all__ = ["Outbox", "Send", "Record", "ToConsole", "Say", "PlanJob", "NewRunFolder", "ResumeRunFolder",
-           "WriteFile", "Effect"]
+from .plan_requests import Requested
+from .rerouting import RerouteJob
+
+__all__ = ["Outbox", "Send", "Record", "ToConsole", "Say", "PlanJob", "LoadJob", "RerouteJob", "NewRunFolder",
+           "ResumeRunFolder", "WriteFile", "Effect"]
 
 #: Console notice kinds also printed on the manager's terminal.
-SAID = ("fault", "link", "run", "plan", "strategy", "operator", "vicon")
+SAID = ("fault", "link", "run", "plan", "strategy", "operator", "vicon", "reroute")
+#: The notice kind of rerouting: the mode switched, a reroute made, proposed or dropped.
+REROUTE = "reroute"
 #: Notice kinds that change what a decision about the robot rests on (the desk's version).
 BUMPED = ("link", "fault", "run", "plan")
 
@@ -72,6 +80,13 @@ class PlanJob(NamedTuple):
     method: str
 
 
+class LoadJob(NamedTuple):
+    """Solve `requested`, an instance a console asked to load (see `plan_requests`)."""
+
+    id: int
+    requested: Requested
+
+
 class NewRunFolder(NamedTuple):
     plan_text: str      # written as plan-1.txt
 
@@ -85,7 +100,7 @@ class WriteFile(NamedTuple):
     text: str
 
 
-Effect = Union[Send, Record, ToConsole, Say, PlanJob, NewRunFolder, ResumeRunFolder, WriteFile]
+Effect = Union[Send, Record, ToConsole, Say, PlanJob, LoadJob, RerouteJob, NewRunFolder, ResumeRunFolder, WriteFile]
 
 
 class Outbox:

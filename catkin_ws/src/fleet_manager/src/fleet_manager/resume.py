@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Set, Tuple
 
+from fleet_common.errors import FleetError
 from fleet_common.grid import Coord, Grid
 from fleet_common.runlog.reader import RunFolder
 from fleet_common.runlog.records import plan_file
@@ -122,6 +123,13 @@ def read_resume(run: RunFolder) -> ResumePoint:
         kind = r.get("k")
         point.last_t = max(point.last_t, _number(r.get("t")))
         robot = r.get("robot")
+        if kind == "plan" and r.get("reason") == "reroute":
+            # its robots were handed over mid-move (the moves in flight are the new plan's first,
+            # some done already): what restarting from its records would need is not built
+            raise FleetError("cannot resume {}: the run was rerouted at {:.1f} s ({}), with robots "
+                             "mid-move; resume takes over runs whose plan changed at a safe point only: "
+                             "Go to starts and run the plan again".format(
+                                 run.folder, _number(r.get("t")), r.get("file")))
         if kind == "plan" and r.get("reason") != "loaded":
             point.plan = str(r.get("file") or point.plan)
             point.completed.clear()

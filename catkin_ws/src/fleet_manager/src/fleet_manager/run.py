@@ -28,7 +28,9 @@ from typing import Dict, List, Optional, Sequence, Set, Tuple
 from fleet_common.control import RunSetup
 from fleet_common.errors import FleetError
 from fleet_common.execution import Disabled, Engine, EventError, Resume, RobotFailed
+from fleet_common.execution.handover import HandoverError, hand_over
 from fleet_common.execution.reorder import replay as replay_passes
+from fleet_common.execution.reroute import Reroute
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -39,8 +41,9 @@ from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
 from .following import Following
-from .outbox import NewRunFolder, Outbox, PlanJob, ResumeRunFolder, WriteFile
+from .outbox import NewRunFolder, Outbox, PlanJob, REROUTE, ResumeRunFolder, WriteFile
 from .replanning import Replanner
+from .rerouting import Rerouting, moved_since, moved_words
 from .resume import ResumePoint, Resuming
 from .robot import FAULT, HALTED, RESUMING, Fleet, InFlight, Robot
 from .run_phase import RUNNING, WAITING, RunPhase
@@ -65,8 +68,10 @@ class Run:
         self.out = out
         self.settings = settings
         self.phase = RunPhase()
-        self._job_ids = iter(range(1, 2 ** 62))  # planning jobs: replans and ways to the starts
-        self.replanner = Replanner(settings.replan_limit, self._job_ids)
+        #: ids of work done off the loop: replans, ways to the starts, reroutes, instances to load
+        self.job_ids = iter(range(1, 2 ** 62))
+        self.replanner = Replanner(settings.replan_limit, self.job_ids)
+        self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed)
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded
@@ -78,6 +83,7 @@ class Run:
         self.plan_since: Optional[float] = None   # the current plan's step 0 (a replan's accept)
         self.ended_at: Optional[float] = None     # the run was done (the clock stops)
         self.to_starts_job: Optional[int] = None  # the way to the starts being planned
+        self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
         #: a resumed run before its robots were checked (`resume.py`)
         self.resuming: Optional[Resuming] = None
         #: agent -> the cell a robot found off the plan stands on (replanned from there)
@@ -271,6 +277,7 @@ class Run:
         self.out.record("run", version=FORMAT_VERSION, started=None, source="manager", time_unit="s",
                         plan=plan_file(1), definitions=None, robots=self.fleet.ids,
                         strategy=self.settings.strategy, settings={"lookahead": self.settings.lookahead},
+                        reroute=self.rerouting.mode,
                         plan_name=loaded.name, actions=action_counts(loaded.plan),
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
                         map=self.grid.name, step_time=self.settings.step_time,
@@ -356,17 +363,54 @@ class Run:
         self._drive(engine)
         if self.started_at is not None:
             self.plan_since = now  # the new plan's step 0 is now: behind-ness is measured from here
+        self._write_plan(plan, reason)
+
+    def _write_plan(self, plan: Plan, reason: str, **fields: object) -> None:
+        """The run's new plan (`plan_id`) to the run folder, its record, and every console told."""
         name = plan_file(self.plan_id)
         starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
         sol = make_solution(self.grid, self.loaded.solution.map_file or "", plan, starts,
                             [tuple(int(v) for v in c) for c in plan.positions[-1]],
-                            "fleetcontrol-replan", True, 0)
+                            "fleetcontrol-" + reason, True, 0)
         sol.orientation = self.loaded.solution.orientation
         self.out.add(WriteFile(name, format_solution(sol)))
         self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
-                        actions=action_counts(plan), starts=[list(c) for c in starts])
+                        actions=action_counts(plan), starts=[list(c) for c in starts], **fields)
         self.out.desk.bump("plan {} ({})".format(self.plan_id, reason))
         self.out.broadcast(self.setup())
+
+    def reroute(self, found: Reroute, now: float) -> Optional[str]:
+        """Go on with `found`'s plan from now, the robots in the middle of their moves; why not
+        (said to the operator and recorded, nothing changed) when the robots have moved since
+        its cut (`handover`)."""
+        ids = self.fleet.ids
+        try:
+            new, dispatches = hand_over(self.engine, found, now)
+        except HandoverError as err:
+            self.rerouting.dropped += 1
+            moved = moved_since(self.engine, found)
+            why = "the reroute no longer fits: {}".format(
+                moved_words(moved, ids) + " since" if moved else err)
+            self.out.record("reroute_dropped", reason=why, robots=[ids[a] for a in found.agents])
+            self.out.tell(REROUTE, None, "reroute dropped: " + why)
+            return why
+        self.rerouting.done += 1
+        base = found.cut.base
+        run = new.run
+        self.plan_id += 1
+        self.plan = found.plan
+        if self.started_at is not None:
+            self.plan_since = now
+        text = found.describe(lambda a: ids[a])
+        # a follower's move done before its leader left is the new plan's first, done already
+        self._write_plan(found.plan, "reroute", done=list(run.completed), base=list(base))
+        self.out.record("reroute", robots=[ids[a] for a in found.agents], around=ids[found.around],
+                        late=found.late, gain=found.gain, text=text, plan=plan_file(self.plan_id),
+                        base=list(base))
+        self.out.tell(REROUTE, None, text)
+        self.driver.hand_over(new, base, dispatches, now)
+        self.engine = new
+        return None
 
     def load(self, loaded: LoadedPlan, now: float, why: str = "another plan was loaded",
              reason: str = "") -> None:
@@ -417,7 +461,7 @@ class Run:
         """Plan the way from `cells` (where the robots stand) to the target's starts, off the
         loop; the run waits meanwhile (`to_starts_ready` carries on)."""
         out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] == "disabled"}
-        job = PlanJob(next(self._job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
+        job = PlanJob(next(self.job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
                       self.settings.to_starts_limit, "pp")
         self.to_starts_job = job.id
         self.out.add(job)

@@ -35,3 +35,5 @@ class ManagerSettings:
     frames: Optional[Path] = None     # frames file with vicon_to_base (None: the lab's)
     size: RobotSize = TURTLEBOT2      # the robots' size (the definitions' size line)
     accept: bool = False              # take every replan proposal at once (--accept, for scripts)
+    reroute: str = "off"              # reroute held-up robots: off, propose or auto (`rerouting`)
+    reroute_timed: bool = True        # a look stops after its rule's budget (tests: to the end)

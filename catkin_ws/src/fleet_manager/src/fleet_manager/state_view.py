@@ -14,6 +14,7 @@ from fleet_common.control import (Activity, PlanData, Proposal, RobotInfo, Robot
                                   State, Waiting)
 from fleet_common.execution import STRATEGIES, Engine
 from fleet_common.execution.events import FOLLOW
+from fleet_common.execution.reroute import Reroute
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.robot_size import RobotSize
@@ -23,7 +24,7 @@ from .replanning import Pending, Replanner
 from .robot import VICON, Fleet
 from .run_phase import RUNNING, RunPhase
 
-__all__ = ["robot_waits", "build_state", "setup", "proposal", "plan_data"]
+__all__ = ["robot_waits", "build_state", "setup", "proposal", "reroute_proposal", "plan_data"]
 
 
 #: A follower this close (cells) to its hold point stands there, waiting for its leader.
@@ -57,7 +58,8 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
                 fleet: Fleet, phase: RunPhase, plan_id: int, replanner: Replanner,
                 min_distance: Optional[float], collisions: int,
                 waits: Dict[int, Waiting], following: Following, purpose: str = "plan",
-                allowed: Optional[Tuple[str, ...]] = None) -> State:
+                allowed: Optional[Tuple[str, ...]] = None, reroute: str = "off",
+                reroute_proposal: Optional[int] = None) -> State:
     """The State at `now`; `clock` is the seconds since the run started (0 before), `plan_steps`
     the plan steps since the current plan's step 0 (a robot's `behind` is measured from it; the
     plan's clock shown stops at the makespan)."""
@@ -96,8 +98,9 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
         state=phase.phase, reason=phase.reason, strategy=engine.strategy.name,
         lookahead=int(getattr(engine.strategy, "lookahead", 1)), clock=round(clock, 3),
         plan_time=round(min(plan_time, float(engine.table.makespan)), 3), plan_id=plan_id, arrived=arrived,
-        robots=len(fleet), min_distance=min_distance, collisions=collisions, proposal=replanner.proposal_id,
-        replanning=replanner.busy, purpose=purpose, allowed=allowed)
+        robots=len(fleet), min_distance=min_distance, collisions=collisions,
+        proposal=replanner.proposal_id if reroute_proposal is None else reroute_proposal,
+        replanning=replanner.busy, purpose=purpose, allowed=allowed, reroute=reroute)
     return State(seq, version, info, tuple(robots))
 
 
@@ -113,6 +116,15 @@ def setup(grid: Grid, fleet: Fleet, plan_id: int, plan: Plan, name: str, step_ti
     return RunSetup(grid.name or "map", rows, robots, plan_data(plan_id, plan, fleet, name),
                     tuple(STRATEGIES), step_time, (size.diameter, size.margin, size.cell),
                     "base" if orientation == "base" else "mapf-ir")
+
+
+def reroute_proposal(pid: int, found: Reroute, fleet: Fleet, name: str) -> Proposal:
+    """A reroute awaiting the operator, as the replan's proposal is shown (its message: the line
+    saying who goes round whom)."""
+    ids = fleet.ids
+    plan = found.plan
+    return Proposal(pid, plan_data(pid + 1000, plan, fleet, name), found.describe(lambda a: ids[a]),
+                    int(plan.soc), int(plan.makespan), (), "reroute")
 
 
 def proposal(pending: Pending, fleet: Fleet, name: str) -> Proposal:

@@ -117,8 +117,9 @@ _RUN = Record(m.RunInfo, {
     "state": Str(choices=m.RUN_STATES), "reason": _TEXT, "strategy": _NAME, "lookahead": Int(1, 1000),
     "clock": _TIME, "plan_time": Num(0.0, 1e9), "plan_id": _ID, "arrived": Int(), "robots": Int(),
     "min_distance": Opt(Num(0.0, 1e9)), "collisions": Int(), "proposal": Opt(_ID),
-    "replanning": Bool(), "purpose": Str(choices=m.PURPOSES), "allowed": Opt(ListOf(Str(40), 50))},
-    optional={"replanning": False, "purpose": "plan", "allowed": None})
+    "replanning": Bool(), "purpose": Str(choices=m.PURPOSES), "allowed": Opt(ListOf(Str(40), 50)),
+    "reroute": Str(40)},
+    optional={"replanning": False, "purpose": "plan", "allowed": None, "reroute": "off"})
 
 #: Fields of each message type (the frame's "t" and "v" aside).
 SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, fields, optional in (
@@ -137,7 +138,8 @@ SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, f
     (m.Answer, {"id": _ID, "ok": Bool(), "reason": _TEXT, "version": _ID}, None),
     (m.Notice, {"seq": _ID, "time": _TIME, "kind": Str(40), "robot": Opt(_ROBOT), "text": _TEXT}, None),
     (m.Proposal, {"id": _ID, "plan": _PLAN, "message": _TEXT, "soc": Int(0, 2 ** 53),
-                  "makespan": Int(0, 2 ** 31), "unreachable": ListOf(_ROBOT)}, {"unreachable": ()}),
+                  "makespan": Int(0, 2 ** 31), "unreachable": ListOf(_ROBOT),
+                  "kind": Str(choices=m.PROPOSAL_KINDS)}, {"unreachable": (), "kind": "replan"}),
 )}
 assert set(SCHEMAS) == {cls.TYPE for cls in m.CONSOLE_MESSAGES + m.MANAGER_MESSAGES}  # at import
 

@@ -134,8 +134,9 @@ class RunSetup:
 @dataclass(frozen=True)
 class Waiting:
     """The robot is ready to move but waits: for robots `on`, to enter `cell`, because `reason`
-    ("cell": the cell is not free yet; "barrier": the time step; "paused"; "link": its own
-    link is down; "fault")."""
+    ("cell": the cell is not free yet; "follow": it follows a robot into a cell and stands at
+    the safe distance behind it; "barrier": the time step; "paused"; "link": its own link is
+    down; "fault")."""
 
     on: Tuple[int, ...]
     cell: Optional[Tuple[int, int]]
@@ -198,6 +199,9 @@ class RunInfo:
     #: the run actions (requests.RUN_ACTIONS) the manager would carry out now; None: a manager
     #: of old that does not say
     allowed: Optional[Tuple[str, ...]] = None
+    #: rerouting robots a late robot holds up: "off", "propose" (a proposal for the operator) or
+    #: "auto" (at once)
+    reroute: str = "off"
 
 
 @dataclass(frozen=True)
@@ -233,9 +237,13 @@ class Notice:
     text: str
 
 
+#: What may propose a new plan (`Proposal.kind`).
+PROPOSAL_KINDS = ("replan", "reroute")
+
+
 @dataclass(frozen=True)
 class Proposal:
-    """A replan waiting for an operator: accept or reject it by `id`."""
+    """A new plan waiting for an operator (a replan, or a reroute): accept or reject it by `id`."""
 
     TYPE: ClassVar[str] = "proposal"
     id: int
@@ -244,6 +252,9 @@ class Proposal:
     soc: int
     makespan: int
     unreachable: Tuple[int, ...] = field(default=())
+    #: what proposes it: "replan" (the operator's replan) or "reroute" (robots a late one holds
+    #: up, `--reroute propose`; the run goes on meanwhile)
+    kind: str = "replan"
 
 
 CONSOLE_MESSAGES = (Hello, Request, Heartbeat, Bye)

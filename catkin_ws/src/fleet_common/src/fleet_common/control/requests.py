@@ -6,6 +6,7 @@
     reset      {}     the plan again from step 0, in a new run folder: the robots drive back to
                       their starts first (as to_starts) if they are not on them
     strategy   {"name": "adg" | "step" | ..., "lookahead": K (adg, optional)}
+    reroute    {"mode": "off" | "propose" | "auto"}   rerouting robots a late robot holds up
     enable     {"robot": ID}          disable  {"robot": ID}
     source     {"source": "robot" | "vicon", "robot": ID (optional: every robot)}
     load       {"text": FILE CONTENT, "name": NAME} (at most MAX_PLAN_TEXT characters), or
@@ -45,6 +46,7 @@ ARGS: Dict[str, Checker] = {
     "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
     "to_starts": _NONE, "reset": _NONE,
     "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
+    "reroute": Obj({"mode": Str(40)}),
     "enable": Obj({"robot": _ROBOT}),
     "disable": Obj({"robot": _ROBOT}),
     "source": Obj({"source": Str(choices=SOURCES), "robot": Opt(_ROBOT)}, optional={"robot": None}),

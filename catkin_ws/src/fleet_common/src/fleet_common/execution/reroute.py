@@ -67,22 +67,27 @@ then held at the safe distance behind its leader).
   graph, its dependency on the leader's move out of the cell (the same move
   in both plans), so the driver goes on holding it behind that leader.
 
-With a live fleet (the manager, not built yet: the planning would run in its
-worker thread) poses are stale. The cut is taken from the engine's events,
+With a live fleet (`fleet_manager.rerouting`: the look runs in the manager's
+worker thread, on a snapshot of the engine, while the loop goes on; the
+hand-over runs in the loop, against the live engine) poses are stale, and
+the look's result may be too. The cut is taken from the engine's events,
 never from poses: a robot only moves on moves it was sent, so wherever a late
 pose shows it, it is between the cell of its last completed move and the
 target of its last move sent, all of which the new plan keeps for it; a
 rerouted robot would go from that target along its new path. If by the
 hand-over the rerouted robots' progress differs from the cut, or a robot
-went out or came back, the plan is dropped (`HandoverError`); a completion
-that arrives after the hand-over is one of the moves in flight, counted in
-the new plan. A follower's hold point comes from its leader's last pose,
+went out or came back, the plan is dropped (`HandoverError`: the manager
+says "reroute dropped: ..." and records it; a proposal awaiting the operator
+is dropped as soon as a robot it reroutes moves on); a completion that
+arrives after the hand-over is one of the moves in flight, counted in the
+new plan (the manager renumbers what its robots were sent by the cut's base). A follower's hold point comes from its leader's last pose,
 which is never ahead of the leader: a stale pose stops it earlier, never
 later.
 
 Cost: two predictions (a pass over the incomplete moves each) and one
 space-time A* per robot rerouted, per variant tried, within `budget` seconds
-(`Deadline`); the driver asks at most once every `every` plan steps.
+(`Deadline`); the driver asks at most once every `every` plan steps (the
+manager: only while some robot is held up, one look in flight at a time).
 """
 from __future__ import annotations
 
@@ -159,15 +164,17 @@ class Reroute:
 
     def describe(self, name: Callable[[int], object] = str) -> str:
         """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
-        steps sooner"."""
+        steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
+        sooner" (`name`: an agent's name, e.g. its robot id)."""
         def robots(rs: Sequence[int]) -> str:
             return "robot{} {}".format("s" if len(rs) > 1 else "", ", ".join(str(name(r)) for r in rs))
         late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
         sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
         if self.around not in self.agents:
             return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
-        return "{} rerouted: robot {}, {}, held up {}; {}".format(
-            robots(self.agents), name(self.around), late, robots(self.held), sooner)
+        others = [a for a in self.agents if a != self.around]
+        return "robot {}, {}, rerouted{}: it held up {}; {}".format(
+            name(self.around), late, " with " + robots(others) if others else "", robots(self.held), sooner)
 
 
 def expected_steps(engine: Engine) -> List[int]:

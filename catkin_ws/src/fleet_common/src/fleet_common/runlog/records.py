@@ -23,8 +23,20 @@ ignore what they do not know), so later versions can add detail.
                downtime (s since the last record): a manager started again on
                this folder (`fleetctl manager --resume`) continues the run here;
                the records after it are that manager's, on the same clock
-    plan       file, robots [ids by agent], reason ("loaded" | "replan"),
-               at (plan step of the old plan the new one starts from, or null)
+    plan       file, robots [ids by agent], reason ("loaded" | "replan" | "reroute"),
+               at (plan step of the old plan the new one starts from, or null),
+               actions [by agent], starts [[x, y] by agent]; a reroute's also base (by agent:
+               the old plan's move the new plan starts with) and done (moves of the new plan
+               done already, by agent: a follower's move made before its leader left)
+    reroute    robots [ids rerouted], around (the late robot's id), late (steps, null:
+               out), gain (steps sooner, predicted), text (the operator's line), plan (its
+               file), base [by agent: the old plan's move the new plan starts with]: the
+               run was handed over to a reroute's plan without stopping (the `plan` record
+               before it); dispatches, actions and commands after it count in the new plan
+    reroute_mode  mode ("off" | "propose" | "auto"), by (operator): the reroute mode switched
+    reroute_proposed  proposal (id), robots, text: a reroute awaits the operator (propose mode)
+    reroute_dropped   reason, robots (optional): a reroute found was not handed over (the
+               robots moved since, a proposal gone stale, a look that failed); nothing changed
     state      run ("waiting" | "running" | "paused" | "stopped" | "done" |
                "failed"), reason
     strategy   name, settings {}, by ("start" | operator's console id)
@@ -83,12 +95,16 @@ KINDS: Dict[str, Tuple[str, ...]] = {
     "end": ("reason",),
     "resume": ("started", "plan"),
     "refused": ("console", "requests"),
+    "reroute": ("robots", "around", "gain"),
+    "reroute_mode": ("mode",),
+    "reroute_proposed": ("proposal", "robots"),
+    "reroute_dropped": ("reason",),
 }
 
 #: Kinds a manager started again on the folder needs (what was decided and sent): written
 #: through at once, so that a killed manager loses none of them (poses wait for the flush).
 DURABLE = frozenset(("run", "plan", "state", "strategy", "command", "reply", "dispatch", "action",
-                     "out", "resume", "end"))
+                     "out", "resume", "end", "reroute"))
 
 EVENTS_FILE = "events.jsonl"
 DEFINITIONS_FILE = "robot_definitions.txt"

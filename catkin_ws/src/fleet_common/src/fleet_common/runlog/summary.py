@@ -262,14 +262,26 @@ class SummaryBuilder:
         self.agent = {r: i for i, r in enumerate(robots)}
         self.actions = list(record.get("actions") or [0] * len(robots))
         self.done = [0] * len(robots)
-        self.sent.clear()
-        self.busy.clear()
-        self.ahead.clear()
+        base, done = record.get("base"), record.get("done")
+        if _counts(base, len(robots)) and _counts(done, len(robots)):
+            # a reroute: the robots went on mid-move, their moves renumbered from `base`; a
+            # follower's move made before its leader left is the new plan's first, done already
+            # (counted under the plan before)
+            self.done = [max(0, min(d, n)) for d, n in zip(done, self.actions)]
+            self.moves_before -= sum(self.done)
+            ids = {r: i for i, r in enumerate(robots)}
+            self.sent = {(r, k - base[ids[r]]): t for (r, k), t in self.sent.items()
+                         if r in ids and isinstance(k, int) and k >= base[ids[r]]}
+            self.ahead = {i: max(0, n - base[i]) for i, n in self.ahead.items() if i < len(base)}
+        else:
+            self.sent.clear()
+            self.busy.clear()
+            self.ahead.clear()
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
             self.counted = CollisionCount(starts)
         for i, n in enumerate(self.actions):
-            if n == 0:
+            if n <= self.done[i]:
                 self.arrival.setdefault(i, self.last_completion.get(i, t if not first else t))
             else:
                 self.arrival.pop(i, None)
@@ -365,3 +377,9 @@ class SummaryBuilder:
             passes=self.passes, resumes=self.resumes, downtime=self.downtime, interrupted=interrupted,
             ended_at=0.0 if self.end is None else max(0.0, self.end[1] - begin),
             moves=(self.moves_before + sum(self.done), self.moves_before + sum(self.actions)))
+
+
+def _counts(value: Any, n: int) -> bool:
+    """A list of `n` whole numbers (a record's per-agent counts)."""
+    return isinstance(value, list) and len(value) == n and all(
+        isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)

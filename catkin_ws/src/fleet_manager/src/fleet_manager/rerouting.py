@@ -1,0 +1,169 @@
+"""Rerouting in a live run (issue 28): robots a late robot holds up get new paths, the run goes on.
+
+Theory of operation. `fleet_common.execution.reroute` says when a reroute pays
+and makes one (`decide`), `handover` gives a running engine over to it; this
+module is the manager's side, a state machine that starts no thread and reads
+no clock:
+
+1. in `propose` or `auto` mode, while the run runs and some robot is held up
+   (`held_up`, cheap), at most once every `rule.every` plan steps and never
+   while a look is in flight, a reroute proposal awaits an answer or the
+   operator's replan is open, the core asks for a look: a `RerouteJob` with a
+   *snapshot* of the engine (a deep copy: the loop goes on mutating the live
+   one), which the manager's loop runs in a worker thread (`look`, the one
+   function tests call in place);
+2. the result comes back as an input (`RunCore.reroute_ready`); a result for
+   a plan that is no longer run, or that comes after the mode went off, the
+   run paused or a replan was opened, is dropped without a word;
+3. `auto`: the core hands the run over at once against the LIVE engine
+   (`Run.reroute`); the hand-over re-checks the cut and refuses a plan the
+   robots have moved away from since (`HandoverError`): the reroute is
+   dropped with one operator line and a record, nothing changes.
+   `propose`: the reroute is the consoles' proposal (the run does not pause);
+   accept hands over as in auto, reject clears it (and no look is made for
+   `REJECTED_PAUSE` plan steps), and it is dropped by itself as soon as a
+   robot it reroutes moves on (`moved_since`).
+
+A snapshot costs a deep copy of the engine (its immutable action table
+shared): see bench/README.md for the figure at 300 robots.
+"""
+from __future__ import annotations
+
+import copy
+from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple
+
+from fleet_common.execution import Engine
+from fleet_common.execution.reroute import MODES, Reroute, RerouteRule, expected_steps, held_up, decide
+from fleet_common.execution.reroute_plan import Maps
+from fleet_common.grid import Grid
+from fleet_common.planning.deadline import Deadline
+
+#: Plan steps without a look after the operator rejected a reroute.
+REJECTED_PAUSE = 8.0
+
+__all__ = ["Rerouting", "RerouteJob", "look", "snapshot", "moved_since", "moved_words", "MODES"]
+
+
+class RerouteJob(NamedTuple):
+    """A look for a reroute at `now` on `engine` (a snapshot, the worker's own) on `maps`."""
+
+    id: int
+    engine: Engine
+    maps: Maps
+    now: float
+    rule: RerouteRule
+    expected: List[int]
+    timed: bool
+
+
+def look(job: RerouteJob) -> Optional[Reroute]:
+    """What the worker thread runs: a reroute that pays, or None."""
+    deadline = Deadline(job.rule.budget if job.timed else None)
+    return decide(job.engine, job.maps, job.now, job.rule, deadline, job.expected)
+
+
+def snapshot(engine: Engine) -> Engine:
+    """A copy of `engine` a worker may read while the loop goes on with the original: everything
+    deep-copied but the action table (never changed) and the driver's take-back (left out)."""
+    return copy.deepcopy(engine, {id(engine._give_back): None, id(engine.table): engine.table})
+
+
+class Rerouting:
+    """The mode, the look in flight and the proposal awaiting an answer, for one manager."""
+
+    def __init__(self, grid: Grid, mode: str, ids: Iterator[int], timed: bool = True,
+                 rule: Optional[RerouteRule] = None) -> None:
+        if mode not in MODES:
+            raise ValueError("reroute mode {!r}; modes: {}".format(mode, ", ".join(MODES)))
+        self.mode = mode
+        self.rule = rule or RerouteRule()
+        self.timed = timed
+        self.maps = Maps(grid)
+        self._ids = ids  # shared with the replans' jobs: a proposal's id is never a replan's
+        self.job: Optional[RerouteJob] = None
+        self._for: Optional[Engine] = None  # the live engine the look in flight was taken of
+        #: a reroute proposed to the operator (propose mode), by id
+        self.pending: Optional[Tuple[int, Reroute]] = None
+        self._next: Tuple[object, float] = (None, 0.0)  # (run, plan step from which to look again)
+        self._expected: Tuple[object, List[int]] = (None, [])
+        #: looks asked for, reroutes found, handed over, dropped (stale)
+        self.looks = self.found = self.done = self.dropped = 0
+
+    @property
+    def proposal_id(self) -> Optional[int]:
+        return None if self.pending is None else self.pending[0]
+
+    def set_mode(self, mode: str) -> None:
+        """A mode from MODES (checked by the caller): off or auto forget a proposal; off also
+        forgets the look in flight (its result is dropped)."""
+        self.mode = mode
+        if mode != "propose":
+            self.pending = None
+        if mode == "off":
+            self.job = self._for = None
+
+    def due(self, engine: Engine, now: float) -> bool:
+        """Time for a look (paced by `rule.every` plan steps of this plan) and some robot held up."""
+        if self.mode == "off" or self.job is not None or self.pending is not None or engine.paused:
+            return False
+        run = engine.run
+        steps = run.clock.steps(now)
+        if self._next[0] is not run:
+            self._next = (run, self.rule.every)  # a new plan: look a while after its start
+        if steps < self._next[1]:
+            return False
+        self._next = (run, steps + self.rule.every)
+        return bool(held_up(engine, now, self.rule.gap, self.expected(engine)))
+
+    def expected(self, engine: Engine) -> List[int]:
+        """The engine's `expected_steps`, computed once per plan."""
+        if self._expected[0] is not engine.run:
+            self._expected = (engine.run, expected_steps(engine))
+        return self._expected[1]
+
+    def ask(self, engine: Engine, now: float) -> RerouteJob:
+        """The look to run now, on a snapshot of `engine`."""
+        self.job = RerouteJob(next(self._ids), snapshot(engine), self.maps, now, self.rule,
+                              self.expected(engine), self.timed)
+        self._for = engine
+        self.looks += 1
+        return self.job
+
+    def finished(self, job_id: int, engine: Engine) -> bool:
+        """The look `job_id` came back: True if it is the one in flight, taken of `engine` (the
+        live engine now); False (forget it) for a look given up or of a plan no longer run."""
+        if self.job is None or self.job.id != job_id:
+            return False
+        mine = self._for is engine
+        self.job = self._for = None
+        return mine
+
+    def propose(self, found: Reroute) -> int:
+        """`found` awaits the operator (propose mode); its proposal id."""
+        pid = next(self._ids)
+        self.pending = (pid, found)
+        return pid
+
+    def resolved(self) -> None:
+        self.pending = None
+
+    def rejected(self, engine: Engine, now: float) -> None:
+        """The operator said no: no new proposal for `REJECTED_PAUSE` plan steps (the same robots
+        would most likely be proposed again at once)."""
+        self.pending = None
+        self._next = (engine.run, engine.run.clock.steps(now) + REJECTED_PAUSE)
+
+
+def moved_since(engine: Engine, found: Reroute) -> List[int]:
+    """Robots of `found` whose progress changed since its cut, and robots that went out or came
+    back: the hand-over would refuse it (a cheap look at the robots rerouted, for every tick)."""
+    run, cut = engine.run, found.cut
+    moved = [r for r in found.agents
+             if (run.completed[r], run.dispatched[r] - run.completed[r], run.started[r] > run.completed[r])
+             != (cut.completed[r], cut.committed[r], cut.started[r])]
+    return moved + [r for r in range(cut.num_agents) if run.out[r] != cut.out[r] and r not in moved]
+
+
+def moved_words(moved: Sequence[int], ids: Sequence[int]) -> str:
+    """"robots 3, 7 moved", by robot id."""
+    return "robot{} {} moved".format("s" if len(moved) > 1 else "", ", ".join(str(ids[a]) for a in moved))
