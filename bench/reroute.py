@@ -14,15 +14,23 @@ reroute (a replan), plus the hand-over. Then p = 0: every configuration's
 makespan, and the number of reroutes (none).
 
     .venv/bin/python bench/reroute.py [SEEDS [FIRST]]     # default 10 seeds from 10
+        [--plans random70,arena300] [--configs adg,adg+reroute,reorder,reorder+reroute]
+        [--rule KEY=VALUE ...]                             # a RerouteRule's settings, e.g. slack=none
+        [--baseline KEY=VALUE ...]                         # also adg + reroute by this rule, compared
+
+`--baseline` adds a configuration, adg + reroute by a second rule (settings
+as for `--rule`; none given: the defaults), and each seed's change from it
+to adg + reroute by `--rule`: two rules compared on the same delays.
 
 The seeds start at 10 by default: the rule's default settings were chosen on
-seeds 0-9 (random70) and 0-3 (arena300).
+seeds 0-9 (random70) and 0-3 (arena300; 0-9 for `slack`).
 """
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import math
 import os
-import sys
 import time
 from pathlib import Path
 from typing import Dict, List
@@ -30,6 +38,7 @@ from typing import Dict, List
 import numpy as np
 
 from fleet_common.delays import parse_delay_model
+from fleet_common.execution.reroute import RerouteRule
 from fleet_common.execution.simulate import simulate
 from fleet_common.formats import default_map_dirs
 from fleet_common.plan_loading import load_plan
@@ -38,7 +47,26 @@ from fleet_common.robot_size import TURTLEBOT2
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
 PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
          "arena300": ("arena_300agents_1.txt", "pibt", 300)}
-CONFIGS = (("adg", "none"), ("adg", "auto"), ("reorder", "none"), ("reorder", "auto"))
+
+
+def parse_config(text: str) -> tuple:
+    strategy, _, reroute = text.partition("+")
+    if strategy not in ("adg", "reorder") or reroute not in ("", "reroute"):
+        raise argparse.ArgumentTypeError("a configuration is adg, reorder, adg+reroute or reorder+reroute")
+    return (strategy, "auto" if reroute else "none")
+
+
+def rule_of(settings: List[str]) -> RerouteRule:
+    """A RerouteRule from KEY=VALUE settings, the others default."""
+    types = {f.name: f.type for f in dataclasses.fields(RerouteRule)}
+    values: Dict[str, object] = {}
+    for item in settings:
+        key, _, value = item.partition("=")
+        if key not in types:
+            raise SystemExit("bench/reroute.py: unknown rule setting {!r}; expected one of {}".format(
+                key, ", ".join(types)))
+        values[key] = None if value == "none" else (int(value) if types[key] == "int" else float(value))
+    return RerouteRule(**values)  # type: ignore[arg-type]
 
 
 def interval(values: List[float]) -> str:
@@ -48,59 +76,80 @@ def interval(values: List[float]) -> str:
 
 
 def main() -> None:
-    seeds = int(sys.argv[1]) if len(sys.argv) > 1 else 10
-    first = int(sys.argv[2]) if len(sys.argv) > 2 else 10
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("seeds", type=int, nargs="?", default=10)
+    parser.add_argument("first", type=int, nargs="?", default=10)
+    parser.add_argument("--plans", default=",".join(PLANS))
+    parser.add_argument("--configs", default="adg,adg+reroute,reorder,reorder+reroute")
+    parser.add_argument("--rule", nargs="*", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--baseline", nargs="*", default=None, metavar="KEY=VALUE")
+    args = parser.parse_args()
+    seeds, first = args.seeds, args.first
+    configs = tuple(parse_config(c) for c in args.configs.split(","))
+    rules = {"auto": rule_of(args.rule)}
+    if args.baseline is not None:
+        rules["baseline"] = rule_of(args.baseline)
+        configs += (("adg", "baseline"),)
+    labels = {"none": "", "auto": " + reroute", "baseline": " + reroute, baseline"}
     model = parse_delay_model("events=bernoulli:0.1:1-5")
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
-    for name, (file, solver, n) in PLANS.items():
+    for key, rule in rules.items():
+        print("{}: {}".format("rule" if key == "auto" else key, rule))
+    for name in args.plans.split(","):
+        file, solver, n = PLANS[name]
         loaded = load_plan(SHARED / "instances" / file, n, name, [SHARED / "maps"] + default_map_dirs(),
                            solver=solver, seed=0)
         plan, grid = loaded.plan, loaded.grid
         print("\n{}: {} robots, planned by {}, makespan {}; {} paired seeds from {}, p = 0.1, {}".format(
             name, n, solver, plan.makespan, seeds, first, TURTLEBOT2.describe()))
-        ratio: Dict[tuple, List[float]] = {c: [] for c in CONFIGS}
-        reroutes: Dict[tuple, List[int]] = {c: [] for c in CONFIGS}
-        moved: Dict[tuple, List[int]] = {c: [] for c in CONFIGS}
-        wall: Dict[tuple, float] = {c: 0.0 for c in CONFIGS}
+        ratio: Dict[tuple, List[float]] = {c: [] for c in configs}
+        reroutes: Dict[tuple, List[int]] = {c: [] for c in configs}
+        moved: Dict[tuple, List[int]] = {c: [] for c in configs}
+        wall: Dict[tuple, float] = {c: 0.0 for c in configs}
         bound: List[float] = []
         looks = found = 0
         look_s = found_s = hand_s = 0.0
         for seed in range(first, first + seeds):
-            for config in CONFIGS:
+            for config in configs:
                 strategy, reroute = config
                 began = time.perf_counter()
-                result = simulate(plan, strategy, model, seed=seed, size=TURTLEBOT2, reroute=reroute, grid=grid)
+                result = simulate(plan, strategy, model, seed=seed, size=TURTLEBOT2, grid=grid,
+                                  reroute=rules.get(reroute, reroute))
                 wall[config] += time.perf_counter() - began
                 assert result.finished and not result.collisions and result.refused == 0, (name, config, seed)
                 ratio[config].append(result.metrics.makespan / plan.makespan)
                 reroutes[config].append(len(result.reroutes))
                 moved[config].append(sum(len(r.agents) for _, r in result.reroutes))
-                if config == CONFIGS[0]:
+                if config == configs[0]:
                     bound.append(result.lower_bound / plan.makespan)
-                if result.rerouter is not None:
+                if reroute == "auto":
                     rr = result.rerouter
+                    assert rr is not None
                     looks, found = looks + rr.looks, found + rr.found
                     look_s, found_s = look_s + rr.seconds, found_s + rr.found_seconds
                     hand_s += result.handover_seconds
-        base = ratio[CONFIGS[0]]
+        base = ratio[configs[0]]
         print("  lower bound / planned makespan: {}".format(interval(bound)))
-        print("  {:<18} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
+        print("  {:<26} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
             "configuration", "executed/planned", "paired vs adg", "reroutes", "robots moved", "s a run"))
-        for config in CONFIGS:
-            label = config[0] + (" + reroute" if config[1] == "auto" else "")
+        for config in configs:
             change = [100.0 * (x - b) / b for x, b in zip(ratio[config], base)]
-            print("  {:<18} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
-                label, interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
+            print("  {:<26} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
+                config[0] + labels[config[1]], interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
                 float(np.mean(moved[config])), wall[config] / seeds))
+        if ("adg", "baseline") in ratio and ("adg", "auto") in ratio:
+            change = [100.0 * (x - b) / b for x, b in zip(ratio[("adg", "auto")], ratio[("adg", "baseline")])]
+            print("  adg + reroute paired vs adg + reroute, baseline: {}%".format(interval(change)))
         print("  the rule's cost ({} robots): {:.2f} ms a look ({} looks), {:.1f} ms a look that found a reroute "
               "({}), {:.1f} ms a hand-over".format(n, 1e3 * look_s / max(looks, 1), looks,
                                                    1e3 * found_s / max(found, 1), found,
                                                    1e3 * hand_s / max(found, 1)))
         zero = parse_delay_model("none")
         flat = []
-        for strategy, reroute in CONFIGS:
-            result = simulate(plan, strategy, zero, seed=0, size=TURTLEBOT2, reroute=reroute, grid=grid)
-            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, " + reroute" if reroute == "auto" else "",
+        for strategy, reroute in configs:
+            result = simulate(plan, strategy, zero, seed=0, size=TURTLEBOT2, grid=grid,
+                              reroute=rules.get(reroute, reroute))
+            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, labels[reroute],
                                                           result.metrics.makespan / plan.makespan,
                                                           len(result.reroutes)))
         print("  p = 0: " + "; ".join(flat))

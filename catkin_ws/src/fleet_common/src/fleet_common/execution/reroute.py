@@ -30,9 +30,20 @@ that could arrive sooner by a shortest path, or both:
    `per_move` (a move's expected delay) for each move the new paths add;
    it *pays* when gain - `cost` x (robots rerouted) >= `margin` steps and no
    robot is predicted to arrive later by more than `later` steps (extra
-   moves counted). The variant with the largest net gain is taken. By
-   default: late from 1 step, a robot rerouted costs half a step, and the
-   net gain must reach 1 step with nobody more than 1 step later.
+   moves counted, `per_move` each), except robots whose new predicted
+   arrival (extra moves counted) is still `slack` steps or more before
+   the predicted makespan of step 1: the run's makespan is the last robot's
+   arrival, so a robot well before it may give way (a late robot stepping
+   aside for those it holds up, on a longer path) when the sum gains. The
+   variant with the largest net gain is taken. By default: late from 1
+   step, a robot rerouted costs half a step, the net gain must reach 1
+   step, and nobody predicted to arrive less than 5 steps before the
+   makespan may be more than 1 step later (`slack=None`: nobody at all,
+   the rule before the slack).
+
+The rule (`slack` included) only chooses which plan to hand over; the
+hand-over's safety below does not depend on it: any plan from the cut that
+`reroute_plan` builds and `Engine.adopt` accepts runs as safely.
 
 Why a hand-over is safe (`handover`, `Engine.adopt`). A plan is only a
 prediction: what keeps the run safe is the engine's one rule, unchanged
@@ -109,7 +120,8 @@ class RerouteError(FleetError):
 class RerouteRule:
     """The rule's settings (steps are plan steps, one nominal move each). The defaults were
     chosen on bench/reroute.py's plans (random70 seeds 0-9, arena300 seeds 0-3) among eight
-    settings; the figures in bench/README.md are on other seeds."""
+    settings, `slack` later among some twenty variants (random70 seeds 0-9, arena300 seeds
+    0-9); the figures in bench/README.md are on other seeds."""
 
     gap: int = 1            # late: this many steps behind the plan's clock, or more
     margin: float = 1.0     # reroute when the gain, less the cost, reaches this many steps
@@ -119,14 +131,17 @@ class RerouteRule:
     tries: int = 3          # late robots looked at per look, the most robots held up first
     later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
+    slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps or more before the makespan
 
     def __post_init__(self) -> None:
         for key in ("gap", "tries"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
-        for key in ("margin", "cost", "every", "budget", "later", "per_move"):
+        for key in ("margin", "cost", "every", "budget", "later", "per_move", "slack"):
             value = getattr(self, key)
+            if key == "slack" and value is None:  # None: `later` holds for every robot
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
                 raise UnknownStrategyError("reroute {} must be a number >= 0, got {!r}".format(key, value))
 
@@ -229,6 +244,18 @@ def held_up(engine: Engine, now: float, gap: int,
     return {q: [h for _, h in sorted(hs)] for q, hs in out.items()}
 
 
+def later_by(before: Sequence[int], proposal: Proposal, per_move: float, spared: Optional[float]) -> float:
+    """How many steps later than `before` the proposal has the latest robot arrive, a move more
+    counted as `per_move` steps more; robots whose new arrival is still at or before `spared`
+    (None: none) are not counted (at most 0)."""
+    worst = 0.0
+    for r, (new, old) in enumerate(zip(proposal.arrival, before)):
+        extra = per_move * proposal.more.get(r, 0)
+        if spared is None or new + extra > spared:
+            worst = max(worst, new - old + extra)
+    return worst
+
+
 def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
            deadline: Optional[Deadline] = None, expected: Optional[Sequence[int]] = None) -> Optional[Reroute]:
     """A reroute that pays now, by `rule`, or None (see the module docstring); `expected`: the
@@ -258,6 +285,8 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
                                                         for h in g[1]), g[0]))
     best: Optional[Tuple[float, Proposal, int]] = None
+    # the makespan is the last robot's arrival: a robot predicted well before it may arrive later
+    spared = None if rule.slack is None else before.makespan - rule.slack
     try:
         for late, held in ranked[:rule.tries]:
             gaining = [h for h in held if potential(h) > rule.margin]
@@ -275,8 +304,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                 # a move more is a step more, and its expected delay
                 gain = sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
                 net = gain - rule.cost * len(chosen)
-                worse = max(new - old + rule.per_move * proposal.more.get(r, 0)
-                            for r, (new, old) in enumerate(zip(proposal.arrival, before.arrival)))
+                worse = later_by(before.arrival, proposal, rule.per_move, spared)
                 if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
                     best = (net, proposal, late)
     except DeadlineReached:
