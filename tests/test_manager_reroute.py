@@ -21,7 +21,8 @@ from fleet_common.errors import FleetError
 from fleet_common.formats.solution import make_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
-from fleet_common.plan_loading import LoadedPlan
+from fleet_common.lab import lab_instance_path
+from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_manager import driver as driver_module
 from fleet_manager.settings import ManagerSettings
@@ -95,6 +96,22 @@ def test_auto_mode_reroutes_the_held_up_robots_and_every_robot_arrives_safely(si
     run_to_end(off)
     assert f.core.summary().soc < off.core.summary().soc - 2.0
     assert f.core.summary().wait < off.core.summary().wait - 2.0
+
+
+def test_robots_that_turn_at_corners_without_any_delay_are_not_late_and_never_rerouted():
+    """Simulated TurtleBots at the lab's pace (a drive of 2 s, 90 degree turns of 1 s, a nominal move
+    of 2 s) turn before they drive at corners: half a move each time, on top of the plan. That is
+    their own time, but no delay: a run without delays never reroutes."""
+    lab = load_plan(lab_instance_path(), 5, "the lab fleet", [])
+    f = MemoryFleet(lab, lab_fleet(), ManagerSettings(step_time=2.0, reroute="auto", reroute_timed=False),
+                    speed=0.5, turn_speed=1.5)
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done", 400) and f.at_goals()
+    turned = f.core.run.engine.metrics.turn_time
+    assert max(turned) >= 1.0  # some robots did turn on their moves
+    assert f.core.run.rerouting.looks == 0 and f.core.run.plan_id == 1
 
 
 def test_off_mode_never_looks():

@@ -277,6 +277,7 @@ class Driver:
     def _completed(self, robot: Robot, flight: InFlight, now: float) -> None:
         if flight.kind == "turn":
             robot.facing = flight.target[0]
+            self.engine.metrics.turned(robot.agent, flight.sent, now)  # own time, but no delay
         elif flight.kind == "drive":
             d = robot.queue.popleft() if robot.queue and robot.queue[0].index == flight.index else None
             if d is not None:

@@ -61,6 +61,10 @@ class Metrics:
         self._done = [0] * len(self.counts)
         self._busy: List[Optional[float]] = [None] * len(self.counts)  # since when on its move
         self._ahead = [0] * len(self.counts)  # actions dispatched (sent ahead included)
+        #: per robot, seconds it turned in place towards a move it had been sent (robots on the
+        #: wire face their next cell first; a simulated robot never turns): part of its own time,
+        #: but no delay (`reroute.delayed`)
+        self.turn_time = [0.0] * len(self.counts)
         #: per robot, the wait its latest waiting dispatch ended (a caller logging each dispatch
         #: clears it before an event and takes what the event's dispatches left)
         self.last_wait: Dict[int, float] = {}
@@ -116,6 +120,13 @@ class Metrics:
         if since is None:
             return m.own_time - nominal * m.moves
         return m.own_time + max(0.0, now - since) - nominal * (m.moves + 1)
+
+    def turned(self, agent: int, since: float, now: float) -> None:
+        """Robot `agent` turned in place from `since` to `now`: the part of it on a move it had been
+        sent counts in `turn_time`."""
+        busy = self._busy[agent]
+        if busy is not None:
+            self.turn_time[agent] += max(0.0, now - max(since, busy))
 
     def ready_at(self, agent: int) -> Optional[float]:
         """Since when the robot has been ready for an action it was not sent (None: it has one)."""

@@ -206,9 +206,11 @@ def behind(engine: Engine, r: int, now: float, expected: Optional[Sequence[int]]
 def delayed(engine: Engine, r: int, now: float) -> bool:
     """Robot r's own moves have taken it half a step or more longer than planned (it is not only
     behind because it waited for others, nor because the run is slower than the plan without any
-    delay: robots as large as a cell, the step barrier)."""
+    delay: robots as large as a cell, the step barrier, a robot turning at a corner before it
+    drives, which takes a TurtleBot half a nominal move)."""
     step = engine.run.clock.step_time
-    return engine.metrics.own_delay(r, now, step) >= 0.5 * step
+    metrics = engine.metrics
+    return metrics.own_delay(r, now, step) - metrics.turn_time[r] >= 0.5 * step
 
 
 def held_up(engine: Engine, now: float, gap: int,
