@@ -223,7 +223,6 @@ def test_larger_plans_are_repaired_as_well(seed, width, height, density, solver)
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10**6), width=st.integers(6, 12), height=st.integers(6, 12),
        density=st.floats(0.2, 0.35), solver=st.sampled_from(["pibt", "lacam"]))
-@example(seed=24, width=7, height=7, density=0.2071794550449182, solver="lacam")  # LaCAM from 8 steps back
 def test_when_no_window_works_lacam_replans_everyone_from_the_rotation(seed, width, height, density, solver):
     # no windows at all: every repair is the crowd's, LaCAM from the first rotation's step on
     found = random_problem(seed, width, height, density, solver)
@@ -232,8 +231,9 @@ def test_when_no_window_works_lacam_replans_everyone_from_the_rotation(seed, wid
     with mock.patch.object(repair_one, "FIXED_WINDOWS", ()), LacamStarts() as lacam:
         result = repair_rotations(plan, grid, deadline=30.0)
     check(result, plan, grid)
-    # LaCAM starts at the first rotation's step, or (from there, no plan without rotations)
-    # 8, 32, ... steps before it: the plan up to that step is kept
+    # LaCAM starts at the first rotation's step, or (from there, none found in its share of the
+    # time) 8, 32, ... steps before it: the plan up to that step is kept (seed=24, width=7,
+    # height=7, density=0.2072, lacam starts 8 steps back, after 15 s: not pinned, for the time)
     first = result.rotations[0][0]
     starts = [np.array(c) for c in lacam.steps]
     t0 = next(t for t in repair_one._backwards(first) if np.array_equal(plan.positions[t], starts[0]))
