@@ -89,6 +89,7 @@ def test_auto_mode_reroutes_the_held_up_robots_and_every_robot_arrives_safely(si
     assert any(record["text"] in line for line in f.said)
     assert any(n.text == record["text"] for n in f.ops.notices())
     assert f.ops.state.run.plan_id == 2 and f.ops.state.run.reroute == "auto"
+    assert f.core.run.engine.show is f.core.run.loaded.show  # its messages keep the plan file's frame
     # the summary (and so `fleetctl report`) reads the folder's records across the hand-over
     assert "arrived: 3/3" in f.core.summary().lines()[0]
     # robot 2 went first at (2, 1): it did not wait out robot 1's stall (robot 1 arrives last anyway)

@@ -65,7 +65,8 @@ def look(job: RerouteJob) -> Optional[Reroute]:
 def snapshot(engine: Engine) -> Engine:
     """A copy of `engine` a worker may read while the loop goes on with the original: everything
     deep-copied but the action table (never changed) and the driver's take-back (left out)."""
-    return copy.deepcopy(engine, {id(engine._give_back): None, id(engine.table): engine.table})
+    return copy.deepcopy(engine, {id(engine._give_back): None, id(engine.table): engine.table,
+                                  id(engine.show): engine.show})
 
 
 class Rerouting:

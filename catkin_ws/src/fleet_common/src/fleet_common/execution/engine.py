@@ -99,6 +99,7 @@ class Engine:
         robots with the plan's clock reads it).
         """
         self.follow = follow
+        self.show = show  # the frame messages use (a plan handed over to keeps it)
         #: follower action -> leader action, for actions dispatched before their leader completed
         self.early: Dict[int, int] = {}
         table = ActionTable.from_plan(plan, show)

@@ -43,7 +43,8 @@ def hand_over(engine: Engine, reroute: Reroute, now: float) -> Tuple[Engine, Lis
     progress = [(here.completed[r] - cut.base[r], here.committed[r], here.started[r])
                 for r in range(cut.num_agents)]
     strategy = engine.strategy
-    new = Engine(reroute.plan, strategy.name, follow=engine.follow, step_time=engine.run.clock.step_time,
+    new = Engine(reroute.plan, strategy.name, show=engine.show, follow=engine.follow,
+                 step_time=engine.run.clock.step_time,
                  **strategy.settings())
     released_by = {w.agent: w.on[0] for w in engine.waiting() if w.on}
     try:
