@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from fleet_common.delays import DelayModel, EventDelays, MoveFates, simulator_fates
-from fleet_common.execution import Engine
+from fleet_common.execution import Disabled, Enabled, Engine, ReorderStrategy, RobotFailed, SwitchStrategy, make_strategy
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import solve
@@ -71,3 +71,26 @@ def fates_for(plan: Plan, model: DelayModel, seed: int, stall_at_hold: float) ->
     if stall_at_hold > 0:  # every stall right where a follower's first hold point is
         fates = fates._replace(stall_at=np.full(table.num_actions, stall_at_hold))
     return fates
+
+
+STRATEGY_NAMES = ("adg", "step", "reorder")
+
+
+def reorders(rng: np.random.Generator) -> ReorderStrategy:
+    return ReorderStrategy(gap=int(rng.integers(1, 3)), reach=int(rng.integers(1, 7)),
+                           budget=int(rng.choice([3, 40, 400])))
+
+
+def operator_actions(plan: Plan, rng: np.random.Generator, horizon: float) -> list:
+    """Faults and their clearing, disables and enables, and switches between all strategies."""
+    controls: list = []
+    for _ in range(int(rng.integers(0, 3))):
+        agent = int(rng.integers(0, plan.num_agents))
+        t = float(rng.uniform(0.0, horizon))
+        controls.append((RobotFailed if rng.random() < 0.5 else Disabled)(agent, t))
+        controls.append(Enabled(agent, t + float(rng.uniform(0.1, 5.0))))
+    for _ in range(int(rng.integers(0, 3))):
+        name = str(rng.choice(STRATEGY_NAMES))
+        strategy = reorders(rng) if name == "reorder" else make_strategy(name)
+        controls.append(SwitchStrategy(strategy, float(rng.uniform(0.0, horizon))))
+    return sorted(controls, key=lambda c: c.time)

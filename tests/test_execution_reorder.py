@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from fleet_common.delays import DelayModel, EventDelays, MoveFates, simulator_fates
 from fleet_common.execution import (
-    Disabled, Enabled, Engine, ReorderStrategy, Resume, RobotFailed, SwitchStrategy, Tick, make_strategy,
+    Engine, ReorderStrategy, Resume, SwitchStrategy, Tick, make_strategy,
 )
 from fleet_common.execution.motion import Feedback
 from fleet_common.execution.run import RunState
@@ -31,9 +31,8 @@ from fleet_common.execution.simulate import simulate
 from fleet_common.formats import default_map_dirs, read_solution
 from fleet_common.plan import Plan
 from fleet_common.robot_size import TURTLEBOT2, cell_sized
-from random_runs import PLAN_SEEDS, fates_for, random_plan, sizes
+from random_runs import PLAN_SEEDS, STRATEGY_NAMES, fates_for, operator_actions, random_plan, sizes
 
-STRATEGY_NAMES = ("adg", "step", "reorder")
 
 
 @st.composite
@@ -43,26 +42,6 @@ def standing_delays(draw) -> DelayModel:
     events = EventDelays("bernoulli", draw(st.floats(0.05, 0.5)), 1, draw(st.integers(1, 6)))
     return DelayModel(factor=(low, draw(st.floats(low, 2.0))), stall_p=draw(st.sampled_from([0.0, 0.1])),
                       stall_moves=draw(st.floats(0.0, 3.0)), events=events)
-
-
-def reorders(rng: np.random.Generator) -> ReorderStrategy:
-    return ReorderStrategy(gap=int(rng.integers(1, 3)), reach=int(rng.integers(1, 7)),
-                           budget=int(rng.choice([3, 40, 400])))
-
-
-def operator_actions(plan: Plan, rng: np.random.Generator, horizon: float) -> list:
-    """Faults and their clearing, disables and enables, and switches between all strategies."""
-    controls: list = []
-    for _ in range(int(rng.integers(0, 3))):
-        agent = int(rng.integers(0, plan.num_agents))
-        t = float(rng.uniform(0.0, horizon))
-        controls.append((RobotFailed if rng.random() < 0.5 else Disabled)(agent, t))
-        controls.append(Enabled(agent, t + float(rng.uniform(0.1, 5.0))))
-    for _ in range(int(rng.integers(0, 3))):
-        name = str(rng.choice(STRATEGY_NAMES))
-        strategy = reorders(rng) if name == "reorder" else make_strategy(name)
-        controls.append(SwitchStrategy(strategy, float(rng.uniform(0.0, horizon))))
-    return sorted(controls, key=lambda c: c.time)
 
 
 def run_one(plan_seed: int, size, model: DelayModel, seed: int, start: str, latency: float, operated: bool,
