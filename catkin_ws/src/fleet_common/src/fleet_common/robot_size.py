@@ -47,6 +47,10 @@ LAB_CELL_M = 0.7
 #: A TurtleBot 2 (Kobuki base): 354 mm across.
 TURTLEBOT2_DIAMETER_M = 0.354
 TURTLEBOT2_MARGIN_M = 0.10
+#: How far past a hold point a robot's own controller may stop (the braking above). A robot on
+#: the wire is held this much farther back, so that its stop keeps the safe distance itself and
+#: the margin is left for what the manager cannot see (localization, a robot off its line).
+STOP_OVERSHOOT_M = 0.02
 _EPS = 1e-9
 
 

@@ -37,6 +37,7 @@ from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
 from fleet_common.runlog.records import FORMAT_VERSION, plan_file, size_fields
+from fleet_common.robot_size import STOP_OVERSHOOT_M
 from fleet_common.runlog.summary import SummaryBuilder
 
 from .driver import AT_CELL, Driver
@@ -265,7 +266,9 @@ class Run:
 
     def _driver(self, engine: Engine) -> Driver:
         size = self.settings.size
-        following = Following(engine, self.fleet, None if size.cell_sized else size.safe_cells)
+        # held farther back by what a robot's own stop may overshoot (`robot_size.STOP_OVERSHOOT_M`)
+        following = Following(engine, self.fleet,
+                              None if size.cell_sized else size.safe_cells + STOP_OVERSHOOT_M / size.cell)
         driver = Driver(engine, self.fleet.robots, self.out, following, self.settings.preturn, self.loaded.show)
         engine.allow_take_back(driver.take_back)
         return driver
