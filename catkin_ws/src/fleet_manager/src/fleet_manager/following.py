@@ -27,7 +27,9 @@ leader is taken to stand at the start of its move, which is behind it. A
 late pose, a lost pose or a lost link only keeps the hold point where it
 was; the follower then stops short and waits, and so does the robot behind
 it. A follower's own stop at the hold point is its own controller's (the
-robot holds the point even if it loses the manager). The hold point is
+robot holds the point even if it loses the manager), which may overshoot it a
+little: the distance the hold point keeps (`safe`, given by the run) is the
+safe distance plus that overshoot (`robot_size.STOP_OVERSHOOT_M`). The hold point is
 computed from the follower's move start: a follower already closer than
 that (it cannot be, but for localization error) is held where it stands.
 """
