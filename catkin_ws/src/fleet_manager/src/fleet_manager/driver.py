@@ -46,6 +46,7 @@ from typing import Callable, Optional, Sequence
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Dispatch, Enabled, Engine,
                                     EventError, Pass, RobotFailed)
+from fleet_common.execution.handover import renumbered
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.wire import (Accepted, Completed, DriveToPosition, Failed, GetStatus, Release, Status, Stop,
@@ -124,15 +125,8 @@ class Driver:
         self.engine = engine
         self.following.engine = engine
         run = engine.run
-
-        def moved(d: Dispatch) -> Dispatch:
-            k = d.index - base[d.agent]
-            a = run.first[d.agent] + k
-            lead = engine.early.get(a)
-            return d._replace(index=k, step=run.step[a], follows=None if lead is None else (
-                run.agent[lead], lead - run.first[run.agent[lead]]))
         for robot in self.robots:
-            robot.queue = deque(moved(d) for d in robot.queue)
+            robot.queue = deque(renumbered(engine, base, d) for d in robot.queue)
             flight = robot.flight
             if flight is not None and flight.index is not None:
                 shifted = flight.index - base[robot.agent]

@@ -15,7 +15,7 @@ sent would wait for one that is not: the safety of the hand-over, checked.
 """
 from __future__ import annotations
 
-from typing import List, Tuple
+from typing import List, Sequence, Tuple
 
 from ..errors import FleetError
 from .cut import cut_of
@@ -52,3 +52,14 @@ def hand_over(engine: Engine, reroute: Reroute, now: float) -> Tuple[Engine, Lis
     except EventError as err:
         raise HandoverError(str(err)) from None
     return new, dispatches
+
+
+def renumbered(new: Engine, base: Sequence[int], d: Dispatch) -> Dispatch:
+    """`d`, a move of the old plan sent (or queued) before the hand-over to `new`, numbered as in
+    the new plan (which starts robot r with the old plan's move `base[r]`), with its leader there."""
+    run = new.run
+    k = d.index - base[d.agent]
+    a = run.first[d.agent] + k
+    lead = new.early.get(a)
+    return d._replace(index=k, step=run.step[a], follows=None if lead is None else (
+        run.agent[lead], lead - run.first[run.agent[lead]]))

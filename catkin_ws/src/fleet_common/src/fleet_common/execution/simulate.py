@@ -56,7 +56,7 @@ from .approach import Approach, Safety, judge
 from .engine import Engine
 from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed, Tick
 from .following import hold_fraction
-from .handover import HandoverError, hand_over
+from .handover import HandoverError, hand_over, renumbered
 from .metrics import Metrics
 from .motion import Feedback, Motion
 from .reroute import Reroute, RerouteRule, Rerouter
@@ -346,11 +346,7 @@ class _Simulation:
         run = new.run
 
         def moved(d: Dispatch) -> Dispatch:
-            k = d.index - shift[d.agent]
-            a = run.first[d.agent] + k
-            lead = new.early.get(a)
-            return d._replace(index=k, step=run.step[a], follows=None if lead is None else (
-                run.agent[lead], lead - run.first[run.agent[lead]]))
+            return renumbered(new, shift, d)
         for r in range(run.num_agents):
             busy = self.busy[r]
             if busy is not None:
