@@ -391,7 +391,9 @@ class Engine:
         starts at `time`. The decisions now; a wait one ends is charged to `released_by[robot]`.
 
         Raises `EventError`, changing neither engine, when a move sent would wait in this plan for
-        a move that is not (the plan does not fit the run: the rule's one condition)."""
+        a move that is not (the plan does not fit the run: the rule's one condition), unless `old`
+        sent it following that very move (its leader went out since and took the move back): the
+        pair keeps its order and the follower its hold behind the leader's real pose."""
         run = self.run
         n = run.num_agents
         if n != old.run.num_agents or len(progress) != n or run.passes or self.metrics.begin is not None:
@@ -401,7 +403,7 @@ class Engine:
             if done < 0 or sent < 0 or done + sent > run.count(r):
                 raise EventError("adopt: robot {} has {} moves in the new plan, not {} done and {} sent".format(
                     r, run.count(r), done, sent), r)
-        misfit = self._misfit(progress)
+        misfit = self._misfit(progress, old)
         if misfit is not None:
             raise EventError(misfit)
         for r, (done, sent, began) in enumerate(progress):
@@ -439,11 +441,14 @@ class Engine:
             out += self._dispatch([r], charged.get(r), time)
         return out
 
-    def _misfit(self, progress: Sequence[Tuple[int, int, bool]]) -> Optional[str]:
-        """Why this plan does not fit a run with `progress` (see `adopt`), or None: a move sent
-        that waits in this plan for a move not completed (robots of real size: not sent)."""
+    def _misfit(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
+        """Why this plan does not fit `old`'s run with `progress` (see `adopt`), or None: a move
+        sent that waits in this plan for a move not completed (robots of real size: not sent), and
+        that `old` did not send following the same move."""
         run = self.run
         first, agent, dep = run.first, run.agent, run.dep
+        # robot r's move k here is its move k + base[r] in `old`'s plan
+        base = [old.run.completed[r] - done for r, (done, _, _) in enumerate(progress)]
         for r, (done, sent, _) in enumerate(progress):
             for a in range(first[r] + done, first[r] + done + sent):
                 d = dep[a]
@@ -451,8 +456,12 @@ class Engine:
                     continue
                 q = agent[d]
                 k = d - first[q]
-                if not (k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1])):
-                    return ("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot {}'s "
+                if k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1]):
+                    continue
+                was = old.early.get(old.run.first[r] + base[r] + a - first[r])
+                if self.follow and was is not None and was == old.run.first[q] + base[q] + k:
+                    continue  # it follows the move it followed: its leader took it back (out)
+                return ("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot {}'s "
                             "move {}, which was not".format(r, a - first[r], q, k))
         return None
 
