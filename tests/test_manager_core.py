@@ -302,6 +302,26 @@ def test_a_request_on_a_stale_picture_of_its_robot_is_refused_and_changes_nothin
     assert f.ask(ops, "enable", based_on=seen, robot=4).ok
 
 
+@pytest.mark.parametrize("action, phase", [("halt", "paused"), ("stop", "stopped"), ("pause", "paused")])
+def test_stopping_is_carried_out_on_a_stale_picture_of_the_run(action, phase):
+    """An operator's Halt (Stop, Pause) is never refused as stale: the run changed as a whole
+    (here another console switched the strategy) while the operator looked, and the robots stop
+    all the same. Starting again on that picture is refused: it needs a look at the run."""
+    f = fleet()
+    ops, other = f.console("ops"), f.console("visitor desk")
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    f.advance(1.0)
+    seen = ops.version
+    assert f.ask(other, "strategy", name="reorder").ok
+    answer = f.ask(ops, action, based_on=seen)
+    assert answer.ok, answer.reason
+    assert f.phase == phase
+    assert f.core.run.engine.paused
+    answer = f.ask(ops, "start", based_on=seen)
+    assert not answer.ok and "the state changed since you looked" in answer.reason
+
+
 def test_garbage_from_a_console_is_answered_and_changes_nothing():
     f = fleet()
     ops = f.console()

@@ -10,7 +10,9 @@ out and calls `answer`. What the desk decides alone:
   the manager can log it (rate-limited);
 - a request from a console that has not said hello is refused;
 - a request based on an older `version` than the desk's is refused, naming
-  the changes made since (thesis 5.1.1: nobody acts on an outdated picture);
+  the changes made since (thesis 5.1.1: nobody acts on an outdated picture),
+  except a request that only stops motion (`requests.STOPPING`: pause, stop,
+  halt), which is safe on any picture;
 - heartbeats: a console silent for 1 s is sent one; a console silent for
   `timeout` is forgotten (its socket identity may come back with a hello);
 - States go to each console at most once per `min_interval` (`states`),
@@ -39,7 +41,7 @@ from typing import Any, Deque, Dict, List, Optional, Tuple
 from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from . import messages as m
 from .codec import ControlProtocolError, decode, encode
-from .requests import check_args
+from .requests import STOPPING, check_args
 from ..schema import SchemaError
 
 __all__ = ["ControlDesk", "Refusal", "Console"]
@@ -151,7 +153,7 @@ class ControlDesk:
         except SchemaError as err:
             refuse(str(err))
             return
-        if request.based_on < self.version:
+        if request.based_on < self.version and request.action not in STOPPING:
             robot = args.get("robot") if request.action in ("enable", "disable", "source") else None
             changes = self.conflicts(request.based_on, robot, peer)
             if changes is None or changes:

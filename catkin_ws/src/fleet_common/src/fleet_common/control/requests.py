@@ -25,7 +25,7 @@ from ..limits import MAX_PLAN_TEXT
 from .messages import SOURCES
 from ..schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
 
-__all__ = ["ACTIONS", "ARGS", "RUN_ACTIONS", "check_args"]
+__all__ = ["ACTIONS", "ARGS", "RUN_ACTIONS", "STOPPING", "check_args"]
 
 _ROBOT = Int(0, 2 ** 31)
 _NONE: Obj = Obj({})
@@ -62,6 +62,10 @@ ACTIONS = tuple(ARGS)
 #: The actions without arguments that act on the run: a State says which of them the manager
 #: would carry out now (`RunInfo.allowed`), so that a console greys the others.
 RUN_ACTIONS = ("start", "pause", "step", "stop", "halt", "replan", "to_starts", "reset")
+#: The actions that only take motion away: an operator may always ask them, on whatever picture
+#: (the desk never refuses them as stale: a Halt pressed as an automatic reroute changed the plan
+#: must not have to be pressed twice).
+STOPPING = ("pause", "stop", "halt")
 
 
 def check_args(action: str, args: Dict[str, Any]) -> Dict[str, Any]:
