@@ -6,8 +6,11 @@ session whose process exited stays (remain-on-exit) until the next start or
 stop, and its exit status is reported. Each process runs under `script`, which
 keeps its terminal and copies everything it prints to `logs/<name>.log` in the
 checkout: tmux may lose the last lines of a process that exits at once, the
-file does not, and it is what start and status quote. Stop sends Ctrl-C, waits
-`timeouts.stop`, then ends the sessions.
+file does not, and it is what start and status quote. The process's exit status
+goes to `logs/<name>.exit` before its session's shell ends: tmux marks a pane
+dead when its terminal closes, sometimes seconds before it knows the status
+(never, on a loaded machine, within 5 s), and the file is there by then. Stop
+sends Ctrl-C, waits `timeouts.stop`, then ends the sessions.
 """
 from __future__ import annotations
 
@@ -26,10 +29,17 @@ def _tmux(config: DeployConfig) -> str:
 T() {{ tmux -L {socket} "$@"; }}
 state() {{
   T has-session -t "=$1" 2>/dev/null || {{ echo stopped; return; }}
-  # tmux marks a pane dead when its terminal closes, which can come before it has reaped the
-  # process: "exited " without a status or signal then, for a moment; ask again.
+  # the status file first (written before the pane dies); tmux's own status for a session
+  # started without one, which can lag: "exited " without a status then; ask again
   for _ in 1 2 3 4 5 6 7 8 9 10; do
     st=$(T display-message -p -t "=$1:" '#{{?pane_dead,exited #{{pane_dead_status}}#{{?pane_dead_signal,signal #{{pane_dead_signal}},}},running}}')
+    case $st in
+      exited*) code=$(cat "logs/$1.exit" 2>/dev/null)
+               case $code in
+                 ''|*[!0-9]*) ;;
+                 *) if [ "$code" -gt 128 ]; then st="exited signal $((code - 128))"; else st="exited $code"; fi ;;
+               esac ;;
+    esac
     [ "$st" = "exited " ] || break
     sleep 0.1
   done
@@ -53,11 +63,11 @@ def start_script(target: Target, config: DeployConfig) -> str:
         lines.append(r"""case $(state {n}) in
   running) running="$running {n}" ;;
   *) T kill-session -t ={n} 2>/dev/null || true
+     rm -f logs/{n}.exit
      T start-server \; set-window-option -g remain-on-exit on \; set-option -g history-limit 20000 \; \
        new-session -d -s {n} -c "$PWD" -x 200 -y 50 {cmd}
      started="$started {n}" ;;
-esac""".format(n=shlex.quote(name), cmd=shlex.quote("script -qfeac {} logs/{}.log".format(
-            shlex.quote("bash -c " + shlex.quote(command)), name))))
+esac""".format(n=shlex.quote(name), cmd=shlex.quote(_session_command(name, command))))
     lines.append("""[ -z "$started" ] || sleep {check}
 for name in $started; do
   s=$(state "$name")
@@ -69,6 +79,13 @@ done
 echo "started:${{started:- nothing}}${{running:+; already running:$running}}"
 """.format(check=config.timeouts.start_check))
     return "\n".join(lines)
+
+
+def _session_command(name: str, command: str) -> str:
+    """What a session runs: `command` under `script` (its log), then its status to the file."""
+    log, status = shlex.quote("logs/{}.log".format(name)), shlex.quote("logs/{}.exit".format(name))
+    return "sh -c {}".format(shlex.quote("script -qfeac {} {}; s=$?; echo $s > {}; exit $s".format(
+        shlex.quote("bash -c " + shlex.quote(command)), log, status)))
 
 
 def stop_script(config: DeployConfig) -> str:

@@ -293,6 +293,7 @@ def test_a_process_that_dies_at_start_and_a_step_past_its_timeout_fail_with_thei
     assert build.returncode == 1
     assert rows(build.stdout)["robot 1"] == ("FAILED", "build: timed out after 1 s")
     assert not alive(lab.checkout(lab.robots[0]) / "build.pid")  # ended on the robot too
+    (lab.tmp / "deploy.yaml").write_text(text.replace("command: 1", "command: 60"))  # start: no race with 1 s
     start = lab.deploy("robots:start", "1")
     assert start.returncode == 1
     assert rows(start.stdout)["robot 1"] == (

@@ -143,3 +143,13 @@ def test_one_line_is_one_line_within_the_limit(text: str, limit: int) -> None:
     assert no_control_characters(line) and len(line) <= limit
     if len(text) <= limit and no_control_characters(text):
         assert line == text
+
+
+def test_a_long_message_keeps_its_beginning_and_its_advice():
+    """A long path in the middle of a message is what gets cut, not what to do about it."""
+    path = "/tmp/" + "deep/" * 80 + "nokeys"
+    message = "{}/robot.key_secret not found: make the keys with `fleetctl keys --dir {}`; " \
+              "or run the fleet with --no-curve".format(path, path)
+    line = one_line(message, 120)
+    assert len(line) <= 120 and " ... " in line
+    assert line.startswith("/tmp/deep/") and line.endswith("or run the fleet with --no-curve")

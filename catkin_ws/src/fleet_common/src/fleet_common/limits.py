@@ -286,10 +286,24 @@ def excerpt(value: Any, limit: int = EXCERPT_CHARS) -> str:
 
 def one_line(text: str, limit: int = MAX_MESSAGE_CHARS) -> str:
     """`text` as one line of at most `limit` characters: control characters escaped
-    (backslashes are left alone: quotations in it are escaped already), the end cut off
-    with "..." if it is longer."""
+    (backslashes are left alone: quotations in it are escaped already), the middle cut out
+    with " ... " if it is longer: a message says what failed first and what to do last (a
+    long path in between must not push the advice off the line)."""
     shown, used = _escaped(text, limit, backslash=False)
     if used == len(text):
         return shown
-    shown, _ = _escaped(text, limit - 3, backslash=False)
-    return shown + "..."
+    gap = " ... "
+    if limit < 3 * len(gap):
+        shown, _ = _escaped(text, max(limit - 3, 0), backslash=False)
+        return shown + "..."
+    pieces = [ch if ch.isprintable() else _escape_char(ch) for ch in text]
+    tail_room = (limit - len(gap)) // 3
+    tail: List[str] = []
+    size = 0
+    for piece in reversed(pieces):
+        if size + len(piece) > tail_room:
+            break
+        tail.append(piece)
+        size += len(piece)
+    head, _ = _escaped(text[:len(pieces) - len(tail)], limit - len(gap) - size, backslash=False)
+    return head + gap + "".join(reversed(tail))
