@@ -90,6 +90,7 @@ setup(
             "pupil-apriltags>=1.0.4,<2",
             "opencv-python-headless>=4.7,<4.12",  # <4.12: keeps Debian 12's numpy 1.24
             "pytest>=7.4,<9",
+            "pytest-xdist>=3.3,<4",  # the suite on two workers (scripts/ciirc-exec.sh test)
             "hypothesis>=6.80,<7",
             "vermin>=1.6,<2",
             "ruff>=0.6,<1",
