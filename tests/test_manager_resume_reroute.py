@@ -43,6 +43,7 @@ from fleet_manager import resume as resume_module
 from fleet_manager.core import RunCore
 from fleet_manager.resume import read_resume
 from fleet_manager.settings import ManagerSettings
+from helpers import fleetctl, free_port
 from memory_fleet import MemoryFleet, lab_fleet
 from test_manager_reroute import crossing
 from test_manager_core import closest_truth
@@ -354,7 +355,12 @@ def test_a_rerouted_folder_without_its_new_plan_file_or_with_its_plan_record_tor
                      if kind == "plan")
     with open(folder / "events.jsonl", "a") as events:
         events.write(plan_line[:40])
-    args.resume = str(folder)
-    with pytest.raises(FleetError, match=r"^cannot resume .*torn: plan-2.txt was written but the run log has no "
-                                         r"complete `plan` record for it \(its last line is torn\)"):
-        load_resume(args, definitions, [], None, False)
+    # as the lab staff meet it: one line, exit 2 (a manager that took it over would serve on loopback
+    # only, and be stopped by the timeout)
+    refused = fleetctl("manager", "--resume", folder, "--no-curve", "--no-log", "--definitions", definitions,
+                       "--map-dir", folder, "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(free_port()),
+                       timeout=30)
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert refused.stderr == ("fleetctl manager: cannot resume {}: plan-2.txt was written but the run log has no "
+                              "complete `plan` record for it (its last line is torn): the change to it was cut "
+                              "off; Go to starts and run the plan again\n".format(folder)), refused.stderr
