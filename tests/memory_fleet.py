@@ -134,6 +134,8 @@ class MemoryFleet:
         #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
         self.pose_lag = pose_lag
         self._poses: List[Tuple[float, PoseFeedback]] = []
+        #: called after each batch of the core's effects is carried out (its records written)
+        self.after_batch: Optional[Callable[[], None]] = None
         self.pump()
 
     @property
@@ -182,6 +184,8 @@ class MemoryFleet:
                 return
             for effect in effects:
                 self._carry_out(effect)
+            if self.after_batch is not None:  # the records of a batch are what a killed manager leaves
+                self.after_batch()
             replies, self._replies = self._replies, []
             for reply in replies:
                 self.core.link_event(reply, self.now)

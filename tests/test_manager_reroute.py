@@ -12,7 +12,7 @@ by what the run log, the consoles and the terminal were told.
 from __future__ import annotations
 
 import math
-from typing import List
+from typing import List, Tuple
 
 import numpy as np
 import pytest
@@ -25,8 +25,10 @@ from fleet_common.lab import lab_instance_path
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_manager import driver as driver_module
+from fleet_manager import resume as resume_module
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
+from test_manager_resume import executions
 
 PATHS = [[(0, 1), (1, 1), (2, 1), (3, 1), (4, 1)],
          [(2, 3), (2, 2), (2, 2), (2, 1), (2, 0)],
@@ -221,12 +223,63 @@ def test_the_mode_is_switched_from_a_console_checked_recorded_and_shown():
     assert f.kinds("reroute")  # switched on mid-run, it rerouted
 
 
-def test_a_rerouted_run_is_not_resumed_but_refused_in_one_line():
-    f = started("auto")
+def killed_after_the_reroute_and_resumed(size: RobotSize) -> Tuple[MemoryFleet, List[float], List[Tuple[int, int]]]:
+    """Robots 1 and 3 drive moves renumbered by the reroute when the manager dies (SIGKILL) right after
+    it; a new manager takes the run over from its records and Start drives on. The run, the closest
+    pair of true centres seen, and every command the robots ran from the reroute on."""
+    f = started("auto", size)
     assert f.run_until(lambda: bool(f.kinds("reroute")), 10.0)
-    with pytest.raises(FleetError, match=r"^cannot resume memory-run: the run was rerouted at [0-9.]+ s "
-                                         r"\(plan-2.txt\), with robots mid-move"):
-        f.resume_manager()
+    ran = executions(f)
+    (base,) = [r["base"] for r in f.kinds("reroute")]
+    driving = {r.id: r.flight for r in f.core.fleet if r.flight is not None and r.flight.kind == "drive"}
+    assert {rid: flight.index for rid, flight in driving.items()} == {1: 0, 2: 0, 3: 0} and base == [0, 1, 1]
+    # robot 3 was sent its second move before the reroute: now its first
+    assert [c["action"] for c in f.kinds("command") if c["robot"] == 3 and c["id"] == driving[3].id] == [1]
+    f.kill_manager()
+    seen = []
+    for _ in range(20):  # a second without a manager: the robots drive on
+        f.advance(0.05)
+        seen.append(closest(f))
+    f.resume_manager()
+    (resume,) = f.kinds("resume")
+    assert resume["plan"] == "plan-2.txt"
+    assert {robot for robot, _, kind in resume["sent"] if kind == "drive"} == set(driving)
+    f.advance(0.2)
+    assert f.phase == "paused" and "every robot where the run left it" in f.core.run.phase.reason
+    assert f.ask(f.console(), "start").ok
+    return f, seen + run_to_end(f), ran
+
+
+@pytest.mark.parametrize("size", [cell_sized(), TURTLEBOT2], ids=["cell", "turtlebot2"])
+def test_a_manager_killed_right_after_a_reroute_is_resumed_on_the_new_plan_and_every_robot_arrives(size):
+    f, seen, ran = killed_after_the_reroute_and_resumed(size)
+    assert_arrived_safely(f, seen, size)
+    assert len(ran) == len(set(ran)), "a command ran twice"
+    assert f.core.summary().resumes == 1
+    # each move of the new plan completed once, before the restart or after it
+    since = next(i for i, (kind, _, _) in enumerate(f.records) if kind == "plan")
+    completed = [(fields["robot"], fields["index"]) for kind, _, fields in f.records[since:]
+                 if kind == "action" and fields["phase"] == "completed"]
+    assert sorted(completed) == sorted(set(completed))
+    assert len(completed) == sum(f.kinds("plan")[0]["actions"]) - sum(f.kinds("plan")[0]["done"])
+
+
+def test_a_resume_that_keeps_the_old_numbers_of_moves_in_flight_fails_the_run(monkeypatch):
+    """The negative control of the test above: the records read back without renumbering (robot 3's
+    move in flight keeps number 1); the resume refuses, or the run does not end as it should."""
+    monkeypatch.setattr(resume_module, "renumber", keeps_old_numbers)
+    with pytest.raises((AssertionError, FleetError)):
+        f, seen, ran = killed_after_the_reroute_and_resumed(cell_sized())
+        assert_arrived_safely(f, seen, cell_sized())
+        assert len(ran) == len(set(ran)), "a command ran twice"
+
+
+def keeps_old_numbers(point, record, pending) -> None:
+    """Wrong on purpose (`resume.renumber`): the new plan and its moves done, but the moves begun and
+    the commands in flight keep the old plan's numbers."""
+    point.plan = str(record["file"])
+    point.completed = {rid: record["done"][a] for a, rid in enumerate(record["robots"])}
+    point.passes.clear()
 
 
 def test_the_summary_counts_a_followers_move_made_before_its_leader_left_once_across_a_reroute():

@@ -28,6 +28,17 @@ the manager's command epoch. A new manager started on the folder
 Nothing moves until that check is done: no release of a follower, no new
 action (the resumed run is paused until Start). The run log goes on in the
 same folder after a `resume` record, on the same clock.
+
+A rerouted run changed plan with robots mid-move (`handover`): the reroute's
+`plan` record says, by robot, which move of the old plan the new plan starts
+it with (`base`) and how many of the new plan's moves it has done already
+(`done`: a follower's move made before its leader left). At that record the
+progress read so far is renumbered into the new plan as the live manager
+renumbered it (`renumber`): completed = done, begun = begun - base, each
+unsettled command's move = its move - base; the records after it are in the
+new numbering already. A record that lacks those fields or does not fit the
+progress before it is refused in one line, as is a folder whose plan file
+its records never reached, or that lost one (`resume_folder`).
 """
 from __future__ import annotations
 
@@ -124,13 +135,8 @@ def read_resume(run: RunFolder) -> ResumePoint:
         point.last_t = max(point.last_t, _number(r.get("t")))
         robot = r.get("robot")
         if kind == "plan" and r.get("reason") == "reroute":
-            # its robots were handed over mid-move (the moves in flight are the new plan's first,
-            # some done already): what restarting from its records would need is not built
-            raise FleetError("cannot resume {}: the run was rerouted at {:.1f} s ({}), with robots "
-                             "mid-move; resume takes over runs whose plan changed at a safe point only: "
-                             "Go to starts and run the plan again".format(
-                                 run.folder, _number(r.get("t")), r.get("file")))
-        if kind == "plan" and r.get("reason") != "loaded":
+            handed_over(point, r, pending)
+        elif kind == "plan" and r.get("reason") != "loaded":
             point.plan = str(r.get("file") or point.plan)
             point.completed.clear()
             point.started.clear()
@@ -170,6 +176,58 @@ def read_resume(run: RunFolder) -> ResumePoint:
                        for robot, commands in pending.items() if commands}
     point.next_id = {robot: top + 1 + ID_MARGIN for robot, top in highest.items()}
     return point
+
+
+def handed_over(point: ResumePoint, record: Record, pending: Dict[int, Dict[int, Unsettled]]) -> None:
+    """The run went on with a reroute's plan from `record` (its `plan` record) on: the progress
+    read so far, in the old plan's numbering, renumbered into the new plan's. FleetError, in one
+    line, when the record cannot say how (fields missing, or progress it does not fit)."""
+    robots, base, done = record.get("robots"), record.get("base"), record.get("done")
+    actions = record.get("actions")
+    name = record.get("file")
+    n = len(point.robots)
+    what = "cannot resume {}: the record of the reroute to {} at {:.1f} s".format(
+        point.folder, name if isinstance(name, str) and name else "its next plan", _number(record.get("t")))
+    if not isinstance(name, str) or not name:
+        raise FleetError("{} names no plan file; Go to starts and run the plan again".format(what))
+    missing = [f for f, v in (("robots", robots), ("base", base), ("done", done), ("actions", actions))
+               if not _counts(v, n)]
+    if missing:
+        raise FleetError("{} lacks {} (a list of {} whole numbers, by robot): the moves in flight cannot "
+                         "be renumbered into it; Go to starts and run the plan again".format(
+                             what, " and ".join(missing), n))
+    for a, rid in enumerate(robots):  # type: ignore[arg-type]
+        had = point.completed.get(rid, 0)
+        if base[a] > had or done[a] != had - base[a] or done[a] > actions[a]:  # type: ignore[index]
+            raise FleetError("{} does not fit the records before it: robot {} had completed {} move{} of {}, "
+                             "the reroute starts it with move {} and counts {} of {} done; Go to starts and "
+                             "run the plan again".format(what, rid, had, "" if had == 1 else "s", point.plan,
+                                                         base[a], done[a], actions[a]))  # type: ignore[index]
+    renumber(point, record, pending)
+
+
+def renumber(point: ResumePoint, record: Record, pending: Dict[int, Dict[int, Unsettled]]) -> None:
+    """The progress and the unsettled commands of `point` in the numbering of the reroute's plan
+    `record` (checked): it starts robot r with the old plan's move base[r], its first done[r] moves
+    done already (as `Engine.adopt` counts them); a command's move beyond the new plan's is no
+    move of it (as the driver's hand-over renumbers a turn in flight)."""
+    robots, base, done, actions = record["robots"], record["base"], record["done"], record["actions"]
+    started = dict(point.started)
+    point.completed = {rid: done[a] for a, rid in enumerate(robots)}
+    point.started = {rid: max(done[a], started.get(rid, 0) - base[a]) for a, rid in enumerate(robots)}
+    for a, rid in enumerate(robots):
+        for u in pending.get(rid, {}).values():
+            if u.action is not None:
+                k = u.action - base[a]
+                u.action = k if 0 <= k < actions[a] else None
+    point.plan = str(record["file"])
+    point.passes.clear()
+
+
+def _counts(value: Any, n: int) -> bool:
+    """`value` is a list of `n` whole numbers, none negative."""
+    return isinstance(value, list) and len(value) == n and all(
+        isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)
 
 
 def _number(value: Any) -> float:

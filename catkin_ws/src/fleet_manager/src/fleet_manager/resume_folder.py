@@ -21,7 +21,8 @@ from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan, load_plan, pick_robots
 from fleet_common.robots import RobotDefinition, read_robot_definitions
 from fleet_common.runlog import read_run
-from fleet_common.runlog.records import EVENTS_FILE
+from fleet_common.runlog.reader import RunFolder
+from fleet_common.runlog.records import EVENTS_FILE, plan_file
 
 from .resume import ResumePoint, read_resume
 
@@ -62,8 +63,26 @@ def load_resume(args: argparse.Namespace, definitions: Path, map_dirs: Sequence[
     loaded = dataclasses.replace(first, name=name, note="resumed from {}".format(folder))
     current = first.plan
     if point.plan != run.run["plan"]:
+        if not (folder / point.plan).is_file():
+            raise FleetError("cannot resume {}: {} is missing, the plan its records run since {}; Go to starts "
+                             "and run the plan again".format(folder, point.plan, _since(run, point.plan)))
         current = load_plan(folder / point.plan, len(fleet), "the run's robots", dirs, repair=False).plan
+    unrecorded = folder / plan_file(point.plan_number + 1)
+    if unrecorded.is_file():
+        # written just before its `plan` record, which never reached the file (or was torn): the
+        # hand-over to it was cut off, and the records cannot tell what it left
+        raise FleetError("cannot resume {}: {} was written but the run log has no complete `plan` record for "
+                         "it{}: the change to it was cut off; Go to starts and run the plan again".format(
+                             folder, unrecorded.name, " (its last line is torn)" if run.torn else ""))
     return fleet, loaded, (point, current)
+
+
+def _since(run: RunFolder, name: str) -> str:
+    """When the run changed to plan file `name`, and why, in words."""
+    record = next((r for r in run.of("plan") if r.get("file") == name), {})
+    t = record.get("t")
+    return "the {} at {:.1f} s".format(record.get("reason") or "change", t) if isinstance(t, (int, float)) \
+        else "a change of plan"
 
 
 def last_run(log_dir: Path, plan: str, robots: List[int]) -> Path:
