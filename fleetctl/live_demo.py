@@ -31,6 +31,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,6 +167,7 @@ def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDef
 def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition], settings: DemoSettings,
                   say: Callable[[str], None] = print) -> int:
     """Run it; the exit status (0: every robot arrived, no collision, the console saw it)."""
+    say = _whole_lines(say)  # the manager's lines come from its reader thread
     work = Path(tempfile.mkdtemp(prefix="fleetcontrol-demo-"))
     children: List[Child] = []
     try:
@@ -219,6 +221,17 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
             if child.running():
                 child.stop()
         shutil.rmtree(work, ignore_errors=True)
+
+
+def _whole_lines(say: Callable[[str], None]) -> Callable[[str], None]:
+    """`say` for several threads: one line at a time (print writes a line and its newline apart,
+    and two threads' lines ran together: "processes: ..." after "robot 1 link up")."""
+    lock = threading.Lock()
+
+    def locked(line: str) -> None:
+        with lock:
+            say(line)
+    return locked
 
 
 def _start_console(endpoint: str, folder: Path, settings: DemoSettings, work: Path,
