@@ -67,7 +67,8 @@ def test_a_run_rerouted_live_is_taken_over_after_a_kill_and_completes_safely(tmp
         folder = wait_for_reroute(runs, manager, 120)
         manager.kill()
         assert sorted(runs.iterdir()) == [folder]
-        again = start_manager(tmp_path, plan, definitions, console_port, *run_args, "--resume", folder,
+        # no --reroute: the run goes on in the mode it had (as under its strategy)
+        again = start_manager(tmp_path, plan, definitions, console_port, *run_args[:-2], "--resume", folder,
                               "--accept", name="manager-again")
         assert again.wait(240) == 0, again.text()[-4000:]
     finally:
@@ -76,7 +77,7 @@ def test_a_run_rerouted_live_is_taken_over_after_a_kill_and_completes_safely(tmp
             again.stop()
         fleet.stop()
     first, out = manager.text(), again.text()
-    assert ", reroute auto;" in first.splitlines()[0]
+    assert ", reroute auto;" in first.splitlines()[0] and ", reroute auto;" in out.splitlines()[0]
     run = read_run(folder)
     reroutes = list(run.of("reroute"))
     assert reroutes and reroutes[0]["text"] in first  # told on the terminal, by robot id

@@ -62,7 +62,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reroute", choices=list(REROUTE_MODES), default="off",
                         help="reroute robots a late robot holds up when it pays: off (default), "
                              "propose (the consoles show the new paths; accept or reject) or auto "
-                             "(at once, the run going on); switchable from a console")
+                             "(at once, the run going on); switchable from a console; a resumed run "
+                             "keeps the mode it had")
     parser.add_argument("--lookahead", type=count, default=1, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
@@ -172,17 +173,18 @@ def run(args: argparse.Namespace) -> int:
         keys = None if args.no_curve else load_manager_keys(args.keys or default_keys_dir())
     except FleetError as err:
         raise FleetError("{}; or run with --no-curve (and the robots too)".format(err)) from err
-    strategy, lookahead = args.strategy, args.lookahead
-    if resume is not None:  # the run goes on under the strategy it had
+    strategy, lookahead, reroute = args.strategy, args.lookahead, args.reroute
+    if resume is not None:  # the run goes on under the strategy and the reroute mode it had
         strategy = resume[0].strategy
         lookahead = int(resume[0].settings.get("lookahead") or 1)
+        reroute = resume[0].reroute
     settings = ManagerSettings(
         strategy=strategy, lookahead=lookahead, bind=args.bind, log_dir=log_dir,
         step_time=args.step_time, state_rate=args.state_rate,
         state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
         vicon_bind=args.vicon_bind, frames=args.frames, plan_dirs=list(args.plans),
-        size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=args.reroute)
+        size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=reroute)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host, resume=resume)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -190,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
     print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}{}; consoles on {} ({}){}".format(
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
         loaded.plan.makespan, manager.core.run.engine.strategy.describe(),
-        "" if args.reroute == "off" else ", reroute " + args.reroute, manager.consoles.endpoint,
+        "" if reroute == "off" else ", reroute " + reroute, manager.consoles.endpoint,
         ("CURVE" if keys is not None else "no CURVE") + (
             "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),

@@ -93,6 +93,7 @@ class ResumePoint:
     out: Dict[int, Tuple[str, str]] = field(default_factory=dict)  # robot id -> (why, reason)
     strategy: str = "adg"
     settings: Dict[str, Any] = field(default_factory=dict)
+    reroute: str = "off"                            # the reroute mode the run had last
     phase: str = "waiting"
     #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
     passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
@@ -128,6 +129,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
     point = ResumePoint(run.folder, run.run, run.records, torn=run.torn)
     point.strategy = str(run.run.get("strategy") or "adg")
     point.settings = dict(run.run.get("settings") or {})
+    point.reroute = _mode(run.run.get("reroute"), "off")
     pending: Dict[int, Dict[int, Unsettled]] = {}
     highest: Dict[int, int] = {}
     for r in run.records:
@@ -165,6 +167,8 @@ def read_resume(run: RunFolder) -> ResumePoint:
                 point.out.pop(robot, None)
             else:
                 point.out[robot] = (str(r["why"]), str(r.get("reason") or ""))
+        elif kind == "reroute_mode":
+            point.reroute = _mode(r.get("mode"), point.reroute)
         elif kind == "strategy" and isinstance(r.get("name"), str):
             point.strategy = r["name"]
             point.settings.update(r.get("settings") or {})
@@ -228,6 +232,12 @@ def _counts(value: Any, n: int) -> bool:
     """`value` is a list of `n` whole numbers, none negative."""
     return isinstance(value, list) and len(value) == n and all(
         isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)
+
+
+def _mode(value: Any, otherwise: str) -> str:
+    """A reroute mode read from a record (`otherwise` for anything else)."""
+    from fleet_common.execution.reroute import MODES
+    return value if isinstance(value, str) and value in MODES else otherwise
 
 
 def _number(value: Any) -> float:
