@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-from typing import List
+from typing import List, Optional
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -388,8 +388,10 @@ def closest_truth(f: MemoryFleet, record: List[float]) -> None:
     record.append(min(math.hypot(a.x - b.x, a.y - b.y) for i, a in enumerate(poses) for b in poses[i + 1:]))
 
 
-def run_recording(f: MemoryFleet, limit: float = 60.0) -> List[float]:
-    seen: List[float] = []
+def run_recording(f: MemoryFleet, limit: float = 60.0, seen: Optional[List[float]] = None) -> List[float]:
+    """Run until done (at most `limit` s), each tick's closest distance of true centres added to
+    `seen` (a new list if None), which is returned."""
+    seen = [] if seen is None else seen
     end = f.now + limit
     while f.phase != "done" and f.now < end:
         f.advance(0.05, step=0.05)

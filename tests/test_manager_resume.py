@@ -28,7 +28,7 @@ from fleet_common.wire import Pose
 from fleet_manager.resume import read_resume
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
-from test_manager_core import closest_truth, train
+from test_manager_core import closest_truth, run_recording, train
 
 _LAB: List[LoadedPlan] = []
 
@@ -133,10 +133,7 @@ def test_a_follower_at_its_hold_point_waits_for_the_new_manager_and_keeps_its_di
     f.link_up(3)
     f.advance(0.2)
     assert f.ask(f.console(), "start").ok
-    end = f.now + 60
-    while f.phase != "done" and f.now < end:
-        f.advance(0.05)
-        closest_truth(f, seen)
+    run_recording(f, 60, seen)
     assert f.phase == "done" and f.at_goals()
     assert min(seen) >= size.safe_cells - 0.01
     assert any(getattr(c, "TYPE", "") == "release" for c in f.robots[2].commands[-30:])

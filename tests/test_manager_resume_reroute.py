@@ -46,7 +46,7 @@ from fleet_manager.settings import ManagerSettings
 from helpers import fleetctl, free_port
 from memory_fleet import MemoryFleet, lab_fleet
 from test_manager_reroute import crossing
-from test_manager_core import closest_truth
+from test_manager_core import closest_truth, run_recording
 from test_manager_resume import executions, lab
 
 Flight = Optional[Tuple[int, str, Optional[int]]]  # command id, kind, move
@@ -254,10 +254,7 @@ def test_a_run_rerouted_twice_and_killed_later_is_resumed_on_its_third_plan_and_
     f.advance(0.2)
     assert "every robot where the run left it" in f.core.run.phase.reason
     assert f.ask(f.console(), "start").ok
-    end = f.now + 60
-    while f.phase != "done" and f.now < end:
-        f.advance(0.05)
-        closest_truth(f, seen)
+    run_recording(f, 60, seen)
     assert f.phase == "done" and f.at_goals()
     assert min(seen) >= TURTLEBOT2.safe_cells - 0.01
     assert len(ran) == len(set(ran)), "a command ran twice"
