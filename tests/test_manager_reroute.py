@@ -310,3 +310,60 @@ def test_the_summary_counts_a_followers_move_made_before_its_leader_left_once_ac
         b.feed(dict(fields, k=kind, t=t))
     s = b.summary()
     assert s.arrived == [1, 2] and s.moves == (4, 4)
+
+
+def _run_fields(engine) -> tuple:
+    """What a look reads of an engine, as plain values."""
+    run = engine.run
+    return (bytes(run.done), list(run.completed), list(run.started), list(run.dispatched), list(run.sent),
+            list(run.dep), list(run.succ), list(engine._sent_at), list(engine._freed_at), dict(engine.early),
+            list(run.out), run.version, [list(x) if isinstance(x, list) else x for x in vars(engine.metrics).values()])
+
+
+def test_a_snapshot_is_the_engine_as_it_was_whatever_the_loop_does_next():
+    """`rerouting.snapshot` copies the long lists flat and shares the table's: a look reads the
+    engine as it was when asked, while the loop completes moves and a re-ordering rewrites the
+    order at cells in place. Negative: a snapshot sharing `dep` sees the rewrite."""
+    import copy
+
+    from fleet_common.execution import ActionCompleted, ActionStarted, Engine, Resume
+    from fleet_manager.rerouting import snapshot
+
+    def engine_mid_run() -> Engine:
+        engine = Engine(load_plan(lab_instance_path(), 5, "the lab fleet", []).plan, "reorder", follow=True)
+        sent = engine.handle(Resume(0.0))
+        t = 0.0
+        for _ in range(6):  # a few rounds of the moves sent: started, then completed
+            for d in sent:
+                t += 0.1
+                engine.handle(ActionStarted(d.agent, d.index, t))
+            new = []
+            for d in sent:
+                t += 0.1
+                new += engine.handle(ActionCompleted(d.agent, d.index, t))
+            sent = new
+        assert sum(engine.run.completed) >= 10
+        return engine
+
+    engine = engine_mid_run()
+    snap = snapshot(engine)
+    before = _run_fields(copy.deepcopy(engine, {id(engine._give_back): None}))
+    assert _run_fields(snap) == before
+    assert snap.run.first is engine.run.first and snap.table is engine.table  # never changed: shared
+    # the loop goes on
+    for r in range(engine.run.num_agents):
+        if engine.run.dispatched[r] > engine.run.completed[r]:
+            engine.handle(ActionCompleted(r, engine.run.completed[r], 10.0))
+    engine.run.dep[:] = engine.run.dep[::-1]
+    engine.run.succ[:] = engine.run.succ[::-1]
+    engine._sent_at[0] = engine._freed_at[0] = -1.0
+    assert _run_fields(engine) != before
+    assert _run_fields(snap) == before
+
+    wrong = engine_mid_run()  # negative: a copy that shares dep (a memo entry that is the list itself)
+    memo = {id(wrong._give_back): None, id(wrong.table): wrong.table, id(wrong.show): wrong.show,
+            id(wrong.run.dep): wrong.run.dep}
+    shared = copy.deepcopy(wrong, memo)
+    before = _run_fields(shared)
+    wrong.run.dep[:] = wrong.run.dep[::-1]
+    assert _run_fields(shared) != before  # the same check catches it: the look reads the new order

@@ -30,7 +30,7 @@ shared): see bench/README.md for the figure at 300 robots.
 from __future__ import annotations
 
 import copy
-from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple
+from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Sequence, Tuple
 
 from fleet_common.execution import Engine
 from fleet_common.execution.reroute import MODES, Reroute, RerouteRule, expected_steps, held_up, decide
@@ -64,9 +64,18 @@ def look(job: RerouteJob) -> Optional[Reroute]:
 
 def snapshot(engine: Engine) -> Engine:
     """A copy of `engine` a worker may read while the loop goes on with the original: everything
-    deep-copied but the action table (never changed) and the driver's take-back (left out)."""
-    return copy.deepcopy(engine, {id(engine._give_back): None, id(engine.table): engine.table,
-                                  id(engine.show): engine.show})
+    deep-copied but the action table and the run's lists taken from it (never changed: shared)
+    and the driver's take-back (left out). The long lists of numbers are copied flat (a number is
+    immutable: a shallow copy is a deep one, and ten times quicker than deepcopy's walk): 8 ms
+    instead of 24 for the arena's 300 robots (bench/reroute_look.py)."""
+    run = engine.run
+    memo: Dict[int, Any] = {id(engine._give_back): None, id(engine.table): engine.table,
+                            id(engine.show): engine.show}
+    for shared in (run.first, run.step, run.agent, run.src, run.dst):
+        memo[id(shared)] = shared
+    for flat in (run.dep, run.succ, engine._sent_at, engine._freed_at):  # re-ordering changes dep, succ
+        memo[id(flat)] = list(flat)
+    return copy.deepcopy(engine, memo)
 
 
 class Rerouting:
