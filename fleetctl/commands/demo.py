@@ -176,7 +176,7 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
         solution = Path(folder) / "lab_plan.txt"
         write_solution(make_solution(inst.grid, inst.map_file or "lab.map", plan, plan.starts, plan.goals,
                                      result.solver, True, int(result.comp_time_ms)), str(solution))
-        return run_live_demo(solution, plan, robots, settings)
+        return run_live_demo(solution, plan, robots, settings, grid=inst.grid)
 
 
 def _execute(plan, args: argparse.Namespace, solver: str, grid, inst) -> int:
