@@ -230,6 +230,18 @@ def test_frames_at_every_change_of_the_run_and_every_n_steps(tmp_path) -> None:
         "0001.png  running  0.00  0.10", "0002.png  running  1.20  1.30"]
 
 
+def test_frames_go_on_every_step_across_a_reroute_on_the_runs_plan_clock(tmp_path) -> None:
+    # a reroute at plan step 7.3: the new plan's own clock starts again at 0, the run's goes on
+    grabbed = []
+    recorder = Recorder(tmp_path, lambda p: grabbed.append(p.name), every=1.0)
+    steps = [(6.9, 0.0, 6.9), (7.2, 0.0, 7.2), (7.4, 7.3, 0.1), (8.1, 7.3, 0.8), (9.2, 7.3, 1.9)]
+    for clock, start, t in steps:
+        recorder.offer(dataclasses.replace(run(), clock=clock, plan_start=start, plan_time=t))
+    assert len(grabbed) == 4  # at 6.9, 7.2, 8.1 and 9.2: a frame every step, the run's
+    assert [line.split()[2] for line in (tmp_path / "frames.txt").read_text().splitlines()[1:]] == \
+        ["6.90", "7.20", "8.10", "9.20"]
+
+
 # ---- the demo's stall -------------------------------------------------------------------
 
 def test_the_stall_is_the_move_another_robot_feels_at_once() -> None:
