@@ -49,6 +49,7 @@ from fleet_common.robots import RobotDefinition
 from virtual_fleet.stalls import parse_stall
 
 if TYPE_CHECKING:
+    from fleet_common.delays.draw import MoveFates
     from fleet_common.execution.reroute import RerouteRule
 
 __all__ = ["StallChoice", "pick_stall", "pick_passing_stall", "pick_rerouting_stall", "DemoSettings",
@@ -98,6 +99,18 @@ def pick_stall(plan: Plan, at: float = 0.35) -> Optional[StallChoice]:
     return None if best is None else best[1]
 
 
+def one_stall(n: int, i: int, moves: float, wait: float = 0.0) -> "MoveFates":
+    """The fates of `n` moves at nominal speed, each starting after `wait`, move `i` halting
+    `moves` moves halfway through (as the virtual fleet's planned stall does)."""
+    import numpy as np
+
+    from fleet_common.delays.draw import MoveFates
+
+    stall = np.zeros(n)
+    stall[i] = moves
+    return MoveFates(np.full(n, wait), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+
+
 def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
                        at: float = 0.35) -> Optional[StallChoice]:
     """A stall `strategy` gets around: robot A halts `moves` moves halfway through one drive,
@@ -108,7 +121,6 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     choice's `cell` is where B goes first. None if no stall does."""
     import numpy as np
 
-    from fleet_common.delays.draw import MoveFates
     from fleet_common.execution import Engine, make_strategy
     from fleet_common.execution.events import SwitchStrategy
     from fleet_common.execution.simulate import simulate
@@ -119,9 +131,7 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     n = len(table.agent)
     best = None
     for i in range(n):
-        stall = np.zeros(n)
-        stall[i] = moves
-        fates = MoveFates(np.zeros(n), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+        fates = one_stall(n, i, moves)
         step = float(table.step[i])
         switched = simulate(plan, "adg", size=size, fates=fates,
                             controls=[SwitchStrategy(make_strategy(strategy), step + 1.0)])
@@ -157,7 +167,6 @@ def pick_rerouting_stall(plan: Plan, grid: Grid, moves: float, rule: Optional[Re
     saving). The choice's `cell` is where A halts (the cell it is leaving). None if no stall does."""
     import numpy as np
 
-    from fleet_common.delays.draw import MoveFates
     from fleet_common.execution import Engine
     from fleet_common.execution.reroute import RerouteRule
     from fleet_common.execution.simulate import simulate
@@ -169,9 +178,7 @@ def pick_rerouting_stall(plan: Plan, grid: Grid, moves: float, rule: Optional[Re
     n = len(table.agent)
     best = None
     for i in range(n):
-        stall = np.zeros(n)
-        stall[i] = moves
-        fates = MoveFates(np.full(n, DELAY / 2), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+        fates = one_stall(n, i, moves, wait=DELAY / 2)
         rerouted = simulate(plan, "adg", size=size, fates=fates, reroute=rule, grid=grid, step_time=STEP_MOVES)
         if not rerouted.reroutes or rerouted.collisions or rerouted.unfinished():
             continue
