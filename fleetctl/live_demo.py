@@ -8,9 +8,11 @@ the lab's addresses:
    moderate random delays and one planned stall (`pick_stall`: the move of one
    robot that another robot's next move depends on most closely, about a third
    into the run), so a visitor sees one robot wait for another; with `switch`, a
-   stall a re-ordering strategy can get around (`pick_passing_stall`);
+   stall a re-ordering strategy can get around (`pick_passing_stall`); else,
+   with rerouting on, a stall the manager's rule reroutes around
+   (`pick_rerouting_stall`);
 2. `fleetctl manager` on the demo's plan, ADG, until the run is done, writing
-   its run folder;
+   its run folder (`reroute`: its --reroute mode);
 3. `fleetctl console`, the live console in its presentation view for visitors
    (`--present`: the map full screen, a legend, the run's story in words), which
    presses Start once every robot is connected (`--start-when-ready`), with
@@ -35,23 +37,34 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, List, Optional, Sequence
+from typing import TYPE_CHECKING, Callable, List, Optional, Sequence
 
 from fleet_common.children import Child
 from fleet_common.errors import FleetError
-from fleet_common.grid import Coord
+from fleet_common.grid import Coord, Grid
 from fleet_common.local_fleet import local_definitions
 from fleet_common.plan import Plan
 from fleet_common.robots import RobotDefinition
 
 from virtual_fleet.stalls import parse_stall
 
-__all__ = ["StallChoice", "pick_stall", "pick_passing_stall", "DemoSettings", "run_live_demo"]
+if TYPE_CHECKING:
+    from fleet_common.delays.draw import MoveFates
+    from fleet_common.execution.reroute import RerouteRule
+
+__all__ = ["StallChoice", "pick_stall", "pick_passing_stall", "pick_rerouting_stall", "DemoSettings",
+           "run_live_demo"]
 
 #: The virtual robots' driving speed (cells per fleet second): a nominal move of 2 s.
 SPEED = 0.5
 #: Moves start after up to this many nominal moves (the delay-model language's unit).
 DELAY = 0.2
+#: Fleet seconds a turn at a corner adds to a plan step (the robots turn ahead while they wait,
+#: so less than a full turn).
+TURN = 0.2
+#: A plan step as the virtual robots take it, in nominal moves: the drive, the mean start
+#: delay, a turn at corners (the manager's --step-time is this many moves of fleet time).
+STEP_MOVES = 1.0 + DELAY / 2 + TURN * SPEED
 
 
 @dataclass(frozen=True)
@@ -86,6 +99,18 @@ def pick_stall(plan: Plan, at: float = 0.35) -> Optional[StallChoice]:
     return None if best is None else best[1]
 
 
+def one_stall(n: int, i: int, moves: float, wait: float = 0.0) -> "MoveFates":
+    """The fates of `n` moves at nominal speed, each starting after `wait`, move `i` halting
+    `moves` moves halfway through (as the virtual fleet's planned stall does)."""
+    import numpy as np
+
+    from fleet_common.delays.draw import MoveFates
+
+    stall = np.zeros(n)
+    stall[i] = moves
+    return MoveFates(np.full(n, wait), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+
+
 def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
                        at: float = 0.35) -> Optional[StallChoice]:
     """A stall `strategy` gets around: robot A halts `moves` moves halfway through one drive,
@@ -96,7 +121,6 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     choice's `cell` is where B goes first. None if no stall does."""
     import numpy as np
 
-    from fleet_common.delays.draw import MoveFates
     from fleet_common.execution import Engine, make_strategy
     from fleet_common.execution.events import SwitchStrategy
     from fleet_common.execution.simulate import simulate
@@ -107,9 +131,7 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     n = len(table.agent)
     best = None
     for i in range(n):
-        stall = np.zeros(n)
-        stall[i] = moves
-        fates = MoveFates(np.zeros(n), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+        fates = one_stall(n, i, moves)
         step = float(table.step[i])
         switched = simulate(plan, "adg", size=size, fates=fates,
                             controls=[SwitchStrategy(make_strategy(strategy), step + 1.0)])
@@ -132,6 +154,48 @@ def pick_passing_stall(plan: Plan, moves: float, strategy: str = "reorder",
     return None if best is None else best[1]
 
 
+def pick_rerouting_stall(plan: Plan, grid: Grid, moves: float, rule: Optional[RerouteRule] = None,
+                         at: float = 0.35) -> Optional[StallChoice]:
+    """A stall the manager's reroute rule (`rule`, default the manager's own) gets around: robot A
+    halts `moves` moves halfway through one drive, robot B is held up behind it, and the rule gives
+    A or B a new path so that B arrives sooner. Each move of the plan is tried as the stall on the
+    simulator, as the demo's manager and fleet run: robots of the lab's size, each move starting
+    after the fleet's mean start delay, the manager's plan step (`STEP_MOVES`), the rule as the
+    manager applies it; the run is compared with the same run without rerouting. Among the stalls
+    whose first reroute saves its first held-up robot (B) half the stall or more, with no collision
+    and every robot home, the one nearest `at` of the way through the plan (then the larger
+    saving). The choice's `cell` is where A halts (the cell it is leaving). None if no stall does."""
+    import numpy as np
+
+    from fleet_common.execution import Engine
+    from fleet_common.execution.reroute import RerouteRule
+    from fleet_common.execution.simulate import simulate
+    from fleet_common.robot_size import RobotSize
+
+    size = RobotSize()
+    rule = rule or RerouteRule()
+    table = Engine(plan, follow=True).table  # the moves, as every simulation below numbers them
+    n = len(table.agent)
+    best = None
+    for i in range(n):
+        fates = one_stall(n, i, moves, wait=DELAY / 2)
+        rerouted = simulate(plan, "adg", size=size, fates=fates, reroute=rule, grid=grid, step_time=STEP_MOVES)
+        if not rerouted.reroutes or rerouted.collisions or rerouted.unfinished():
+            continue
+        b = rerouted.reroutes[0][1].held[0]
+        fixed = simulate(plan, "adg", size=size, fates=fates, step_time=STEP_MOVES)
+        gain = (fixed.metrics.agents[b].arrival or 0.0) - (rerouted.metrics.agents[b].arrival or 0.0)
+        if gain < moves / 2:
+            continue  # a reroute a visitor would hardly notice
+        a = int(table.agent[i])
+        k = int(np.count_nonzero(table.agent[:i + 1] == a))
+        step = float(table.step[i])
+        key = (abs(step - at * plan.makespan), -round(gain, 3), i)
+        if best is None or key < best[0]:
+            best = (key, StallChoice(a, k, b, table.coord(table.src[i]), int(step)))  # type: ignore[arg-type]
+    return None if best is None else best[1]
+
+
 @dataclass
 class DemoSettings:
     log_dir: Optional[Path] = None  # where run folders go (None: the manager's default)
@@ -141,15 +205,18 @@ class DemoSettings:
     stall: str = "auto"          # auto, none, or R:K:S as `fleetctl virtual-fleet --stall`
     stall_seconds: float = 8.0   # fleet seconds of the automatic stall
     switch: Optional[str] = None  # the console switches to this strategy once a robot waits for the stall
-    reroute: str = "off"         # the manager's --reroute mode
+    reroute: str = "off"         # the manager's --reroute mode (not off: the automatic stall is one it reroutes)
     headless: bool = False
     record: bool = False
     linger: float = 3.0
     time_limit: float = 110.0
 
 
-def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDefinition]) -> Optional[str]:
-    """The fleet's --stall value and a sentence for the visitor (None: no stall)."""
+def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDefinition],
+                   grid: Optional[Grid] = None) -> Optional[str]:
+    """The fleet's --stall value (None: no stall): with `switch`, a stall that strategy gets around;
+    else with rerouting on (and the map, `grid`), one the manager reroutes around; else (or when
+    there is none) the ADG's."""
     if settings.stall == "none":
         return None
     if settings.stall != "auto":
@@ -157,6 +224,8 @@ def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDef
     choice = None
     if settings.switch is not None:
         choice = pick_passing_stall(plan, settings.stall_seconds * SPEED, settings.switch)
+    elif settings.reroute != "off" and grid is not None:
+        choice = pick_rerouting_stall(plan, grid, settings.stall_seconds * SPEED)
     if choice is None:
         choice = pick_stall(plan)
     if choice is None:
@@ -165,15 +234,16 @@ def stall_argument(settings: DemoSettings, plan: Plan, robots: Sequence[RobotDef
 
 
 def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition], settings: DemoSettings,
-                  say: Callable[[str], None] = print) -> int:
-    """Run it; the exit status (0: every robot arrived, no collision, the console saw it)."""
+                  say: Callable[[str], None] = print, grid: Optional[Grid] = None) -> int:
+    """Run it (`grid`: the plan's map, for a stall the manager reroutes around); the exit status (0:
+    every robot arrived, no collision, the console saw it)."""
     say = _whole_lines(say)  # the manager's lines come from its reader thread
     work = Path(tempfile.mkdtemp(prefix="fleetcontrol-demo-"))
     children: List[Child] = []
     try:
         definitions, feedback, port = local_definitions(robots[:plan.num_agents], work / "robots.txt")
         endpoint = "tcp://127.0.0.1:{}".format(port)
-        stall = stall_argument(settings, plan, robots)
+        stall = stall_argument(settings, plan, robots, grid)
         fleet_args = ["virtual-fleet", "--definitions", str(definitions), "--no-curve",
                       "--instance", str(solution),  # the robots stand on the plan's starts
                       "--time-scale", "{:g}".format(settings.time_scale), "--feedback-base", str(feedback),
@@ -188,9 +258,7 @@ def run_live_demo(solution: Path, plan: Plan, robots: Sequence[RobotDefinition],
                                    " (the console switches to {} once a robot waits for a stalled one)".format(
                                        settings.switch) if settings.switch else "", endpoint))
         children.append(Child.start("fleet", fleet_args, log=work / "virtual-fleet.log"))
-        # a plan step as the virtual robots take it: the drive, the mean start delay, a slow move now
-        # and then, a turn at corners (the robots turn ahead while they wait, so less than a full one)
-        step_time = (1.0 / SPEED * (1.0 + DELAY / 2) + 0.2) / settings.time_scale
+        step_time = STEP_MOVES / SPEED / settings.time_scale  # a plan step as the virtual robots take it
         manager = Child.start("manager", [
             "manager", str(solution), "--definitions", str(definitions), "--no-curve", "--host", "127.0.0.1",
             "--bind", endpoint, "--strategy", "adg", "--until-done", "--time-limit", "{:g}".format(settings.time_limit),

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import re
 import time
 import tkinter as tk
 from pathlib import Path
@@ -132,6 +133,13 @@ def canvas_xy(app: LiveApp, cells: np.ndarray) -> np.ndarray:
 def running(console: Console) -> bool:
     s = console.model.state
     return s is not None and s.run.state == "running"
+
+
+def header_clock(app: LiveApp) -> Tuple[float, float]:
+    """The plan clock the operator's header shows, "t = 8.50 / 19": the time and the end."""
+    found = re.search(r"t = ([0-9.]+) / ([0-9.]+)", app.header.text())
+    assert found, app.header.text()
+    return float(found.group(1)), float(found.group(2))
 
 
 def tree_row(console: Console, robot_id: int) -> Tuple[str, ...]:
@@ -382,9 +390,16 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     pump(console, lambda: False, 0.3)  # a few more frames: everything drawn
     capture.grab(app.root, tmp_path / "reroute-proposal.png")
     message, old_plan = model.proposal.message, model.setup.plan.id
+    shown = header_clock(app)[0]
     app.admin.buttons["accept"].invoke()  # robot 4 still stands: it fits
     assert pump(console, lambda: model.setup.plan.id != old_plan and model.proposal is None, 10), \
         "\n".join(line.text for line in model.lines)
+    # the header's plan clock is the run's: on from where it was, up to the new plan's end in the run
+    assert pump(console, lambda: model.state.run.plan_start > 0 and app.state.version == model.state.seq, 5)
+    run = model.state.run
+    t, end = header_clock(app)
+    assert t >= shown and t == pytest.approx(run.plan_start + run.plan_time, abs=0.01)
+    assert end == pytest.approx(run.plan_start + model.setup.plan.positions.shape[0] - 1, abs=0.05)
     assert pump(console, lambda: not app.canvas.find_withtag("proposal"), 5)
     rows = app.events.rows()
     assert any(row.endswith(message) for row in rows)  # the manager's line, by robot id

@@ -25,7 +25,7 @@ from fleet_common.control import (Activity, Notice, PlanData, Proposal, RobotInf
 from fleet_common.grid import Grid
 from fleet_common.errors import FleetError
 from fleet_common.plan import Plan
-from fleetctl.live_demo import pick_passing_stall, pick_stall
+from fleetctl.live_demo import pick_passing_stall, pick_rerouting_stall, pick_stall
 from virtual_fleet.kinematics import VirtualNavigator
 from virtual_fleet.stalls import parse_stall, stalls_by_robot
 from fleet_common.wire.messages import Pose
@@ -230,6 +230,18 @@ def test_frames_at_every_change_of_the_run_and_every_n_steps(tmp_path) -> None:
         "0001.png  running  0.00  0.10", "0002.png  running  1.20  1.30"]
 
 
+def test_frames_go_on_every_step_across_a_reroute_on_the_runs_plan_clock(tmp_path) -> None:
+    # a reroute at plan step 7.3: the new plan's own clock starts again at 0, the run's goes on
+    grabbed = []
+    recorder = Recorder(tmp_path, lambda p: grabbed.append(p.name), every=1.0)
+    steps = [(6.9, 0.0, 6.9), (7.2, 0.0, 7.2), (7.4, 7.3, 0.1), (8.1, 7.3, 0.8), (9.2, 7.3, 1.9)]
+    for clock, start, t in steps:
+        recorder.offer(dataclasses.replace(run(), clock=clock, plan_start=start, plan_time=t))
+    assert len(grabbed) == 4  # at 6.9, 7.2, 8.1 and 9.2: a frame every step, the run's
+    assert [line.split()[2] for line in (tmp_path / "frames.txt").read_text().splitlines()[1:]] == \
+        ["6.90", "7.20", "8.10", "9.20"]
+
+
 # ---- the demo's stall -------------------------------------------------------------------
 
 def test_the_stall_is_the_move_another_robot_feels_at_once() -> None:
@@ -271,6 +283,57 @@ def test_lab_plan_has_a_stall_the_reordering_strategy_gets_around() -> None:
     assert 0 < choice.step <= plan.makespan // 2  # the robots are under way, the run not half over
     # a plan where nobody's order could change has no such stall
     assert pick_passing_stall(Plan.from_paths([[(0, 0), (1, 0)], [(3, 3), (3, 2)]]), moves=4.0) is None
+
+
+def stalled_run(plan: Plan, grid: Grid, agent: int, move: int, moves: float, reroute: bool):
+    """The lab plan on the simulator as the demo's manager and fleet run it, robot `agent` halting
+    `moves` moves in its drive `move` (from 1), with the manager's reroute rule or without."""
+    from fleet_common.delays.draw import MoveFates
+    from fleet_common.execution import Engine
+    from fleet_common.execution.reroute import RerouteRule
+    from fleet_common.execution.simulate import simulate
+    from fleet_common.robot_size import RobotSize
+    from fleetctl.live_demo import DELAY, STEP_MOVES
+
+    table = Engine(plan, follow=True).table
+    n = len(table.agent)
+    stall = np.zeros(n)
+    stall[int(np.flatnonzero(table.agent == agent)[move - 1])] = moves
+    fates = MoveFates(np.full(n, DELAY / 2), np.ones(n), stall, np.full(n, 0.5), np.zeros(n), np.zeros(n))
+    return simulate(plan, "adg", size=RobotSize(), fates=fates, step_time=STEP_MOVES,
+                    **({"reroute": RerouteRule(), "grid": grid} if reroute else {}))
+
+
+def test_lab_plan_has_a_stall_the_managers_reroute_rule_gets_around() -> None:
+    from fleet_common.formats.instance import read_instance
+    from fleet_common.lab import lab_instance_path, lab_map_path
+    from fleet_common.planning import solve
+
+    inst = read_instance(lab_instance_path(), map_dirs=[lab_map_path().parent])
+    plan = solve("cbs", inst.grid, inst.starts, inst.goals, seed=0).plan
+    choice = pick_rerouting_stall(plan, inst.grid, moves=4.0)
+    rerouted = stalled_run(plan, inst.grid, choice.agent, choice.move, 4.0, reroute=True)
+    fixed = stalled_run(plan, inst.grid, choice.agent, choice.move, 4.0, reroute=False)
+    assert rerouted.reroutes and not rerouted.collisions and not rerouted.unfinished()
+    found = rerouted.reroutes[0][1]
+    assert found.around == choice.agent and choice.waiter in found.held  # round the stalled robot
+    # the robot it held up arrives sooner, by half the stall or more
+    assert rerouted.metrics.agents[choice.waiter].arrival <= fixed.metrics.agents[choice.waiter].arrival - 2.0
+    assert 0 < choice.step <= plan.makespan // 2
+    # the ADG's stall is no such stall: the demo must choose another one when rerouting is on
+    adg = pick_stall(plan)
+    assert not stalled_run(plan, inst.grid, adg.agent, adg.move, 4.0, reroute=True).reroutes
+    assert pick_rerouting_stall(Plan.from_paths([[(0, 0), (1, 0)], [(3, 3), (3, 2)]]), Grid.from_rows(
+        ["....", "....", "....", "...."]), moves=4.0) is None
+    # the demo's fleet is told that stall with rerouting on, the ADG's without (the default kept)
+    from fleet_common.robots import default_definitions_path, read_robot_definitions
+    from fleetctl.live_demo import DemoSettings, stall_argument
+
+    robots = read_robot_definitions(default_definitions_path())
+    for mode in ("auto", "propose"):
+        assert stall_argument(DemoSettings(reroute=mode), plan, robots, inst.grid) == "{}:{}:8".format(
+            robots[choice.agent].id, choice.move)
+    assert stall_argument(DemoSettings(), plan, robots, inst.grid) == "{}:{}:8".format(robots[adg.agent].id, adg.move)
 
 
 def test_planned_stall_halts_the_kth_drive_halfway() -> None:

@@ -1,6 +1,7 @@
 """The console protocol without sockets: a desk (the manager's end) and sessions (consoles) in memory."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -174,6 +175,20 @@ def test_states_survive_the_wire_unchanged(robots, version: int) -> None:
     run = RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, len(robots), None, 0, None)
     state = State(7, version, run, tuple(robots))
     assert decode(encode(state), m.MANAGER_MESSAGES) == state
+
+
+def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_consoles_read_the_rest() -> None:
+    """`plan_start` (the steps a run's earlier plans took) is newer than some consoles, whose decoder
+    refuses a field it does not know: a run's first plan leaves it out, a later one sends it."""
+    first = State(7, 3, RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, 0, None, 0, None), ())
+    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start"}
+    assert set(json.loads(encode(first))["run"]) == known_before  # all an older console knows
+    assert decode(encode(first), m.MANAGER_MESSAGES) == first
+    rerouted = State(8, 4, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, plan_start=7.25), ())
+    back = decode(encode(rerouted), m.MANAGER_MESSAGES)
+    assert back == rerouted and back.run.run_steps == pytest.approx(7.45)
+    with pytest.raises(ControlProtocolError, match="plan_start"):  # a wrong value is named
+        decode(encode(rerouted).replace(b'"plan_start":7.25', b'"plan_start":-1'), m.MANAGER_MESSAGES)
 
 
 def test_a_scene_carries_a_large_plan_compactly() -> None:

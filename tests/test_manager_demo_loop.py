@@ -149,10 +149,12 @@ def test_the_clock_starts_again_at_a_replans_step_0_and_stops_at_the_end():
     f.ask(ops, "replan")
     f.advance(2.0)
     proposal = [x for x in ops.received if type(x).__name__ == "Proposal"][-1]
+    shown = ops.state.run.run_steps
     assert f.ask(ops, "accept", proposal=proposal.id).ok
     f.advance(0.05)
     run = ops.state.run
     assert run.plan_time < 0.5, "the new plan's clock starts at its step 0"
+    assert run.plan_start > 1.0 and run.run_steps >= shown, "the run's plan clock a console shows goes on"
     assert run.clock > 3.0, "the run's own clock goes on"
     assert all(r.behind < 1.0 for r in ops.state.robots), "nobody is behind a plan that just began"
     assert f.run_until(lambda: f.phase == "done")

@@ -101,6 +101,27 @@ def test_auto_mode_reroutes_the_held_up_robots_and_every_robot_arrives_safely(si
     assert f.core.summary().wait < off.core.summary().wait - 2.0
 
 
+@pytest.mark.parametrize("mode", ["auto", "propose"])
+def test_the_plan_clock_a_console_shows_goes_on_across_a_reroute(mode):
+    """The new plan starts at 0 (the console draws where it wants the robots from its step 0), but
+    the clock a console shows is the run's: `plan_start` (the steps of the plan before) plus the
+    new plan's; never backwards, and across the hand-over it moves on by the time that passed."""
+    f = started(mode)
+    if mode == "propose":
+        assert f.ask(f.ops, "accept", proposal=wait_for_proposal(f)).ok
+    run_to_end(f)
+    assert f.phase == "done" and f.core.run.plan_id == 2
+    runs = [s.run for s in f.ops.states if s.run.state in ("running", "done")]
+    clock = [r.run_steps for r in runs]
+    assert all(b >= a for a, b in zip(clock, clock[1:])), "the plan clock went back"
+    k = next(i for i, r in enumerate(runs) if r.plan_id == 2)
+    before, after = runs[k - 1], runs[k]
+    assert before.plan_start == 0 and after.plan_start > 1.0 and after.plan_time < 0.5  # the new plan's own time
+    assert after.run_steps - before.run_steps == pytest.approx((after.clock - before.clock) / 0.5, abs=0.02)
+    # it stops at the end of the new plan in the run's steps (the denominator a console shows)
+    assert clock[-1] == pytest.approx(after.plan_start + f.core.run.plan.makespan, abs=0.01)
+
+
 def test_robots_that_turn_at_corners_without_any_delay_are_not_late_and_never_rerouted():
     """Simulated TurtleBots at the lab's pace (a drive of 2 s, 90 degree turns of 1 s, a nominal move
     of 2 s) turn before they drive at corners: half a move each time, on top of the plan. That is

@@ -125,7 +125,8 @@ def details(r: RobotState, run: Optional[RunInfo], place: Place = as_is) -> List
         ("faults", ", ".join(r.faults) or "none"),
         ("state", r.out or "enabled"),
         ("action", action_text(r, place)),
-        ("progress", "{} of {} moves, next at plan step {}".format(r.done, r.total, r.step)),
+        ("progress", "{} of {} moves, next at plan step {:g}".format(
+            r.done, r.total, round(r.step + (run.plan_start if run is not None else 0.0), 1))),
         ("timing", "{:.1f} steps behind the plan".format(r.behind) if r.behind > 0 else "on time"),
     ]
     if r.waiting is not None:

@@ -2,13 +2,14 @@
 
 `FrameSchedule` decides (pure): a frame when the first state is shown, when
 the run's state changes (waiting, running, paused, done, ...), and each time
-the plan's clock passes another multiple of `every` steps. `Recorder` writes
-the frames as NNNN.png through the grab function it is given (the window's
-pixels, `console.ui.capture`), and one line per frame in `frames.txt`
-(file, run state, plan step, run clock, then the sentences of the run's
-story told since the frame before, as the presentation view's ticker shows
-them; a new sentence is a frame of its own), so a headless run leaves a
-picture story of itself.
+the run's plan clock (`RunInfo.run_steps`, which goes on across a reroute)
+passes another multiple of `every` steps. `Recorder` writes the frames as
+NNNN.png through the grab function it is given (the window's pixels,
+`console.ui.capture`), and one line per frame in `frames.txt` (file, run
+state, plan step, run clock, then the sentences of the run's story told
+since the frame before, as the presentation view's ticker shows them; a new
+sentence is a frame of its own), so a headless run leaves a picture story of
+itself.
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ class FrameSchedule:
         """Whether the picture showing `run` should be saved."""
         if run is None:
             return False
-        slot = int(math.floor(run.plan_time / self.every + 1e-9)) if run.clock > 0 else -1
+        slot = int(math.floor(run.run_steps / self.every + 1e-9)) if run.clock > 0 else -1
         changed = run.state != self._state
         moved = slot > self._slot
         self._state, self._slot = run.state, max(slot, self._slot)
@@ -70,6 +71,6 @@ class Recorder:
         self.frames.append(path)
         with self._index.open("a") as index:
             index.write("{}  {}  {:.2f}  {:.2f}{}\n".format(
-                path.name, run.state if run else "-", run.plan_time if run else 0.0,
+                path.name, run.state if run else "-", run.run_steps if run else 0.0,
                 run.clock if run else 0.0, "  | " + told if told else ""))
         return path

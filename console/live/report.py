@@ -66,7 +66,7 @@ def report_html(model: LiveModel, picture: Optional[str] = None, saved_at: Optio
         for label, value in (
                 ("state", run.state + (": " + run.reason if run.reason else "")),
                 ("what for", "the plan" if run.purpose == "plan" else "driving to the plan's starts"),
-                ("clock", "{:.1f} s (plan step {:.1f})".format(run.clock, run.plan_time)),
+                ("clock", "{:.1f} s (plan step {:.1f})".format(run.clock, run.run_steps)),
                 ("at their goals", "{} of {}".format(run.arrived, run.robots)),
                 ("collisions", run.collisions),
                 ("closest two robots", "-" if run.min_distance is None else "{:.2f} cells".format(run.min_distance)),

@@ -173,7 +173,7 @@ class AdminPanel(ttk.Frame):
             self.run.configure(text="no run yet")
             return
         parts = ["run {}{}".format(run.state, ": " + run.reason if run.reason else ""),
-                 "clock {:.1f} s, plan step {:.1f}".format(run.clock, run.plan_time),
+                 "clock {:.1f} s, plan step {:.1f}".format(run.clock, run.run_steps),
                  "arrived {} of {}, collisions {}, closest {}".format(
                      run.arrived, run.robots, run.collisions,
                      "-" if run.min_distance is None else "{:.2f} cells".format(run.min_distance))]

@@ -40,6 +40,7 @@ class HeaderBand:
         self._status = ""
         self._time = 0.0
         self._makespan = 0
+        self._start = 0.0
 
     def relayout(self, view: Viewport, options: ViewOptions) -> None:
         self.canvas.coords(self.band, -1, -1, view.canvas_w + 1, HEADER_HEIGHT)
@@ -55,18 +56,23 @@ class HeaderBand:
         """Line 1 (the live console's plan changes while the window stays)."""
         self.canvas.itemconfigure(self.line1, text=SEPARATOR.join(info))
 
-    def set_status(self, status: str, makespan: int) -> None:
-        """The right part of line 2 (play state, speed, orientation)."""
-        self._status, self._makespan = status, makespan
+    def set_status(self, status: str, makespan: int, start: float = 0.0) -> None:
+        """The right part of line 2 (play state, speed, orientation); `start`: the steps a live run
+        took before its current plan's step 0 (`RunInfo.plan_start`), so that the time shown is
+        the run's and goes on across a change of plan, up to the current plan's end in the run."""
+        self._status, self._makespan, self._start = status, makespan, start
         self._draw()
 
     def update(self, state: FleetState) -> None:
-        self._time = state.time
+        self._time = state.time  # the plan's own time: the layers draw the plan at it
         self._draw()
 
     def _draw(self) -> None:
-        text = "t = {:.2f} / {}{}{}".format(self._time, self._makespan, SEPARATOR, self._status)
-        self.canvas.itemconfigure(self.line2, text=text)
+        if self._start:
+            clock = "t = {:.2f} / {:.1f}".format(self._start + self._time, self._start + self._makespan)
+        else:
+            clock = "t = {:.2f} / {}".format(self._time, self._makespan)
+        self.canvas.itemconfigure(self.line2, text=clock + SEPARATOR + self._status)
 
     def text(self) -> str:
         return "{}\n{}".format(self.canvas.itemcget(self.line1, "text"), self.canvas.itemcget(self.line2, "text"))

@@ -70,7 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            "around (e.g. reorder: the waiting robot goes first)")
     live.add_argument("--reroute", choices=("off", "propose", "auto"), default="off",
                       help="the manager's reroute mode: robots a late robot holds up get new paths "
-                           "(auto) or are proposed them in the console (propose); default off")
+                           "(auto) or are proposed them in the console (propose); default off. Not off: "
+                           "the automatic stall is one the manager reroutes around")
     live.add_argument("--headless", action="store_true",
                       help="no window even with a display: a private Xvfb, frames recorded")
     live.add_argument("--record", action="store_true",
@@ -176,7 +177,7 @@ def _live(inst, plan, result, robots, args: argparse.Namespace) -> int:
         solution = Path(folder) / "lab_plan.txt"
         write_solution(make_solution(inst.grid, inst.map_file or "lab.map", plan, plan.starts, plan.goals,
                                      result.solver, True, int(result.comp_time_ms)), str(solution))
-        return run_live_demo(solution, plan, robots, settings)
+        return run_live_demo(solution, plan, robots, settings, grid=inst.grid)
 
 
 def _execute(plan, args: argparse.Namespace, solver: str, grid, inst) -> int:

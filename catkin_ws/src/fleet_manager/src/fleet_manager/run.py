@@ -82,6 +82,8 @@ class Run:
         self.plan_id = 1
         self.started_at: Optional[float] = None   # the run's Start
         self.plan_since: Optional[float] = None   # the current plan's step 0 (a replan's accept)
+        #: the run's plan steps before the current plan's step 0 (what the run's earlier plans took)
+        self.plan_start = 0.0
         self.ended_at: Optional[float] = None     # the run was done (the clock stops)
         self.to_starts_job: Optional[int] = None  # the way to the starts being planned
         self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
@@ -121,6 +123,14 @@ class Run:
         """The first Start (or Step) of the run."""
         self.started_at = self.plan_since = now
         self.ended_at = None
+        self.plan_start = 0.0
+
+    def next_plan_clock(self, now: float) -> None:
+        """A new plan of the same run (an accepted replan, a reroute) has its step 0 now; the run's
+        plan clock (`plan_start` + `plan_steps`) goes on from where the old plan's was."""
+        if self.started_at is not None:
+            self.plan_start += self.plan_steps(now)
+            self.plan_since = now  # behind-ness is measured from the new plan's step 0
 
     # ---- the phase ------------------------------------------------------------------------
 
@@ -364,8 +374,7 @@ class Run:
             if why is not None:
                 engine.handle((Disabled if why == "disabled" else RobotFailed)(agent, now))
         self._drive(engine)
-        if self.started_at is not None:
-            self.plan_since = now  # the new plan's step 0 is now: behind-ness is measured from here
+        self.next_plan_clock(now)
         self._write_plan(plan, reason)
 
     def _write_plan(self, plan: Plan, reason: str, **fields: object) -> None:
@@ -402,8 +411,7 @@ class Run:
         run = new.run
         self.plan_id += 1
         self.plan = found.plan
-        if self.started_at is not None:
-            self.plan_since = now
+        self.next_plan_clock(now)
         text = found.describe(lambda a: ids[a])
         # a follower's move done before its leader left is the new plan's first, done already
         self._write_plan(found.plan, "reroute", done=list(run.completed), base=list(base))
@@ -437,6 +445,7 @@ class Run:
     def _new_run(self, plan: Plan, now: float) -> None:
         self.plan = plan
         self.started_at = self.plan_since = self.ended_at = None
+        self.plan_start = 0.0
         self.plan_id += 1
         old_out = self.engine.run.out
         engine = self._engine(plan)

@@ -202,6 +202,16 @@ class RunInfo:
     #: rerouting robots a late robot holds up: "off", "propose" (a proposal for the operator) or
     #: "auto" (at once)
     reroute: str = "off"
+    #: the run's plan steps before the current plan's step 0: what its earlier plans took (a
+    #: reroute's plan starts at its cut, an accepted replan's at the accept); 0 for the run's first
+    #: plan. Sent only when not 0: a console older than it refuses a field it does not know.
+    plan_start: float = 0.0
+
+    @property
+    def run_steps(self) -> float:
+        """The run's plan clock, in plan steps: it goes on across a change of plan (`plan_time`
+        starts again at the new plan's step 0) and stops at the current plan's makespan."""
+        return self.plan_start + self.plan_time
 
 
 @dataclass(frozen=True)
