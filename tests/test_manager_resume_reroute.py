@@ -242,6 +242,7 @@ def test_a_run_rerouted_twice_and_killed_later_is_resumed_on_its_third_plan_and_
     driving = {r.id for r in f.core.fleet if r.flight is not None and r.flight.kind == "drive"}
     assert driving
     ran = executions(f)
+    clock, killed = f.core.run.plan_start + f.core.run.plan_steps(f.now), f.now
     f.kill_manager()
     seen: List[float] = []
     for _ in range(40):  # two seconds without a manager: the robots finish their moves and wait
@@ -250,6 +251,11 @@ def test_a_run_rerouted_twice_and_killed_later_is_resumed_on_its_third_plan_and_
     f.resume_manager()
     (resume,) = f.kinds("resume")
     assert resume["plan"] == "plan-3.txt" and sum(resume["completed"]) == sum(run.completed)
+    # the plan clock a console shows goes on across three plans and the time without a manager
+    resumed_run = f.core.run
+    assert resumed_run.plan_start > 0
+    assert resumed_run.plan_start + resumed_run.plan_steps(f.now) == pytest.approx(
+        clock + (f.now - killed) / 0.5, abs=0.02)
     assert {robot for robot, _, kind in resume["sent"] if kind == "drive"} == driving
     f.advance(0.2)
     assert "every robot where the run left it" in f.core.run.phase.reason

@@ -98,6 +98,10 @@ class ResumePoint:
     #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
     passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
     began: Optional[float] = None                   # t of the run's first "running"
+    #: the current plan's step 0 (t), and the seconds the run's earlier plans ran before it: the
+    #: plan clock a console shows goes on from them (`Run.next_plan_clock` keeps it so live)
+    plan_since: Optional[float] = None
+    earlier_plans: float = 0.0
     last_t: float = 0.0
     torn: bool = False
 
@@ -136,6 +140,10 @@ def read_resume(run: RunFolder) -> ResumePoint:
         kind = r.get("k")
         point.last_t = max(point.last_t, _number(r.get("t")))
         robot = r.get("robot")
+        if kind == "plan" and r.get("reason") != "loaded" and point.plan_since is not None:
+            t = _number(r.get("t"))
+            point.earlier_plans += max(0.0, t - point.plan_since)
+            point.plan_since = t
         if kind == "plan" and r.get("reason") == "reroute":
             handed_over(point, r, pending)
         elif kind == "plan" and r.get("reason") != "loaded":
@@ -175,7 +183,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
         elif kind == "state" and isinstance(r.get("run"), str):
             point.phase = r["run"]
             if r["run"] == "running" and point.began is None:
-                point.began = _number(r.get("t"))
+                point.began = point.plan_since = _number(r.get("t"))
     point.unsettled = {robot: [u for _, u in sorted(commands.items())]
                        for robot, commands in pending.items() if commands}
     point.next_id = {robot: top + 1 + ID_MARGIN for robot, top in highest.items()}

@@ -345,7 +345,9 @@ class Run:
                     robot.flight = InFlight(u.command.id, kind, u.action, now, target)
                 if kind == "drive" and robot.queue and robot.queue[0].index == u.action:
                     self.driver.following.sent(robot.queue[0], u.hold)
-        self.started_at = point.began
+        self.started_at, self.plan_since = point.began, point.plan_since
+        step = self.settings.step_time
+        self.plan_start = point.earlier_plans / step if step > 0 else 0.0
         self.out.record("resume", started=None, plan=point.plan, completed=done, sent=again,
                         dropped=0, downtime=round(max(0.0, now - point.last_t), 3))
         if point.began is not None:  # under way: nothing moves on before the robots are checked
