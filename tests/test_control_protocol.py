@@ -64,9 +64,13 @@ def test_only_changes_that_concern_a_request_make_it_outdated() -> None:
     console = joined(desk, "ops", b"A")
     looked = desk.version
     desk.bump("robot 7 link down", 7)  # telemetry of another robot: no conflict
+    desk.bump("plan 2 (reroute)", robots=[5, 6])  # new paths for robots 5 and 6 only
     for action, args in (("disable", {"robot": 3}), ("strategy", {"name": "step"}), ("pause", {})):
         _, frame = console.request(action, 0.0, based_on=looked, **args)
         assert wire(desk, console, b"A", frame)[0].request is not None, action
+    _, frame = console.request("enable", 0.0, based_on=looked, robot=6)
+    intake, got = wire(desk, console, b"A", frame)
+    assert intake.request is None and "plan 2 (reroute)" in got[0][0].reason
     desk.bump("run paused")  # the whole run: every request on an older picture is refused
     _, frame = console.request("disable", 0.0, based_on=looked, robot=3)
     assert wire(desk, console, b"A", frame)[0].request is None

@@ -101,6 +101,24 @@ def test_auto_mode_reroutes_the_held_up_robots_and_every_robot_arrives_safely(si
     assert f.core.summary().wait < off.core.summary().wait - 2.0
 
 
+def test_an_auto_reroute_makes_stale_only_the_requests_about_the_robots_it_rerouted():
+    """A console that has not yet seen an automatic reroute may still disable a robot the reroute
+    left alone, or switch the strategy; a request about a rerouted robot is refused, naming the
+    reroute (about one reroute a plan step at 300 robots would otherwise refuse most requests)."""
+    f = started("auto")
+    before, end = f.ops.version, f.now + 40
+    while not f.kinds("reroute") and f.now < end:
+        before = f.ops.version
+        f.advance(0.05)
+    (record,) = f.kinds("reroute")
+    rerouted = record["robots"][0]
+    other = next(r.id for r in f.core.fleet if r.id not in record["robots"])
+    answer = f.ask(f.ops, "disable", based_on=before, robot=rerouted)
+    assert not answer.ok and "plan 2 (reroute)" in answer.reason
+    assert f.ask(f.ops, "disable", based_on=before, robot=other).ok
+    assert f.ask(f.ops, "strategy", based_on=before, name="reorder").ok
+
+
 @pytest.mark.parametrize("mode", ["auto", "propose"])
 def test_the_plan_clock_a_console_shows_goes_on_across_a_reroute(mode):
     """The new plan starts at 0 (the console draws where it wants the robots from its step 0), but

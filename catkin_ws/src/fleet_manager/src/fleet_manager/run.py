@@ -379,8 +379,9 @@ class Run:
         self.next_plan_clock(now)
         self._write_plan(plan, reason)
 
-    def _write_plan(self, plan: Plan, reason: str, **fields: object) -> None:
-        """The run's new plan (`plan_id`) to the run folder, its record, and every console told."""
+    def _write_plan(self, plan: Plan, reason: str, concerns: Optional[List[int]] = None, **fields: object) -> None:
+        """The run's new plan (`plan_id`) to the run folder, its record, and every console told; a
+        change of the whole run for the consoles' version, or of the robots `concerns` names."""
         name = plan_file(self.plan_id)
         starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
         sol = make_solution(self.grid, self.loaded.solution.map_file or "", plan, starts,
@@ -390,7 +391,7 @@ class Run:
         self.out.add(WriteFile(name, format_solution(sol)))
         self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
                         actions=action_counts(plan), starts=[list(c) for c in starts], **fields)
-        self.out.desk.bump("plan {} ({})".format(self.plan_id, reason))
+        self.out.desk.bump("plan {} ({})".format(self.plan_id, reason), robots=concerns)
         self.out.broadcast(self.setup())
 
     def reroute(self, found: Reroute, now: float) -> Optional[str]:
@@ -416,7 +417,8 @@ class Run:
         self.next_plan_clock(now)
         text = found.describe(lambda a: ids[a])
         # a follower's move done before its leader left is the new plan's first, done already
-        self._write_plan(found.plan, "reroute", done=list(run.completed), base=list(base))
+        self._write_plan(found.plan, "reroute", [ids[a] for a in found.agents], done=list(run.completed),
+                         base=list(base))
         self.out.record("reroute", robots=[ids[a] for a in found.agents], around=ids[found.around],
                         late=found.late, gain=found.gain, text=text, plan=plan_file(self.plan_id),
                         base=list(base))

@@ -21,7 +21,10 @@ out and calls `answer`. What the desk decides alone:
 
 The version is the Lamport clock of the controlled state: `bump(why, robot)`
 when the manager changes something a decision may rest on, naming the robot
-it concerns (None: the whole run: its state, strategy or plan). A request
+it concerns (None: the whole run: its state, strategy or plan; a reroute
+names the robots it gave new paths, `robots`: the others keep theirs, and a
+manager rerouting automatically about once a plan step would otherwise make
+most requests of a 300-robot run stale). A request
 based on an older version is refused when a change since then concerns what
 the request acts on: anything that concerns the whole run, or the robot the
 request names. So an operator disabling robot 3 is refused if robot 3 failed
@@ -36,7 +39,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Deque, Dict, List, Optional, Tuple
+from typing import Any, Deque, Dict, FrozenSet, Iterable, List, Optional, Tuple
 
 from ..wire.liveness import HEARTBEAT_INTERVAL, PEER_TIMEOUT, Liveness
 from . import messages as m
@@ -88,18 +91,21 @@ class ControlDesk:
         self.consoles: Dict[Peer, Console] = {}
         self.timeout = timeout
         self.interval = interval
-        self._changes: Deque[Tuple[int, str, Optional[int], Optional[Peer]]] = deque(maxlen=history)
+        #: (version, why, the robots it concerns (None: the whole run), the console acting)
+        self._changes: Deque[Tuple[int, str, Optional[FrozenSet[int]], Optional[Peer]]] = deque(maxlen=history)
         self._now = now
         #: the console whose request is being carried out (its changes are its own)
         self.acting: Optional[Peer] = None
 
     # ---- the clock ------------------------------------------------------------------------
 
-    def bump(self, why: str, robot: Optional[int] = None) -> int:
-        """The controlled state changed (`why`, for refusals), concerning `robot` (None: the
-        whole run): the next version."""
+    def bump(self, why: str, robot: Optional[int] = None, robots: Optional[Iterable[int]] = None) -> int:
+        """The controlled state changed (`why`, for refusals), concerning `robot`, or `robots`
+        (a reroute's: the robots given new paths), or, with neither, the whole run: the next
+        version."""
         self.version += 1
-        self._changes.append((self.version, why, robot, self.acting))
+        concerns = frozenset(robots) if robots is not None else None if robot is None else frozenset((robot,))
+        self._changes.append((self.version, why, concerns, self.acting))
         return self.version
 
     def conflicts(self, version: int, robot: Optional[int], peer: Optional[Peer] = None) -> Optional[List[str]]:
@@ -108,8 +114,8 @@ class ControlDesk:
         the desk remembers (all count)."""
         if version < self.version and (not self._changes or self._changes[0][0] > version + 1):
             return None
-        return [why for v, why, r, by in self._changes
-                if v > version and (r is None or (robot is not None and r == robot))
+        return [why for v, why, concerns, by in self._changes
+                if v > version and (concerns is None or (robot is not None and robot in concerns))
                 and (by is None or by != peer)]
 
     # ---- frames in ----------------------------------------------------------------------
