@@ -559,7 +559,7 @@ def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> 
 
 def test_the_presentation_view_shows_the_map_alone_and_f11_brings_the_operators_window_back(display: str) -> None:
     from console.live.feed import LinkStatus
-    from fleet_common.control import Notice, RunInfo, State
+    from fleet_common.control import Notice, PlanData, Proposal, RunInfo, State
 
     root = tk.Tk()
     try:
@@ -577,9 +577,22 @@ def test_the_presentation_view_shows_the_map_alone_and_f11_brings_the_operators_
             app.refresh()
             root.update()
         text = app.bands.text()
-        assert "running" in text and "0 of 5 at their goals" in text
+        assert "running" in text and "0 of 5 at their goals" in text and "dashed" not in text
         assert text.splitlines()[-1].endswith("replanned 4 robots")
         assert text.splitlines()[-2].endswith("the run starts: 5 robots")
+        # a reroute proposed: its paths are dashed on the map, and the title band says what they are
+        plan = np.zeros((2, 5, 2), dtype=np.int32)
+        feed.offer(Proposal(7, PlanData(1007, (1, 2, 3, 4, 5), plan), "robot 4 late", 2, 1, kind="reroute"), 0.3)
+        feed.offer(State(3, 2, RunInfo("running", "", "adg", 1, 2.0, 1.0, 1, 0, 5, None, 0, 7), ()), 0.3)
+        for _ in range(3):
+            app.refresh()
+            root.update()
+        assert "dashed: a new way round, for the operator to accept" in app.bands.text()
+        feed.offer(State(4, 3, RunInfo("running", "", "adg", 1, 3.0, 1.5, 1, 0, 5, None, 0, None), ()), 0.4)
+        for _ in range(3):
+            app.refresh()
+            root.update()
+        assert "dashed" not in app.bands.text()  # answered or dropped: the words go with the dashes
         view = app.map.view
         assert view.top > 42 and view.bottom > 0 and view.right > 0  # title, ticker and legend beside the map
         app.canvas.focus_force()

@@ -165,7 +165,8 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
             return
         run = self.model.state.run if self.model.state is not None else None
         name = self.model.setup.plan.name if self.model.setup is not None else ""
-        self.bands.set_run(*run_words(run, name))
+        proposal = self.model.proposal.kind if self.model.proposal is not None else None
+        self.bands.set_run(*run_words(run, name, proposal))
         if story:
             self.bands.set_story(self.model.story)
 
@@ -198,7 +199,7 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
             self.show(state)
         if "connection" in changes:
             self._connection_changed()
-        if state is not None or "story" in changes:
+        if state is not None or changes & {"story", "proposal"}:
             self._show_presentation("story" in changes)
         self._grey_controls()
         self.solving_progress()

@@ -47,8 +47,14 @@ LEGEND = ("a robot, where it is (the tick: where it faces)", "where the plan wan
 LEGEND_ROBOTS = 12
 
 
-def run_words(run: Optional[RunInfo], name: str) -> Tuple[str, str]:
-    """The title band's two lines (`name`: the plan, its file name is what a visitor reads)."""
+#: The title band's words for a proposal on the map (its paths dashed), by what proposed it.
+PROPOSED = {"reroute": "dashed: a new way round, for the operator to accept",
+            "replan": "dashed: a new plan, for the operator to accept"}
+
+
+def run_words(run: Optional[RunInfo], name: str, proposal: Optional[str] = None) -> Tuple[str, str]:
+    """The title band's two lines (`name`: the plan, its file name is what a visitor reads;
+    `proposal`: the kind of a proposal drawn on the map, said so that dashed paths have words)."""
     name = PurePath(name).name
     if run is None:
         return "FleetControl: {}".format(name or "waiting for the manager"), "waiting for the manager"
@@ -58,9 +64,10 @@ def run_words(run: Optional[RunInfo], name: str) -> Tuple[str, str]:
     if run.purpose == "to-starts":
         what = "driving to the starts" if run.state == "running" else what + " (on the way to the starts)"
     safety = "no collision" if run.collisions == 0 else "{} collisions".format(run.collisions)
+    proposed = "  \u00b7  " + PROPOSED.get(proposal, PROPOSED["replan"]) if proposal else ""
     return ("FleetControl: {}  \u00b7  {} robots  \u00b7  strategy {}".format(name, run.robots, run.strategy),
-            "{}  \u00b7  {:.0f} s  \u00b7  {} of {} at their goals  \u00b7  {}".format(
-                what, run.clock, run.arrived, run.robots, safety))
+            "{}  \u00b7  {:.0f} s  \u00b7  {} of {} at their goals  \u00b7  {}{}".format(
+                what, run.clock, run.arrived, run.robots, safety, proposed))
 
 
 class Bands:
