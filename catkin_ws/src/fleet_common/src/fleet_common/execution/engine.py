@@ -390,8 +390,8 @@ class Engine:
         `take_back` and the metrics (one object for the whole run) carry over; the plan's clock
         starts at `time`. The decisions now; a wait one ends is charged to `released_by[robot]`.
 
-        Raises `EventError`, changing neither engine, when a move sent would wait in this plan for
-        a move that is not (the plan does not fit the run: the rule's one condition), unless `old`
+        Raises `EventError`, changing neither engine, when a move made or sent would wait in this
+        plan for a move that is not (the plan does not fit the run: the rule's one condition), unless `old`
         sent it following that very move (its leader went out since and took the move back): the
         pair keeps its order and the follower its hold behind the leader's real pose."""
         run = self.run
@@ -443,14 +443,15 @@ class Engine:
 
     def _misfit(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
         """Why this plan does not fit `old`'s run with `progress` (see `adopt`), or None: a move
-        sent that waits in this plan for a move not completed (robots of real size: not sent), and
-        that `old` did not send following the same move."""
+        done or sent that waits in this plan for a move not completed (robots of real size: not
+        sent), and that `old` did not send following the same move. (A move done behind one not
+        made: the plan puts another robot into a cell before a robot that is in it already.)"""
         run = self.run
         first, agent, dep = run.first, run.agent, run.dep
         # robot r's move k here is its move k + base[r] in `old`'s plan
         base = [old.run.completed[r] - done for r, (done, _, _) in enumerate(progress)]
         for r, (done, sent, _) in enumerate(progress):
-            for a in range(first[r] + done, first[r] + done + sent):
+            for a in range(first[r], first[r] + done + sent):
                 d = dep[a]
                 if d < 0 or agent[d] == r:
                     continue
@@ -461,8 +462,9 @@ class Engine:
                 was = old.early.get(old.run.first[r] + base[r] + a - first[r])
                 if self.follow and was is not None and was == old.run.first[q] + base[q] + k:
                     continue  # it follows the move it followed: its leader took it back (out)
-                return ("adopt: robot {}'s move {} was sent, but in the new plan it waits for robot {}'s "
-                            "move {}, which was not".format(r, a - first[r], q, k))
+                return ("adopt: robot {}'s move {} was {}, but in the new plan it waits for robot {}'s "
+                        "move {}, which was not".format(r, a - first[r], "made" if a < first[r] + done else "sent",
+                                                        q, k))
         return None
 
     def _forced(self, r: int, a: int, now: float) -> float:

@@ -11,7 +11,9 @@ changing nothing.
 
 The new engine (`Engine.adopt`) runs the same strategy with the same
 settings and the same metrics, and refuses a plan in which a move already
-sent would wait for one that is not: the safety of the hand-over, checked.
+made or sent would wait for one that is not (a robot sent, in the new plan,
+into a cell another is in or driving into): the safety of the hand-over,
+checked.
 (One such wait is the run's own: a follower sent behind a leader that went
 out since and took its move back keeps following that move, held behind the
 leader's real pose, as it was in the old engine.)
