@@ -74,8 +74,8 @@ PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
 def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int], follow: bool,
            hold: bool) -> Tuple[List[int], List[List[int]], List[int]]:
     """Per robot: its grid cell at the cut (its base), its cells at steps 1.. while its moves sent
-    are made as soon as possible (then, with `hold`, kept where they leave it for the steps the
-    forecast has it stand still), and the step until which it is fixed (0: free from step 1)."""
+    are made as soon as possible and everyone else stays (then, with `hold`, kept where they leave
+    it for the steps the forecast has it stand still), and the step until which it is fixed."""
     n = run.num_agents
     zero = earliest_starts(run, [0] * n, follow, base)
     table, first = run.table, run.first
@@ -95,12 +95,15 @@ def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int],
             cells += [cell] * (s - len(cells))  # waits before the move (steps 1..s)
             cell = grid.index(table.coord(run.dst[a]))
             cells.append(cell)  # in the target from step s + 1
-        stop = len(cells)
-        if hold and sent > a0:
-            stop = max(stop, late.start[sent - 1] + 1)
-        cells += [cell] * (stop - len(cells))
         fixed.append(cells)
-        until.append(stop)
+        until.append(late.start[sent - 1] + 1 if hold and sent > a0 else 0)
+    # everyone stays until the last move sent is made: a robot may already be in a cell that its
+    # moves sent (even completed ones, `cut.Cut.base`) enter later in the plan, so nobody else may
+    # go there first (the engine would send them in); then the held robots stay longer
+    done = max((len(cells) for cells in fixed), default=0)
+    for r, cells in enumerate(fixed):
+        until[r] = max(until[r], done)
+        cells += [cells[-1] if cells else at[r]] * (until[r] - len(cells))
     return at, fixed, until
 
 
@@ -117,9 +120,9 @@ def solve_from(grid: Grid, goals: Sequence[Tuple[int, int]], at: Sequence[int], 
     fix = [[int(ids[c]) for c in cells] for cells in fixed]
     configs = [q]
     if solver == "lacam":  # everyone stays after its moves sent until the last of them, then LaCAM
-        horizon = max(until, default=0)
+        horizon = min(until, default=0)  # hold does not apply: LaCAM starts everyone together
         for t in range(1, horizon + 1):
-            q = [f[t - 1] if t <= len(f) else (f[-1] if f else q[i]) for i, f in enumerate(fix)]
+            q = [f[t - 1] for f in fix]
             configs.append(q)
         w = grid.width
         starts = [(int(free.ids[v]) % w, int(free.ids[v]) // w) for v in q]
