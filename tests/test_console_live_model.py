@@ -127,6 +127,20 @@ def test_a_proposal_is_kept_until_the_state_says_nobody_waits_for_an_answer() ->
     assert model.proposal is None and model.proposal_plan is None
 
 
+def test_a_new_plan_is_drawn_from_its_step_0_until_a_state_of_it_comes() -> None:
+    """A reroute's plan (RunSetup, plan 2) comes just before the first State of it: until then the
+    rings of where the plan wants each robot are the new plan's step 0, not the old plan's step 1.5
+    looked up in the new plan (they would jump ahead for a moment)."""
+    model = connected_model()
+    model.apply(state(3, [robot(7), robot(9)]), 1.0, 1.0)
+    assert model.fleet_state().time == 1.5
+    model.apply(scene(plan_id=2), 1.1, 1.1)
+    assert model.fleet_state().time == 0.0
+    moved_on = RunInfo("running", "", "adg", 1, 3.2, 0.2, 2, 0, 2, None, 0, None, plan_start=1.6)
+    model.apply(state(4, [robot(7), robot(9)], moved_on), 1.2, 1.2)
+    assert model.fleet_state().time == 0.2
+
+
 def test_live_source_answers_a_fleet_state_only_when_a_state_came() -> None:
     feed, model = LiveFeed(), LiveModel("e")
     source = LiveSource(feed, model, wall=lambda: 0.0)

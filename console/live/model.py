@@ -198,7 +198,10 @@ class LiveModel:
                 if r.theta is not None:
                     headings[agent] = math.degrees(r.theta) % 360.0
         run = None if self.state is None else self.state.run
-        return FleetState(0.0 if run is None else run.plan_time, positions, headings,
+        # a new plan (a reroute's, a replan's) comes just before the first State of it: until that
+        # State its clock is its step 0, not the old plan's step (the rings would jump ahead a moment)
+        current = run is not None and (self.setup is None or run.plan_id == self.setup.plan.id)
+        return FleetState(run.plan_time if current else 0.0, positions, headings,  # type: ignore[union-attr]
                           0 if self.state is None else self.state.seq)
 
 
