@@ -5,8 +5,10 @@ the delays; a wire cell says what the rest of the system adds to it: the
 robots turn before they drive, commands and replies cross sockets, the
 manager's loop decides when they go. The plan is written as a solution (and
 its map) into a scratch folder; `fleetctl virtual-fleet` stands one virtual
-robot on each start, drawing its delays from the cell's model and seed (the
-same spec language, in units of a nominal move); `fleetctl manager --start
+robot on each start, meeting the delays the engine cell of the same model and
+seed meets (`--paired`: robot i's k-th drive has the fate of agent i's k-th
+move, in units of a nominal move), so engine and wire rows pair seed by seed;
+`fleetctl manager --start
 --until-done` runs the cell's strategy and writes its run folder, from which
 the row is read (`runlog.summary`, the figures `fleetctl trace` prints).
 With `reroute: auto` the manager reroutes (`--reroute auto`) and the row
@@ -65,7 +67,7 @@ def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, 
         fleet = Child.start("fleet", [
             "virtual-fleet", "--definitions", str(definitions), "--no-curve", "--instance",
             str(work / "plan.txt"), "--time-scale", "{:g}".format(time_scale), "--feedback-base",
-            str(feedback), "--delay-model", cell.delay, "--seed", str(cell.seed), "--speed",
+            str(feedback), "--delay-model", cell.delay, "--seed", str(cell.seed), "--paired", "--speed",
             "{:g}".format(SPEED), "--log-level", "warning"], log=work / "fleet.log")
         try:
             manager = Child.start("manager", [

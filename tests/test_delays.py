@@ -184,6 +184,32 @@ def test_a_stall_lasts_the_same_number_of_nominal_moves_in_the_simulator_and_the
     assert nav.seconds_to_change() == pytest.approx(3.0 / speed)
 
 
+def test_a_paired_virtual_robot_meets_the_fates_the_simulator_draws_for_its_moves():
+    """`fleetctl virtual-fleet --paired`: robot i's k-th drive has the fate the simulator draws for
+    agent i's k-th move (same model and seed), in seconds; past the plan's moves, its own draws.
+    Unpaired, the fates differ (the negative)."""
+    from fleet_common.delays import simulator_fates
+    from fleet_common.execution.actions import ActionTable
+
+    plan = Plan.from_paths([[(0, 0), (1, 0), (2, 0), (3, 0)], [(3, 2), (2, 2), (2, 2), (1, 2)]])
+    table = ActionTable.from_plan(plan)
+    model = parse_delay_model("events=bernoulli:0.5:1-5,slow=0.2:1.5")
+    sim = simulator_fates(model, table.agent, plan.num_agents, 11, 1.0)
+    moves = [int(table.first[i + 1] - table.first[i]) for i in range(plan.num_agents)]
+    assert moves == [3, 2]
+    fleet = FleetDelays(model, nominal_s=2.0, seed=11, num_robots=2)
+    for paired, same in ((fleet.paired_with(moves), True), (fleet, False)):
+        drawn = []
+        for i in range(2):
+            robot, rng = paired.for_robot(i), random.Random(i)
+            for k in range(moves[i]):
+                f, a = robot.draw(rng), table.first[i] + k
+                drawn.append(f.start_delay == pytest.approx(2.0 * sim.wait[a]) and
+                             f.slowdown == pytest.approx(sim.slowdown[a]))
+            robot.draw(rng)  # a drive past the plan's moves: its own draw, no error
+        assert all(drawn) if same else not all(drawn)
+
+
 def test_simulate_and_virtual_fleet_take_the_same_specs_and_refuse_bad_ones_alike(shared_data, tmp_path):
     solution = shared_data / "solutions" / "cbs_makespan-soc-pareto.txt"
     spec = "delay=0.5,slow=0.1:2,stall=0.05:3,dropout=0.01:10,factor=0.9-1.1,btpg"

@@ -165,9 +165,13 @@ def test_a_part_of_the_fleet_that_cannot_be_served_is_one_line(fleet_files: Path
 @pytest.mark.parametrize("args, message", [
     (["--delay-model", "wobble=1"], "delay model 'wobble=1': unknown term 'wobble=1'; expected factor="),
     (["--keys", "{tmp}/nokeys"], "robot.key_secret not found: make the keys with `fleetctl keys"),
+    (["--no-curve", "--paired"], "--paired needs --instance PLAN"),
+    (["--no-curve", "--paired", "--instance", "{lab}"], "--paired needs --instance to be a plan"),
 ])
 def test_virtual_fleet_errors_are_one_line(tmp_path: Path, args: List[str], message: str) -> None:
-    proc = fleetctl("virtual-fleet", *[a.format(tmp=tmp_path) for a in args])
+    from fleet_common.lab import lab_instance_path
+
+    proc = fleetctl("virtual-fleet", *[a.format(tmp=tmp_path, lab=lab_instance_path()) for a in args])
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and message in proc.stderr
     if "keys" in message:

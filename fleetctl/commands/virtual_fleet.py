@@ -18,7 +18,7 @@ import argparse
 import logging
 import signal
 from pathlib import Path
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 from fleet_common.arg_types import non_negative, port, positive, seed
 from fleet_common.delays import FORMS
@@ -56,6 +56,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="driving speed (default 0.5 cells/s, about 0.35 m/s in the lab)")
     parser.add_argument("--turn-speed", type=positive, default=1.5, metavar="RAD_PER_S",
                         help="turning speed (default 1.5 rad/s)")
+    parser.add_argument("--paired", action="store_true",
+                        help="robot i's k-th drive meets the fate `fleetctl simulate` draws for agent "
+                             "i's k-th move of the --instance plan (same --delay-model and --seed): "
+                             "runs through the manager and on the engine alone meet the same delays")
     parser.add_argument("--instance", type=Path, default=None, metavar="FILE",
                         help="start robot i at agent i's start of this instance or solution "
                              "(default: the lab instance if it has enough agents, else rows "
@@ -159,6 +163,8 @@ def run(args: argparse.Namespace) -> int:
     except FleetError as err:
         raise FleetError("{}; or run the fleet with --no-curve".format(err)) from err
     poses, grid, map_name = _world(args.instance, args.map, robots)
+    if args.paired:
+        model = model.paired_with(_plan_moves(args.instance))
     limits = CommandLimits(args.max_step or None, args.max_time)
     fleet = VirtualFleet(robots, keys=keys, feedback_base=args.feedback_base,
                          time_scale=args.time_scale, model=model, seed=seed,
@@ -187,6 +193,25 @@ def run(args: argparse.Namespace) -> int:
         fleet.close()
     print("virtual fleet stopped ({} dropouts)".format(fleet.dropouts), flush=True)
     return 0
+
+
+def _plan_moves(path: Optional[Path]) -> List[int]:
+    """Moves of each agent of the plan in `path`, as the engine counts them (--paired)."""
+    from fleet_common.errors import FleetError
+    from fleet_common.execution.actions import ActionTable
+    from fleet_common.formats.mapsearch import default_map_dirs
+    from fleet_common.formats.problem_file import read_problem
+    from fleet_common.formats.solution import Solution
+    from fleet_common.lab import lab_map_path
+
+    if path is None:
+        raise FleetError("--paired needs --instance PLAN: the plan whose moves the fates are drawn for")
+    problem = read_problem(path, [lab_map_path().parent, *default_map_dirs()])
+    if not isinstance(problem, Solution) or problem.plan is None:
+        raise FleetError("--paired needs --instance to be a plan (a solution file with its moves); {} "
+                         "has none".format(path))
+    first = ActionTable.from_plan(problem.plan).first
+    return [int(first[i + 1] - first[i]) for i in range(len(first) - 1)]
 
 
 def _world(instance: Optional[Path], map_path: Optional[Path],
