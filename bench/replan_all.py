@@ -37,12 +37,10 @@ and 95 % interval), the paired change against adg, replans handed over
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import random
 import sys
 import time
-from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -66,9 +64,7 @@ from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.robot_size import TURTLEBOT2
 from fleet_common.validate import validate_plan
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
-PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
-         "arena300": ("arena_300agents_1.txt", "pibt", 300)}
+from reroute import PLANS, SHARED, interval  # noqa: E402  (bench/reroute.py: the same plans, the same intervals)
 
 
 def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int], follow: bool,
@@ -229,12 +225,6 @@ class ReplanAll(Rerouter):
         self.found += 1
         return Reroute(plan, cut, tuple(range(run.num_agents)), worst, lags[worst],
                        sum(before.arrival) - sum(after.arrival), before.makespan, after.makespan, ())
-
-
-def interval(values: List[float]) -> str:
-    a = np.asarray(values, dtype=float)
-    half = 1.96 * a.std(ddof=1) / math.sqrt(a.size) if a.size > 1 else 0.0
-    return "{:.3f} +- {:.3f}".format(a.mean(), half)
 
 
 def main() -> None:
