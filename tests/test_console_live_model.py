@@ -133,12 +133,13 @@ def test_a_new_plan_is_drawn_from_its_step_0_until_a_state_of_it_comes() -> None
     looked up in the new plan (they would jump ahead for a moment)."""
     model = connected_model()
     model.apply(state(3, [robot(7), robot(9)]), 1.0, 1.0)
-    assert model.fleet_state().time == 1.5
+    assert model.fleet_state().time == 1.5 and model.plan_start() == 0.0
     model.apply(scene(plan_id=2), 1.1, 1.1)
-    assert model.fleet_state().time == 0.0
+    # the new plan at its step 0, which is the run's step 1.5: the header's clock does not go back
+    assert model.fleet_state().time == 0.0 and model.plan_start() == 1.5
     moved_on = RunInfo("running", "", "adg", 1, 3.2, 0.2, 2, 0, 2, None, 0, None, plan_start=1.6)
     model.apply(state(4, [robot(7), robot(9)], moved_on), 1.2, 1.2)
-    assert model.fleet_state().time == 0.2
+    assert model.fleet_state().time == 0.2 and model.plan_start() == 1.6
 
 
 def test_live_source_answers_a_fleet_state_only_when_a_state_came() -> None:

@@ -198,11 +198,23 @@ class LiveModel:
                 if r.theta is not None:
                     headings[agent] = math.degrees(r.theta) % 360.0
         run = None if self.state is None else self.state.run
-        # a new plan (a reroute's, a replan's) comes just before the first State of it: until that
-        # State its clock is its step 0, not the old plan's step (the rings would jump ahead a moment)
-        current = run is not None and (self.setup is None or run.plan_id == self.setup.plan.id)
-        return FleetState(run.plan_time if current else 0.0, positions, headings,  # type: ignore[union-attr]
-                          0 if self.state is None else self.state.seq)
+        return FleetState(run.plan_time if run is not None and self._plan_is_current() else 0.0, positions,
+                          headings, 0 if self.state is None else self.state.seq)
+
+    def _plan_is_current(self) -> bool:
+        """Whether the last State is of the plan drawn. A new plan (a reroute's, a replan's) comes
+        just before the first State of it: until that State the plan's clock is its step 0, not the
+        old plan's step (the rings of where it wants each robot would jump ahead for a moment)."""
+        return self.state is None or self.setup is None or self.state.run.plan_id == self.setup.plan.id
+
+    def plan_start(self) -> float:
+        """The run's plan steps before the drawn plan's step 0 (the header adds the plan's own time
+        to it): the State's `plan_start`, or, while a new plan's first State has not come, all the
+        run's steps so far (the new plan starts now)."""
+        if self.state is None:
+            return 0.0
+        run = self.state.run
+        return run.plan_start if self._plan_is_current() else run.run_steps
 
 
 def reply_text(reply: Reply) -> str:

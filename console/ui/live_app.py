@@ -308,7 +308,7 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
             if run.reroute != "off":
                 parts.append("reroute {}".format(run.reroute))
             status = SEPARATOR.join(parts)
-        self.header.set_status(status, self.scene.makespan, 0.0 if run is None else run.plan_start)
+        self.header.set_status(status, self.scene.makespan, self.model.plan_start())
 
     def _fill_conflicts(self) -> None:
         pass  # a live run has no validator findings to list
