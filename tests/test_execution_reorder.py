@@ -176,6 +176,22 @@ def test_a_ready_robot_passes_a_late_one_and_the_late_one_goes_after_it(size):
     assert m.avoidable_time > 4.0 and m.forced_time < m.wait_time
 
 
+def test_a_robot_standing_inside_a_move_it_began_is_passed_once_a_move_overdue():
+    """Robot 0 begins its first move and stands still in it for 5 moves (as a real robot does
+    that accepted its drive and is held up): it counts as a move from (2, 1) once the move is
+    `OVERDUE`, and robot 1 passes it there, instead of waiting all 5 moves."""
+    table = Engine(CROSSING).table
+    n = table.num_actions
+    stall, where = np.zeros(n), np.zeros(n)
+    stall[table.first[0]] = 5.0  # at the very start of the move: it has begun, it stands
+    inside = MoveFates(np.zeros(n), np.ones(n), stall, where, np.zeros(n), np.zeros(n))
+    reorder = simulate(CROSSING, "reorder", size=TURTLEBOT2, fates=inside)
+    adg = simulate(CROSSING, "adg", size=TURTLEBOT2, fates=inside)
+    assert [(p.agent, p.passed, p.taken_back) for p in reorder.engine.run.passes] == [(1, 0, False)]
+    assert reorder.metrics.agents[1].arrival < adg.metrics.agents[1].arrival - 2.0
+    assert_safe_and_complete(CROSSING, reorder, TURTLEBOT2)
+
+
 def test_a_robot_on_time_is_not_passed():
     on_time = fates(CROSSING, {})
     result = simulate(CROSSING, "reorder", size=TURTLEBOT2, fates=on_time)

@@ -191,6 +191,8 @@ class RunCore:
             grid = _without(walled(run.grid, run.engine, self.fleet.robots, here, out), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         self._reroute_tick(now)
+        if run.phase.phase == RUNNING:
+            run.driver.tick(now)
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
             if run.purpose == PLAN:
                 self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))

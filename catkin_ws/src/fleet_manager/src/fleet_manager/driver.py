@@ -13,7 +13,8 @@ at a time):
   barrier), it turns towards it already, in place: it holds its own cell, so
   that is safe, and the move is quicker once allowed;
 - the robot's `Accepted` of a drive is the engine's `ActionStarted`, its
-  `Completed` the engine's `ActionCompleted` (which may dispatch more);
+  `Completed` the engine's `ActionCompleted` (which may dispatch more); a
+  strategy that decides by the plan's clock gets its `Tick` (`tick`);
 - a drive or turn that fails because the robot has a fault (bumper) makes the
   robot `RobotFailed` in the engine: it is held, with both cells of a move it
   stopped in, and its dependents wait; when the operator enables it again it
@@ -45,7 +46,7 @@ from typing import Callable, Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Dispatch, Enabled, Engine,
-                                    EventError, Pass, RobotFailed)
+                                    EventError, Pass, RobotFailed, Tick)
 from fleet_common.execution.handover import renumbered
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
@@ -82,6 +83,19 @@ class Driver:
         #: followers' hold points move on (False while a resumed run checks its robots)
         self.releasing = True
         self.show = show  # base cell -> the plan file's coordinates, for messages
+        self._next_tick: Optional[float] = None  # when the strategy's next `Tick` is due
+
+    def tick(self, now: float) -> None:
+        """Send the strategy its `Tick` as often as it asks (`Engine.tick_every`, plan steps)
+        while the run runs: re-ordering lets a robot pass one that stands still as time passes."""
+        every = self.engine.tick_every
+        if every <= 0:
+            self._next_tick = None
+        elif self._next_tick is None:
+            self._next_tick = now + every * self.engine.run.clock.step_time
+        elif now >= self._next_tick:
+            self._next_tick = now + every * self.engine.run.clock.step_time
+            self.handle(Tick(now), now)
 
     # ---- the engine's side ---------------------------------------------------------------
 
@@ -97,7 +111,7 @@ class Driver:
             self._passed(run.passes[passes:])
         released = getattr(event, "agent", None) if isinstance(event, (ActionCompleted, Enabled)) else None
         self._queue(dispatches, released)
-        if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed)):
+        if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed, Tick)):
             # progress frees only the robots dispatched now (and the robot itself, for its next turn)
             targets: Sequence[int] = sorted({d.agent for d in dispatches} | (
                 {event.agent} if isinstance(event, ActionCompleted) else set()))

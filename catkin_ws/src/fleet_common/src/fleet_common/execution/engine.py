@@ -235,6 +235,7 @@ class Engine:
                 run.done[a] = 1
             run.completed[r] = done[r]
             run.started[r] = min(max(done[r], int(started[r])), disp[r])
+            run.started_at[r] = time
             run.dispatched[r] = run.sent[r] = disp[r]
         out = []
         for r in range(n):
@@ -264,7 +265,9 @@ class Engine:
         if not run.completed[r] <= e.index < run.sent[r]:
             raise EventError("agent {} reports starting action {}, but it was sent actions up to {} "
                              "and completed {}".format(r, e.index, run.sent[r] - 1, run.completed[r]), r)
-        run.started[r] = max(run.started[r], e.index + 1)
+        if e.index + 1 > run.started[r]:
+            run.started[r] = e.index + 1
+            run.started_at[r] = e.time
         run.dispatched[r] = max(run.dispatched[r], e.index + 1)  # a withdrawn action it began anyway
         return (), None
 
@@ -418,6 +421,7 @@ class Engine:
             run.dispatched[r] = run.sent[r] = done + sent
             run.started[r] = done + (1 if began and sent else 0)
             run.dispatched_at[r] = old.run.dispatched_at[r]
+            run.started_at[r] = old.run.started_at[r]
             run.out[r] = old.run.out[r]
             for a in range(first[r] + done, first[r] + done + sent):
                 d = dep[a]

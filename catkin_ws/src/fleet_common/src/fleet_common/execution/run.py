@@ -80,6 +80,8 @@ class RunState:
         self.sent = [0] * n
         #: When each robot was last dispatched an action while it had none in hand.
         self.dispatched_at = [0.0] * n
+        #: When each robot began its latest move (its last ActionStarted; a restore's time).
+        self.started_at = [0.0] * n
         #: None while the robot takes part; DISABLED or FAILED while it is out.
         self.out: List[Optional[str]] = [None] * n
         #: Robots smaller than a cell: a move out of a cell releases the next visitor once it is
