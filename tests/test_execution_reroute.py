@@ -191,6 +191,22 @@ def test_a_robot_held_up_by_a_late_one_is_rerouted_when_it_pays():
     assert "late 6 steps" in found.describe()
 
 
+def test_a_robot_standing_inside_a_move_it_began_is_forecast_as_one_standing_before_it():
+    """As the manager sees a late robot: L accepted its drive (begun at 0) and stands inside it.
+    The forecast counts it standing as long again as it overran its move, as it counts a robot
+    standing before its move, and the rule reroutes H around it as it does then."""
+    engine = standing_late()
+    before = ready_steps(engine.run, 6.0)
+    found_before = decide(engine, Maps(OPEN), 6.0, RerouteRule())
+    engine = standing_late()
+    engine.handle(ActionStarted(0, 0, 0.0))
+    assert ready_steps(engine.run, 0.5) == [0, 0]  # a move under way ends in its time
+    assert ready_steps(engine.run, 6.0) == [5, 0] and before == [6, 0]
+    found = decide(engine, Maps(OPEN), 6.0, RerouteRule())
+    assert found is not None and found_before is not None
+    assert (found.around, sorted(found.agents)) == (found_before.around, sorted(found_before.agents))
+
+
 def test_a_robot_on_time_or_a_small_gain_is_not_worth_a_reroute():
     engine = standing_late()
     assert held_up(engine, 0.5, 2) == {}

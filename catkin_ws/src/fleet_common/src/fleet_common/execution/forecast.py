@@ -34,7 +34,8 @@ LATER = 1 << 40
 
 def ready_steps(run: RunState, now: float) -> List[int]:
     """Per robot, the earliest step its next move can start: 0, or for a robot sent a move it has
-    not begun, as many steps again as it has stood with it; LATER for robots out."""
+    not begun, as many steps again as it has stood with it, or for one whose begun move overran
+    (`RunState.overran`), as many steps again as it overran; LATER for robots out."""
     clock, out = run.clock, []
     steps = clock.steps(now)
     for r in range(run.num_agents):
@@ -42,6 +43,8 @@ def ready_steps(run: RunState, now: float) -> List[int]:
             out.append(LATER)
         elif run.dispatched[r] > run.completed[r] and run.started[r] <= run.completed[r]:
             out.append(max(0, int(round(steps - clock.steps(run.dispatched_at[r])))))
+        elif run.started[r] > run.completed[r]:
+            out.append(int(round(run.overran(r, now))))
         else:
             out.append(0)
     return out

@@ -24,12 +24,13 @@ the cells after, when at every one of them
 2. P is late: behind the plan's clock (`RunState.clock`, running time in plan
    steps) by `gap` steps or more, at least one move from the cell (so Q is
    through before P comes), or out (disabled, failed). A move P has begun
-   may end now, unless it began `OVERDUE` steps ago (a whole move overdue:
-   P stands or crawls inside it). The manager counts a drive begun once the
-   robot accepts it, so a robot held up inside its drive looks begun; without
-   the overdue count the real chain never passed it where the simulator,
-   whose delays come before a move begins, did. Judging lateness wrongly
-   costs time, never safety: a P that comes sooner waits behind Q;
+   may end now, unless it overran its step by `OVERDUE` with its way clear
+   (`RunState.overran`: P stands or crawls inside it). The manager counts a
+   drive begun once the robot accepts it, so a robot held up inside its drive
+   looks begun; without the overrun count the real chain never passed it where
+   the simulator, whose delays come before a move begins, did. Judging
+   lateness wrongly costs time, never safety: a P that comes sooner waits
+   behind Q;
 3. the robot before P in the cell has left it (Q can go now), and the cell is
    not Q's goal (Q would stay);
 
@@ -72,8 +73,8 @@ from .run import RunState
 from .strategy import Strategy, register
 
 
-#: Plan steps after which a begun move counts as overdue: a nominal move, and a whole move more.
-OVERDUE = 2.0
+#: Plan steps a begun move may overrun (`RunState.overran`) and still count as ending now.
+OVERDUE = 1.0
 
 
 class Pass(NamedTuple):
@@ -256,7 +257,7 @@ class ReorderStrategy(Strategy):
         now = clock.steps(run.now)
         done = run.completed[p]
         ahead = k - done
-        if run.started[p] > done and now - clock.steps(run.started_at[p]) < OVERDUE:
+        if run.started[p] > done and run.overran(p, run.now) < OVERDUE:
             ahead -= 1  # its current move may end now
         if standing and now - clock.steps(run.dispatched_at[p]) >= 1.0:
             ahead += 1  # it has stood still a whole move already: count on one more

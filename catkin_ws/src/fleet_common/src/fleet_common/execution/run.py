@@ -116,6 +116,19 @@ class RunState:
         r = self.agent[d]
         return self.follow and self.dispatched[r] > d - self.first[r]
 
+    def overran(self, r: int, now: float) -> float:
+        """Plan steps robot r's begun move has taken beyond the one step a move takes, when nothing
+        but the robot holds it (its leader left the cell): a robot that accepted its drive and
+        stands inside it, as the manager sees a late robot. 0 when it has not begun a move, is
+        on time, or follows a leader still in the cell (that wait is the leader's)."""
+        if self.started[r] <= self.completed[r]:
+            return 0.0
+        a = self.first[r] + self.completed[r]
+        d = self.dep[a]
+        if d >= 0 and self.agent[d] != r and not self.done[d]:
+            return 0.0
+        return max(0.0, self.clock.steps(now) - self.clock.steps(self.started_at[r]) - 1.0)
+
     def next_undispatched(self, r: int) -> int:
         """Flat index of the next action robot r has not been sent, or -1."""
         a = self.first[r] + self.dispatched[r]
