@@ -4,7 +4,11 @@ Today's rule (`execution.reroute`) gives a few held-up robots (or the late
 one) new paths by space-time A* around everyone else's predicted schedule.
 This experiment asks whether replanning ALL robots from the cut, with the
 project's own PIBT or LaCAM (which react to where the late robots stand),
-gives a lower executed makespan.
+gives a lower executed makespan. Its chosen setting (`--gap 1 --margin 1
+--every 2 --hold --clear 20`) is now the product's `RerouteRule(scope="all")`
+(`execution.reroute_all`: `prefix`, `solve_from`, `steer`, `replan`); this
+script keeps the variants around it (LaCAM, priorities, `--critical`, the
+hold's variants), run through the product's `replan` with their own plan.
 
 The plan from the cut (base frame, as `reroute_plan`'s): every robot's moves
 sent (from its base, `cut.Cut.base`) are its first moves, as soon as the
@@ -57,149 +61,53 @@ from __future__ import annotations
 
 import argparse
 import os
-import random
 import sys
 import time
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from fleet_common.delays import parse_delay_model
-from fleet_common.execution.cut import cut_of
 from fleet_common.execution.engine import Engine
-from fleet_common.execution.forecast import earliest_starts, ready_steps, unplaced
-from fleet_common.execution.reroute import Reroute, Rerouter, behind, delayed, expected_steps, held_up
+from fleet_common.execution.forecast import Schedule
+from fleet_common.execution.reroute import (Reroute, RerouteRule, Rerouter, behind, delayed, expected_steps,
+                                            held_up)
+from fleet_common.execution.reroute_all import prefix, replan, solve_from
 from fleet_common.execution.run import RunState
 from fleet_common.execution.simulate import simulate
 from fleet_common.formats import default_map_dirs
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import load_plan
-from fleet_common.planning.cells import NIL
 from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.lacam import lacam
-from fleet_common.planning.pibt import tie_ranks
 from fleet_common.planning.pibt_step import PIBTStep
 from fleet_common.robot_size import TURTLEBOT2
-from fleet_common.validate import validate_plan
 
 from reroute import PLANS, SHARED, interval  # noqa: E402  (bench/reroute.py: the same plans, the same intervals)
 
 
-def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int], follow: bool,
-           hold: bool, more: int = 0, chain: bool = False) -> Tuple[List[int], List[List[int]], List[int]]:
-    """Per robot: its grid cell at the cut (its base), its cells at steps 1.. while its moves sent
-    are made as soon as possible and everyone else stays (then, with `hold`, kept where they leave
-    it for the steps the forecast has it stand still: `more` steps more for a robot standing
-    still now; with `chain`, a robot sent nothing whose next move the forecast has waiting for a
-    standing robot stays until then too), and the step until which it is fixed."""
-    n = run.num_agents
-    zero = earliest_starts(run, [0] * n, follow, base)
-    table, first = run.table, run.first
-    if hold:
-        late = earliest_starts(run, ready, follow, base)
-    at: List[int] = []
-    fixed: List[List[int]] = []
-    until: List[int] = []
-    for r in range(n):
-        a0, sent, end = first[r] + base[r], first[r] + run.dispatched[r], first[r + 1]
-        here = run.src[a0] if a0 < end else (run.dst[end - 1] if end > first[r] else table.start_cell[r])
-        cell = grid.index(table.coord(here))
-        at.append(cell)
-        cells: List[int] = []
-        for a in range(a0, sent):
-            s = zero.start[a]
-            cells += [cell] * (s - len(cells))  # waits before the move (steps 1..s)
-            cell = grid.index(table.coord(run.dst[a]))
-            cells.append(cell)  # in the target from step s + 1
-        fixed.append(cells)
-        stay = 0
-        if hold and sent > a0:
-            stay = late.start[sent - 1] + 1 + (more if ready[r] > 0 else 0)
-        elif hold and chain and a0 < end and late.start[a0] > zero.start[a0]:
-            stay = late.start[a0]  # it follows a robot standing still: it waits where it is, as planned
-        until.append(stay)
-    # everyone stays until the last move sent is made: a robot may already be in a cell that its
-    # moves sent (even completed ones, `cut.Cut.base`) enter later in the plan, so nobody else may
-    # go there first (the engine would send them in); then the held robots stay longer
-    done = max((len(cells) for cells in fixed), default=0)
-    for r, cells in enumerate(fixed):
-        until[r] = max(until[r], done)
-        cells += [cells[-1] if cells else at[r]] * (until[r] - len(cells))
-    return at, fixed, until
-
-
-def solve_from(grid: Grid, goals: Sequence[Tuple[int, int]], at: Sequence[int], fixed: Sequence[List[int]],
-               until: Sequence[int], solver: str, deadline: Deadline, seed: int,
-               limit: int, first: Union[None, str, Sequence[float]] = None,
-               clear: Optional[float] = None) -> Optional[Plan]:
-    """A plan for every robot from cells `at`, its first `until[r]` steps `fixed[r]`; None if the
-    solver finds none within `limit` steps or the deadline. PIBT's priorities: `first` (higher
-    first; "alone": each robot's fixed steps plus its distance to its goal after them), ties
-    broken as PIBT breaks them (longer distance first, then at random); None: PIBT's own.
-    `clear`: a robot predicted to arrive within that many steps of the last (fixed steps, then
-    its distance) takes, among its moves that bring it closer, one into a cell nobody stands in
-    (`steer`) if there is one, rather than follow a robot out of its cell (whose delays it would
-    then wait out behind it)."""
-    n = len(at)
+def solve_lacam(grid: Grid, goals: Sequence[Tuple[int, int]], at: Sequence[int], fixed: Sequence[List[int]],
+                until: Sequence[int], deadline: Deadline, seed: int) -> Optional[Plan]:
+    """Every robot stays after its moves sent until the last of them (`prefix`, no hold: LaCAM
+    starts everyone together), then a LaCAM plan from there; None if LaCAM finds none in time."""
     stepper = PIBTStep(grid, goals)
     free = stepper.free
     ids = free.index
     q = [int(ids[c]) for c in at]
     fix = [[int(ids[c]) for c in cells] for cells in fixed]
     configs = [q]
-    if solver == "lacam":  # everyone stays after its moves sent until the last of them, then LaCAM
-        horizon = min(until, default=0)  # hold does not apply: LaCAM starts everyone together
-        for t in range(1, horizon + 1):
-            q = [f[t - 1] for f in fix]
-            configs.append(q)
-        w = grid.width
-        starts = [(int(free.ids[v]) % w, int(free.ids[v]) // w) for v in q]
-        result = lacam(grid, starts, goals, deadline, seed=seed)
-        if result.plan is None:
-            return None
-        tail = result.plan.positions
-        head = stepper.plan(configs).positions
-        return Plan(np.concatenate([head, tail[1:]], axis=0) if tail.shape[0] > 1 else head)
-    rng = random.Random(seed)
-    goal_ids = stepper.goals
-    ties = tie_ranks(stepper, q, rng)
-    if isinstance(first, str):  # "alone"
-        ends = [f[-1] if f else v for f, v in zip(fix, q)]
-        stepper.cover(ends)
-        first = [len(f) + stepper.dist[i][v] for i, (f, v) in enumerate(zip(fix, ends))]
-    if first is not None:  # ranks 0..n-1 by `first`, then by PIBT's own ties
-        keys, own = first, ties
-        ties = [0] * n
-        for k, i in enumerate(sorted(range(n), key=lambda i: (keys[i], own[i]))):
-            ties[i] = k
-    rank = np.asarray(ties, dtype=np.int64)
-    prio = rank.copy()
-    goal_array = np.asarray(goal_ids, dtype=np.int64)
-    horizon = max(until, default=0)
-    for t in range(1, limit + 1):
-        if deadline.expired():
-            return None
-        away = np.fromiter(q, np.int64, n) != goal_array
-        prio = np.where(away, prio + n, rank)
-        moving = np.flatnonzero(away)
-        # agents resting on their goals last, but in the order: a fixed move may need their cell
-        order = moving[np.argsort(-prio[moving])].tolist() + np.flatnonzero(~away).tolist()
-        nxt = [NIL] * n
-        for i in range(n):
-            if t <= until[i]:
-                nxt[i] = fix[i][t - 1]
-        salt = rng.randrange(1 << 20)
-        steered = steer(stepper, q, nxt, until, t, clear) if clear is not None else None
-        if steered is not None and stepper.step(q, steered, order, salt, moving.tolist()):
-            nxt = steered
-        elif not stepper.step(q, nxt, order, salt, moving.tolist()):
-            return None
-        q = nxt
+    for t in range(1, min(until, default=0) + 1):
+        q = [f[t - 1] for f in fix]
         configs.append(q)
-        if t >= horizon and q == goal_ids:
-            return stepper.plan(configs)
-    return None
+    w = grid.width
+    starts = [(int(free.ids[v]) % w, int(free.ids[v]) // w) for v in q]
+    result = lacam(grid, starts, goals, deadline, seed=seed)
+    if result.plan is None:
+        return None
+    tail = result.plan.positions
+    head = stepper.plan(configs).positions
+    return Plan(np.concatenate([head, tail[1:]], axis=0) if tail.shape[0] > 1 else head)
 
 
 #: PIBT's priorities in a replan: its own (longer distance first), the forecast's predicted
@@ -207,35 +115,10 @@ def solve_from(grid: Grid, goals: Sequence[Tuple[int, int]], at: Sequence[int], 
 PRIORITIES = ("pibt", "arrival", "alone")
 
 
-def steer(stepper: PIBTStep, q: Sequence[int], nxt: Sequence[int], until: Sequence[int], t: int,
-          clear: float) -> Optional[List[int]]:
-    """`nxt` with the next cells of the robots predicted last (within `clear` steps of the latest
-    predicted arrival, not fixed at step t) fixed into cells free in `q` that bring them closer, where
-    one exists: they do not follow anyone out of a cell. None when no robot is steered."""
-    n = len(q)
-    stepper.cover(q)
-    dist = stepper.dist
-    eta = [max(t - 1, until[i]) + dist[i][q[i] if until[i] < t else nxt[i]] for i in range(n)]
-    last = max(eta, default=0) - clear
-    standing = set(q)
-    taken = {v for v in nxt if v != NIL}
-    out: Optional[List[int]] = None
-    for i in sorted((i for i in range(n) if eta[i] >= last and until[i] < t and dist[i][q[i]] > 0),
-                    key=lambda i: -eta[i]):
-        here = dist[i][q[i]]
-        closer = [u for u in stepper.adj[q[i]] if dist[i][u] < here]
-        free = [u for u in closer if u not in standing and u not in taken]
-        if not free:
-            continue  # no way closer but behind someone: PIBT decides
-        if out is None:
-            out = list(nxt)
-        out[i] = free[0]
-        taken.add(free[0])
-    return out
-
-
 class ReplanAll(Rerouter):
-    """Replans every robot from the cut when one is late and the prediction says it pays."""
+    """The product's scope "all" (`reroute_all.replan`, through `Rerouter`), with the experiment's
+    variants: with none set (`solver` pibt, `hold`, `prio` pibt, no `critical`, `more` 0, no
+    `chain`) it is exactly `Rerouter(grid, RerouteRule(scope="all", ...), timed=False)`."""
 
     def __init__(self, grid: Grid, solver: str = "pibt", gap: int = 3, margin: float = 2.0,
                  every: float = 5.0, hold: bool = False, budget: float = 2.0, prio: str = "pibt",
@@ -243,87 +126,89 @@ class ReplanAll(Rerouter):
                  clear: Optional[float] = None) -> None:
         """`prio`: PIBT's priorities (`PRIORITIES`); `critical`: look only when a robot predicted
         to arrive within that many steps of the predicted makespan is late or held up by a late
-        one; `more`, `chain`: see `prefix`; `clear`: see `solve_from`."""
-        super().__init__(grid, timed=False)
-        self.grid, self.solver, self.gap, self.margin = grid, solver, gap, margin
-        self.every, self.hold, self.budget = every, hold, budget
-        self.prio, self.critical, self.more, self.chain, self.clear = prio, critical, more, chain, clear
+        one; `more`, `chain`: see `reroute_all.prefix`; `clear`: see `reroute_all.steer`;
+        `budget`: LaCAM's seconds (PIBT runs to the end, as the simulator's rerouters do)."""
+        super().__init__(grid, RerouteRule(scope="all", gap=gap, margin=margin, every=every, clear=clear),
+                         timed=False)
+        self.grid, self.solver, self.hold, self.budget = grid, solver, hold, budget
+        self.prio, self.critical, self.more, self.chain = prio, critical, more, chain
+        self.variant = (solver, hold, prio, critical, more, chain) != ("pibt", True, "pibt", None, 0, False)
         #: looks with a late robot left alone: nobody near the predicted makespan held up
         self.spared = 0
-        self._seed = 0
-        #: replan attempts (a solver ran), their seconds, solver failures, plans not paying
+        #: replan attempts (a solver ran), their seconds, solver failures
         self.tries = 0
         self.solve_seconds = 0.0
         self.failed = 0
-        self.unpaid = 0
+        self._now = 0.0
+
+    @property
+    def unpaid(self) -> int:
+        """Plans found that did not pay (or changed nobody's path)."""
+        return self.tries - self.failed - self.found
 
     def consider(self, engine: Engine, now: float) -> Optional[Reroute]:
-        run = engine.run
-        steps = run.clock.steps(now)
-        if steps < self._next or engine.paused or any(o is not None for o in run.out):
+        steps = engine.run.clock.steps(now)
+        if steps < self._next or engine.paused:
             return None
-        self._next = steps + self.every
+        self._next = steps + self.rule.pace
         began = time.perf_counter()
+        self._now = now
+        if self._expected is None or self._expected[0] is not engine.run:
+            self._expected = (engine.run, expected_steps(engine))
+        found = replan(engine, self.grid, now, self.rule.gap, self.rule.margin, self.rule.clear, Deadline(None),
+                       self._expected[1], self._plan_from if self.variant else self._counted)
         self.looks += 1
-        try:
-            return self._look(engine, now)
-        finally:
-            self.seconds += time.perf_counter() - began
+        self.seconds += time.perf_counter() - began
+        self.found += found is not None
+        return found
 
-    def _look(self, engine: Engine, now: float) -> Optional[Reroute]:
-        run, follow = engine.run, engine.follow
-        if self._expected is None or self._expected[0] is not run:
-            self._expected = (run, expected_steps(engine))
-        expected = self._expected[1]
-        lags = {r: behind(engine, r, now, expected) for r in range(run.num_agents)}
-        late = [r for r, lag in lags.items() if lag is not None and lag >= self.gap and delayed(engine, r, now)]
-        if not late:
-            return None
-        cut = cut_of(engine, now)
-        base = cut.base
-        ready = ready_steps(run, now)
-        before = earliest_starts(run, ready, follow, base)
-        if unplaced(run, before, base, range(run.num_agents)):
-            return None
+    def _counted(self, engine: Engine, before: Schedule, base: Sequence[int], ready: Sequence[int], seed: int,
+                 deadline: Deadline) -> Optional[Plan]:
+        """The product's plan (`prefix` held, `solve_from` steered), counted."""
+        run = engine.run
+        at, fixed, until = prefix(run, self.grid, base, ready, engine.follow, hold=True)
+        return self._solve(lambda: solve_from(self.grid, goals_of(run), at, fixed, until, deadline, seed,
+                                              limit=4 * before.makespan + 200, clear=self.rule.clear))
+
+    def _plan_from(self, engine: Engine, before: Schedule, base: Sequence[int], ready: Sequence[int], seed: int,
+                   deadline: Deadline) -> Optional[Plan]:
+        """The experiment's variants of the plan from the cut."""
+        run = engine.run
         if self.critical is not None:
             last = before.makespan - self.critical
-            groups = held_up(engine, now, self.gap, expected)
+            expected = self._expected[1] if self._expected else expected_steps(engine)
+            t = self._now  # the look's time
+            groups = held_up(engine, t, self.rule.gap, expected)
+            late = [r for r in range(run.num_agents) if (behind(engine, r, t, expected) or 0) >= self.rule.gap
+                    and delayed(engine, r, t)]
             hit = set(late) | set(groups) | {h for hs in groups.values() for h in hs}
             if not any(before.arrival[r] >= last for r in hit):
                 self.spared += 1
                 return None
-        at, fixed, until = prefix(run, self.grid, base, ready, follow, self.hold, self.more, self.chain)
-        table = run.table
-        goals = [table.goal(r) for r in range(run.num_agents)]
-        self.tries += 1
-        t0 = time.perf_counter()
-        self._seed += 1
+        at, fixed, until = prefix(run, self.grid, base, ready, engine.follow, self.hold, self.more, self.chain)
+        if self.solver == "lacam":
+            return self._solve(lambda: solve_lacam(self.grid, goals_of(run), at, fixed, until,
+                                                   Deadline(self.budget), seed))
         first: Union[None, str, List[int]] = None
         if self.prio == "arrival":
             first = before.arrival
         elif self.prio == "alone":
             first = "alone"
-        plan = solve_from(self.grid, goals, at, fixed, until, self.solver, Deadline(self.budget), self._seed,
-                          limit=4 * before.makespan + 200, first=first, clear=self.clear)
+        return self._solve(lambda: solve_from(self.grid, goals_of(run), at, fixed, until, deadline, seed,
+                                              limit=4 * before.makespan + 200, first=first,
+                                              clear=self.rule.clear))
+
+    def _solve(self, solve: Callable[[], Optional[Plan]]) -> Optional[Plan]:
+        self.tries += 1
+        t0 = time.perf_counter()
+        plan = solve()
         self.solve_seconds += time.perf_counter() - t0
-        if plan is None:
-            self.failed += 1
-            return None
-        report = validate_plan(plan, self.grid, strict_rotations=True, max_findings_per_kind=1)
-        if not report.ok:
-            raise SystemExit("replan_all: a plan that is not valid: {}".format(report.errors[0]))
-        new = Engine(plan, engine.strategy.name, follow=follow, step_time=run.clock.step_time,
-                     **engine.strategy.settings())
-        # the same prediction on the new plan: each robot's first move there is its move `base` here
-        shifted = [ready[r] if run.completed[r] == base[r] else 0 for r in range(run.num_agents)]
-        after = earliest_starts(new.run, shifted, follow, [0] * run.num_agents)
-        if before.makespan - after.makespan < self.margin:
-            self.unpaid += 1
-            return None
-        worst = max(late, key=lambda r: lags[r] or 0)
-        self.found += 1
-        return Reroute(plan, cut, tuple(range(run.num_agents)), worst, lags[worst],
-                       sum(before.arrival) - sum(after.arrival), before.makespan, after.makespan, ())
+        self.failed += plan is None
+        return plan
+
+
+def goals_of(run: RunState) -> List[Tuple[int, int]]:
+    return [run.table.goal(r) for r in range(run.num_agents)]
 
 
 class Either(Rerouter):

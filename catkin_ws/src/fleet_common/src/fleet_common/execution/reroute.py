@@ -41,6 +41,12 @@ that could arrive sooner by a shortest path, or both:
    makespan may be more than 1 step later (`slack=None`: nobody at all,
    the rule before the slack).
 
+Scope. `RerouteRule.scope` says whom a reroute may give new paths: "held"
+(the default: the rule above) or "all": every robot replanned from the cut
+by PIBT when the predicted makespan drops by `margin` steps
+(`reroute_all`, its docstring says how and why it is safe); `decide`
+dispatches on it and both return a `Reroute` for the same hand-over.
+
 The rule (`slack` included) only chooses which plan to hand over; the
 hand-over's safety below does not depend on it: any plan from the cut that
 `reroute_plan` builds and `Engine.adopt` accepts runs as safely.
@@ -107,6 +113,10 @@ from .errors import UnknownStrategyError
 from .events import CELL
 from .forecast import earliest_starts, ready_steps, unplaced
 from .reroute_plan import Maps, Proposal, new_start, plan_around
+from .reroute_all import late_robots, replan
+
+#: Robots named in a reroute's line, the rest counted.
+SHOWN = 4
 
 #: What `--reroute` accepts: never, ask the operator (the manager), or reroute at once.
 MODES = ("off", "propose", "auto")
@@ -116,34 +126,57 @@ class RerouteError(FleetError):
     """A reroute's plan that is not valid: a defect of this module, never the run's fault."""
 
 
+#: What `--reroute-scope` accepts: whom a reroute may give new paths: the robots a late robot
+#: holds up (or the late one; this module's rule, the default), or every robot (`reroute_all`).
+SCOPES = ("held", "all")
+
+#: Plan steps between looks when `RerouteRule.every` is not given, per scope (chosen on
+#: bench/reroute.py's and bench/replan_all.py's tuning seeds).
+EVERY = {"held": 1.0, "all": 2.0}
+
+
 @dataclass(frozen=True)
 class RerouteRule:
     """The rule's settings (steps are plan steps, one nominal move each). The defaults were
     chosen on bench/reroute.py's plans (random70 seeds 0-9, arena300 seeds 0-3) among eight
     settings, `slack` later among some twenty variants (random70 seeds 0-9, arena300 seeds
-    0-9); the figures in bench/README.md are on other seeds."""
+    0-9); the figures in bench/README.md are on other seeds. Scope "all" (`reroute_all`) uses
+    `gap`, `margin` (on the predicted makespan), `every`, `budget` and `clear`; its settings
+    were chosen on bench/replan_all.py's arena300 seeds 0-3."""
 
     gap: int = 1            # late: this many steps behind the plan's clock, or more
     margin: float = 1.0     # reroute when the gain, less the cost, reaches this many steps
     cost: float = 0.5       # charged per robot given a new path
-    every: float = 1.0      # a driver looks at most once per this many steps
+    every: Optional[float] = None  # a driver looks at most once per this many steps (None: EVERY[scope])
     budget: float = 0.25    # seconds of search per look
     tries: int = 3          # late robots looked at per look, the most robots held up first
     later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
     slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps or more before the makespan
+    scope: str = "held"     # whom a reroute may give new paths (SCOPES)
+    clear: Optional[float] = 20.0  # scope all: robots predicted this near the last arrival steered into free cells
 
     def __post_init__(self) -> None:
+        if self.scope not in SCOPES:
+            raise UnknownStrategyError("reroute scope must be one of {}, got {!r}".format(", ".join(SCOPES),
+                                                                                       self.scope))
+        if self.every is None:  # frozen: set once, here
+            object.__setattr__(self, "every", EVERY[self.scope])
         for key in ("gap", "tries"):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
-        for key in ("margin", "cost", "every", "budget", "later", "per_move", "slack"):
+        for key in ("margin", "cost", "every", "budget", "later", "per_move", "slack", "clear"):
             value = getattr(self, key)
-            if key == "slack" and value is None:  # None: `later` holds for every robot
+            if key in ("slack", "clear") and value is None:  # None: `later` holds for every robot; no steering
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
                 raise UnknownStrategyError("reroute {} must be a number >= 0, got {!r}".format(key, value))
+
+    @property
+    def pace(self) -> float:
+        """`every`, set (plan steps between looks)."""
+        return EVERY[self.scope] if self.every is None else self.every
 
 
 @dataclass(frozen=True)
@@ -166,15 +199,21 @@ class Reroute:
         """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
         steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
         sooner" (`name`: an agent's name, e.g. its robot id)."""
-        def robots(rs: Sequence[int]) -> str:
-            return "robot{} {}".format("s" if len(rs) > 1 else "", ", ".join(str(name(r)) for r in rs))
+        def robots(rs: Sequence[int]) -> str:  # at most SHOWN named: a reroute of everyone stays one line
+            shown = ", ".join(str(name(r)) for r in rs[:SHOWN])
+            more = " and {} more".format(len(rs) - SHOWN) if len(rs) > SHOWN else ""
+            return "robot{} {}{}".format("s" if len(rs) > 1 else "", shown, more)
         late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
         sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
+        if self.gain < 1:  # scope all pays on the makespan: the arrivals' sum may grow
+            end = self.before - self.after
+            sooner = "the last robot {} step{} sooner".format(end, "" if end == 1 else "s")
         if self.around not in self.agents:
             return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
         others = [a for a in self.agents if a != self.around]
-        return "robot {}, {}, rerouted{}: it held up {}; {}".format(
-            name(self.around), late, " with " + robots(others) if others else "", robots(self.held), sooner)
+        return "robot {}, {}, rerouted{}: {}{}".format(
+            name(self.around), late, " with " + robots(others) if others else "",
+            "it held up {}; ".format(robots(self.held)) if self.held else "", sooner)
 
 
 def expected_steps(engine: Engine) -> List[int]:
@@ -246,6 +285,14 @@ def held_up(engine: Engine, now: float, gap: int,
     return {q: [h for _, h in sorted(hs)] for q, hs in out.items()}
 
 
+def worth_a_look(engine: Engine, now: float, rule: RerouteRule, expected: Sequence[int]) -> bool:
+    """Whether `decide` could find anything now (cheap): some robot held up by a late one (scope
+    held), or some robot late (scope all)."""
+    if rule.scope == "all":
+        return bool(late_robots(engine, now, rule.gap, expected))
+    return bool(held_up(engine, now, rule.gap, expected))
+
+
 def later_by(before: Sequence[int], proposal: Proposal, per_move: float, spared: Optional[float]) -> float:
     """How many steps later than `before` the proposal has the latest robot arrive, a move more
     counted as `per_move` steps more; robots whose new arrival is still at or before `spared`
@@ -264,10 +311,12 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     engine's `expected_steps`, if known."""
     if expected is None:
         expected = expected_steps(engine)
+    deadline = deadline or Deadline(rule.budget)
+    if rule.scope == "all":
+        return replan(engine, maps.grid, now, rule.gap, rule.margin, rule.clear, deadline, expected)
     groups = held_up(engine, now, rule.gap, expected)
     if not groups:
         return None
-    deadline = deadline or Deadline(rule.budget)
     run, follow = engine.run, engine.follow
     cut = cut_of(engine, now)
     base = cut.base
@@ -348,7 +397,7 @@ class Rerouter:
         steps = engine.run.clock.steps(now)
         if steps < self._next or engine.paused:
             return None
-        self._next = steps + self.rule.every
+        self._next = steps + self.rule.pace
         began = self._clock()
         if self._expected is None or self._expected[0] is not engine.run:
             self._expected = (engine.run, expected_steps(engine))
@@ -364,5 +413,5 @@ class Rerouter:
 
     def restart(self) -> None:
         """A new plan's clock starts at 0: look again a while after its start."""
-        self._next = self.rule.every
+        self._next = self.rule.pace
 
