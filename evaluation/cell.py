@@ -20,6 +20,7 @@ import time
 from typing import Dict, List, Optional
 
 from fleet_common.delays import parse_delay_model
+from fleet_common.execution.reroute import RerouteRule
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
@@ -43,7 +44,8 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
         robot, step = cell.disable.split("@")
         disable[int(robot) % p.num_agents] = int(step)
     size = cell.robot_size
-    reroute = {} if cell.reroute == "none" else {"reroute": cell.reroute, "grid": plan.grid}
+    reroute = {} if cell.reroute == "none" else {"reroute": RerouteRule(scope=cell.reroute_scope),
+                                                 "grid": plan.grid}
     first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, size=size, **reroute, **settings)
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():

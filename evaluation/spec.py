@@ -14,6 +14,8 @@
     disable: [none, "0@10"]             # optional: robot ROBOT out for good at plan step STEP
     recover: [none, replan]             # optional: replan the others when the run stalls
     reroute: [none, auto]               # optional: reroute robots a late one holds up (default none)
+    reroute_scope: [held, all]          # optional: whom a reroute may give new paths: the held-up
+                                        # robots (default) or every robot (`execution.reroute_all`)
     chain: [engine, wire]               # optional: engine alone (default), or also virtual
                                         # robots and the manager over loopback (wire_cell.py)
     time_scale: 10                      # wire cells: the virtual fleet's time scale
@@ -37,12 +39,14 @@ from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
-        "time_scale", "sizes", "reroute")
+        "time_scale", "sizes", "reroute", "reroute_scope")
 #: Robot sizes a sweep names: "turtlebot" (the lab's robots, 354 mm on 700 mm cells, 0.1 m margin),
 #: "cell" (as large as a cell: the cell rule of robots before they had a size), or D:M (metres).
 SIZES = ("turtlebot", "cell")
 RECOVER = ("none", "replan")
 REROUTE = ("none", "auto")
+#: `execution.reroute.SCOPES`, as a sweep names them
+REROUTE_SCOPES = ("held", "all")
 CHAINS = ("engine", "wire")
 
 
@@ -76,6 +80,7 @@ class Cell:
     time_scale: float = 10.0  # wire cells: the virtual fleet's
     size: str = "turtlebot"   # the robots' size (SIZES, or D:M in metres)
     reroute: str = "none"     # REROUTE: new paths mid-run for robots a late one holds up
+    reroute_scope: str = "held"  # REROUTE_SCOPES: whom a reroute may give new paths
 
     @property
     def robot_size(self) -> RobotSize:
@@ -92,6 +97,8 @@ class Cell:
             parts.append("size={}".format(self.size))
         if self.reroute != "none":  # tables from before rerouting never rerouted
             parts.append("reroute={}".format(self.reroute))
+            if self.reroute_scope != "held":  # keys from before the scope rerouted the held-up robots
+                parts.append("reroute_scope={}".format(self.reroute_scope))
         return "|".join(parts)
 
 
@@ -135,6 +142,12 @@ def read_experiment(path: Path) -> Experiment:
     reroute = [str(r) for r in _list(path, data, "reroute", ["none"])]
     if any(r not in REROUTE for r in reroute):
         raise _error(path, data, "reroute", "expected none or auto, got {!r}".format(reroute))
+    scopes = [str(r) for r in _list(path, data, "reroute_scope", ["held"])]
+    if any(r not in REROUTE_SCOPES for r in scopes):
+        raise _error(path, data, "reroute_scope", "expected held or all, got {!r}".format(scopes))
+    if scopes != ["held"] and reroute == ["none"]:
+        raise _error(path, data, "reroute_scope", "a scope needs reroute: [auto] (it says whom a reroute "
+                     "may give new paths)")
     if "wire" in chains and (disable != ["none"] or recover != ["none"]):
         raise _error(path, data, "chain", "wire cells cannot disable robots or replan (an "
                      "operator's acts in the manager); sweep those on the engine alone")
@@ -149,10 +162,10 @@ def read_experiment(path: Path) -> Experiment:
             raise _error(path, data, "sizes", "expected turtlebot, cell or DIAMETER:MARGIN in metres "
                          "(e.g. 0.354:0.1), got {!r}".format(z)) from None
     cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec,
-                  chain, float(scale), size, rr)
-             for plan, (s, settings), (d, p), seed, dis, rec, chain, size, rr in itertools.product(
-                 plans, strategies, delays, seeds, disable, recover, chains, sizes, reroute)
-             if not (dis == "none" and rec != "none")]
+                  chain, float(scale), size, rr, scope)
+             for plan, (s, settings), (d, p), seed, dis, rec, chain, size, rr, scope in itertools.product(
+                 plans, strategies, delays, seeds, disable, recover, chains, sizes, reroute, scopes)
+             if not (dis == "none" and rec != "none") and not (rr == "none" and scope != "held")]
     return Experiment(str(data.get("name") or path.stem), path, plans, cells)
 
 

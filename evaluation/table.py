@@ -28,8 +28,8 @@ PARQUET_NAME = "results.parquet"
 
 _INT = ("agents", "seed", "plan_makespan", "plan_soc", "waits", "collisions", "reached", "moves", "reroutes")
 _BOOL = ("finished", "replanned")
-_STR = ("key", "plan", "solver", "strategy", "size", "delay", "disable", "recover", "reroute", "wait_by_robot",
-        "blocked_by")
+_STR = ("key", "plan", "solver", "strategy", "size", "delay", "disable", "recover", "reroute", "reroute_scope",
+        "wait_by_robot", "blocked_by")
 TYPES: Dict[str, pa.DataType] = {
     c: pa.int64() if c in _INT else pa.bool_() if c in _BOOL else pa.string() if c in _STR else pa.float64()
     for c in COLUMNS}

@@ -74,7 +74,8 @@ def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, 
                 "manager", str(work / "plan.txt"), "--definitions", str(definitions), "--no-curve",
                 "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(port), "--strategy",
                 cell.strategy, *_settings(cell), "--robot-size", _size(cell), "--reroute",
-                "off" if cell.reroute == "none" else cell.reroute, "--start", "--until-done", "--time-limit",
+                "off" if cell.reroute == "none" else cell.reroute, *_scope(cell), "--start", "--until-done",
+                "--time-limit",
                 "{:g}".format(limit), "--connect-timeout", "{:g}".format(_START_S), "--log",
                 str(work / "runs"), "--step-time", "{:.4f}".format(move_s)], log=work / "manager.log")
             if manager.wait(limit + _START_S) is None:
@@ -88,6 +89,12 @@ def run_wire_cell(cell: Cell, plan: LoadedPlan, time_scale: float) -> Dict[str, 
         row = _row(cell, plan, p, read_run(folders[-1].parent), time_scale)
     row["wall_s"] = round(time.perf_counter() - began, 4)
     return row
+
+
+def _scope(cell: Cell) -> List[str]:
+    """The manager's --reroute-scope, given only when it is not the default (a manager that
+    predates it still runs the held scope's cells)."""
+    return [] if cell.reroute_scope == "held" else ["--reroute-scope", cell.reroute_scope]
 
 
 def _settings(cell: Cell) -> List[str]:

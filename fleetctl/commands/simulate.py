@@ -10,6 +10,7 @@ from fleet_common.arg_types import ROBOT_SIZE_HELP, count, robot_size, seed
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
+from fleet_common.execution.reroute import SCOPES, RerouteRule
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.plan_loading import file_coordinates
@@ -79,6 +80,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reroute", choices=["none", "auto"], default="none",
                         help="auto: give robots that a late robot holds up new paths around it, mid-run, "
                              "when the rule of fleet_common.execution.reroute says it pays (default none)")
+    parser.add_argument("--reroute-scope", choices=list(SCOPES), default="held",
+                        help="whom a reroute may give new paths: held (the robots a late robot holds up, "
+                             "default) or all (every robot replanned from where it is by PIBT, when the "
+                             "predicted makespan drops: fleet_common.execution.reroute_all)")
     add_repair_options(parser)
 
 
@@ -106,12 +111,16 @@ def run(args: argparse.Namespace) -> int:
         disable[agent] = step
     settings = {} if args.lookahead is None else {"lookahead": args.lookahead}
     size = args.robot_size or read_robot_size(args.definitions)
+    if args.reroute_scope != "held" and args.reroute == "none":
+        raise SimulateOptionError("--reroute-scope {} needs --reroute auto (it says whom a reroute may give "
+                                  "new paths)".format(args.reroute_scope))
     if args.reroute != "none" and args.log is not None:
         raise SimulateOptionError("--log with --reroute {}: a run folder records one plan, and a rerouted run "
                                   "changes plans (run without --log, or with --reroute none)".format(args.reroute))
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
-                          journal=args.log is not None, size=size, reroute=args.reroute, grid=sol.grid,
+                          journal=args.log is not None, size=size, grid=sol.grid,
+                          reroute=RerouteRule(scope=args.reroute_scope) if args.reroute == "auto" else None,
                           **settings)
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
@@ -195,11 +204,13 @@ def _reroutes(result: SimResult, names: Names) -> str:
     """How many reroutes happened, how many robots they moved, and the first few."""
     done = result.reroutes
     if not done:
+        if result.rerouter is not None and result.rerouter.rule.scope == "all":
+            return "reroutes: none (no late robot where a new plan for every robot paid)"
         return "reroutes: none (no robot held up by a late one where a new path paid)"
     moved = sorted({r for _, rr in done for r in rr.agents})
     line = "reroutes: {}, {} robot{} given new paths ({} different: {})".format(
         len(done), sum(len(rr.agents) for _, rr in done), "" if sum(len(rr.agents) for _, rr in done) == 1 else "s",
-        len(moved), names.all(moved))
+        len(moved), names.all(moved[:8]) + (" and {} more".format(len(moved) - 8) if len(moved) > 8 else ""))
     return line + "; first: " + "; ".join("t={:.2f} {}".format(t, rr.describe(names)) for t, rr in done[:3])
 
 
