@@ -62,7 +62,8 @@ def read_csv(path: Path) -> List[Row]:
     if header is None:
         return []
     columns = tuple(header)
-    if columns != COLUMNS and columns != tuple(c for c in COLUMNS if c not in ADDED):
+    # an older table lacks some columns added since (ADDED), the others in order
+    if columns != tuple(c for c in COLUMNS if c in columns) or not set(COLUMNS) - set(columns) <= set(ADDED):
         raise ResultsTableError("not a results table of this version: columns {}".format(",".join(header[:4])),
                                 str(path), 1)
     rows = []

@@ -162,3 +162,18 @@ def test_a_rerouted_run_is_not_logged_as_one_plan(tmp_path, shared_data):
     proc = simulate(shared_data / "solutions" / "pibt_sample.txt", "--reroute", "auto", "--log", tmp_path)
     assert proc.returncode == 2 and proc.stdout == "" and list(tmp_path.iterdir()) == []
     assert proc.stderr.strip().startswith("fleetctl simulate: --log with --reroute auto: a run folder records one plan")
+
+
+def test_reroute_scope_all_replans_every_robot_and_needs_reroute_auto(shared_data):
+    path = shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"
+    delays = ("--delay-model", "events=bernoulli:0.1:1-5", "--robot-size", "0.354:0.1")
+    plain, every = simulate(path, *delays), simulate(path, *delays, "--reroute", "auto", "--reroute-scope", "all")
+    assert every.returncode == 0, every.stdout + every.stderr
+    m = re.search(r"^reroutes: (\d+), (\d+) robots? given new paths \((\d+) different", every.stdout, re.M)
+    assert m and int(m.group(1)) >= 1 and int(m.group(3)) >= 2, every.stdout
+    assert "collisions: 0" in every.stdout and "reached goal: 30 of 30 enabled robots" in every.stdout
+    assert figure(every.stdout, "executed makespan") < figure(plain.stdout, "executed makespan")
+    alone = simulate(path, "--reroute-scope", "all")
+    assert alone.returncode == 2 and alone.stdout == ""
+    assert alone.stderr.strip() == ("fleetctl simulate: --reroute-scope all needs --reroute auto (it says whom a "
+                                    "reroute may give new paths)")

@@ -123,6 +123,10 @@ def test_the_dask_path_gives_the_same_table_as_the_local_one(spec, tmp_path):
      ":5:8: chain: wire cells cannot disable robots or replan"),
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nchain: [wire]\ntime_scale: 0\n",
      ":5:13: time_scale: expected a number over 0 and at most 100"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nreroute: [auto]\nreroute_scope: [few]\n",
+     ":5:16: reroute_scope: expected held or all, got ['few']"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nreroute_scope: [all]\n",
+     ":4:16: reroute_scope: a scope needs reroute: [auto]"),
 ])
 def test_a_bad_experiment_file_is_a_one_line_error_naming_line_and_key(tmp_path, text, message):
     path = tmp_path / "bad.yaml"

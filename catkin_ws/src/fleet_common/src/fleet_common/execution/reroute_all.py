@@ -133,14 +133,19 @@ def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int],
         elif hold and chain and a0 < end and late.start[a0] > zero.start[a0]:
             stay = late.start[a0]  # it follows a robot standing still: it waits where it is, as planned
         until.append(stay)
-    # everyone stays until the last move sent is made: a robot may already be in a cell that its
-    # moves sent (even completed ones, `cut.Cut.base`) enter later in the plan, so nobody else may
-    # go there first (the engine would send them in); then the held robots stay longer
-    done = max((len(cells) for cells in fixed), default=0)
+    done = sent_made(fixed)
     for r, cells in enumerate(fixed):
         until[r] = max(until[r], done)
         cells += [cells[-1] if cells else at[r]] * (until[r] - len(cells))
     return at, fixed, until
+
+
+def sent_made(fixed: Sequence[List[int]]) -> int:
+    """The step by which every robot's moves sent are made (`fixed`: their cells): everyone stays
+    until then. A robot may already be in a cell that its moves sent (even completed ones,
+    `cut.Cut.base`) enter later in the plan, so nobody else may go there first (the engine would
+    send them in); then the held robots stay longer."""
+    return max((len(cells) for cells in fixed), default=0)
 
 
 def steer(stepper: PIBTStep, q: Sequence[int], nxt: Sequence[int], until: Sequence[int], t: int,
