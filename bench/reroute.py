@@ -15,6 +15,7 @@ makespan, and the number of reroutes (none).
 
     .venv/bin/python bench/reroute.py [SEEDS [FIRST]]     # default 10 seeds from 10
         [--plans random70,arena300] [--configs adg,adg+reroute,reorder,reorder+reroute]
+                                                           # +reroute-all: RerouteRule(scope="all")
         [--rule KEY=VALUE ...]                             # a RerouteRule's settings, e.g. slack=none
         [--baseline KEY=VALUE ...]                         # also adg + reroute by this rule, compared
 
@@ -51,9 +52,10 @@ PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
 
 def parse_config(text: str) -> tuple:
     strategy, _, reroute = text.partition("+")
-    if strategy not in ("adg", "reorder") or reroute not in ("", "reroute"):
-        raise argparse.ArgumentTypeError("a configuration is adg, reorder, adg+reroute or reorder+reroute")
-    return (strategy, "auto" if reroute else "none")
+    if strategy not in ("adg", "reorder") or reroute not in ("", "reroute", "reroute-all"):
+        raise argparse.ArgumentTypeError("a configuration is adg or reorder, alone or +reroute (held scope) "
+                                         "or +reroute-all (scope all)")
+    return (strategy, {"": "none", "reroute": "auto", "reroute-all": "all"}[reroute])
 
 
 def rule_of(settings: List[str]) -> RerouteRule:
@@ -86,15 +88,15 @@ def main() -> None:
     args = parser.parse_args()
     seeds, first = args.seeds, args.first
     configs = tuple(parse_config(c) for c in args.configs.split(","))
-    rules = {"auto": rule_of(args.rule)}
+    rules = {"auto": rule_of(args.rule), "all": RerouteRule(scope="all")}
     if args.baseline is not None:
         rules["baseline"] = rule_of(args.baseline)
         configs += (("adg", "baseline"),)
-    labels = {"none": "", "auto": " + reroute", "baseline": " + reroute, baseline"}
+    labels = {"none": "", "auto": " + reroute", "baseline": " + reroute, baseline", "all": " + reroute (all)"}
     model = parse_delay_model("events=bernoulli:0.1:1-5")
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     for key, rule in rules.items():
-        print("{}: {}".format("rule" if key == "auto" else key, rule))
+        print("{}: {}".format({"auto": "rule", "all": "scope all"}.get(key, key), rule))
     for name in args.plans.split(","):
         file, solver, n = PLANS[name]
         loaded = load_plan(SHARED / "instances" / file, n, name, [SHARED / "maps"] + default_map_dirs(),
@@ -107,8 +109,10 @@ def main() -> None:
         moved: Dict[tuple, List[int]] = {c: [] for c in configs}
         wall: Dict[tuple, float] = {c: 0.0 for c in configs}
         bound: List[float] = []
-        looks = found = 0
-        look_s = found_s = hand_s = 0.0
+        looks = {k: 0 for k in ("auto", "all")}
+        found = dict(looks)
+        look_s = {k: 0.0 for k in looks}
+        found_s, hand_s = dict(look_s), dict(look_s)
         for seed in range(first, first + seeds):
             for config in configs:
                 strategy, reroute = config
@@ -122,12 +126,14 @@ def main() -> None:
                 moved[config].append(sum(len(r.agents) for _, r in result.reroutes))
                 if config == configs[0]:
                     bound.append(result.lower_bound / plan.makespan)
-                if reroute == "auto":
+                if reroute in looks:
                     rr = result.rerouter
                     assert rr is not None
-                    looks, found = looks + rr.looks, found + rr.found
-                    look_s, found_s = look_s + rr.seconds, found_s + rr.found_seconds
-                    hand_s += result.handover_seconds
+                    looks[reroute] += rr.looks
+                    found[reroute] += rr.found
+                    look_s[reroute] += rr.seconds
+                    found_s[reroute] += rr.found_seconds
+                    hand_s[reroute] += result.handover_seconds
         base = ratio[configs[0]]
         print("  lower bound / planned makespan: {}".format(interval(bound)))
         print("  {:<26} {:>16} {:>20} {:>9} {:>12} {:>8}".format(
@@ -140,10 +146,14 @@ def main() -> None:
         if ("adg", "baseline") in ratio and ("adg", "auto") in ratio:
             change = [100.0 * (x - b) / b for x, b in zip(ratio[("adg", "auto")], ratio[("adg", "baseline")])]
             print("  adg + reroute paired vs adg + reroute, baseline: {}%".format(interval(change)))
-        print("  the rule's cost ({} robots): {:.2f} ms a look ({} looks), {:.1f} ms a look that found a reroute "
-              "({}), {:.1f} ms a hand-over".format(n, 1e3 * look_s / max(looks, 1), looks,
-                                                   1e3 * found_s / max(found, 1), found,
-                                                   1e3 * hand_s / max(found, 1)))
+        for key in looks:
+            if not looks[key]:
+                continue
+            print("  the rule's cost{} ({} robots): {:.2f} ms a look ({} looks), {:.1f} ms a look that found a "
+                  "reroute ({}), {:.1f} ms a hand-over".format(
+                      " (scope all)" if key == "all" else "", n, 1e3 * look_s[key] / max(looks[key], 1), looks[key],
+                      1e3 * found_s[key] / max(found[key], 1), found[key],
+                      1e3 * hand_s[key] / max(found[key], 1)))
         zero = parse_delay_model("none")
         flat = []
         for strategy, reroute in configs:

@@ -406,3 +406,54 @@ def test_a_snapshot_is_the_engine_as_it_was_whatever_the_loop_does_next():
     before = _run_fields(shared)
     wrong.run.dep[:] = wrong.run.dep[::-1]
     assert _run_fields(shared) != before  # the same check catches it: the look reads the new order
+
+
+def lab_with_a_stall(scope: str) -> MemoryFleet:
+    """The lab plan, its 5 robots at the lab's pace; robot 3 halts 12 s in its second move (robot 5
+    is held up: a new path for it pays)."""
+    lab = load_plan(lab_instance_path(), 5, "the lab fleet", [])
+    f = MemoryFleet(lab, lab_fleet(), ManagerSettings(step_time=2.0, reroute="auto", reroute_timed=False,
+                                                      reroute_scope=scope), speed=0.5, turn_speed=1.5)
+    f.robots[3].navigator.stalls = {2: 12.0}
+    return f
+
+
+def run_lab(f: MemoryFleet, lag: float = 0.0) -> List[float]:
+    """Start and run to the end, each look's result reaching the loop `lag` s after it was asked for
+    (the robots move on meanwhile); the closest pair of true centres at each tick."""
+    f.hold_looks = True
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    seen: List[float] = []
+    asked = None
+    end = f.now + 300.0
+    while f.phase != "done" and f.now < end:
+        f.advance(0.05)
+        seen.append(closest(f))
+        if f.looks and asked is None:
+            asked = f.now
+        if f.looks and asked is not None and f.now - asked >= lag - 1e-9:
+            f.finish_looks()
+            asked = None
+    return seen
+
+
+def test_scope_all_in_auto_mode_hands_over_a_new_plan_and_every_robot_arrives_safely():
+    f = lab_with_a_stall("all")
+    seen = run_lab(f)
+    assert f.phase == "done" and f.at_goals()
+    assert min(seen) >= TURTLEBOT2.safe_cells - 0.01 and f.core.summary().collisions == 0
+    (record,) = f.kinds("reroute")
+    assert record["robots"] == [5] and record["around"] == 3 and record["text"].startswith("robot 5 rerouted")
+    assert not f.kinds("reroute_dropped") and f.core.run.plan_id == 2
+    assert f.core.run.rerouting.rule.scope == "all" and f.core.run.rerouting.looks >= 2
+
+
+def test_scope_all_drops_a_reroute_whose_robot_moved_before_the_hand_over_and_goes_on_safely():
+    """A look that takes 2 s of fleet time: robot 5 has moved on by then, the hand-over drops the
+    plan (recorded), the run goes on, every robot home."""
+    f = lab_with_a_stall("all")
+    seen = run_lab(f, lag=2.0)
+    assert f.phase == "done" and f.at_goals() and min(seen) >= TURTLEBOT2.safe_cells - 0.01
+    assert f.kinds("reroute_dropped") and "moved since" in f.kinds("reroute_dropped")[0]["reason"]

@@ -34,7 +34,7 @@ LAST = "last"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from fleet_common.execution import STRATEGIES
-    from fleet_common.execution.reroute import MODES as REROUTE_MODES
+    from fleet_common.execution.reroute import MODES as REROUTE_MODES, SCOPES as REROUTE_SCOPES
     from fleet_common.transport.console_channel import DEFAULT_ENDPOINT
 
     parser.add_argument("plan", type=Path, metavar="PLAN", nargs="?", default=None,
@@ -64,6 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "propose (the consoles show the new paths; accept or reject) or auto "
                              "(at once, the run going on); switchable from a console; a resumed run "
                              "keeps the mode it had")
+    parser.add_argument("--reroute-scope", choices=list(REROUTE_SCOPES), default="held",
+                        help="whom a reroute may give new paths: held (the robots a late robot holds up, "
+                             "default) or all (every robot replanned from where it is by PIBT when the "
+                             "predicted makespan drops; a robot on a new path that moves before the "
+                             "hand-over drops it)")
     parser.add_argument("--lookahead", type=count, default=1, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
@@ -184,7 +189,8 @@ def run(args: argparse.Namespace) -> int:
         state_max_rate=max(args.state_max_rate, args.state_rate), preturn=not args.no_preturn,
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
         vicon_bind=args.vicon_bind, frames=args.frames, plan_dirs=list(args.plans),
-        size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=reroute)
+        size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=reroute,
+        reroute_scope=args.reroute_scope)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host, resume=resume)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -192,7 +198,8 @@ def run(args: argparse.Namespace) -> int:
     print("manager: {} robots ({}), plan {} ({}, {} steps), strategy {}{}; consoles on {} ({}){}".format(
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
         loaded.plan.makespan, manager.core.run.engine.strategy.describe(),
-        "" if reroute == "off" else ", reroute " + reroute, manager.consoles.endpoint,
+        "" if reroute == "off" else ", reroute " + reroute + (
+            "" if args.reroute_scope == "held" else " (scope " + args.reroute_scope + ")"), manager.consoles.endpoint,
         ("CURVE" if keys is not None else "no CURVE") + (
             "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),

@@ -30,7 +30,7 @@ from fleet_common.errors import FleetError
 from fleet_common.execution import Disabled, Engine, EventError, Resume, RobotFailed
 from fleet_common.execution.handover import HandoverError, hand_over
 from fleet_common.execution.reorder import replay as replay_passes
-from fleet_common.execution.reroute import Reroute
+from fleet_common.execution.reroute import Reroute, RerouteRule
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -72,7 +72,8 @@ class Run:
         #: ids of work done off the loop: replans, ways to the starts, reroutes, instances to load
         self.job_ids = iter(range(1, 2 ** 62))
         self.replanner = Replanner(settings.replan_limit, self.job_ids)
-        self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed)
+        self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed,
+                                   RerouteRule(scope=settings.reroute_scope))
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded

@@ -37,3 +37,4 @@ class ManagerSettings:
     accept: bool = False              # take every replan proposal at once (--accept, for scripts)
     reroute: str = "off"              # reroute held-up robots: off, propose or auto (`rerouting`)
     reroute_timed: bool = True        # a look stops after its rule's budget (tests: to the end)
+    reroute_scope: str = "held"       # whom a reroute may give new paths: held or all (`RerouteRule.scope`)
