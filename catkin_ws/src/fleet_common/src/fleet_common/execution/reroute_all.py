@@ -79,10 +79,11 @@ the steering (Python) per look: 25 ms at 300 robots on the bench's machine.
 from __future__ import annotations
 
 import random
-from typing import TYPE_CHECKING, Callable, List, Optional, Sequence, Tuple, Union
+from typing import Callable, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from ..errors import FleetError
 from ..grid import Grid
 from ..plan import Plan
 from ..planning.cells import NIL
@@ -93,12 +94,29 @@ from ..validate import validate_plan
 from .cut import cut_of
 from .engine import Engine
 from .forecast import Schedule, earliest_starts, ready_steps, unplaced
+from .lateness import behind, held_up, late_robots
+from .cut import Cut
 from .run import RunState
 
-if TYPE_CHECKING:
-    from .reroute import Reroute
 
-__all__ = ["prefix", "solve_from", "steer", "changed", "late_robots", "replan", "PlanFrom"]
+class Replan(NamedTuple):
+    """A new plan for every robot, the fields of `reroute.Reroute` (which `reroute.decide` makes of it)."""
+
+    plan: Plan
+    cut: Cut
+    agents: Tuple[int, ...]
+    around: int
+    late: Optional[int]
+    gain: int
+    before: int
+    after: int
+    held: Tuple[int, ...]
+
+__all__ = ["prefix", "solve_from", "steer", "sent_made", "changed", "replan", "Replan", "ReplanError", "PlanFrom"]
+
+
+class ReplanError(FleetError):
+    """A replan's plan that is not valid: a defect of this module, never the run's fault."""
 
 
 def prefix(run: RunState, grid: Grid, base: Sequence[int], ready: Sequence[int], follow: bool,
@@ -245,17 +263,6 @@ def changed(run: RunState, base: Sequence[int], plan: Plan) -> Tuple[int, ...]:
     return tuple(out)
 
 
-def late_robots(engine: Engine, now: float, gap: int, expected: Sequence[int]) -> List[int]:
-    """Robots behind the plan's clock by `gap` steps or more and delayed themselves (`reroute`)."""
-    from .reroute import behind, delayed  # reroute dispatches here: imported when used
-    out = []
-    for r in range(engine.run.num_agents):
-        lag = behind(engine, r, now, expected)
-        if lag is not None and lag >= gap and delayed(engine, r, now):
-            out.append(r)
-    return out
-
-
 #: How a replan's plan is made, for experiments (bench/replan_all.py): (engine, the forecast as it
 #: stands, base, ready, seed, deadline) -> a plan from the cut or None. The product's: `prefix`
 #: with the hold, then `solve_from` with the steering.
@@ -263,10 +270,9 @@ PlanFrom = Callable[[Engine, Schedule, Sequence[int], Sequence[int], int, Deadli
 
 
 def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clear: Optional[float],
-           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None) -> Optional[Reroute]:
+           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None) -> Optional[Replan]:
     """A new plan for every robot from the cut that is predicted to end `margin` steps sooner, as a
-    `reroute.Reroute`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
-    from .reroute import Reroute, RerouteError, behind, held_up  # reroute dispatches here
+    `Replan`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
     run, follow = engine.run, engine.follow
     if any(o is not None for o in run.out):
         return None
@@ -292,7 +298,7 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
         return None
     report = validate_plan(plan, grid, strict_rotations=True, max_findings_per_kind=1)
     if not report.ok:  # never, by construction (PIBT's steps); refused all the same
-        raise RerouteError("a reroute's plan is not valid: {}".format(report.errors[0]))
+        raise ReplanError("a reroute's plan is not valid: {}".format(report.errors[0]))
     new = Engine(plan, engine.strategy.name, follow=follow, step_time=run.clock.step_time,
                  **engine.strategy.settings())
     # the same prediction on the new plan: each robot's first move there is its move `base` here
@@ -306,5 +312,5 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
     lags = {r: behind(engine, r, now, expected) or 0 for r in late}
     worst = max(late, key=lambda r: (lags[r], -r))
     held = tuple(held_up(engine, now, gap, expected).get(worst, ()))
-    return Reroute(plan, cut, agents, worst, lags[worst], sum(before.arrival) - sum(after.arrival),
+    return Replan(plan, cut, agents, worst, lags[worst], sum(before.arrival) - sum(after.arrival),
                    before.makespan, after.makespan, held)
