@@ -409,6 +409,12 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     app.admin.reroute_box.event_generate("<<ComboboxSelected>>")
     assert pump(console, lambda: model.state.run.reroute == "auto", 5)
     assert pump(console, lambda: any(row.endswith("rerouting now auto") for row in app.events.rows()), 5)
+    app.admin.scope.set("all")  # and whom a reroute may give new paths: every robot
+    app.admin.scope_box.event_generate("<<ComboboxSelected>>")
+    assert pump(console, lambda: model.state.run.reroute_scope == "all", 5)
+    assert pump(console, lambda: app.header.text().endswith("reroute auto, every robot"), 2), app.header.text()
+    assert pump(console, lambda: any(row.endswith("rerouting now auto (every robot)")
+                                     for row in app.events.rows()), 5)
 
 
 # ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------

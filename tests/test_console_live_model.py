@@ -488,6 +488,12 @@ def test_the_ticker_tells_reroutes_made_and_the_mode_not_proposals() -> None:
                                 "steps: 9 steps sooner")) == ["robots 3, 7 rerouted around robot 12, late 6 steps"]
     assert ticker.notice(Notice(3, 3.0, "reroute", None, "robot 4, late 5 steps, rerouted: it held up robot "
                                 "1; 1 step sooner")) == ["robot 4, late 5 steps, rerouted: it held up robot 1"]
+    # scope all: every robot may get a new path; many robots named in short, the gain on the last one
+    assert ticker.notice(Notice(5, 5.0, "reroute", None, "reroute switched: auto -> auto (every robot) "
+                                "(reroute 4 dropped)")) == ["rerouting now auto (every robot)"]
+    assert ticker.notice(Notice(6, 6.0, "reroute", None, "robots 1, 2, 4, 5 and 11 more rerouted around robot "
+                                "12, late 6 steps: the last robot 3 steps sooner")) == [
+        "robots 1, 2, 4, 5 and 11 more rerouted around robot 12, late 6 steps"]
     for text in ("reroute 5 proposed: robot 4, late 5 steps, rerouted: it held up robot 1; 3 steps sooner",
                  "reroute 5 dropped: robot 4 moved since it was proposed",
                  "reroute dropped: the reroute no longer fits: robot 4 moved since"):

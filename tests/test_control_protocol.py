@@ -185,7 +185,7 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
     """`plan_start` (the steps a run's earlier plans took) is newer than some consoles, whose decoder
     refuses a field it does not know: a run's first plan leaves it out, a later one sends it."""
     first = State(7, 3, RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, 0, None, 0, None), ())
-    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start"}
+    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start", "reroute_scope"}
     assert set(json.loads(encode(first))["run"]) == known_before  # all an older console knows
     assert decode(encode(first), m.MANAGER_MESSAGES) == first
     rerouted = State(8, 4, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, plan_start=7.25), ())
@@ -193,6 +193,11 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
     assert back == rerouted and back.run.run_steps == pytest.approx(7.45)
     with pytest.raises(ControlProtocolError, match="plan_start"):  # a wrong value is named
         decode(encode(rerouted).replace(b'"plan_start":7.25', b'"plan_start":-1'), m.MANAGER_MESSAGES)
+    # the reroute's scope likewise: sent only when it is not the default (held)
+    every = State(9, 5, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, reroute="auto",
+                                reroute_scope="all"), ())
+    assert json.loads(encode(every))["run"]["reroute_scope"] == "all"
+    assert decode(encode(every), m.MANAGER_MESSAGES) == every
 
 
 def test_a_scene_carries_a_large_plan_compactly() -> None:

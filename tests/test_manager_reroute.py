@@ -12,20 +12,24 @@ by what the run log, the consoles and the terminal were told.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import List, Tuple
 
 import numpy as np
 import pytest
 
 from fleet_common.errors import FleetError
+from fleet_common.execution.reroute import EVERY
 from fleet_common.formats.solution import make_solution
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.lab import lab_instance_path
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
+from fleet_common.runlog.reader import RunFolder
 from fleet_manager import driver as driver_module
 from fleet_manager import resume as resume_module
+from fleet_manager.resume import read_resume
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
 from test_manager_resume import executions
@@ -255,11 +259,36 @@ def test_the_mode_is_switched_from_a_console_checked_recorded_and_shown():
     assert f.ask(f.ops, "reroute", mode="auto").ok
     f.advance(0.1)
     assert other.state.run.reroute == "auto"  # every console sees the mode
-    assert f.kinds("reroute_mode") == [{"mode": "auto", "by": "operator"}]
+    assert f.kinds("reroute_mode") == [{"mode": "auto", "scope": "held", "by": "operator"}]
     assert any(n.text == "reroute switched: off -> auto" for n in other.notices())
     seen = run_to_end(f)
     assert_arrived_safely(f, seen, cell_sized())
     assert f.kinds("reroute")  # switched on mid-run, it rerouted
+
+
+def test_the_scope_is_switched_from_a_console_checked_recorded_shown_and_kept_at_resume():
+    f = started("off")
+    other = f.console("desk2")
+    answer = f.ask(f.ops, "reroute", mode="auto", scope="some")
+    assert not answer.ok and answer.reason == "unknown reroute scope 'some'; scopes: held, all"
+    assert f.core.run.rerouting.mode == "off" and not f.kinds("reroute_mode")  # nothing changed
+    assert f.ask(f.ops, "reroute", mode="auto", scope="all").ok
+    f.advance(0.1)
+    assert (other.state.run.reroute, other.state.run.reroute_scope) == ("auto", "all")
+    assert f.kinds("reroute_mode") == [{"mode": "auto", "scope": "all", "by": "operator"}]
+    assert any(n.text == "reroute switched: off -> auto (every robot)" for n in other.notices())
+    rule = f.core.run.rerouting.rule
+    assert rule.scope == "all" and rule.every == EVERY["all"]  # the scope's own pace
+    assert f.ask(f.ops, "reroute", mode="propose").ok  # a mode alone keeps the scope
+    assert f.core.run.rerouting.rule.scope == "all"
+    point = read_resume(RunFolder(Path("memory-run"), [dict(fields, k=kind, t=t) for kind, t, fields in f.records],
+                                  torn=False))
+    assert (point.reroute, point.reroute_scope) == ("propose", "all")  # a new manager goes on with both
+    assert f.ask(f.ops, "reroute", mode="propose", scope="held").ok
+    f.advance(0.1)
+    assert other.state.run.reroute_scope == "held" and f.core.run.rerouting.rule.every == EVERY["held"]
+    seen = run_to_end(f)
+    assert_arrived_safely(f, seen, cell_sized())
 
 
 def killed_after_the_reroute_and_resumed(size: RobotSize) -> Tuple[MemoryFleet, List[float], List[Tuple[int, int]]]:

@@ -170,14 +170,16 @@ class Ticker:
             return [notice.text.split(" at ")[0]]
         if notice.kind == "reroute":  # the mode switched, or robots given new paths (not proposals)
             if notice.text.startswith("reroute switched: "):
-                return ["rerouting now {}".format(notice.text.rsplit(" -> ", 1)[1].split(" (")[0])]
+                return ["rerouting now {}".format(_DROPPED.sub("", notice.text.rsplit(" -> ", 1)[1]))]
             if notice.text.startswith("robot") and " rerouted" in notice.text:  # made, not proposed
                 return [_SOONER.sub("", notice.text)]
         return []
 
 
 #: The tail of a reroute's line a visitor need not read ("; 9 steps sooner").
-_SOONER = re.compile(r"[:;] \d+ steps? sooner$")
+_SOONER = re.compile(r"[:;] (the last robot )?\d+ steps? sooner$")
+#: The tail of a mode switch that dropped a proposal (" (reroute 4 dropped)").
+_DROPPED = re.compile(r" \(reroute \d+ dropped\)$")
 
 
 def _few(lines: List[str], what: str) -> List[str]:

@@ -21,7 +21,7 @@ from tkinter import ttk
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 from fleet_common.control import RUN_ACTIONS, RunInfo
-from fleet_common.execution.reroute import MODES as REROUTE_MODES
+from fleet_common.execution.reroute import MODES as REROUTE_MODES, SCOPES as REROUTE_SCOPES
 
 from ..live.describe import RobotRow
 from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
@@ -124,6 +124,12 @@ class AdminPanel(ttk.Frame):
                                         takefocus=0, values=list(REROUTE_MODES))
         self.reroute_box.grid(row=1, column=1, sticky=tk.W, padx=4, pady=(4, 0))
         self.reroute_box.bind("<<ComboboxSelected>>", lambda e: self._reroute())
+        ttk.Label(box, text="scope").grid(row=1, column=2, sticky=tk.W, pady=(4, 0))
+        self.scope = tk.StringVar(self, value="held")  # whom a reroute may give new paths
+        self.scope_box = ttk.Combobox(box, textvariable=self.scope, state="readonly", width=5,
+                                      takefocus=0, values=list(REROUTE_SCOPES))
+        self.scope_box.grid(row=1, column=3, sticky=tk.W, padx=4, pady=(4, 0))
+        self.scope_box.bind("<<ComboboxSelected>>", lambda e: self._reroute())
         row = 2
         ttk.Label(box, text="positions").grid(row=row, column=0, sticky=tk.W, pady=(4, 0))
         self.source = tk.StringVar(self, value="robot")
@@ -190,6 +196,8 @@ class AdminPanel(ttk.Frame):
                 self.strategy.set(run.strategy)
             if self.reroute.get() != run.reroute:
                 self.reroute.set(run.reroute)
+            if self.scope.get() != run.reroute_scope:
+                self.scope.set(run.reroute_scope)
             # Tk's own name of the focus: focus_get() raises KeyError while a menu or a drop-down
             # list has the focus (Tk's clones of them are no tkinter widgets), which froze this panel
             if not str(self.tk.call("focus")).endswith("spinbox"):
@@ -271,7 +279,7 @@ class AdminPanel(ttk.Frame):
 
     def _reroute(self) -> None:
         if not self._writing and self.reroute.get():
-            self.on_action("reroute", mode=self.reroute.get())
+            self.on_action("reroute", mode=self.reroute.get(), scope=self.scope.get() or "held")
 
     def _clicked(self, event: "tk.Event[ttk.Treeview]") -> None:
         iid = self.tree.identify_row(event.y)

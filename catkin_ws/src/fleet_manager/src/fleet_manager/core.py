@@ -361,7 +361,7 @@ class RunCore:
         return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
                            run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
                            self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now),
-                           run.rerouting.mode, run.rerouting.proposal_id, run.plan_start)
+                           run.rerouting.mode, run.rerouting.proposal_id, run.plan_start, run.rerouting.rule.scope)
 
     def _allowed_now(self, now: float) -> Tuple[str, ...]:
         """What the manager would carry out now: again when anything decisive changed, else at

@@ -68,7 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="whom a reroute may give new paths: held (the robots a late robot holds up, "
                              "default) or all (every robot replanned from where it is by PIBT when the "
                              "predicted makespan drops; a robot on a new path that moves before the "
-                             "hand-over drops it)")
+                             "hand-over drops it); switchable from a console; a resumed run keeps "
+                             "the scope it had")
     parser.add_argument("--lookahead", type=count, default=1, metavar="K",
                         help="adg: actions a robot may be sent ahead (default 1)")
     parser.add_argument("--bind", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
@@ -178,11 +179,11 @@ def run(args: argparse.Namespace) -> int:
         keys = None if args.no_curve else load_manager_keys(args.keys or default_keys_dir())
     except FleetError as err:
         raise FleetError("{}; or run with --no-curve (and the robots too)".format(err)) from err
-    strategy, lookahead, reroute = args.strategy, args.lookahead, args.reroute
-    if resume is not None:  # the run goes on under the strategy and the reroute mode it had
+    strategy, lookahead, reroute, scope = args.strategy, args.lookahead, args.reroute, args.reroute_scope
+    if resume is not None:  # the run goes on under the strategy and the reroute mode and scope it had
         strategy = resume[0].strategy
         lookahead = int(resume[0].settings.get("lookahead") or 1)
-        reroute = resume[0].reroute
+        reroute, scope = resume[0].reroute, resume[0].reroute_scope
     settings = ManagerSettings(
         strategy=strategy, lookahead=lookahead, bind=args.bind, log_dir=log_dir,
         step_time=args.step_time, state_rate=args.state_rate,
@@ -190,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         definitions=definitions, map_dirs=dirs, vicon_port=args.vicon,
         vicon_bind=args.vicon_bind, frames=args.frames, plan_dirs=list(args.plans),
         size=args.robot_size or read_robot_size(definitions), accept=args.accept, reroute=reroute,
-        reroute_scope=args.reroute_scope)
+        reroute_scope=scope)
     manager = Manager(loaded, fleet, settings, keys=keys, host=args.host, resume=resume)
     stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -199,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
         len(fleet), ", ".join(str(r.id) for r in fleet), loaded.name, loaded.note,
         loaded.plan.makespan, manager.core.run.engine.strategy.describe(),
         "" if reroute == "off" else ", reroute " + reroute + (
-            "" if args.reroute_scope == "held" else " (scope " + args.reroute_scope + ")"), manager.consoles.endpoint,
+            "" if scope == "held" else " (scope " + scope + ")"), manager.consoles.endpoint,
         ("CURVE" if keys is not None else "no CURVE") + (
             "; Vicon on UDP {}:{}".format(*manager.vicon.address)
             if manager.vicon is not None else ""),

@@ -32,7 +32,7 @@ from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
-from fleet_common.execution.reroute import MODES as REROUTE_MODES
+from fleet_common.execution.reroute import MODES as REROUTE_MODES, SCOPES as REROUTE_SCOPES
 from fleet_common.grid import Grid
 from fleet_common.limits import one_line
 from fleet_common.plan_loading import LoadedPlan
@@ -259,22 +259,33 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
 
 
 def reroute(run: Run, args: Args, now: float) -> Answer:
-    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once)."""
-    mode = args["mode"]
+    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once); and,
+    if given, its scope: held (the robots a late one holds up) or all (every robot)."""
+    mode, scope = args["mode"], args.get("scope")
     if mode not in REROUTE_MODES:
         return False, "unknown reroute mode {!r}; modes: {}".format(mode, ", ".join(REROUTE_MODES))
+    if scope is not None and scope not in REROUTE_SCOPES:
+        return False, "unknown reroute scope {!r}; scopes: {}".format(scope, ", ".join(REROUTE_SCOPES))
     rerouting = run.rerouting
-    old = rerouting.mode
-    if mode == old:
-        return True, "rerouting is {} already".format(mode)
+    old, old_scope = rerouting.mode, rerouting.rule.scope
+    scope = old_scope if scope is None else scope
+    if (mode, scope) == (old, old_scope):
+        return True, "rerouting is {} already".format(_mode_words(mode, scope))
     dropped = rerouting.proposal_id if mode != "propose" else None
     rerouting.set_mode(mode)
-    run.settings.reroute = mode
-    run.out.record("reroute_mode", mode=mode, by="operator")
-    run.out.desk.bump("reroute {} -> {}".format(old, mode))
+    rerouting.set_scope(scope)
+    run.settings.reroute, run.settings.reroute_scope = mode, scope
+    run.out.record("reroute_mode", mode=mode, scope=scope, by="operator")
+    run.out.desk.bump("reroute {} -> {}".format(_mode_words(old, old_scope), _mode_words(mode, scope)))
     run.out.tell(REROUTE, None, "reroute switched: {} -> {}{}".format(
-        old, mode, "" if dropped is None else " (reroute {} dropped)".format(dropped)))
+        _mode_words(old, old_scope), _mode_words(mode, scope),
+        "" if dropped is None else " (reroute {} dropped)".format(dropped)))
     return True, ""
+
+
+def _mode_words(mode: str, scope: str) -> str:
+    """"auto", or "auto (every robot)" for scope all: how a reroute mode is told."""
+    return mode if scope == "held" or mode == "off" else "{} (every robot)".format(mode)
 
 
 def _robot(run: Run, robot_id: int) -> Optional[Robot]:

@@ -44,10 +44,12 @@ shared): see bench/README.md for the figure at 300 robots.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Sequence, Tuple
 
 from fleet_common.execution import Engine
-from fleet_common.execution.reroute import MODES, Reroute, RerouteRule, expected_steps, decide, worth_a_look
+from fleet_common.execution.reroute import (EVERY, MODES, Reroute, RerouteRule, decide, expected_steps,
+                                            worth_a_look)
 from fleet_common.execution.reroute_plan import Maps
 from fleet_common.grid import Grid
 from fleet_common.planning.deadline import Deadline
@@ -125,6 +127,14 @@ class Rerouting:
             self.pending = None
         if mode == "off":
             self.job = self._for = None
+
+    def set_scope(self, scope: str) -> None:
+        """A scope from SCOPES (checked by the caller): the rule's other settings stay, its pace
+        becomes the new scope's own unless it was set apart from the old scope's. A look in flight
+        or a proposal of the old scope stays: its plan is handed over as any other."""
+        rule = self.rule
+        every = None if rule.every == EVERY[rule.scope] else rule.every
+        self.rule = dataclasses.replace(rule, scope=scope, every=every)
 
     def due(self, engine: Engine, now: float) -> bool:
         """Time for a look (paced by `rule.every` plan steps of this plan) and some robot held up

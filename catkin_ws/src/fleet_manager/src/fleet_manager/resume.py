@@ -94,6 +94,7 @@ class ResumePoint:
     strategy: str = "adg"
     settings: Dict[str, Any] = field(default_factory=dict)
     reroute: str = "off"                            # the reroute mode the run had last
+    reroute_scope: str = "held"                     # and its scope
     phase: str = "waiting"
     #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
     passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
@@ -134,6 +135,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
     point.strategy = str(run.run.get("strategy") or "adg")
     point.settings = dict(run.run.get("settings") or {})
     point.reroute = _mode(run.run.get("reroute"), "off")
+    point.reroute_scope = _scope(run.run.get("reroute_scope"), "held")
     pending: Dict[int, Dict[int, Unsettled]] = {}
     highest: Dict[int, int] = {}
     for r in run.records:
@@ -177,6 +179,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
                 point.out[robot] = (str(r["why"]), str(r.get("reason") or ""))
         elif kind == "reroute_mode":
             point.reroute = _mode(r.get("mode"), point.reroute)
+            point.reroute_scope = _scope(r.get("scope"), point.reroute_scope)
         elif kind == "strategy" and isinstance(r.get("name"), str):
             point.strategy = r["name"]
             point.settings.update(r.get("settings") or {})
@@ -246,6 +249,12 @@ def _mode(value: Any, otherwise: str) -> str:
     """A reroute mode read from a record (`otherwise` for anything else)."""
     from fleet_common.execution.reroute import MODES
     return value if isinstance(value, str) and value in MODES else otherwise
+
+
+def _scope(value: Any, otherwise: str) -> str:
+    """A reroute scope read from a record (`otherwise` for anything else)."""
+    from fleet_common.execution.reroute import SCOPES
+    return value if isinstance(value, str) and value in SCOPES else otherwise
 
 
 def _number(value: Any) -> float:

@@ -291,7 +291,7 @@ class Run:
         self.out.record("run", version=FORMAT_VERSION, started=None, source="manager", time_unit="s",
                         plan=plan_file(1), definitions=None, robots=self.fleet.ids,
                         strategy=self.settings.strategy, settings={"lookahead": self.settings.lookahead},
-                        reroute=self.rerouting.mode,
+                        reroute=self.rerouting.mode, reroute_scope=self.rerouting.rule.scope,
                         plan_name=loaded.name, actions=action_counts(loaded.plan),
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
                         map=self.grid.name, step_time=self.settings.step_time,

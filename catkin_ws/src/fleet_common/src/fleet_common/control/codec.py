@@ -118,8 +118,9 @@ _RUN = Record(m.RunInfo, {
     "clock": _TIME, "plan_time": Num(0.0, 1e9), "plan_id": _ID, "arrived": Int(), "robots": Int(),
     "min_distance": Opt(Num(0.0, 1e9)), "collisions": Int(), "proposal": Opt(_ID),
     "replanning": Bool(), "purpose": Str(choices=m.PURPOSES), "allowed": Opt(ListOf(Str(40), 50)),
-    "reroute": Str(40), "plan_start": Num(0.0, 1e9)},
-    optional={"replanning": False, "purpose": "plan", "allowed": None, "reroute": "off", "plan_start": 0.0})
+    "reroute": Str(40), "plan_start": Num(0.0, 1e9), "reroute_scope": Str(40)},
+    optional={"replanning": False, "purpose": "plan", "allowed": None, "reroute": "off", "plan_start": 0.0,
+              "reroute_scope": "held"})
 
 #: Fields of each message type (the frame's "t" and "v" aside).
 SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, fields, optional in (
@@ -153,6 +154,8 @@ def encode(message: Any) -> bytes:
         run = _plain(message.run)
         if not run["plan_start"]:
             del run["plan_start"]  # a run's first plan: what a console older than the field reads
+        if run["reroute_scope"] == "held":
+            del run["reroute_scope"]  # likewise
         frame.update(seq=message.seq, version=message.version, run=run,
                      robots=robots_to_columns(message.robots))
         return json.dumps(frame, separators=(",", ":"), allow_nan=False).encode("utf-8")

@@ -206,6 +206,9 @@ class RunInfo:
     #: reroute's plan starts at its cut, an accepted replan's at the accept); 0 for the run's first
     #: plan. Sent only when not 0: a console older than it refuses a field it does not know.
     plan_start: float = 0.0
+    #: whom a reroute may give new paths: "held" (the robots a late one holds up) or "all" (every
+    #: robot, replanned from the cut). Sent only when "all": a console older than it refuses it.
+    reroute_scope: str = "held"
 
     @property
     def run_steps(self) -> float:
