@@ -18,10 +18,14 @@ one definitions file (`--robots a-b`), as several hosts would serve them. Prints
 
     .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--fleets 1]
                                       [--robot-size turtlebot|cell] [--keep FOLDER]
+                                      [--delay-model SPEC [--seed N]] [--reroute MODE [--reroute-scope S]]
 
 `--robot-size cell` writes a `size` line making the robots as large as a cell (no followers, no
 hold points, no Releases: the run of before issue 25), to tell that work from the rest;
 `--keep FOLDER` copies the run's files there (run folder, truth files, logs) for a closer look.
+`--delay-model` gives the virtual robots delays (the virtual fleet's option); `--reroute auto`
+has the manager reroute, and the last line counts its reroutes handed over and dropped (a
+robot given a new path moved between the look's snapshot and the hand-over).
 
 A 1,000-robot instance: bench/make_instance.py den520d.map 1000 OUT.txt --radius 60.
 """
@@ -168,6 +172,13 @@ def bench(work: Path) -> int:
     parser.add_argument("--robot-size", choices=("turtlebot", "cell"), default="turtlebot",
                         help="the robots' size: a TurtleBot 2 (followers, hold points) or a whole cell")
     parser.add_argument("--keep", type=Path, help="copy the run's files (run folder, truth, logs) here")
+    parser.add_argument("--delay-model", default=None, metavar="SPEC",
+                        help="the virtual fleet's delay model (e.g. events=bernoulli:0.1:1-5); default none")
+    parser.add_argument("--seed", type=int, default=0, help="the delay model's seed")
+    parser.add_argument("--turn-speed", type=float, default=None, help="the virtual robots' (rad/s; default theirs)")
+    parser.add_argument("--reroute", choices=("off", "propose", "auto"), default="off",
+                        help="the manager's reroute mode (auto: count reroutes handed over and dropped)")
+    parser.add_argument("--reroute-scope", choices=("held", "all"), default="held")
     parser.add_argument("--profile", action="store_true",
                         help="run the manager as bench/profiled_manager.py: CPU of its loop's parts")
     args = parser.parse_args()
@@ -192,7 +203,10 @@ def bench(work: Path) -> int:
     fleets = [Proc(fleetctl_args("virtual-fleet", "--definitions", work / "robots.txt", "--keys",
                                  work / "keys", "--time-scale", args.time_scale, "--feedback-base",
                                  feedback, "--instance", args.instance, "--log-level", "warning",
-                                 "--truth", truth, "--robots", "{}-{}".format(part[0], part[-1])),
+                                 "--truth", truth, "--robots", "{}-{}".format(part[0], part[-1]),
+                                 *(("--delay-model", args.delay_model, "--seed", args.seed)
+                                   if args.delay_model else ()),
+                                 *(("--turn-speed", args.turn_speed) if args.turn_speed else ())),
                    work / "fleet{}.log".format(k))
               for k, (part, truth) in enumerate(zip(parts, truths))]
     manager = None
@@ -207,7 +221,8 @@ def bench(work: Path) -> int:
             args.instance, "--definitions", work / "robots.txt", "--keys", work / "keys",
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
-            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale))],
+            "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale),
+            "--reroute", args.reroute, "--reroute-scope", args.reroute_scope)],
             work / "manager.log")
         from live import ScriptedConsole
         console = ScriptedConsole(console_port, "bench", keys=work / "keys")
@@ -284,6 +299,12 @@ def bench(work: Path) -> int:
         " + ".join("{:.0f}%".format(100 * (b - a) / span) for a, b in zip(cpu0[2:], cpu1[2:]))))
     print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
           "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
+    if args.reroute != "off":
+        kinds = [r["k"] for r in records]
+        print("reroute {} (scope {}): {} handed over, {} dropped ({})".format(
+            args.reroute, args.reroute_scope, kinds.count("reroute"), kinds.count("reroute_dropped"),
+            "; ".join(sorted({str(r.get("reason", ""))[:60] for r in records
+                              if r["k"] == "reroute_dropped"})[:3]) or "none"))
     if args.profile:
         print_profile(work / "profile.tsv")
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))

@@ -29,7 +29,7 @@ from fleet_common.execution.cut import cut_of
 from fleet_common.execution.motion import Feedback
 from fleet_common.execution.forecast import earliest_starts, ready_steps
 from fleet_common.execution.reroute import Reroute, RerouteRule, Rerouter, decide, held_up, later_by
-from fleet_common.execution.reroute_plan import Maps, Proposal
+from fleet_common.execution.reroute_plan import Maps, Proposal, quarter_turns
 from fleet_common.execution.simulate import simulate
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
@@ -205,6 +205,40 @@ def test_a_robot_standing_inside_a_move_it_began_is_forecast_as_one_standing_bef
     found = decide(engine, Maps(OPEN), 6.0, RerouteRule())
     assert found is not None and found_before is not None
     assert (found.around, sorted(found.agents)) == (found_before.around, sorted(found_before.agents))
+
+
+def test_quarter_turns_count_corners_and_reversals_not_waits():
+    w = 5  # cells of a 5-wide grid: index = y * 5 + x
+    assert quarter_turns([0, 1, 2, 3], w) == 0  # straight on
+    assert quarter_turns([0, 1, 1, 1, 6], w) == 1  # a corner, waits in between
+    assert quarter_turns([0, 1, 0], w) == 2  # back the way it came
+    assert quarter_turns([0, 1, 6, 7, 12], w) == 3  # a staircase
+
+
+def standing_in_the_crossing() -> Engine:
+    """The crossing: L made its first two moves and stands in (2, 1), sent its move on, which it
+    has not begun; H waits below it for the cell."""
+    engine = Engine(CROSS)
+    engine.handle(Resume(0.0))
+    for k in range(2):
+        engine.handle(ActionStarted(0, k, float(k)))
+        engine.handle(ActionCompleted(0, k, float(k + 1)))
+    assert engine.run.dispatched == [3, 0] and engine.run.started == [2, 0]
+    return engine
+
+
+def test_turns_a_detour_adds_are_charged_when_robots_turn_in_place():
+    """The manager's robots turn before they drive (a quarter turn: half a move for a TurtleBot);
+    the simulator's do not. H's way round L, (2, 2) left, up, up, right to (2, 0), has two corners
+    where its way through had none: charged at half a step each it still pays (5 steps sooner),
+    at two steps each it does not."""
+    found = decide(standing_in_the_crossing(), Maps(OPEN), 8.0, RerouteRule())
+    assert found is not None and found.agents == (1,)
+    way = [(int(x), int(y)) for x, y in found.plan.path(1)]
+    assert way[:5] == [(2, 2), (1, 2), (1, 1), (1, 0), (2, 0)]
+    assert quarter_turns([y * 5 + x for x, y in way], 5) == 2
+    assert decide(standing_in_the_crossing(), Maps(OPEN), 8.0, RerouteRule(per_turn=0.5)) is not None
+    assert decide(standing_in_the_crossing(), Maps(OPEN), 8.0, RerouteRule(per_turn=2.0)) is None
 
 
 def test_a_robot_on_time_or_a_small_gain_is_not_worth_a_reroute():

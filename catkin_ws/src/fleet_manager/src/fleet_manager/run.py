@@ -73,7 +73,7 @@ class Run:
         self.job_ids = iter(range(1, 2 ** 62))
         self.replanner = Replanner(settings.replan_limit, self.job_ids)
         self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed,
-                                   RerouteRule(scope=settings.reroute_scope))
+                                   RerouteRule(scope=settings.reroute_scope, per_turn=settings.quarter_turn_steps))
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded

@@ -38,3 +38,6 @@ class ManagerSettings:
     reroute: str = "off"              # reroute held-up robots: off, propose or auto (`rerouting`)
     reroute_timed: bool = True        # a look stops after its rule's budget (tests: to the end)
     reroute_scope: str = "held"       # whom a reroute may give new paths: held or all (`RerouteRule.scope`)
+    #: plan steps a robot's quarter turn in place takes, which a reroute's detour costs at each
+    #: corner more (`RerouteRule.per_turn`): a TurtleBot's (1.5 rad/s) is about half a nominal move
+    quarter_turn_steps: float = 0.5

@@ -155,6 +155,10 @@ class RerouteRule:
     tries: int = 3          # late robots looked at per look, the most robots held up first
     later: float = 1.0      # no robot's predicted arrival may be later by more than this
     per_move: float = 0.3   # expected delay of a move (steps), charged for each move more
+    #: steps a quarter turn takes (robots that turn in place before a drive: the manager's, half a
+    #: move for a TurtleBot), charged for each quarter turn more; 0: the simulator's robots, which
+    #: do not turn
+    per_turn: float = 0.0
     slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps or more before the makespan
     scope: str = "held"     # whom a reroute may give new paths (SCOPES)
     clear: Optional[float] = 20.0  # scope all: robots predicted this near the last arrival steered into free cells
@@ -169,7 +173,7 @@ class RerouteRule:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
-        for key in ("margin", "cost", "every", "budget", "later", "per_move", "slack", "clear"):
+        for key in ("margin", "cost", "every", "budget", "later", "per_move", "per_turn", "slack", "clear"):
             value = getattr(self, key)
             if key in ("slack", "clear") and value is None:  # None: `later` holds for every robot; no steering
                 continue
@@ -227,13 +231,14 @@ def worth_a_look(engine: Engine, now: float, rule: RerouteRule, expected: Sequen
     return bool(held_up(engine, now, rule.gap, expected))
 
 
-def later_by(before: Sequence[int], proposal: Proposal, per_move: float, spared: Optional[float]) -> float:
+def later_by(before: Sequence[int], proposal: Proposal, per_move: float, spared: Optional[float],
+             per_turn: float = 0.0) -> float:
     """How many steps later than `before` the proposal has the latest robot arrive, a move more
-    counted as `per_move` steps more; robots whose new arrival is still at or before `spared`
-    (None: none) are not counted (at most 0)."""
+    counted as `per_move` steps more, a quarter turn more as `per_turn`; robots whose new arrival
+    is still at or before `spared` (None: none) are not counted (at most 0)."""
     worst = 0.0
     for r, (new, old) in enumerate(zip(proposal.arrival, before)):
-        extra = per_move * proposal.more.get(r, 0)
+        extra = per_move * proposal.more.get(r, 0) + per_turn * proposal.turns.get(r, 0)
         if spared is None or new + extra > spared:
             worst = max(worst, new - old + extra)
     return worst
@@ -287,10 +292,11 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                 proposal = plan_around(run, grid, maps, before, ready, follow, base, chosen, deadline)
                 if proposal is None:
                     continue
-                # a move more is a step more, and its expected delay
-                gain = sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
+                # a move more is a step more, and its expected delay; a quarter turn more, its time
+                gain = (sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
+                        - rule.per_turn * sum(proposal.turns.values()))
                 net = gain - rule.cost * len(chosen)
-                worse = later_by(before.arrival, proposal, rule.per_move, spared)
+                worse = later_by(before.arrival, proposal, rule.per_move, spared, rule.per_turn)
                 if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
                     best = (net, proposal, late)
     except DeadlineReached:

@@ -42,12 +42,14 @@ from .run import FAILED, RunState
 
 class Proposal(NamedTuple):
     """A plan of every robot from the cut, who got a new path, when each is predicted to arrive
-    (steps from the cut), and how many more moves each rerouted robot makes than before."""
+    (steps from the cut), and how many more moves and quarter turns each rerouted robot makes
+    than before (`turns` may be below 0: a straighter way)."""
 
     plan: Plan
     agents: Tuple[int, ...]
     arrival: List[int]
     more: Dict[int, int]
+    turns: Dict[int, int] = {}
 
 
 class Maps:
@@ -206,9 +208,16 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
         paths[r] = full
     arrival = list(kept_s.arrival)
     more: Dict[int, int] = {}
+    turns: Dict[int, int] = {}
     for r, p in paths.items():
         arrival[r] = len(p) - 1
         more[r] = sum(1 for a, b in zip(p, p[1:]) if a != b) - (run.count(r) - base[r])
+        came = _came_from(run, grid, r, base[r])
+        lead = [came] if came is not None else []  # its heading at the cut
+        a0, end = run.first[r] + base[r], run.first[r + 1]
+        old = lead + ([grid.index(table.coord(run.src[a0]))] + [grid.index(table.coord(run.dst[a]))
+                                                                for a in range(a0, end)] if a0 < end else [])
+        turns[r] = quarter_turns(lead + p, grid.width) - quarter_turns(old, grid.width)
     length = max([steps] + [len(p) - 1 for p in paths.values()])
     ids = np.empty((length + 1, n), dtype=np.int64)
     ids[:steps + 1, kept] = kept_ids
@@ -217,7 +226,30 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
         ids[:len(p), r] = p
         ids[len(p):, r] = p[-1]
     pos = np.stack([ids % grid.width, ids // grid.width], axis=2)
-    return Proposal(Plan(pos.astype(np.int32)), tuple(chosen), arrival, more)
+    return Proposal(Plan(pos.astype(np.int32)), tuple(chosen), arrival, more, turns)
+
+
+def quarter_turns(cells: Sequence[int], width: int) -> int:
+    """Quarter turns a robot makes along `cells` (grid indices, waits allowed): 1 at a corner, 2
+    where it goes back the way it came."""
+    heading: Optional[Tuple[int, int]] = None
+    count = 0
+    for a, b in zip(cells, cells[1:]):
+        if a == b:
+            continue
+        d = (b % width - a % width, b // width - a // width)
+        if heading is not None and d != heading:
+            count += 2 if d == (-heading[0], -heading[1]) else 1
+        heading = d
+    return count
+
+
+def _came_from(run: RunState, grid: Grid, r: int, k: int) -> Optional[int]:
+    """The cell robot r drove from into the start of its move k (its heading then), or None."""
+    a = run.first[r] + k - 1
+    if k == 0 or a >= run.first[r + 1]:
+        return None
+    return grid.index(run.table.coord(run.src[a]))
 
 
 def _hold_targets(run: RunState, grid: Grid, kept_s: Schedule, schedule: Schedule, base: Sequence[int],
