@@ -415,6 +415,7 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     assert pump(console, lambda: app.header.text().endswith("reroute auto, every robot"), 2), app.header.text()
     assert pump(console, lambda: any(row.endswith("rerouting now auto (every robot)")
                                      for row in app.events.rows()), 5)
+    capture.grab(app.root, tmp_path / "reroute-scope.png")
 
 
 # ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------

@@ -284,9 +284,12 @@ def test_the_scope_is_switched_from_a_console_checked_recorded_shown_and_kept_at
     point = read_resume(RunFolder(Path("memory-run"), [dict(fields, k=kind, t=t) for kind, t, fields in f.records],
                                   torn=False))
     assert (point.reroute, point.reroute_scope) == ("propose", "all")  # a new manager goes on with both
-    assert f.ask(f.ops, "reroute", mode="propose", scope="held").ok
+    assert f.ask(f.ops, "reroute", scope="held").ok  # a scope alone keeps the mode
     f.advance(0.1)
-    assert other.state.run.reroute_scope == "held" and f.core.run.rerouting.rule.every == EVERY["held"]
+    assert (other.state.run.reroute, other.state.run.reroute_scope) == ("propose", "held")
+    assert f.core.run.rerouting.rule.every == EVERY["held"]
+    answer = f.ask(f.ops, "reroute")
+    assert not answer.ok and answer.reason.startswith("a reroute request names a mode (off, propose, auto)")
     seen = run_to_end(f)
     assert_arrived_safely(f, seen, cell_sized())
 

@@ -129,7 +129,7 @@ class AdminPanel(ttk.Frame):
         self.scope_box = ttk.Combobox(box, textvariable=self.scope, state="readonly", width=5,
                                       takefocus=0, values=list(REROUTE_SCOPES))
         self.scope_box.grid(row=1, column=3, sticky=tk.W, padx=4, pady=(4, 0))
-        self.scope_box.bind("<<ComboboxSelected>>", lambda e: self._reroute())
+        self.scope_box.bind("<<ComboboxSelected>>", lambda e: self._scope())
         row = 2
         ttk.Label(box, text="positions").grid(row=row, column=0, sticky=tk.W, pady=(4, 0))
         self.source = tk.StringVar(self, value="robot")
@@ -279,7 +279,12 @@ class AdminPanel(ttk.Frame):
 
     def _reroute(self) -> None:
         if not self._writing and self.reroute.get():
-            self.on_action("reroute", mode=self.reroute.get(), scope=self.scope.get() or "held")
+            self.on_action("reroute", mode=self.reroute.get())
+
+    def _scope(self) -> None:
+        # the scope alone: the mode box may show a State older than the operator's last pick
+        if not self._writing and self.scope.get():
+            self.on_action("reroute", scope=self.scope.get())
 
     def _clicked(self, event: "tk.Event[ttk.Treeview]") -> None:
         iid = self.tree.identify_row(event.y)

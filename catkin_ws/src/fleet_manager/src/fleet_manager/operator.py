@@ -259,9 +259,14 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
 
 
 def reroute(run: Run, args: Args, now: float) -> Answer:
-    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once); and,
-    if given, its scope: held (the robots a late one holds up) or all (every robot)."""
-    mode, scope = args["mode"], args.get("scope")
+    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once), and
+    its scope: held (the robots a late one holds up) or all (every robot); either may be left out
+    (it stays as it is)."""
+    mode, scope = args.get("mode"), args.get("scope")
+    if mode is None and scope is None:
+        return False, "a reroute request names a mode ({}) or a scope ({})".format(
+            ", ".join(REROUTE_MODES), ", ".join(REROUTE_SCOPES))
+    mode = run.rerouting.mode if mode is None else mode  # a scope alone keeps the mode, and back
     if mode not in REROUTE_MODES:
         return False, "unknown reroute mode {!r}; modes: {}".format(mode, ", ".join(REROUTE_MODES))
     if scope is not None and scope not in REROUTE_SCOPES:

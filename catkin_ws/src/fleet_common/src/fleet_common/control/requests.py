@@ -46,7 +46,7 @@ ARGS: Dict[str, Checker] = {
     "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
     "to_starts": _NONE, "reset": _NONE,
     "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
-    "reroute": Obj({"mode": Str(40), "scope": Opt(Str(40))}, optional={"scope": None}),
+    "reroute": Obj({"mode": Opt(Str(40)), "scope": Opt(Str(40))}, optional={"mode": None, "scope": None}),
     "enable": Obj({"robot": _ROBOT}),
     "disable": Obj({"robot": _ROBOT}),
     "source": Obj({"source": Str(choices=SOURCES), "robot": Opt(_ROBOT)}, optional={"robot": None}),
