@@ -287,6 +287,8 @@ def test_the_scope_is_switched_from_a_console_checked_recorded_shown_and_kept_at
     assert f.ask(f.ops, "reroute", scope="held").ok  # a scope alone keeps the mode
     f.advance(0.1)
     assert (other.state.run.reroute, other.state.run.reroute_scope) == ("propose", "held")
+    asked = [n.text for n in other.notices() if n.kind == "operator"]
+    assert asked[-3:] == ["ops: reroute auto, scope all", "ops: reroute propose", "ops: reroute scope held"], asked
     assert f.core.run.rerouting.rule.every == EVERY["held"]
     answer = f.ask(f.ops, "reroute")
     assert not answer.ok and answer.reason.startswith("a reroute request names a mode (off, propose, auto)")

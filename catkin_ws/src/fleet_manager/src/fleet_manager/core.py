@@ -496,8 +496,10 @@ def request_words(action: str, args: Dict) -> str:
         return "{} proposal {}".format(action, args.get("proposal"))
     if action == "to_starts":
         return "go to starts"
-    if action == "reroute":
-        return "reroute {}".format(args.get("mode"))
+    if action == "reroute":  # "reroute auto", "reroute scope all", "reroute auto, scope all"
+        words = ([str(args["mode"])] if args.get("mode") is not None else []) + (
+            ["scope {}".format(args["scope"])] if args.get("scope") is not None else [])
+        return "reroute {}".format(", ".join(words) or "(nothing)")
     return action
 
 
