@@ -160,7 +160,7 @@ class ReplanAll(Rerouter):
         self.looks += 1
         self.seconds += time.perf_counter() - began
         self.found += found is not None
-        return None if found is None else Reroute(*found)
+        return found
 
     def _counted(self, engine: Engine, before: Schedule, base: Sequence[int], ready: Sequence[int], seed: int,
                  deadline: Deadline) -> Optional[Plan]:

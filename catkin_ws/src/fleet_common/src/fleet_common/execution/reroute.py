@@ -103,23 +103,19 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 from ..errors import FleetError
 from ..grid import Grid
-from ..plan import Plan
 from ..planning.deadline import Deadline
 from ..planning.st_astar import DeadlineReached
 from ..validate import validate_plan
-from .cut import Cut, cut_of
+from .cut import cut_of
 from .engine import Engine
 from .errors import UnknownStrategyError
 from .forecast import earliest_starts, ready_steps, unplaced
-from .reroute_plan import Maps, Proposal, new_start, plan_around
+from .reroute_plan import Maps, Proposal, Reroute, new_start, plan_around
 from .lateness import behind, delayed, expected_steps, held_up, late_robots
 from .reroute_all import replan
 
 __all__ = ["MODES", "SCOPES", "EVERY", "RerouteError", "RerouteRule", "Reroute", "expected_steps", "behind",
            "delayed", "held_up", "worth_a_look", "later_by", "decide", "Rerouter"]
-
-#: Robots named in a reroute's line, the rest counted.
-SHOWN = 4
 
 #: What `--reroute` accepts: never, ask the operator (the manager), or reroute at once.
 MODES = ("off", "propose", "auto")
@@ -186,43 +182,6 @@ class RerouteRule:
         return EVERY[self.scope] if self.every is None else self.every
 
 
-@dataclass(frozen=True)
-class Reroute:
-    """A new plan from `cut` for every robot, `agents` on new paths because `around`, late by `late`
-    steps (None: out), held up `held`; predicted `gain` steps sooner in all (arrivals summed),
-    makespans (steps from the cut) `before` and `after`."""
-
-    plan: Plan
-    cut: Cut
-    agents: Tuple[int, ...]
-    around: int
-    late: Optional[int]
-    gain: int
-    before: int
-    after: int
-    held: Tuple[int, ...]
-
-    def describe(self, name: Callable[[int], object] = str) -> str:
-        """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
-        steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
-        sooner" (`name`: an agent's name, e.g. its robot id)."""
-        def robots(rs: Sequence[int]) -> str:  # at most SHOWN named: a reroute of everyone stays one line
-            shown = ", ".join(str(name(r)) for r in rs[:SHOWN])
-            more = " and {} more".format(len(rs) - SHOWN) if len(rs) > SHOWN else ""
-            return "robot{} {}{}".format("s" if len(rs) > 1 else "", shown, more)
-        late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
-        sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
-        if self.gain < 1:  # scope all pays on the makespan: the arrivals' sum may grow
-            end = self.before - self.after
-            sooner = "the last robot {} step{} sooner".format(end, "" if end == 1 else "s")
-        if self.around not in self.agents:
-            return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
-        others = [a for a in self.agents if a != self.around]
-        return "robot {}, {}, rerouted{}: {}{}".format(
-            name(self.around), late, " with " + robots(others) if others else "",
-            "it held up {}; ".format(robots(self.held)) if self.held else "", sooner)
-
-
 def worth_a_look(engine: Engine, now: float, rule: RerouteRule, expected: Sequence[int]) -> bool:
     """Whether `decide` could find anything now (cheap): some robot held up by a late one (scope
     held), or some robot late (scope all)."""
@@ -253,7 +212,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     deadline = deadline or Deadline(rule.budget)
     if rule.scope == "all":
         found = replan(engine, maps.grid, now, rule.gap, rule.margin, rule.clear, deadline, expected)
-        return None if found is None else Reroute(*found)
+        return found
     groups = held_up(engine, now, rule.gap, expected)
     if not groups:
         return None

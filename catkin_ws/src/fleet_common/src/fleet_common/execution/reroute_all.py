@@ -79,7 +79,7 @@ the steering (Python) per look: 25 ms at 300 robots on the bench's machine.
 from __future__ import annotations
 
 import random
-from typing import Callable, List, NamedTuple, Optional, Sequence, Tuple, Union
+from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -95,24 +95,11 @@ from .cut import cut_of
 from .engine import Engine
 from .forecast import Schedule, earliest_starts, ready_steps, unplaced
 from .lateness import behind, held_up, late_robots
-from .cut import Cut
+from .reroute_plan import Reroute
 from .run import RunState
 
 
-class Replan(NamedTuple):
-    """A new plan for every robot, the fields of `reroute.Reroute` (which `reroute.decide` makes of it)."""
-
-    plan: Plan
-    cut: Cut
-    agents: Tuple[int, ...]
-    around: int
-    late: Optional[int]
-    gain: int
-    before: int
-    after: int
-    held: Tuple[int, ...]
-
-__all__ = ["prefix", "solve_from", "steer", "sent_made", "changed", "replan", "Replan", "ReplanError", "PlanFrom"]
+__all__ = ["prefix", "solve_from", "steer", "sent_made", "changed", "replan", "ReplanError", "PlanFrom"]
 
 
 class ReplanError(FleetError):
@@ -270,9 +257,9 @@ PlanFrom = Callable[[Engine, Schedule, Sequence[int], Sequence[int], int, Deadli
 
 
 def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clear: Optional[float],
-           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None) -> Optional[Replan]:
+           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None) -> Optional[Reroute]:
     """A new plan for every robot from the cut that is predicted to end `margin` steps sooner, as a
-    `Replan`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
+    `Reroute`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
     run, follow = engine.run, engine.follow
     if any(o is not None for o in run.out):
         return None
@@ -312,5 +299,5 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
     lags = {r: behind(engine, r, now, expected) or 0 for r in late}
     worst = max(late, key=lambda r: (lags[r], -r))
     held = tuple(held_up(engine, now, gap, expected).get(worst, ()))
-    return Replan(plan, cut, agents, worst, lags[worst], sum(before.arrival) - sum(after.arrival),
+    return Reroute(plan, cut, agents, worst, lags[worst], sum(before.arrival) - sum(after.arrival),
                    before.makespan, after.makespan, held)

@@ -26,7 +26,8 @@ each cell's order and none of the timing.
 """
 from __future__ import annotations
 
-from typing import Dict, List, NamedTuple, Optional, Sequence, Set, Tuple
+from dataclasses import dataclass
+from typing import Callable, Dict, List, NamedTuple, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
@@ -36,6 +37,7 @@ from ..planning.deadline import Deadline
 from ..planning.reservations import Reservations
 from ..planning.st_astar import space_time_astar
 from .actions import ActionTable
+from .cut import Cut
 from .forecast import Schedule, earliest_starts
 from .run import FAILED, RunState
 
@@ -50,6 +52,47 @@ class Proposal(NamedTuple):
     arrival: List[int]
     more: Dict[int, int]
     turns: Dict[int, int] = {}
+
+
+#: Robots named in a reroute's line, the rest counted.
+SHOWN = 4
+
+
+@dataclass(frozen=True)
+class Reroute:
+    """A new plan from `cut` for every robot, `agents` on new paths because `around`, late by `late`
+    steps (None: out), held up `held`; predicted `gain` steps sooner in all (arrivals summed),
+    makespans (steps from the cut) `before` and `after`."""
+
+    plan: Plan
+    cut: Cut
+    agents: Tuple[int, ...]
+    around: int
+    late: Optional[int]
+    gain: int
+    before: int
+    after: int
+    held: Tuple[int, ...]
+
+    def describe(self, name: Callable[[int], object] = str) -> str:
+        """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
+        steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
+        sooner" (`name`: an agent's name, e.g. its robot id)."""
+        def robots(rs: Sequence[int]) -> str:  # at most SHOWN named: a reroute of everyone stays one line
+            shown = ", ".join(str(name(r)) for r in rs[:SHOWN])
+            more = " and {} more".format(len(rs) - SHOWN) if len(rs) > SHOWN else ""
+            return "robot{} {}{}".format("s" if len(rs) > 1 else "", shown, more)
+        late = "out" if self.late is None else "late {} step{}".format(self.late, "" if self.late == 1 else "s")
+        sooner = "{} step{} sooner".format(self.gain, "" if self.gain == 1 else "s")
+        if self.gain < 1:  # scope all pays on the makespan: the arrivals' sum may grow
+            end = self.before - self.after
+            sooner = "the last robot {} step{} sooner".format(end, "" if end == 1 else "s")
+        if self.around not in self.agents:
+            return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
+        others = [a for a in self.agents if a != self.around]
+        return "robot {}, {}, rerouted{}: {}{}".format(
+            name(self.around), late, " with " + robots(others) if others else "",
+            "it held up {}; ".format(robots(self.held)) if self.held else "", sooner)
 
 
 class Maps:
