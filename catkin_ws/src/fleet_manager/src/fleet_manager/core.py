@@ -33,6 +33,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
+from fleet_common.execution import Freeze, Thaw
 from fleet_common.execution.reroute import Reroute
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
@@ -299,8 +300,11 @@ class RunCore:
     # ---- rerouting (`rerouting`) ----------------------------------------------------------
 
     def _reroute_tick(self, now: float) -> None:
-        """A look for a reroute when one is due; a proposal dropped when it went stale."""
+        """A look for a reroute when one is due (auto mode: no new move is sent while it is in
+        flight, `Rerouting.freezes`); a proposal dropped when it went stale."""
         run, rerouting = self.run, self.run.rerouting
+        if run.engine.frozen and not rerouting.freezes(run.engine, now):
+            self._thaw(now)  # the look was given up, or takes too long to wait for
         pending = rerouting.pending
         if pending is not None:
             moved = moved_since(run.engine, pending[1])
@@ -310,6 +314,12 @@ class RunCore:
         if (run.phase.phase == RUNNING and run.purpose == PLAN and not run.replanner.open
                 and run.resuming is None and rerouting.due(run.engine, now)):
             self.out.add(rerouting.ask(run.engine, now))
+            if rerouting.freezes(run.engine, now):
+                run.driver.handle(Freeze(now), now)
+
+    def _thaw(self, now: float) -> None:
+        if self.run.engine.frozen:
+            self.run.driver.handle(Thaw(now), now)
 
     def _drop_proposal(self, why: str) -> None:
         self.run.rerouting.resolved()
@@ -326,6 +336,11 @@ class RunCore:
         run, rerouting = self.run, self.run.rerouting
         if not rerouting.finished(job_id, run.engine):
             return  # a look given up (mode off) or of a plan no longer run
+        self._reroute_found(found, error, now)
+        self._thaw(now)  # the run's own engine, if nothing was handed over
+
+    def _reroute_found(self, found: Optional[Reroute], error: Optional[str], now: float) -> None:
+        run, rerouting = self.run, self.run.rerouting
         if error is not None:
             self.out.record("reroute_dropped", reason="the look failed: " + error)
             self.out.tell(REROUTE, None, "reroute look failed: {}".format(error))

@@ -3,7 +3,7 @@
 A pure library (no sockets, ROS, threads or clocks): the manager, the virtual
 fleet, the console and the tests drive the same code. `Engine` takes a
 `Plan` and a strategy, then events in (`ActionStarted`, `ActionCompleted`, `RobotFailed`,
-`Disabled`, `Enabled`, `Resume`, `Pause`, `StepRound`, `SwitchStrategy`),
+`Disabled`, `Enabled`, `Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Freeze`, `Thaw`),
 decisions out (`Dispatch`: robot r may start its action k now).
 
     actions       plan -> per-robot moves (waits are not actions)
@@ -25,8 +25,8 @@ from .adg_strategy import AdgStrategy
 from .engine import Engine
 from .errors import EventError, PlanError, UnknownStrategyError
 from .events import (
-    ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume, RobotFailed,
-    StepRound, SwitchStrategy, Tick, Wait,
+    ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Freeze, Pause, Resume, RobotFailed,
+    StepRound, SwitchStrategy, Thaw, Tick, Wait,
 )
 from .metrics import Metrics, RobotMetrics
 from .reorder import Pass, ReorderStrategy
@@ -36,7 +36,7 @@ from .strategy import STRATEGIES, Strategy, make_strategy, register
 __all__ = [
     "Action", "ActionTable", "ActionDependencyGraph", "build_adg", "AdgStrategy", "Engine",
     "EventError", "PlanError", "UnknownStrategyError", "ActionCompleted", "ActionStarted",
-    "Disabled", "Dispatch", "Enabled", "Pause", "Resume", "RobotFailed", "StepRound",
+    "Disabled", "Dispatch", "Enabled", "Freeze", "Thaw", "Pause", "Resume", "RobotFailed", "StepRound",
     "SwitchStrategy", "Tick", "Wait",
     "Metrics", "RobotMetrics", "Pass", "ReorderStrategy", "DiscreteTimeStep", "STRATEGIES", "Strategy", "make_strategy",
     "register",

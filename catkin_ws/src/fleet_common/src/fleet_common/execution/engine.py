@@ -10,7 +10,8 @@ dispatched when
 
 1. the robot takes part (not disabled, not failed),
 2. fewer than `strategy.window` of its actions are sent and incomplete,
-3. the run is not paused (or the current round allows it),
+3. the run is not paused (or the current round allows it) nor frozen (`Freeze`:
+   a new plan is being made from this moment; the clock runs on),
 4. its ADG predecessor (the other robot's move out of the cell it enters)
    has completed, or, for robots smaller than a cell (`follow`), has been
    dispatched: the safety rule, the same for every strategy,
@@ -66,8 +67,8 @@ from .adg import build_adg
 from .blocking import blocked_by
 from .errors import EventError, UnknownStrategyError
 from .events import (
-    CELL, FOLLOW, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Pause, Resume,
-    RobotFailed, StepRound, SwitchStrategy, Tick, Wait,
+    CELL, FOLLOW, PAUSED, ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Freeze, Pause, Resume,
+    RobotFailed, StepRound, SwitchStrategy, Thaw, Tick, Wait,
 )
 from .metrics import Metrics
 from .run import DISABLED, FAILED, PlanClock, RunState
@@ -121,11 +122,12 @@ class Engine:
         self._sent_at = [math.inf] * table.num_actions
         self._freed_at = [math.inf] * table.num_actions
         self._cap: Optional[List[int]] = list(self.run.dispatched)  # a run starts paused
+        self._frozen: Optional[List[int]] = None  # dispatched per robot at `Freeze`, until `Thaw`
         self._handlers: Dict[type, Callable[..., Recheck]] = {
             ActionCompleted: self._completed, ActionStarted: self._started, RobotFailed: self._failed,
             Disabled: self._disabled, Enabled: self._enabled, Resume: self._resume,
             Pause: self._pause, StepRound: self._step_round, SwitchStrategy: self._switch,
-            Tick: self._tick,
+            Tick: self._tick, Freeze: self._freeze, Thaw: self._thaw,
         }
 
     def handle(self, event: object) -> List[Dispatch]:
@@ -144,6 +146,10 @@ class Engine:
         return self._cap is not None
 
     @property
+    def frozen(self) -> bool:
+        return self._frozen is not None
+
+    @property
     def finished(self) -> bool:
         """The strategy's verdict: by default, every robot not out has completed its actions."""
         return self.strategy.finished()
@@ -151,7 +157,7 @@ class Engine:
     @property
     def stuck(self) -> bool:
         """Running, not finished, and nothing moving: only an out robot can cause this."""
-        return not self.paused and not self.finished and not self.run.moving
+        return not self.paused and not self.frozen and not self.finished and not self.run.moving
 
     def out_agents(self) -> List[int]:
         return [r for r, why in enumerate(self.run.out) if why is not None]
@@ -362,6 +368,16 @@ class Engine:
         self.run.clock.stop(e.time)
         return (), None
 
+    def _freeze(self, e: Freeze) -> Recheck:
+        self._frozen = list(self.run.dispatched)
+        return (), None
+
+    def _thaw(self, e: Thaw) -> Recheck:
+        if self._frozen is None:
+            return (), None
+        self._frozen = None
+        return range(self.run.num_agents), None
+
     def _step_round(self, e: StepRound) -> Recheck:
         self.run.clock.stop(e.time)
         limits = self.strategy.round()
@@ -498,7 +514,7 @@ class Engine:
 
     # ---- decisions ----------------------------------------------------------------------
     def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
-        run, strategy, cap = self.run, self.strategy, self._cap
+        run, strategy, cap, frozen = self.run, self.strategy, self._cap, self._frozen
         out: List[Dispatch] = []
         self._out = out
         first, dep, done, step, agent = run.first, run.dep, run.done, run.step, run.agent
@@ -514,6 +530,8 @@ class Engine:
             limit = min(first[r + 1], base + run.completed[r] + window)
             if cap is not None:
                 limit = min(limit, base + cap[r])
+            if frozen is not None:
+                limit = min(limit, base + frozen[r])
             a = base + dispatched[r]
             while a < limit:
                 d = dep[a]

@@ -4,8 +4,9 @@ Every input is an event carrying `time`, a number the caller chooses (seconds
 of a wall clock, simulated time, plan steps): the engine never reads a clock,
 it only passes times on to the metrics. Robots report progress (`ActionStarted`,
 `ActionCompleted`, `RobotFailed`); the operator or the manager controls the run
-(`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`), and
-time passes (`Tick`, for strategies that read the plan's clock).
+(`Resume`, `Pause`, `StepRound`, `SwitchStrategy`, `Disabled`, `Enabled`,
+`Freeze`, `Thaw`), and time passes (`Tick`, for strategies that read the plan's
+clock).
 A run starts paused: the first `Resume` starts it.
 
 `Engine.handle(event)` answers with `Dispatch` decisions: agent r may start
@@ -89,6 +90,22 @@ class Tick:
 @dataclass(frozen=True)
 class Pause:
     """Send no new actions (robots finish the ones they have)."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class Freeze:
+    """Send no new actions until `Thaw`, the run going on (its clock runs, robots finish what they
+    were sent): a new plan is being made from this moment (a reroute's look in a worker thread),
+    and a robot sent a new move meanwhile would leave the plan's start behind."""
+
+    time: float
+
+
+@dataclass(frozen=True)
+class Thaw:
+    """Send new actions again after `Freeze` (nothing if not frozen)."""
 
     time: float
 

@@ -4,10 +4,12 @@ The new plan starts at the reroute's cut: each robot's moves in it are its
 moves still to make then, the first of them the ones it had been sent
 (`reroute_plan`). By the time the plan is ready the run may have gone on
 (the manager plans in a worker thread): the robots that keep their paths
-have made the same moves in both plans, so their progress carries over one
-to one; a rerouted robot that moved since, or a robot that went out or came
-back, makes the plan stale, and the hand-over is refused (`HandoverError`),
-changing nothing.
+have made the same moves in both plans, and a rerouted robot may have begun
+or completed the moves it had been sent at the cut, the first moves of its
+new path, so everyone's progress carries over one to one; a rerouted robot
+sent a move since or that gave one back, or a robot that went out or came
+back, makes the plan stale (`Cut.moved`), and the hand-over is refused
+(`HandoverError`), changing nothing.
 
 The new engine (`Engine.adopt`) runs the same strategy with the same
 settings and the same metrics, and refuses a plan in which a move already
