@@ -1,7 +1,8 @@
 """Benchmark: the manager driving 300 virtual robots (or 1,000, from several fleet processes; CURVE on).
 
 Starts `fleetctl virtual-fleet` for N robots at the starts of an instance (arena_300agents_1
-by default) and `fleetctl manager` on that instance (planned by the built-in lacam), with
+by default) and `fleetctl manager` on that instance (planned by the built-in lacam, or
+`--solver`), with
 --start --until-done and a run folder; a scripted console watches the state stream. With
 --fleets K the robots are served by K virtual-fleet processes, each a contiguous part of
 one definitions file (`--robots a-b`), as several hosts would serve them. Prints:
@@ -16,7 +17,7 @@ one definitions file (`--robots a-b`), as several hosts would serve them. Prints
   what it took on the virtual robot; what the ratio shows is what dispatching over the
   wire adds (replies, decisions, commands), nothing else.
 
-    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--fleets 1]
+    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--solver S] [--fleets 1]
                                       [--robot-size turtlebot|cell] [--keep FOLDER]
                                       [--delay-model SPEC [--seed N]] [--reroute MODE [--reroute-scope S]]
 
@@ -168,6 +169,8 @@ def bench(work: Path) -> int:
     parser.add_argument("--time-scale", type=float, default=4.0)
     parser.add_argument("--instance", type=Path, default=SHARED / "instances" / "arena_300agents_1.txt")
     parser.add_argument("--strategy", default="adg")
+    parser.add_argument("--solver", default="lacam", help="the manager's built-in solver for the instance "
+                        "(EVALUATION.md's 300-robot plan: pibt)")
     parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
     parser.add_argument("--robot-size", choices=("turtlebot", "cell"), default="turtlebot",
                         help="the robots' size: a TurtleBot 2 (followers, hold points) or a whole cell")
@@ -222,7 +225,7 @@ def bench(work: Path) -> int:
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
             "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale),
-            "--reroute", args.reroute, "--reroute-scope", args.reroute_scope)],
+            "--reroute", args.reroute, "--reroute-scope", args.reroute_scope, "--solver", args.solver)],
             work / "manager.log")
         from live import ScriptedConsole
         console = ScriptedConsole(console_port, "bench", keys=work / "keys")
@@ -306,8 +309,13 @@ def bench(work: Path) -> int:
         kinds = [r["k"] for r in records]
         print("reroute {} (scope {}): {} handed over, {} dropped ({})".format(
             args.reroute, args.reroute_scope, kinds.count("reroute"), kinds.count("reroute_dropped"),
-            "; ".join(sorted({str(r.get("reason", ""))[:60] for r in records
+            "; ".join(sorted({str(r.get("reason", ""))[:100] for r in records
                               if r["k"] == "reroute_dropped"})[:3]) or "none"))
+        for kind in ("reroute", "reroute_dropped"):  # s from a look's cut to its hand-over
+            looks = [r["look"] for r in records if r["k"] == kind and isinstance(r.get("look"), (int, float))]
+            if looks:
+                print("  {}: look to hand-over mean {:.0f} ms, max {:.0f} ms".format(
+                    kind, 1e3 * sum(looks) / len(looks), 1e3 * max(looks)))
     if args.profile:
         print_profile(work / "profile.tsv")
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fleet_common.execution import (
-    STRATEGIES, ActionCompleted, ActionStarted, Disabled, Enabled, Engine, EventError, Pause, Resume,
-    RobotFailed, StepRound, Strategy, SwitchStrategy, UnknownStrategyError, make_strategy, register,
+    STRATEGIES, ActionCompleted, ActionStarted, Disabled, Enabled, Engine, EventError, Freeze, Pause, Resume,
+    RobotFailed, StepRound, Strategy, SwitchStrategy, Thaw, UnknownStrategyError, make_strategy, register,
 )
 from fleet_common.delays import parse_delay_model
 from fleet_common.execution.events import CELL, PAUSED
@@ -124,6 +124,21 @@ def test_a_run_starts_paused_and_pause_stops_new_actions(sample):
         assert engine.handle(ActionCompleted(d.agent, d.index, 1.0)) == []
     assert engine.paused and not engine.stuck and engine.waiting()
     assert len(engine.handle(Resume(2.0))) > 50
+
+
+def test_a_freeze_sends_nothing_new_until_the_thaw_and_the_run_goes_on_meanwhile(sample):
+    """A look for a reroute in flight: completions count, nothing new is sent, the run is neither
+    paused (its clock runs) nor stuck; the thaw sends what was kept back, as pause and resume."""
+    engine = Engine(sample, "adg")
+    pending = engine.handle(Resume(0.0))
+    engine.handle(Freeze(0.5))
+    for d in pending:
+        assert engine.handle(ActionCompleted(d.agent, d.index, 1.0)) == []
+    assert engine.frozen and not engine.paused and not engine.stuck and engine.run.clock.steps(1.5) == 1.5
+    assert sum(engine.run.completed) == len(pending)
+    released = engine.handle(Thaw(1.5))
+    assert len(released) > 50 and not engine.frozen
+    assert engine.handle(Thaw(1.6)) == []  # a thaw when not frozen changes nothing
 
 
 def test_step_round_of_the_step_strategy_releases_exactly_one_plan_step(sample):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 import pytest
@@ -228,8 +228,9 @@ def test_a_proposal_a_rerouted_robot_moved_away_from_is_refused_on_accept_and_cl
     f = started("propose")
     f.hold_looks = True
     assert f.run_until(lambda: bool(f.looks), 10.0)
-    # robot 1's stall ends and it completes the move the look saw it stand in
-    assert f.run_until(lambda: f.core.run.engine.run.completed[0] >= 1, 20.0)
+    # robot 1's stall ends, it completes the move the look saw it stand in and is sent its next
+    # (completing the move alone would not be moving away: the plan starts it with that move)
+    assert f.run_until(lambda: f.core.run.engine.run.dispatched[0] >= 2, 20.0)
     f.finish_looks()  # the look comes back late: the proposal is made, stale already
     pid = f.core.run.rerouting.proposal_id
     assert pid is not None
@@ -452,9 +453,10 @@ def lab_with_a_stall(scope: str) -> MemoryFleet:
     return f
 
 
-def run_lab(f: MemoryFleet, lag: float = 0.0) -> List[float]:
+def run_lab(f: MemoryFleet, lag: float = 0.0, windows: Optional[List[Tuple[float, float]]] = None) -> List[float]:
     """Start and run to the end, each look's result reaching the loop `lag` s after it was asked for
-    (the robots move on meanwhile); the closest pair of true centres at each tick."""
+    (the robots move on meanwhile; each look's (asked, answered) times into `windows`); the closest
+    pair of true centres at each tick."""
     f.hold_looks = True
     ops = f.console()
     f.link_up()
@@ -469,6 +471,8 @@ def run_lab(f: MemoryFleet, lag: float = 0.0) -> List[float]:
             asked = f.now
         if f.looks and asked is not None and f.now - asked >= lag - 1e-9:
             f.finish_looks()
+            if windows is not None:
+                windows.append((asked, f.now))
             asked = None
     return seen
 
@@ -484,10 +488,34 @@ def test_scope_all_in_auto_mode_hands_over_a_new_plan_and_every_robot_arrives_sa
     assert f.core.run.rerouting.rule.scope == "all" and f.core.run.rerouting.looks >= 2
 
 
+def inside(t: float, windows: List[Tuple[float, float]]) -> bool:
+    """`t` (a record's time, rounded) strictly inside one of `windows`."""
+    return any(asked + 1e-6 < t < answered - 1e-6 for asked, answered in windows)
+
+
+def test_a_look_in_flight_sends_no_new_move_and_its_reroute_is_handed_over():
+    """Auto mode: while a look is in flight (here 0.8 s of fleet time, 0.4 plan steps) no move is
+    dispatched (the engine is frozen, robots finish the moves they had), so the robots it reroutes
+    are where its cut saw them and the reroute is handed over; then moves go on."""
+    f = lab_with_a_stall("all")
+    windows: List[Tuple[float, float]] = []
+    seen = run_lab(f, lag=0.8, windows=windows)
+    assert f.phase == "done" and f.at_goals() and min(seen) >= TURTLEBOT2.safe_cells - 0.01
+    assert f.kinds("reroute") and not f.kinds("reroute_dropped") and len(windows) >= 2
+    dispatched = [t for kind, t, _ in f.records if kind == "dispatch"]
+    assert not [t for t in dispatched if inside(t, windows)]
+    assert all([t for t in dispatched if answered - 1e-6 <= t < answered + 1.0] for _, answered in windows)
+
+
 def test_scope_all_drops_a_reroute_whose_robot_moved_before_the_hand_over_and_goes_on_safely():
     """A look that takes 2 s of fleet time: robot 5 has moved on by then, the hand-over drops the
     plan (recorded), the run goes on, every robot home."""
     f = lab_with_a_stall("all")
-    seen = run_lab(f, lag=2.0)
+    windows: List[Tuple[float, float]] = []
+    seen = run_lab(f, lag=2.0, windows=windows)
     assert f.phase == "done" and f.at_goals() and min(seen) >= TURTLEBOT2.safe_cells - 0.01
     assert f.kinds("reroute_dropped") and "moved since" in f.kinds("reroute_dropped")[0]["reason"]
+    # a look is not waited for beyond FREEZE plan steps (1 s here): moves are sent again meanwhile
+    late = [t for kind, t, _ in f.records if kind == "dispatch"
+            and any(asked + 1.0 <= t < answered for asked, answered in windows)]
+    assert late

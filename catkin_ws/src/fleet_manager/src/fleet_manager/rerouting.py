@@ -15,10 +15,16 @@ no clock:
 2. the result comes back as an input (`RunCore.reroute_ready`); a result for
    a plan that is no longer run, or that comes after the mode went off, the
    run paused or a replan was opened, is dropped without a word;
-3. `auto`: the core hands the run over at once against the LIVE engine
-   (`Run.reroute`); the hand-over re-checks the cut and refuses a plan the
-   robots have moved away from since (`HandoverError`): the reroute is
-   dropped with one operator line and a record, nothing changes.
+3. `auto`: while the look is in flight the engine sends no new move
+   (`Freeze`, for `FREEZE` plan steps at most: `freezes`; the run goes on,
+   robots finish the moves they were sent, the clock runs), then the core
+   hands the run over at once against the LIVE engine (`Run.reroute`) and
+   thaws the engine if it is still the run's (`Thaw`); the hand-over
+   re-checks the cut and refuses a plan the robots have moved away from
+   since (`HandoverError`, `Cut.moved`: sent a move or given one back, gone
+   out or come back; finishing a move sent at the cut is not moving away):
+   the reroute is dropped with one operator line and a record, nothing
+   changes.
    `propose`: the reroute is the consoles' proposal (the run does not pause);
    accept hands over as in auto, reject clears it (and no look is made for
    `REJECTED_PAUSE` plan steps), and it is dropped by itself as soon as a
@@ -26,17 +32,25 @@ no clock:
 
 Scope all (`RerouteRule(scope="all")`, `--reroute-scope all`): a look is due
 when some robot is late (not only held up), and the reroute gives new paths to
-every robot whose remaining path changes, often most of the fleet. Each of
-them that makes progress between the snapshot and the hand-over drops the
-plan, so at scale looks are wasted: with 300 robots on the move some robot
-completes a move every few milliseconds, and a look takes about 70 ms at 300
-robots. Measured through the manager (bench/manager.py, 300 virtual robots,
-bench/README.md "Rerouting through the manager at 300 robots"): 0 of 34
-handed over. On the lab plan (5 robots, bench/reroute_drops.py) a reroute of
-one robot is handed over with looks answering within 1 s of fleet time and
-dropped at 2 s. A dropped reroute changes nothing and the next look starts
-from the run as it is then. Robots whose path does not change may move
-meanwhile: the hand-over's fit check (`Engine.adopt`) decides for them.
+every robot whose remaining path changes, often most of the fleet. With 300
+robots on the move some robot completes a move every few milliseconds and a
+look takes about 200 ms from snapshot to hand-over through the manager, so
+without the freeze some rerouted robot was always sent a move meanwhile: 0
+of 34 handed over (bench/manager.py, 300 virtual robots); with it every one
+(13-22 a run), and the arena's run 24 % sooner than the ADG's (bench/README.md
+"Scope all through the manager"). The freeze costs a robot that completes
+during a look the rest of the look before its next move; in the simulator a
+look 0.26 steps long left the arena's makespan where it was. Why it is
+safe: it only withholds dispatches (rule 3 of the engine, as a pause does),
+never sends one, and ends when the look comes back, is given up, or at
+`FREEZE` steps; a robot frozen waits in its cell, which it holds, and a
+robot in the middle of a move finishes it under the same rules as ever (a
+follower's hold point still moves only on its leader's poses, so a stale or
+lost pose stops it short as before). A look that comes back later than
+that is mostly dropped (bench/reroute_drops.py: on the lab plan a reroute
+of one robot is handed over with looks answering within 1 s of fleet time
+and dropped at 2 s). A dropped reroute changes nothing and the next look
+starts from the run as it is then.
 
 A snapshot costs a deep copy of the engine (its immutable action table
 shared): see bench/README.md for the figure at 300 robots.
@@ -49,7 +63,7 @@ from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Sequence, Tu
 
 from fleet_common.execution import Engine
 from fleet_common.execution.cut import moved_on
-from fleet_common.execution.reroute import (EVERY, MODES, Reroute, RerouteRule, decide, expected_steps,
+from fleet_common.execution.reroute import (EVERY, FREEZE, MODES, Reroute, RerouteRule, decide, expected_steps,
                                             worth_a_look)
 from fleet_common.execution.reroute_plan import Maps
 from fleet_common.grid import Grid
@@ -57,9 +71,6 @@ from fleet_common.planning.deadline import Deadline
 
 #: Plan steps without a look after the operator rejected a reroute.
 REJECTED_PAUSE = 8.0
-#: Plan steps at most that a look in flight keeps new moves back (auto mode); at 300 robots a
-#: look takes about 70 ms, 0.03 of a 2.5 s step (0.11 at the bench's time scale 4).
-FREEZE = 0.5
 
 __all__ = ["Rerouting", "RerouteJob", "look", "snapshot", "moved_since", "moved_words", "MODES"]
 

@@ -400,6 +400,7 @@ class Run:
         (said to the operator and recorded, nothing changed) when the robots have moved since
         its cut (`handover`)."""
         ids = self.fleet.ids
+        look = round(now - found.cut.time, 3)  # s from the look's cut to now (the worker's time, or the operator's)
         try:
             new, dispatches = hand_over(self.engine, found, now)
         except HandoverError as err:
@@ -407,7 +408,7 @@ class Run:
             moved = moved_since(self.engine, found)
             why = "the reroute no longer fits: {}".format(
                 moved_words(moved, ids) + " since" if moved else err)
-            self.out.record("reroute_dropped", reason=why, robots=[ids[a] for a in found.agents])
+            self.out.record("reroute_dropped", reason=why, robots=[ids[a] for a in found.agents], look=look)
             self.out.tell(REROUTE, None, "reroute dropped: " + why)
             return why
         self.rerouting.done += 1
@@ -422,7 +423,7 @@ class Run:
                          base=list(base))
         self.out.record("reroute", robots=[ids[a] for a in found.agents], around=ids[found.around],
                         late=found.late, gain=found.gain, text=text, plan=plan_file(self.plan_id),
-                        base=list(base))
+                        base=list(base), look=look)
         self.out.tell(REROUTE, None, text)
         self.driver.hand_over(new, base, dispatches, now)
         self.engine = new

@@ -114,7 +114,7 @@ from .reroute_plan import Maps, Proposal, Reroute, new_start, plan_around
 from .lateness import behind, delayed, expected_steps, held_up, late_robots
 from .reroute_all import replan
 
-__all__ = ["MODES", "SCOPES", "EVERY", "RerouteError", "RerouteRule", "Reroute", "expected_steps", "behind",
+__all__ = ["MODES", "SCOPES", "EVERY", "FREEZE", "RerouteError", "RerouteRule", "Reroute", "expected_steps", "behind",
            "delayed", "held_up", "worth_a_look", "later_by", "decide", "Rerouter"]
 
 #: What `--reroute` accepts: never, ask the operator (the manager), or reroute at once.
@@ -132,6 +132,12 @@ SCOPES = ("held", "all")
 #: Plan steps between looks when `RerouteRule.every` is not given, per scope (chosen on
 #: bench/reroute.py's and bench/replan_all.py's tuning seeds).
 EVERY = {"held": 1.0, "all": 2.0}
+
+#: Plan steps at most that a look in flight keeps new moves back (`Freeze`, a live run in auto
+#: mode: `fleet_manager.rerouting`, and `Rerouter.lag` in the simulator). A robot sent a move
+#: during the look would leave the cut behind and drop the plan (`Cut.moved`); at 300 robots one
+#: always is. A look takes about 70 ms there, 0.03 of a 2.5 s step; a longer one is not waited for.
+FREEZE = 0.5
 
 
 @dataclass(frozen=True)
@@ -277,12 +283,16 @@ class Rerouter:
     only while some robot is held up), and keeps what it costs."""
 
     def __init__(self, grid: Grid, rule: Optional[RerouteRule] = None, timed: bool = True,
-                 clock: Callable[[], float] = time.perf_counter) -> None:
+                 clock: Callable[[], float] = time.perf_counter, lag: float = 0.0) -> None:
         """`timed`: searches stop after `rule.budget` seconds of `clock` (a live run); without,
-        they run to the end, so that a simulation gives the same run every time."""
+        they run to the end, so that a simulation gives the same run every time. `lag`: plan
+        steps from a look to its hand-over in the simulator, the robots going on meanwhile, new
+        moves frozen for `FREEZE` steps at most, as a live manager's worker thread makes it (0:
+        at once)."""
         self.maps = Maps(grid)
         self.rule = rule or RerouteRule()
         self.timed = timed
+        self.lag = lag
         self._clock = clock
         self._next = -1.0
         self._expected: Optional[Tuple[object, List[int]]] = None  # (run, its expected_steps)

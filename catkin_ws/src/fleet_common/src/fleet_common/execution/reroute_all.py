@@ -65,13 +65,14 @@ acyclic graph, as it runs any plan.
 
 With a live fleet (`fleet_manager.rerouting`) the look runs on a snapshot
 while the robots go on. `agents` (those whose remaining path changes, often
-most of the fleet) are the robots the hand-over checks: if any of them made
-progress between the snapshot and the hand-over, the plan is dropped
-(`HandoverError`). At scale that is most looks: with 300 robots moving, a
-plan step of 2.5 s, and a look of 25-50 ms plus the loop's turn, every look
-spans some robot's completion; in the lab (a few robots) it rarely does.
-Robots whose path is unchanged may move meanwhile: the fit check decides
-for them.
+most of the fleet) are the robots the hand-over checks: if any of them was
+sent a move between the snapshot and the hand-over, the plan is dropped
+(`HandoverError`, `Cut.moved`). At scale some robot always would be (300
+robots moving, a look of 25-200 ms), so in auto mode the manager sends no
+new move while a look is in flight (`Freeze`, at most `reroute.FREEZE`
+steps); a robot finishing a move it had been sent at the cut keeps the
+plan, which starts it with that move. Robots whose path is unchanged may
+move meanwhile: the fit check decides for them.
 
 Cost: two forecasts and one PIBT run of up to `4 x makespan + 200` steps with
 the steering (Python) per look: 25 ms at 300 robots on the bench's machine.

@@ -26,10 +26,12 @@ is disabled there; its in-flight moves are never cut short.
 
 With `reroute` (and the map, `grid`) the run may change plans as it goes
 (`reroute`: new paths for robots a late one holds up, when that pays): the
-engine is handed over to the new plan (`handover`) between two events, robots
-drive on with the moves they were sent, and a robot's k-th move of the run
-keeps its fate whatever plan it belongs to (moves beyond the plan's draw
-their own, from the same model and seed). A robot that
+engine is handed over to the new plan (`handover`) between two events (with
+`Rerouter.lag`, that many steps after the look, new moves frozen meanwhile
+for `reroute.FREEZE` steps at most, as a live manager does), robots drive on
+with the moves they were sent, and a robot's k-th move of the run keeps its
+fate whatever plan it belongs to (moves beyond the plan's draw their own,
+from the same model and seed). A robot that
 `RobotFailed` stops mid-move where it is: when it is enabled again it is sent
 the same action and drives on from there. With `journal=True` the run also
 keeps what a run log records (`SimResult.journal`: dispatches, starts,
@@ -54,15 +56,16 @@ from ..plan import Plan
 from ..robot_size import RobotSize
 from .approach import Approach, Safety, judge
 from .engine import Engine
-from .events import ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Resume, RobotFailed, Tick
+from .events import (ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Freeze, Resume, RobotFailed, Thaw,
+                     Tick)
 from .following import hold_fraction
 from .handover import HandoverError, hand_over, renumbered
 from .metrics import Metrics
 from .motion import Feedback, Motion
-from .reroute import Reroute, RerouteRule, Rerouter
+from .reroute import FREEZE, Reroute, RerouteRule, Rerouter
 from .trace import Collision, Trace, find_collisions
 
-_WAKE, _CONTROL, _RECHECK, _TICK = 0, 1, 2, 3
+_WAKE, _CONTROL, _RECHECK, _TICK, _LOOKED, _THAW = 0, 1, 2, 3, 4, 5
 _EPS = 1e-9
 
 
@@ -219,6 +222,7 @@ class _Simulation:
         self.rerouter: Optional[Rerouter] = None
         self.reroutes: List[Tuple[float, Reroute]] = []
         self.refused = 0  # reroutes whose hand-over was refused
+        self._looking = False  # a look's hand-over is on the heap (`Rerouter.lag`)
         self.handover_seconds = 0.0  # wall-clock seconds the hand-overs took (bench/reroute.py)
         self.wait: List[float] = fates.wait.tolist()
         self.drive: List[float] = (nominal * fates.slowdown).tolist()
@@ -260,6 +264,14 @@ class _Simulation:
             if kind == _TICK:
                 self._ticking = False
                 self._deliver(self.engine.handle(Tick(time)))
+            elif kind == _LOOKED:
+                self._looking = False
+                if payload is None:
+                    self._deliver(self.engine.handle(Thaw(time)))
+                else:
+                    self._hand_over(payload)
+            elif kind == _THAW:
+                self._deliver(self.engine.handle(Thaw(time)))
             elif kind == _CONTROL:
                 self._control(payload)
             else:
@@ -325,15 +337,30 @@ class _Simulation:
 
     def _reroute(self) -> None:
         assert self.rerouter is not None
-        found = self.rerouter.consider(self.engine, self.now)
-        if found is None:
+        if self._looking:
             return
+        looks = self.rerouter.looks
+        found = self.rerouter.consider(self.engine, self.now)
+        lag = self.rerouter.lag
+        if lag <= 0 or self.rerouter.looks == looks:
+            if found is not None:
+                self._hand_over(found)
+            return
+        # the manager's worker thread: every look's answer (a reroute or none) comes `lag` steps later
+        self._looking = True
+        self._deliver(self.engine.handle(Freeze(self.now)))
+        self._push(self.now + lag, _LOOKED, found)
+        if lag > FREEZE:
+            self._push(self.now + FREEZE, _THAW, None)
+
+    def _hand_over(self, found: Reroute) -> None:
         old = self.engine
         began = time.perf_counter()
         try:
             new, dispatches = hand_over(old, found, self.now)
         except HandoverError:  # never at the cut's own moment; a run goes on with its plan all the same
             self.refused += 1
+            self._deliver(old.handle(Thaw(self.now)))
             return
         shift = found.cut.base  # the hand-over is at the cut: a robot's moves from its base on
         for r in range(old.run.num_agents):

@@ -30,13 +30,15 @@ ignore what they do not know), so later versions can add detail.
                done already, by agent: a follower's move made before its leader left)
     reroute    robots [ids rerouted], around (the late robot's id), late (steps, null:
                out), gain (steps sooner, predicted), text (the operator's line), plan (its
-               file), base [by agent: the old plan's move the new plan starts with]: the
-               run was handed over to a reroute's plan without stopping (the `plan` record
-               before it); dispatches, actions and commands after it count in the new plan
+               file), base [by agent: the old plan's move the new plan starts with], look
+               (s from the look's cut to the hand-over): the run was handed over to a
+               reroute's plan without stopping (the `plan` record before it); dispatches,
+               actions and commands after it count in the new plan
     reroute_mode  mode ("off" | "propose" | "auto"), by (operator): the reroute mode switched
     reroute_proposed  proposal (id), robots, text: a reroute awaits the operator (propose mode)
-    reroute_dropped   reason, robots (optional): a reroute found was not handed over (the
-               robots moved since, a proposal gone stale, a look that failed); nothing changed
+    reroute_dropped   reason, robots and look (optional, as in reroute): a reroute found was
+               not handed over (the robots moved since, a proposal gone stale, a look that
+               failed); nothing changed
     state      run ("waiting" | "running" | "paused" | "stopped" | "done" |
                "failed"), reason
     strategy   name, settings {}, by ("start" | operator's console id)
