@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -23,11 +24,12 @@ from hypothesis import strategies as st
 from fleet_common.delays import DelayModel, EventDelays
 from fleet_common.execution import cut as cut_module
 from fleet_common.execution import engine as engine_module
+from fleet_common.execution.motion import Feedback
 from fleet_common.execution.reroute import FREEZE, RerouteRule, Rerouter
 from fleet_common.execution.simulate import simulate
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.validate import validate_plan
-from random_runs import PLAN_SEEDS, random_problem, sizes
+from random_runs import PLAN_SEEDS, operator_actions, random_problem, sizes
 from test_execution_reroute import assert_safe_and_complete
 
 #: The controls' runs: 4 maps x 6 delay seeds, p = 0.2, robots of the lab's size, a look 0.3 steps long.
@@ -49,6 +51,28 @@ def test_a_look_that_takes_time_is_handed_over_safely_and_every_robot_arrives(pl
     assert_safe_and_complete(plan, grid, size, result)  # every hand-over accepted among them
     for _, reroute in result.reroutes:
         assert validate_plan(reroute.plan, grid, strict_rotations=True).ok
+
+
+def test_a_look_that_takes_time_beside_the_operators_hand_stays_safe_and_every_robot_arrives():
+    """Looks that take time while the operator acts: faults and disables (cleared again) and
+    switches between every strategy, some of them during a look; a robot that goes out or comes
+    back during a look drops its plan (nothing changes). Every run safe, every robot home."""
+    rerouted = 0
+    for plan_seed in PLAN_SEEDS[:12]:
+        for seed in range(3):
+            plan, grid = random_problem(plan_seed)
+            rng = np.random.default_rng([plan_seed, seed, 2611])
+            size = TURTLEBOT2 if seed % 2 else cell_sized()
+            model = DelayModel(events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.3)), 1, 5))
+            rerouter = Rerouter(grid, RerouteRule(scope=("held", "all")[(plan_seed + seed) % 2]), timed=False,
+                                lag=float(rng.uniform(0.05, FREEZE + 0.5)))
+            start = ("adg", "reorder", "step")[(plan_seed + seed) % 3]
+            result = simulate(plan, start, model, seed=seed, size=size, reroute=rerouter, grid=grid,
+                              controls=operator_actions(plan, rng, plan.makespan),
+                              feedback=Feedback(0.05, float(rng.uniform(0.0, 0.3))))
+            assert_safe_and_complete(plan, grid, size, dataclasses.replace(result, refused=0))
+            rerouted += bool(result.reroutes)
+    assert rerouted >= 6
 
 
 @pytest.mark.parametrize("scope", ["held", "all"])
@@ -104,3 +128,16 @@ def test_control_taking_a_plan_a_robot_was_sent_a_move_away_from_is_caught(monke
             assert "cannot move" in str(err)
             caught += 1
     assert caught > 0
+
+
+@pytest.mark.parametrize("scope", ["held", "all"])
+def test_a_run_a_robot_out_for_good_holds_up_still_ends(scope):
+    """Looks go on while a robot out for good holds others up; once nothing else is to happen the
+    simulation ends (stuck), as without a lag: no look is waited for then."""
+    for plan_seed in PLAN_SEEDS[:6]:
+        plan, grid = random_problem(plan_seed)
+        model = DelayModel(events=EventDelays("bernoulli", 0.2, 1, 5))
+        result = simulate(plan, "adg", model, seed=1, size=TURTLEBOT2, grid=grid, disable={0: 2},
+                          reroute=Rerouter(grid, RerouteRule(scope=scope), timed=False, lag=FREEZE + 0.3))
+        assert result.finished or 0 in result.engine.out_agents()
+        assert result.safety.violations == ()

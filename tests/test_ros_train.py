@@ -64,7 +64,10 @@ def test_a_follower_stops_short_of_a_simulated_turtlebot_held_mid_move(tmp_path:
     out = manager.text()
     assert "arrived: 2/2" in out and "collisions: 0" in out, out
     assert max(leader[5:]) - min(leader[5:]) < 0.01  # the leader was held still
-    gap = (min(leader) - max(follower)) * GridFrame().cell_size()
+    # against where the leader was held: a loaded machine may let it roll on a few centimetres
+    # after the hold is published (the first samples), and the follower keeps its distance from
+    # the leader's poses, which only move on
+    gap = (min(leader[5:]) - max(follower)) * GridFrame().cell_size()
     # it drove up behind the leader and stopped short: closer than a whole cell, not closer than
     # the safe distance but for the localization and braking the margin is there for
     assert TURTLEBOT2.safe - 0.05 <= gap < 0.6, (gap, follower[-5:])

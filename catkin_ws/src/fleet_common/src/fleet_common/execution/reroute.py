@@ -321,6 +321,13 @@ class Rerouter:
             self.found_seconds += spent
         return found
 
+    def wanted(self, engine: Engine, now: float) -> bool:
+        """Whether a live manager would have asked for the look `consider` just took
+        (`worth_a_look`: it asks only while some robot is held up, scope all: late)."""
+        if self._expected is None or self._expected[0] is not engine.run:
+            self._expected = (engine.run, expected_steps(engine))
+        return worth_a_look(engine, now, self.rule, self._expected[1])
+
     def restart(self) -> None:
         """A new plan's clock starts at 0: look again a while after its start."""
         self._next = self.rule.pace

@@ -342,7 +342,10 @@ class _Simulation:
         looks = self.rerouter.looks
         found = self.rerouter.consider(self.engine, self.now)
         lag = self.rerouter.lag
-        if lag <= 0 or self.rerouter.looks == looks:
+        # the looks a manager asks for take `lag`; none while nothing else is to happen (the run
+        # is stuck: a robot out for good), where waiting would change nothing and never end
+        if (lag <= 0 or self.rerouter.looks == looks or not self.heap
+                or (found is None and not self.rerouter.wanted(self.engine, self.now))):
             if found is not None:
                 self._hand_over(found)
             return
