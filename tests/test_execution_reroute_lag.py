@@ -49,6 +49,7 @@ def run(plan_seed: int, seed: int, size: RobotSize, p: float, scope: str, lag: f
 def test_a_look_that_takes_time_is_handed_over_safely_and_every_robot_arrives(plan_seed, seed, size, p, scope, lag):
     plan, grid, result = run(plan_seed, seed, size, p, scope, lag)
     assert_safe_and_complete(plan, grid, size, result)  # every hand-over accepted among them
+    assert result.metrics.total_held_time == 0.0  # no operator: the looks' waits are avoidable
     for _, reroute in result.reroutes:
         assert validate_plan(reroute.plan, grid, strict_rotations=True).ok
 

@@ -504,6 +504,7 @@ def test_a_look_in_flight_sends_no_new_move_and_its_reroute_is_handed_over():
     assert f.kinds("reroute") and not f.kinds("reroute_dropped") and len(windows) >= 2
     dispatched = [t for kind, t, _ in f.records if kind == "dispatch"]
     assert not [t for t in dispatched if inside(t, windows)]
+    assert f.core.summary().held == 0.0  # nobody was held by an operator: the waits are the rerouting's
     # each answer (a reroute or none) thaws the run at once, not at the freeze's bound (asked + 1 s)
     assert all([t for t in dispatched if answered - 1e-6 <= t <= answered + 0.1] for _, answered in windows)
 

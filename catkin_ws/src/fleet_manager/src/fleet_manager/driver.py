@@ -46,7 +46,7 @@ from typing import Callable, Optional, Sequence
 
 from fleet_common.angles import heading, wrap_angle
 from fleet_common.execution import (ActionCompleted, ActionStarted, Dispatch, Enabled, Engine,
-                                    EventError, Pass, RobotFailed, Tick)
+                                    EventError, Pass, RobotFailed, Thaw, Tick)
 from fleet_common.execution.handover import renumbered
 from fleet_common.grid import Coord
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
@@ -110,7 +110,7 @@ class Driver:
         if len(run.passes) > passes:
             self._passed(run.passes[passes:])
         released = getattr(event, "agent", None) if isinstance(event, (ActionCompleted, Enabled)) else None
-        self._queue(dispatches, released)
+        self._queue(dispatches, released, "reroute" if isinstance(event, Thaw) else None)
         if isinstance(event, (ActionStarted, ActionCompleted, RobotFailed, Tick)):
             # progress frees only the robots dispatched now (and the robot itself, for its next turn)
             targets: Sequence[int] = sorted({d.agent for d in dispatches} | (
@@ -120,8 +120,9 @@ class Driver:
         for agent in targets:
             self.pump(self.robots[agent], now)
 
-    def _queue(self, dispatches: Sequence[Dispatch], released: Optional[int]) -> None:
-        """The engine's decisions into the robots' queues (and the run log)."""
+    def _queue(self, dispatches: Sequence[Dispatch], released: Optional[int], cause: Optional[str] = None) -> None:
+        """The engine's decisions into the robots' queues (and the run log; `cause` "reroute": the
+        rerouting ended their waits, not the operator)."""
         waits, forced = self.engine.metrics.last_wait, self.engine.metrics.last_forced
         for d in dispatches:
             robot = self.robots[d.agent]
@@ -129,7 +130,8 @@ class Driver:
             waited = waits.pop(d.agent, 0.0)  # a robot sent two actions at once waited once
             self.out.record("dispatch", robot=robot.id, index=d.index, step=d.step, src=d.src,
                             dst=d.dst, waited=round(waited, 3), forced=round(forced.pop(d.agent, 0.0), 3),
-                            released_by=None if released is None else self.robots[released].id)
+                            released_by=None if released is None else self.robots[released].id,
+                            **({} if cause is None else {"cause": cause}))
 
     def hand_over(self, engine: Engine, base: Sequence[int], dispatches: Sequence[Dispatch],
                   now: float) -> None:
@@ -146,7 +148,7 @@ class Driver:
                 shifted = flight.index - base[robot.agent]
                 # a turn towards an old plan's move beyond the new plan's is a turn for nothing
                 flight.index = shifted if 0 <= shifted < run.count(robot.agent) else None
-        self._queue(dispatches, None)
+        self._queue(dispatches, None, "reroute")
         for robot in self.robots:
             self.pump(robot, now)
 

@@ -139,7 +139,9 @@ class Engine:
         agents, released_by = handler(event)
         self.run.version += 1
         self.metrics.record(event)
-        return self._dispatch(agents, released_by, event.time)  # type: ignore[attr-defined]
+        # a thaw ends waits the rerouting made, not the operator (the metrics' "held")
+        return self._dispatch(agents, released_by, event.time,  # type: ignore[attr-defined]
+                              operator=not isinstance(event, Thaw))
 
     @property
     def paused(self) -> bool:
@@ -458,7 +460,7 @@ class Engine:
         out: List[Dispatch] = []
         charged = released_by or {}
         for r in range(n):
-            out += self._dispatch([r], charged.get(r), time)
+            out += self._dispatch([r], charged.get(r), time, operator=False)
         return out
 
     def _misfit(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
@@ -513,7 +515,8 @@ class Engine:
         return max(0.0, min(end, there) - ready) + max(0.0, end - max(ready, sent))
 
     # ---- decisions ----------------------------------------------------------------------
-    def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float) -> List[Dispatch]:
+    def _dispatch(self, robots: Sequence[int], released_by: Optional[int], time: float,
+                  operator: bool = True) -> List[Dispatch]:
         run, strategy, cap, frozen = self.run, self.strategy, self._cap, self._frozen
         out: List[Dispatch] = []
         self._out = out
@@ -565,7 +568,7 @@ class Engine:
                 if leader is not None:
                     early[a] = d
                 out.append(Dispatch(r, k, step[a], coord(run.src[a]), coord(run.dst[a]), leader))
-                self.metrics.record_dispatch(r, k, time, by, forced)
+                self.metrics.record_dispatch(r, k, time, by, forced, operator)
                 if follow and succ[a] >= 0 and not done[a]:
                     todo.append(agent[succ[a]])  # its follower may go now too
                 a += 1

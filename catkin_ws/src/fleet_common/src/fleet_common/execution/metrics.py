@@ -6,7 +6,8 @@ previous one completed, the run started, or it was enabled again) until that
 action is dispatched; a wait is charged to the robot whose completion
 released it (the leader it followed, the last robot of a step barrier, a
 robot enabled again), or to "held" when the operator released it (resume,
-step, strategy switch). The executed makespan is the last completion; the
+step, strategy switch); a wait the rerouting ended (a look that kept new moves
+back, `Thaw`, or the hand-over to its plan) is neither: it counts as avoidable. The executed makespan is the last completion; the
 sum of costs adds each robot's arrival (its last completion, 0 if it never
 moves) over the robots that reached their goals.
 
@@ -133,9 +134,10 @@ class Metrics:
         return self._ready[agent]
 
     def record_dispatch(self, agent: int, index: int, time: float, released_by: Optional[int],
-                        forced: float = 0.0) -> None:
+                        forced: float = 0.0, operator: bool = True) -> None:
         """Robot `agent` was sent its action `index` at `time`; `forced`: how much of the wait
-        that ends here was forced (see the module docstring)."""
+        that ends here was forced (see the module docstring); `operator`: False when what ended it
+        without a robot (`released_by` None) was not the operator but the rerouting."""
         index += self.offset[agent]
         self._ahead[agent] = max(self._ahead[agent], index + 1)
         if index == self._done[agent] and self._busy[agent] is None:
@@ -154,7 +156,8 @@ class Metrics:
         m.waits += 1
         m.wait_time += waited
         if released_by is None or released_by == agent:
-            m.held_time += waited
+            if operator:
+                m.held_time += waited
         else:
             m.forced_time += min(max(forced, 0.0), waited)
             m.blocked_by[released_by] = m.blocked_by.get(released_by, 0.0) + waited

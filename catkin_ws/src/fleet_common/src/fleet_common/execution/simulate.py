@@ -236,7 +236,7 @@ class _Simulation:
         self._waits_seen: object = ()
         self._passes_seen = 0
         self._ticking = False  # a Tick is on the heap
-        self._charged: Dict[int, Tuple[float, float, Dict[int, float]]] = {}
+        self._charged: Dict[int, Tuple[float, float, Dict[int, float], float]] = {}
         # the ordinal of the move before which each robot to disable stops (its first of that step)
         self.disable = {r: k for r, k in ((r, self._first_at(engine, r, step)) for r, step in disable.items())
                         if k is not None}
@@ -560,9 +560,10 @@ class _Simulation:
         for d in dispatches:
             self.queue[d.agent].append(d)
             if self.journal is not None:
-                waited, forced, by = self._waited(d.agent)
+                waited, forced, by, held = self._waited(d.agent)
+                cause = {} if by is not None or held >= waited else {"cause": "reroute"}  # not the operator
                 self._note("dispatch", robot=d.agent, index=d.index, step=d.step, src=d.src, dst=d.dst,
-                           waited=waited, forced=forced, released_by=by)
+                           waited=waited, forced=forced, released_by=by, **cause)
         for d in dispatches:
             self._try_start(d.agent)
 
@@ -572,16 +573,17 @@ class _Simulation:
         if self.journal is not None:
             self.journal.append((self.now, kind, fields))
 
-    def _waited(self, r: int) -> Tuple[float, float, Optional[int]]:
+    def _waited(self, r: int) -> Tuple[float, float, Optional[int], float]:
         """What the metrics charged robot r since its last dispatch: time waited, of it forced,
-        and to whom."""
+        to whom, and of it held by the operator."""
         m = self.engine.metrics.agents[r]
-        seen = self._charged.get(r, (0.0, 0.0, {}))
+        seen = self._charged.get(r, (0.0, 0.0, {}, 0.0))
         waited = m.wait_time - seen[0]
         forced = m.forced_time - seen[1]
+        held = m.held_time - seen[3]
         by = next((q for q, t in m.blocked_by.items() if t > seen[2].get(q, 0.0)), None)
-        self._charged[r] = (m.wait_time, m.forced_time, dict(m.blocked_by))
-        return round(waited, 6), round(forced, 6), by
+        self._charged[r] = (m.wait_time, m.forced_time, dict(m.blocked_by), m.held_time)
+        return round(waited, 6), round(forced, 6), by, round(held, 6)
 
     def _note_waits(self) -> None:
         waits = tuple((w.agent, w.on, w.cell, w.reason) for w in self.engine.waiting())

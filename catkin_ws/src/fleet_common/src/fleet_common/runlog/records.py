@@ -51,7 +51,9 @@ ignore what they do not know), so later versions can add detail.
     reply      robot, id, type ("accepted" | "completed" | "failed" | "status"),
                reason (failed), duplicate (accepted)
     dispatch   robot, index, step, src, dst, waited (s the robot was ready
-               before it), released_by (robot id or null)
+               before it), released_by (robot id or null: the operator, unless cause
+               says otherwise), cause (optional: "reroute" when the rerouting ended the
+               wait, a look that kept new moves back or the hand-over to its plan)
     action     robot, index, phase ("started" | "completed"), src, dst
     out        robot, why ("disabled" | "failed" | null = back in), reason
     pass       robot, passed (robot ids), cell [x, y], taken_back (bool), index,

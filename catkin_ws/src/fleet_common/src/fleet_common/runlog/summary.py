@@ -232,8 +232,8 @@ class SummaryBuilder:
     def _dispatch(self, record: Record, t: float) -> None:
         waited = float(record.get("waited") or 0.0)
         self.wait += waited
-        if record.get("released_by") is None:
-            self.held += waited
+        if record.get("released_by") is None and record.get("cause") is None:
+            self.held += waited  # no robot released it, nor the rerouting: the operator did
         elif "forced" not in record:
             self.forced = None
         elif self.forced is not None:
