@@ -19,8 +19,8 @@ robots it planned for have moved away from it since (`moved`): been sent a
 move, given one back (a fault, a re-ordering's take-back), gone out or come
 back. Beginning and completing the moves a robot had been sent at the cut is
 not moving away: a plan from the cut starts the robot with those very moves,
-so that progress carries over one to one (`moved_on`). A look that takes tens
-of milliseconds at 300 robots spans some robot's completion nearly always;
+so that progress carries over one to one (`moved_on`). A look that takes
+some 200 ms at 300 robots spans some robot's completion nearly always;
 counting that as moving away dropped every such look.
 """
 from __future__ import annotations
