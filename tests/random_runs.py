@@ -13,7 +13,7 @@ from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.planning import solve
 from fleet_common.planning.problem import InvalidProblemError
-from fleet_common.robot_size import RobotSize
+from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 
 _PLANS: Dict[int, Tuple[Plan, Grid]] = {}
 
@@ -94,3 +94,14 @@ def operator_actions(plan: Plan, rng: np.random.Generator, horizon: float) -> li
         strategy = reorders(rng) if name == "reorder" else make_strategy(name)
         controls.append(SwitchStrategy(strategy, float(rng.uniform(0.0, horizon))))
     return sorted(controls, key=lambda c: c.time)
+
+
+def operator_case(plan_seed: int, seed: int, salt: int) -> Tuple[Plan, Grid, np.random.Generator, RobotSize, DelayModel]:
+    """One run of the tests beside the operator's hand: the random problem, a generator seeded by
+    (plan_seed, seed, salt) for the rest of the run's draws, robots of the lab's size on odd seeds
+    (else as large as a cell), LoRR delays at a p drawn between 0.1 and 0.3."""
+    plan, grid = random_problem(plan_seed)
+    rng = np.random.default_rng([plan_seed, seed, salt])
+    size = TURTLEBOT2 if seed % 2 else cell_sized()
+    model = DelayModel(events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.3)), 1, 5))
+    return plan, grid, rng, size, model

@@ -34,7 +34,7 @@ from fleet_common.execution.simulate import simulate
 from fleet_common.grid import Grid
 from fleet_common.plan import Plan
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
-from random_runs import PLAN_SEEDS, operator_actions, random_problem
+from random_runs import PLAN_SEEDS, operator_actions, operator_case, random_problem
 
 STRATEGIES = ("adg", "step", "reorder")
 EAGER = RerouteRule(gap=1, margin=1.0, cost=0.5, per_move=0.2)
@@ -102,10 +102,7 @@ def test_rerouting_beside_the_operators_hand_stays_safe_and_every_robot_arrives(
     rerouted = around_out = total = 0
     for plan_seed in PLAN_SEEDS[:12]:
         for seed in range(3):
-            plan, grid = random_problem(plan_seed)
-            rng = np.random.default_rng([plan_seed, seed, 28])
-            size = TURTLEBOT2 if seed % 2 else cell_sized()
-            model = DelayModel(events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.3)), 1, 5))
+            plan, grid, rng, size, model = operator_case(plan_seed, seed, 28)
             controls = operator_actions(plan, rng, plan.makespan)
             start = STRATEGIES[(plan_seed + seed) % 3]
             result = simulate(plan, start, model, seed=seed, size=size, reroute=EAGER, grid=grid,

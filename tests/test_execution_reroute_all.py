@@ -22,7 +22,7 @@ from fleet_common.execution.reroute import RerouteRule
 from fleet_common.execution.simulate import simulate
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.validate import validate_plan
-from random_runs import PLAN_SEEDS, operator_actions, random_problem, sizes
+from random_runs import PLAN_SEEDS, operator_actions, operator_case, random_problem, sizes
 from test_execution_reroute import assert_safe_and_complete
 
 ALL = RerouteRule(scope="all")
@@ -56,10 +56,7 @@ def test_rerouting_every_robot_beside_the_operators_hand_stays_safe_and_every_ro
     rerouted = total = 0
     for plan_seed in PLAN_SEEDS[:12]:
         for seed in range(3):
-            plan, grid = random_problem(plan_seed)
-            rng = np.random.default_rng([plan_seed, seed, 2026])
-            size = TURTLEBOT2 if seed % 2 else cell_sized()
-            model = DelayModel(events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.3)), 1, 5))
+            plan, grid, rng, size, model = operator_case(plan_seed, seed, 2026)
             controls = operator_actions(plan, rng, plan.makespan)
             start = ("adg", "reorder", "step")[(plan_seed + seed) % 3]
             result = simulate(plan, start, model, seed=seed, size=size, reroute=ALL, grid=grid,

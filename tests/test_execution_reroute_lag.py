@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import itertools
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -29,7 +28,7 @@ from fleet_common.execution.reroute import FREEZE, RerouteRule, Rerouter
 from fleet_common.execution.simulate import simulate
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.validate import validate_plan
-from random_runs import PLAN_SEEDS, operator_actions, random_problem, sizes
+from random_runs import PLAN_SEEDS, operator_actions, operator_case, random_problem, sizes
 from test_execution_reroute import assert_safe_and_complete
 
 #: The controls' runs: 4 maps x 6 delay seeds, p = 0.2, robots of the lab's size, a look 0.3 steps long.
@@ -61,10 +60,7 @@ def test_a_look_that_takes_time_beside_the_operators_hand_stays_safe_and_every_r
     rerouted = 0
     for plan_seed in PLAN_SEEDS[:12]:
         for seed in range(3):
-            plan, grid = random_problem(plan_seed)
-            rng = np.random.default_rng([plan_seed, seed, 2611])
-            size = TURTLEBOT2 if seed % 2 else cell_sized()
-            model = DelayModel(events=EventDelays("bernoulli", float(rng.uniform(0.1, 0.3)), 1, 5))
+            plan, grid, rng, size, model = operator_case(plan_seed, seed, 2611)
             rerouter = Rerouter(grid, RerouteRule(scope=("held", "all")[(plan_seed + seed) % 2]), timed=False,
                                 lag=float(rng.uniform(0.05, FREEZE + 0.5)))
             start = ("adg", "reorder", "step")[(plan_seed + seed) % 3]

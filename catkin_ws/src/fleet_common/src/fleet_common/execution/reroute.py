@@ -309,10 +309,8 @@ class Rerouter:
             return None
         self._next = steps + self.rule.pace
         began = self._clock()
-        if self._expected is None or self._expected[0] is not engine.run:
-            self._expected = (engine.run, expected_steps(engine))
         found = decide(engine, self.maps, now, self.rule,
-                       Deadline(self.rule.budget if self.timed else None, self._clock), self._expected[1])
+                       Deadline(self.rule.budget if self.timed else None, self._clock), self._expected_of(engine))
         spent = self._clock() - began
         self.looks += 1
         self.seconds += spent
@@ -324,9 +322,13 @@ class Rerouter:
     def wanted(self, engine: Engine, now: float) -> bool:
         """Whether a live manager would have asked for the look `consider` just took
         (`worth_a_look`: it asks only while some robot is held up, scope all: late)."""
+        return worth_a_look(engine, now, self.rule, self._expected_of(engine))
+
+    def _expected_of(self, engine: Engine) -> List[int]:
+        """The engine's `expected_steps`, computed once per plan."""
         if self._expected is None or self._expected[0] is not engine.run:
             self._expected = (engine.run, expected_steps(engine))
-        return worth_a_look(engine, now, self.rule, self._expected[1])
+        return self._expected[1]
 
     def restart(self) -> None:
         """A new plan's clock starts at 0: look again a while after its start."""
