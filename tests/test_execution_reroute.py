@@ -412,3 +412,53 @@ def test_later_by_spares_robots_well_before_the_makespan():
     assert later_by(before, proposal, 0.5, 13.5) == 1.0  # robot 0 is spared, robot 1 is not
     assert later_by(before, proposal, 0.5, 9.5) == 5.0  # robot 0: 9, and 1 for its 2 moves more, is past 9.5
     assert later_by(before, proposal, 0.5, 20.0) == 0.0  # nobody past the makespan
+
+
+# robot 2 winds through rows 3-6 on 19 moves to (0, 3), 3 moves from its start: nobody holds it
+# up, yet it is the robot predicted last; robots 0 and 1 are the crossing above (padded)
+_SNAKE = [(0, 6), (1, 6), (2, 6), (3, 6), (4, 6), (4, 5), (3, 5), (2, 5), (1, 5), (0, 5),
+          (0, 4), (1, 4), (2, 4), (3, 4), (4, 4), (4, 3), (3, 3), (2, 3), (1, 3), (0, 3)]
+_PAD = len(_SNAKE) - len(CROSS.positions)
+WINDING = Plan(np.array([[*row, step] for row, step in zip(
+    np.concatenate([CROSS.positions, np.repeat(CROSS.positions[-1:], _PAD, axis=0)]).tolist(), _SNAKE)],
+    dtype=np.int32))
+TALL = Grid(np.ones((7, 5), dtype=bool))
+
+
+def winding_with_a_late_robot() -> Engine:
+    """At step 6: L has not begun its first move (H waits for it), robot 2 made 6 moves on time."""
+    engine = Engine(WINDING)
+    engine.handle(Resume(0.0))
+    for k in range(6):
+        engine.handle(ActionStarted(2, k, float(k)))
+        engine.handle(ActionCompleted(2, k, float(k + 1)))
+    return engine
+
+
+def test_the_robot_predicted_last_may_be_given_a_shorter_way_when_the_rule_says_so():
+    """`critical`: a look (some robot is held up) also tries a shortest way for the robots
+    predicted within `critical` steps of the makespan that would arrive sooner by one, held up or
+    not. Robot 2 is not held up and arrives last; with `critical` it is rerouted onto a shortest
+    way, without it only the crossing's robots are."""
+    engine = winding_with_a_late_robot()
+    assert held_up(engine, 6.0, 1) == {0: [1]}
+    before = earliest_starts(engine.run, ready_steps(engine.run, 6.0), engine.follow, cut_of(engine, 6.0).base)
+    assert before.makespan == before.arrival[2] == 13  # its 13 moves left, nobody in its way
+    assert before.arrival[:2] == [10, 11]  # L stands as long again, H goes after it
+    plain = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule())
+    assert plain is not None and 2 not in plain.agents and plain.after == 13  # the makespan stays robot 2's
+    found = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=1.0))
+    assert found is not None and found.agents == (2,) and found.late == 6 and found.after == 11
+    way = [(int(x), int(y)) for x, y in found.plan.path(2)]
+    way = [c for i, c in enumerate(way) if i == 0 or c != way[i - 1]]
+    # its move sent (into (2, 5)) is kept, then a shortest way on: 4 moves to (0, 3)
+    assert way[0] == (3, 5) and way[1] == (2, 5) and len(way) - 2 == 4 and way[-1] == (0, 3)
+    # within 3 steps of the makespan H is tried too: both get new ways in one variant
+    both = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=3.0))
+    assert both is not None and both.agents == (1, 2) and both.after == 10
+
+
+def test_a_rule_setting_out_of_range_is_refused_with_its_name():
+    with pytest.raises(Exception, match="critical"):
+        RerouteRule(critical=-1.0)
+    assert RerouteRule(critical=0.0).critical == 0.0 and RerouteRule().critical is None

@@ -41,6 +41,12 @@ that could arrive sooner by a shortest path, or both:
    makespan may be more than 1 step later (`slack=None`: nobody at all,
    the rule before the slack).
 
+With `critical` set (an experiment, off by default) a look, once some
+robot is held up, also tries one more variant: the robots predicted within
+`critical` steps of the makespan that a shortest way would bring in
+sooner, held up or not. The makespan is their arrival, and a plan may
+have them wind (a LaCAM plan does); the same rule decides whether it pays.
+
 Scope. `RerouteRule.scope` says whom a reroute may give new paths: "held"
 (the default: the rule above) or "all": every robot replanned from the cut
 by PIBT when the predicted makespan drops by `margin` steps
@@ -164,6 +170,10 @@ class RerouteRule:
     slack: Optional[float] = 5.0  # `later` spares robots predicted this many steps or more before the makespan
     scope: str = "held"     # whom a reroute may give new paths (SCOPES)
     clear: Optional[float] = 20.0  # scope all: robots predicted this near the last arrival steered into free cells
+    #: held scope: a look also tries new shortest paths for the robots predicted this near the
+    #: makespan that one would bring in sooner, held up or not (None: only held-up robots; an
+    #: experiment, bench/README.md "The robots predicted last")
+    critical: Optional[float] = None
 
     def __post_init__(self) -> None:
         if self.scope not in SCOPES:
@@ -175,9 +185,10 @@ class RerouteRule:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UnknownStrategyError("reroute {} must be a whole number >= 1, got {!r}".format(key, value))
-        for key in ("margin", "cost", "every", "budget", "later", "per_move", "per_turn", "slack", "clear"):
+        for key in ("margin", "cost", "every", "budget", "later", "per_move", "per_turn", "slack", "clear",
+                    "critical"):
             value = getattr(self, key)
-            if key in ("slack", "clear") and value is None:  # None: `later` holds for every robot; no steering
+            if key in ("slack", "clear", "critical") and value is None:  # None: see the field
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
                 raise UnknownStrategyError("reroute {} must be a number >= 0, got {!r}".format(key, value))
@@ -243,27 +254,33 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     best: Optional[Tuple[float, Proposal, int]] = None
     # the makespan is the last robot's arrival: a robot predicted well before it may arrive later
     spared = None if rule.slack is None else before.makespan - rule.slack
+    variants: List[Tuple[int, List[int]]] = []  # (the late robot, the robots given new paths)
+    for late, held in ranked[:rule.tries]:
+        gaining = [h for h in held if potential(h) > rule.margin]
+        alone = run.out[late] is None and run.dispatched[late] < run.count(late)
+        if alone:
+            variants.append((late, [late]))
+        if gaining:
+            variants.append((late, gaining))
+            if alone:
+                variants.append((late, gaining + [late]))
+    if rule.critical is not None:  # the makespan is the last robots' arrival: a shorter way for them
+        last = [h for h in range(run.num_agents) if before.arrival[h] >= before.makespan - rule.critical
+                and run.out[h] is None and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
+        if last:
+            variants.append((ranked[0][0], last))
     try:
-        for late, held in ranked[:rule.tries]:
-            gaining = [h for h in held if potential(h) > rule.margin]
-            variants: List[List[int]] = []
-            if run.out[late] is None and run.dispatched[late] < run.count(late):
-                variants.append([late])
-            if gaining:
-                variants.append(gaining)
-                if variants[0] == [late]:
-                    variants.append(gaining + [late])
-            for chosen in variants:
-                proposal = plan_around(run, grid, maps, before, ready, follow, base, chosen, deadline)
-                if proposal is None:
-                    continue
-                # a move more is a step more, and its expected delay; a quarter turn more, its time
-                gain = (sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
-                        - rule.per_turn * sum(proposal.turns.values()))
-                net = gain - rule.cost * len(chosen)
-                worse = later_by(before.arrival, proposal, rule.per_move, spared, rule.per_turn)
-                if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
-                    best = (net, proposal, late)
+        for late, chosen in variants:
+            proposal = plan_around(run, grid, maps, before, ready, follow, base, chosen, deadline)
+            if proposal is None:
+                continue
+            # a move more is a step more, and its expected delay; a quarter turn more, its time
+            gain = (sum(before.arrival) - sum(proposal.arrival) - rule.per_move * sum(proposal.more.values())
+                    - rule.per_turn * sum(proposal.turns.values()))
+            net = gain - rule.cost * len(chosen)
+            worse = later_by(before.arrival, proposal, rule.per_move, spared, rule.per_turn)
+            if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
+                best = (net, proposal, late)
     except DeadlineReached:
         pass  # what was found so far
     if best is None:
