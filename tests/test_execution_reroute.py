@@ -316,6 +316,33 @@ def test_a_follower_whose_leader_went_out_is_handed_over_still_following_it():
         Engine(TRAIN, follow=True).adopt(old, [(0, 0, False), (0, 1, True)], 1.0)
 
 
+def test_a_follower_in_before_its_leader_went_out_is_handed_over_behind_it():
+    """Robot 1 completed its move into the cell robot 0 was leaving (it followed), then robot 0
+    failed and its move was taken back. The cut's plan starts robot 1 with that move, done, behind
+    robot 0's move out, not made: the run is in that state already, so the plan fits (once it was
+    refused, and every reroute with it while robot 0 was out). Had the old plan not had robot 1
+    behind that very move, the same plan would not fit."""
+    def in_then_failed() -> Engine:
+        engine = Engine(TRAIN, follow=True)
+        engine.handle(Resume(0.0))
+        engine.handle(ActionStarted(0, 0, 0.1))
+        engine.handle(ActionStarted(1, 0, 0.2))
+        engine.handle(ActionCompleted(1, 0, 0.4))  # in, before its leader has left
+        engine.handle(RobotFailed(0, 0.5))
+        assert engine.run.completed == [0, 1] and engine.run.dispatched == [0, 1]
+        assert cut_of(engine, 1.0).base == (0, 0)  # robot 1's move is made again in the new plan
+        return engine
+
+    new = Engine(TRAIN, follow=True)
+    new.adopt(in_then_failed(), [(0, 0, False), (1, 0, False)], 1.0)
+    assert new.run.completed == [0, 1] and new.run.out[0] is not None
+
+    old = in_then_failed()
+    old.run.dep[old.run.first[1]] = -1  # as if robot 1's move had waited for nobody
+    with pytest.raises(EventError, match="robot 1's move 0 was made, but in the new plan it waits for robot 0's"):
+        Engine(TRAIN, follow=True).adopt(old, [(0, 0, False), (1, 0, False)], 1.0)
+
+
 # robot 1 follows robot 0 into (1, 1); robot 2 waits at (1, 0), then goes down through (1, 1) after them
 FOLLOW3 = Plan(np.array([
     [[1, 1], [0, 1], [1, 0]],
@@ -436,16 +463,16 @@ def winding_with_a_late_robot() -> Engine:
 
 
 def test_the_robot_predicted_last_may_be_given_a_shorter_way_when_the_rule_says_so():
-    """`critical`: a look (some robot is held up) also tries a shortest way for the robots
-    predicted within `critical` steps of the makespan that would arrive sooner by one, held up or
-    not. Robot 2 is not held up and arrives last; with `critical` it is rerouted onto a shortest
-    way, without it only the crossing's robots are."""
+    """`critical` (3 steps by default): a look (some robot is held up) also tries a shortest way
+    for the robots predicted within `critical` steps of the makespan that would arrive sooner by
+    one, held up or not. Robot 2 is not held up and arrives last; with `critical` it is rerouted
+    onto a shortest way, without it (None) only the crossing's robots are."""
     engine = winding_with_a_late_robot()
     assert held_up(engine, 6.0, 1) == {0: [1]}
     before = earliest_starts(engine.run, ready_steps(engine.run, 6.0), engine.follow, cut_of(engine, 6.0).base)
     assert before.makespan == before.arrival[2] == 13  # its 13 moves left, nobody in its way
     assert before.arrival[:2] == [10, 11]  # L stands as long again, H goes after it
-    plain = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule())
+    plain = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=None))
     assert plain is not None and 2 not in plain.agents and plain.after == 13  # the makespan stays robot 2's
     found = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=1.0))
     assert found is not None and found.agents == (2,) and found.late == 6 and found.after == 11
@@ -461,4 +488,4 @@ def test_the_robot_predicted_last_may_be_given_a_shorter_way_when_the_rule_says_
 def test_a_rule_setting_out_of_range_is_refused_with_its_name():
     with pytest.raises(Exception, match="critical"):
         RerouteRule(critical=-1.0)
-    assert RerouteRule(critical=0.0).critical == 0.0 and RerouteRule().critical is None
+    assert RerouteRule(critical=0.0).critical == 0.0 and RerouteRule(critical=None).critical is None

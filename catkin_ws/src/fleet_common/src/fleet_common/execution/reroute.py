@@ -41,11 +41,12 @@ that could arrive sooner by a shortest path, or both:
    makespan may be more than 1 step later (`slack=None`: nobody at all,
    the rule before the slack).
 
-With `critical` set (an experiment, off by default) a look, once some
-robot is held up, also tries one more variant: the robots predicted within
-`critical` steps of the makespan that a shortest way would bring in
-sooner, held up or not. The makespan is their arrival, and a plan may
-have them wind (a LaCAM plan does); the same rule decides whether it pays.
+A look, once some robot is held up, also tries one more variant: the
+robots predicted within `critical` steps (3) of the makespan that a
+shortest way would bring in sooner, held up or not (`critical=None`: not
+tried, the rule before 2026-11-26). The makespan is their arrival, and a
+plan may have them wind (LaCAM's random-32-32-20 plan has a robot make 35
+moves where 13 would do); the same rule decides whether it pays.
 
 Scope. `RerouteRule.scope` says whom a reroute may give new paths: "held"
 (the default: the rule above) or "all": every robot replanned from the cut
@@ -171,9 +172,9 @@ class RerouteRule:
     scope: str = "held"     # whom a reroute may give new paths (SCOPES)
     clear: Optional[float] = 20.0  # scope all: robots predicted this near the last arrival steered into free cells
     #: held scope: a look also tries new shortest paths for the robots predicted this near the
-    #: makespan that one would bring in sooner, held up or not (None: only held-up robots; an
-    #: experiment, bench/README.md "The robots predicted last")
-    critical: Optional[float] = None
+    #: makespan that one would bring in sooner, held up or not (None: only held-up robots; chosen
+    #: on random70 seeds 0-29, bench/README.md "The robots predicted last")
+    critical: Optional[float] = 3.0
 
     def __post_init__(self) -> None:
         if self.scope not in SCOPES:
