@@ -78,7 +78,10 @@ then held at the safe distance behind its leader).
   two robots in a cell).
 - Followers keep their leader: a follower in flight keeps, in the new
   graph, its dependency on the leader's move out of the cell (the same move
-  in both plans), so the driver goes on holding it behind that leader.
+  in both plans), so the driver goes on holding it behind that leader. So
+  does a follower that completed its move into the cell its leader was
+  leaving before the leader went out and took that move back: the new plan
+  has it behind that very move, as the run had it already (`Engine.adopt`).
 
 With a live fleet (`fleet_manager.rerouting`: the look runs in the manager's
 worker thread, on a snapshot of the engine, while the loop goes on; the
