@@ -488,6 +488,9 @@ def test_the_ticker_tells_reroutes_made_and_the_mode_not_proposals() -> None:
                                 "steps: 9 steps sooner")) == ["robots 3, 7 rerouted around robot 12, late 6 steps"]
     assert ticker.notice(Notice(3, 3.0, "reroute", None, "robot 4, late 5 steps, rerouted: it held up robot "
                                 "1; 1 step sooner")) == ["robot 4, late 5 steps, rerouted: it held up robot 1"]
+    assert ticker.notice(Notice(4, 4.0, "reroute", None, "robot 5, predicted last, rerouted onto a shorter way "
+                                "while robot 3 is late 4 steps: 6 steps sooner")) == [
+        "robot 5, predicted last, rerouted onto a shorter way while robot 3 is late 4 steps"]
     # scope all: every robot may get a new path; many robots named in short, the gain on the last one
     assert ticker.notice(Notice(5, 5.0, "reroute", None, "reroute switched: auto -> auto (every robot) "
                                 "(reroute 4 dropped)")) == ["rerouting now auto (every robot)"]

@@ -476,6 +476,10 @@ def test_the_robot_predicted_last_may_be_given_a_shorter_way_when_the_rule_says_
     assert plain is not None and 2 not in plain.agents and plain.after == 13  # the makespan stays robot 2's
     found = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=1.0))
     assert found is not None and found.agents == (2,) and found.late == 6 and found.after == 11
+    # the operator is told why: not held up, but predicted last
+    assert found.last and not plain.last
+    assert found.describe() == ("robot 2, predicted last, rerouted onto a shorter way while robot 0 is late "
+                                "6 steps: {} steps sooner".format(found.gain))
     way = [(int(x), int(y)) for x, y in found.plan.path(2)]
     way = [c for i, c in enumerate(way) if i == 0 or c != way[i - 1]]
     # its move sent (into (2, 5)) is kept, then a shortest way on: 4 moves to (0, 3)
@@ -483,6 +487,7 @@ def test_the_robot_predicted_last_may_be_given_a_shorter_way_when_the_rule_says_
     # within 3 steps of the makespan H is tried too: both get new ways in one variant
     both = decide(winding_with_a_late_robot(), Maps(TALL), 6.0, RerouteRule(critical=3.0))
     assert both is not None and both.agents == (1, 2) and both.after == 10
+    assert both.describe().startswith("robots 1, 2, predicted last, rerouted onto shorter ways while robot 0")
 
 
 def test_a_rule_setting_out_of_range_is_refused_with_its_name():

@@ -255,26 +255,27 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
 
     ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
                                                         for h in g[1]), g[0]))
-    best: Optional[Tuple[float, Proposal, int]] = None
+    best: Optional[Tuple[float, Proposal, int, bool]] = None
     # the makespan is the last robot's arrival: a robot predicted well before it may arrive later
     spared = None if rule.slack is None else before.makespan - rule.slack
-    variants: List[Tuple[int, List[int]]] = []  # (the late robot, the robots given new paths)
+    # (the late robot, the robots given new paths, whether they are the robots predicted last)
+    variants: List[Tuple[int, List[int], bool]] = []
     for late, held in ranked[:rule.tries]:
         gaining = [h for h in held if potential(h) > rule.margin]
         alone = run.out[late] is None and run.dispatched[late] < run.count(late)
         if alone:
-            variants.append((late, [late]))
+            variants.append((late, [late], False))
         if gaining:
-            variants.append((late, gaining))
+            variants.append((late, gaining, False))
             if alone:
-                variants.append((late, gaining + [late]))
+                variants.append((late, gaining + [late], False))
     if rule.critical is not None:  # the makespan is the last robots' arrival: a shorter way for them
         last = [h for h in range(run.num_agents) if before.arrival[h] >= before.makespan - rule.critical
                 and run.out[h] is None and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
         if last:
-            variants.append((ranked[0][0], last))
+            variants.append((ranked[0][0], last, True))
     try:
-        for late, chosen in variants:
+        for late, chosen, for_last in variants:
             proposal = plan_around(run, grid, maps, before, ready, follow, base, chosen, deadline)
             if proposal is None:
                 continue
@@ -284,19 +285,19 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
             net = gain - rule.cost * len(chosen)
             worse = later_by(before.arrival, proposal, rule.per_move, spared, rule.per_turn)
             if net >= rule.margin and worse <= rule.later and (best is None or net > best[0]):
-                best = (net, proposal, late)
+                best = (net, proposal, late, for_last)
     except DeadlineReached:
         pass  # what was found so far
     if best is None:
         return None
-    _, proposal, late = best
+    _, proposal, late, for_last = best
     report = validate_plan(proposal.plan, grid, strict_rotations=True, max_findings_per_kind=1)
     if not report.ok:  # never, by construction (reroute_plan); refused all the same
         raise RerouteError("a reroute's plan is not valid: {}".format(report.errors[0]))
     lag = behind(engine, late, now, expected)
     return Reroute(proposal.plan, cut, proposal.agents, late, lag,
                    sum(before.arrival) - sum(proposal.arrival), before.makespan, max(proposal.arrival),
-                   tuple(groups[late]))
+                   tuple(groups[late]), last=for_last)
 
 
 class Rerouter:

@@ -61,8 +61,10 @@ SHOWN = 4
 @dataclass(frozen=True)
 class Reroute:
     """A new plan from `cut` for every robot, `agents` on new paths because `around`, late by `late`
-    steps (None: out), held up `held`; predicted `gain` steps sooner in all (arrivals summed),
-    makespans (steps from the cut) `before` and `after`."""
+    steps (None: out), held up `held` (or, `last`, because `agents` were predicted last and a
+    shorter way brings them in sooner, `around` late meanwhile: `RerouteRule.critical`);
+    predicted `gain` steps sooner in all (arrivals summed), makespans (steps from the cut)
+    `before` and `after`."""
 
     plan: Plan
     cut: Cut
@@ -73,11 +75,13 @@ class Reroute:
     before: int
     after: int
     held: Tuple[int, ...]
+    last: bool = False
 
     def describe(self, name: Callable[[int], object] = str) -> str:
         """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
-        steps sooner", or "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
-        sooner" (`name`: an agent's name, e.g. its robot id)."""
+        steps sooner", "robot 12, late 6 steps, rerouted: it held up robots 3, 7; 9 steps
+        sooner", or "robot 5, predicted last, rerouted onto a shorter way while robot 12 is late
+        6 steps: 9 steps sooner" (`name`: an agent's name, e.g. its robot id)."""
         def robots(rs: Sequence[int]) -> str:  # at most SHOWN named: a reroute of everyone stays one line
             shown = ", ".join(str(name(r)) for r in rs[:SHOWN])
             more = " and {} more".format(len(rs) - SHOWN) if len(rs) > SHOWN else ""
@@ -87,6 +91,10 @@ class Reroute:
         if self.gain < 1:  # scope all pays on the makespan: the arrivals' sum may grow
             end = self.before - self.after
             sooner = "the last robot {} step{} sooner".format(end, "" if end == 1 else "s")
+        if self.last:
+            return "{}, predicted last, rerouted onto {} while robot {} is {}: {}".format(
+                robots(self.agents), "shorter ways" if len(self.agents) > 1 else "a shorter way",
+                name(self.around), late, sooner)
         if self.around not in self.agents:
             return "{} rerouted around robot {}, {}: {}".format(robots(self.agents), name(self.around), late, sooner)
         others = [a for a in self.agents if a != self.around]
