@@ -290,6 +290,7 @@ class Engine:
         if self._freed_at[a] > e.time:
             self._freed_at[a] = e.time
         run.completed[r] = k + 1
+        run.halfway[r] = False
         run.started[r] = max(run.started[r], k + 1)
         run.dispatched[r] = max(run.dispatched[r], k + 1)
         if self.early:
@@ -306,6 +307,7 @@ class Engine:
         run, r = self.run, self._agent(e.agent, e)
         was_active = run.out[r] is None
         run.out[r] = FAILED
+        run.halfway[r] = run.halfway[r] or run.started[r] > run.completed[r]
         # nothing it was sent counts as done; on Enabled it is sent its next action again
         run.dispatched[r] = run.started[r] = run.completed[r]
         self._forget_early(r)
@@ -413,9 +415,8 @@ class Engine:
 
         Raises `EventError`, changing neither engine, when a move made or sent would wait in this
         plan for a move that is not (the plan does not fit the run: the rule's one condition), unless `old`
-        sent it following that very move, or it completed it behind that very move (its leader
-        went out since and took the move back): the pair keeps its order and the follower its hold
-        behind the leader's real pose; the new plan asks nothing of the run that `old`'s did not."""
+        sent it following that very move (its leader went out since and took the move back): the
+        pair keeps its order and the follower its hold behind the leader's real pose."""
         run = self.run
         n = run.num_agents
         if n != old.run.num_agents or len(progress) != n or run.passes or self.metrics.begin is not None:
@@ -442,6 +443,7 @@ class Engine:
             run.dispatched_at[r] = old.run.dispatched_at[r]
             run.started_at[r] = old.run.started_at[r]
             run.out[r] = old.run.out[r]
+            run.halfway[r] = old.run.halfway[r]  # a plan from the cut keeps its next move (`reroute`)
             for a in range(first[r] + done, first[r] + done + sent):
                 d = dep[a]
                 if d >= 0 and agent[d] != r and not run.done[d]:
@@ -467,7 +469,7 @@ class Engine:
     def _misfit(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
         """Why this plan does not fit `old`'s run with `progress` (see `adopt`), or None: a move
         done or sent that waits in this plan for a move not completed (robots of real size: not
-        sent), and that `old` did not send following, or complete behind, the same move. (A move done behind one not
+        sent), and that `old` did not send following the same move. (A move done behind one not
         made: the plan puts another robot into a cell before a robot that is in it already.)"""
         run = self.run
         first, agent, dep = run.first, run.agent, run.dep
@@ -482,13 +484,9 @@ class Engine:
                 k = d - first[q]
                 if k < progress[q][0] or (self.follow and k < progress[q][0] + progress[q][1]):
                     continue
-                before = old.run.first[r] + base[r] + a - first[r]  # the same move in `old`'s plan
-                leader = old.run.first[q] + base[q] + k
-                if self.follow and old.early.get(before) == leader:
+                was = old.early.get(old.run.first[r] + base[r] + a - first[r])
+                if self.follow and was is not None and was == old.run.first[q] + base[q] + k:
                     continue  # it follows the move it followed: its leader took it back (out)
-                if self.follow and a < first[r] + done and old.run.dep[before] == leader:
-                    continue  # it completed its move behind that very move (`cut.Cut.base`), and
-                    # its leader took the move back (out): the run is in that state already
                 return ("adopt: robot {}'s move {} was {}, but in the new plan it waits for robot {}'s "
                         "move {}, which was not".format(r, a - first[r], "made" if a < first[r] + done else "sent",
                                                         q, k))

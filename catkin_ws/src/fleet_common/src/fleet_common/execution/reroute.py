@@ -78,10 +78,16 @@ then held at the safe distance behind its leader).
   two robots in a cell).
 - Followers keep their leader: a follower in flight keeps, in the new
   graph, its dependency on the leader's move out of the cell (the same move
-  in both plans), so the driver goes on holding it behind that leader. So
-  does a follower that completed its move into the cell its leader was
-  leaving before the leader went out and took that move back: the new plan
-  has it behind that very move, as the run had it already (`Engine.adopt`).
+  in both plans), so the driver goes on holding it behind that leader.
+- A robot that failed in the middle of a move stands between two cells
+  until that move, sent again when it is enabled, is made
+  (`RunState.halfway`). Out or enabled again, it is never given a new path,
+  and the cell that move enters stays reserved for it until it is in
+  (`reroute_plan._hold_targets`). A new path from its cell would have it
+  drive from where it stands, across a cell nobody reserved for it.
+- No reroute is looked for while a robot waits, in a move made again from
+  the cut, for a move its leader took back (`cut.behind_taken_back`): no
+  plan from that cut fits, and the hand-over would refuse every one.
 
 With a live fleet (`fleet_manager.rerouting`: the look runs in the manager's
 worker thread, on a snapshot of the engine, while the loop goes on; the
@@ -116,7 +122,7 @@ from ..grid import Grid
 from ..planning.deadline import Deadline
 from ..planning.st_astar import DeadlineReached
 from ..validate import validate_plan
-from .cut import cut_of
+from .cut import behind_taken_back, cut_of
 from .engine import Engine
 from .errors import UnknownStrategyError
 from .forecast import earliest_starts, ready_steps, unplaced
@@ -239,6 +245,8 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
         return None
     run, follow = engine.run, engine.follow
     cut = cut_of(engine, now)
+    if behind_taken_back(engine, cut):
+        return None  # no plan from this cut would fit: wait until that move is sent again
     base = cut.base
     ready = ready_steps(run, now)
     before = earliest_starts(run, ready, follow, base)
@@ -261,8 +269,9 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     # (the late robot, the robots given new paths, whether they are the robots predicted last)
     variants: List[Tuple[int, List[int], bool]] = []
     for late, held in ranked[:rule.tries]:
-        gaining = [h for h in held if potential(h) > rule.margin]
-        alone = run.out[late] is None and run.dispatched[late] < run.count(late)
+        # a robot halfway (it failed in a move, not yet made) keeps that move: it is never given a new path
+        gaining = [h for h in held if not run.halfway[h] and potential(h) > rule.margin]
+        alone = run.out[late] is None and not run.halfway[late] and run.dispatched[late] < run.count(late)
         if alone:
             variants.append((late, [late], False))
         if gaining:
@@ -271,7 +280,8 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                 variants.append((late, gaining + [late], False))
     if rule.critical is not None:  # the makespan is the last robots' arrival: a shorter way for them
         last = [h for h in range(run.num_agents) if before.arrival[h] >= before.makespan - rule.critical
-                and run.out[h] is None and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
+                and run.out[h] is None and not run.halfway[h] and run.dispatched[h] < run.count(h)
+                and potential(h) > rule.margin]
         if last:
             variants.append((ranked[0][0], last, True))
     try:

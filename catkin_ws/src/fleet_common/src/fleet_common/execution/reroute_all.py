@@ -11,7 +11,10 @@ Pure: values in (an engine, its grid, the time), a plan out.
 When. At most once every `rule.every` plan steps (the driver's pace), when
 some robot is late (`reroute.behind` by `rule.gap` steps or more and
 `reroute.delayed`: today's definition, so a run without delays never
-replans) and no robot is out (a robot out has no way to its goal to plan).
+replans), no robot is out (a robot out has no way to its goal to plan) or
+halfway in a move it failed in (`RunState.halfway`: it keeps that move),
+and no robot waits, in a move made again from the cut, for a move taken
+back (`cut.behind_taken_back`: no plan from that cut fits).
 
 The plan from the cut (`prefix`, then `solve_from`), in the cut's base frame
 (`cut.Cut.base`, as `reroute_plan`'s):
@@ -92,7 +95,7 @@ from ..planning.deadline import Deadline
 from ..planning.pibt import tie_ranks
 from ..planning.pibt_step import PIBTStep
 from ..validate import validate_plan
-from .cut import cut_of
+from .cut import behind_taken_back, cut_of
 from .engine import Engine
 from .forecast import Schedule, earliest_starts, ready_steps, unplaced
 from .lateness import behind, held_up, late_robots
@@ -262,12 +265,14 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
     """A new plan for every robot from the cut that is predicted to end `margin` steps sooner, as a
     `Reroute`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
     run, follow = engine.run, engine.follow
-    if any(o is not None for o in run.out):
-        return None
+    if any(o is not None for o in run.out) or any(run.halfway):
+        return None  # a robot out, or halfway in a move it failed in: see the module docstring
     late = late_robots(engine, now, gap, expected)
     if not late:
         return None
     cut = cut_of(engine, now)
+    if behind_taken_back(engine, cut):
+        return None  # no plan from this cut would fit (`cut.behind_taken_back`)
     base = cut.base
     ready = ready_steps(run, now)
     n = run.num_agents

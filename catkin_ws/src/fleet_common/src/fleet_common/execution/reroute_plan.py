@@ -306,12 +306,12 @@ def _came_from(run: RunState, grid: Grid, r: int, k: int) -> Optional[int]:
 def _hold_targets(run: RunState, grid: Grid, kept_s: Schedule, schedule: Schedule, base: Sequence[int],
                   chosen: Sequence[int], res: Reservations) -> None:
     """Reserve the target of every move sent (and of a failed robot's next move: it may be
-    halfway) from the cut until its robot enters it."""
+    halfway, enabled again or not) from the cut until its robot enters it."""
     table = run.table
     mine = set(chosen)
     for r in range(run.num_agents):
         a = run.first[r] + base[r]
-        if a >= run.first[r + 1] or not (run.dispatched[r] > base[r] or run.out[r] == FAILED):
+        if a >= run.first[r + 1] or not (run.dispatched[r] > base[r] or run.out[r] == FAILED or run.halfway[r]):
             continue
         for b in range(a, run.first[r] + max(run.dispatched[r], base[r] + 1)):
             s = (schedule if r in mine else kept_s).start[b]

@@ -84,6 +84,9 @@ class RunState:
         self.started_at = [0.0] * n
         #: None while the robot takes part; DISABLED or FAILED while it is out.
         self.out: List[Optional[str]] = [None] * n
+        #: Robots that failed in the middle of a move and have not completed it since: the robot
+        #: stands between two cells, and only that move (sent again on Enabled) gets it out.
+        self.halfway = [False] * n
         #: Robots smaller than a cell: a move out of a cell releases the next visitor once it is
         #: dispatched (the follower is held at the safe distance), not only once it completed.
         self.follow = False
