@@ -20,7 +20,10 @@ the cells after, when at every one of them
    move in (`sent`, not `dispatched`: a robot taken out may still begin a
    move it was sent), or it was sent the move, has not begun it, and the
    caller takes it back (`RunState.take_back`: the manager, if it has not
-   handed the drive over; the simulator, if the robot stands still);
+   handed the drive over; the simulator, if the robot stands still); and it
+   does not stand halfway into the cell, stopped there by a fault
+   (`RunState.halfway`: the engine forgets the move sent, and a plan handed
+   over from a cut knows it only as not sent);
 2. P is late: behind the plan's clock (`RunState.clock`, running time in plan
    steps) by `gap` steps or more, at least one move from the cell (so Q is
    through before P comes), or out (disabled, failed). A move P has begun
@@ -238,6 +241,8 @@ class ReorderStrategy(Strategy):
         if ep < first:
             return None  # p starts the plan in the cell: it is there
         k = ep - first
+        if run.halfway[p] and k == run.completed[p]:
+            return None  # p failed on its way into the cell: it stands partly in it
         stands = False
         if k < run.sent[p]:
             if run.started[p] > k or k >= run.dispatched[p] or run.out[p] is not None:
