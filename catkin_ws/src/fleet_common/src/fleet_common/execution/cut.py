@@ -98,18 +98,23 @@ def _bases(engine: Engine) -> List[int]:
     return base
 
 
-def behind_taken_back(engine: Engine, cut: Cut) -> List[int]:
-    """Robots that completed a move into a cell whose leaving robot then took its move out back
-    (it went out; it may be back, not yet sent that move again): a move made again from the cut
-    (`_bases`) that waits for a move not sent. No plan from the cut fits them (`Engine.adopt`
-    refuses a move done that waits for a move not sent), so a reroute waits until that move is
-    sent again. (Letting the plan keep the follower behind that move is not enough: a way on
-    from there may pass where the other robot stands, halfway into the next cell;
-    tests/test_execution_reroute.py has the run.)"""
+def behind_taken_back(engine: Engine, cut: Cut, sent: bool = False) -> List[int]:
+    """Robots that completed a move (with `sent`: or were sent one) into a cell whose leaving
+    robot then took its move out back (it went out; it may be back, not yet sent that move
+    again): a move made again from the cut (`_bases`; or sent) that waits for a move not sent.
+
+    No plan from the cut fits a robot that completed such a move (`Engine.adopt` refuses a move
+    done that waits for a move not sent), so a reroute waits until that move is sent again.
+    (Letting the plan keep the follower behind that move is not enough: a way on from there may
+    pass where the other robot stands, halfway into the next cell; tests/test_execution_reroute.py
+    has the run.) A robot sent such a move keeps its path: its move's time in a plan from the cut
+    hangs on when the robot out moves again, which the plan cannot know (a reroute that gave it
+    a new path put it into the cell while the robot out was still in it)."""
     run = engine.run
     out = []
     for r in range(run.num_agents):
-        for a in range(run.first[r] + cut.base[r], run.first[r] + cut.completed[r]):
+        upto = run.dispatched[r] if sent else cut.completed[r]
+        for a in range(run.first[r] + cut.base[r], run.first[r] + max(upto, cut.completed[r])):
             d = run.dep[a]
             q = run.agent[d] if d >= 0 else r
             if q != r and d - run.first[q] >= run.dispatched[q]:

@@ -43,8 +43,8 @@ that could arrive sooner by a shortest path, or both:
 
 A look, once some robot is held up, also tries one more variant: the
 robots predicted within `critical` steps (3) of the makespan that a
-shortest way would bring in sooner, held up or not (`critical=None`: not
-tried, the rule before 2026-11-26). The makespan is their arrival, and a
+shortest way would bring in sooner, held up or not, while no robot is out
+(`critical=None`: not tried, the rule before 2026-11-26). The makespan is their arrival, and a
 plan may have them wind (LaCAM's random-32-32-20 plan has a robot make 35
 moves where 13 would do); the same rule decides whether it pays.
 
@@ -261,6 +261,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
                                       if run.dispatched[h] > base[h] else run.src[run.first[h] + base[h]]))
         return before.arrival[h] - new_start(run, before, base, h) - maps.distances(goal)[here]
 
+    kept = set(behind_taken_back(engine, cut, sent=True))  # never given a new path (`cut.behind_taken_back`)
     ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
                                                         for h in g[1]), g[0]))
     best: Optional[Tuple[float, Proposal, int, bool]] = None
@@ -270,18 +271,22 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     variants: List[Tuple[int, List[int], bool]] = []
     for late, held in ranked[:rule.tries]:
         # a robot halfway (it failed in a move, not yet made) keeps that move: it is never given a new path
-        gaining = [h for h in held if not run.halfway[h] and potential(h) > rule.margin]
-        alone = run.out[late] is None and not run.halfway[late] and run.dispatched[late] < run.count(late)
+        gaining = [h for h in held if not run.halfway[h] and h not in kept and potential(h) > rule.margin]
+        alone = (run.out[late] is None and not run.halfway[late] and late not in kept
+                 and run.dispatched[late] < run.count(late))
         if alone:
             variants.append((late, [late], False))
         if gaining:
             variants.append((late, gaining, False))
             if alone:
                 variants.append((late, gaining + [late], False))
-    if rule.critical is not None:  # the makespan is the last robots' arrival: a shorter way for them
+    # the makespan is the last robots' arrival: a shorter way for them; not while a robot is out or
+    # halfway (the variant plans robots anywhere, and round a robot out such a plan was found
+    # invalid: a wider sweep of the operator-action runs, bench/README.md "The robots predicted last")
+    if rule.critical is not None and all(o is None for o in run.out) and not any(run.halfway):
         last = [h for h in range(run.num_agents) if before.arrival[h] >= before.makespan - rule.critical
-                and run.out[h] is None and not run.halfway[h] and run.dispatched[h] < run.count(h)
-                and potential(h) > rule.margin]
+                and run.out[h] is None and not run.halfway[h] and h not in kept
+                and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
         if last:
             variants.append((ranked[0][0], last, True))
     try:

@@ -271,7 +271,7 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
     if not late:
         return None
     cut = cut_of(engine, now)
-    if behind_taken_back(engine, cut):
+    if behind_taken_back(engine, cut, sent=True):
         return None  # no plan from this cut would fit (`cut.behind_taken_back`)
     base = cut.base
     ready = ready_steps(run, now)
