@@ -87,7 +87,9 @@ then held at the safe distance behind its leader).
   drive from where it stands, across a cell nobody reserved for it.
 - No reroute is looked for while a robot waits, in a move made again from
   the cut, for a move its leader took back (`cut.behind_taken_back`): no
-  plan from that cut fits, and the hand-over would refuse every one.
+  plan from that cut fits, and the hand-over would refuse every one. A
+  robot sent a move behind a move taken back keeps its path: when its move
+  comes hangs on the robot out, which a plan from the cut cannot know.
 
 With a live fleet (`fleet_manager.rerouting`: the look runs in the manager's
 worker thread, on a snapshot of the engine, while the loop goes on; the
