@@ -145,6 +145,38 @@ def test_a_robot_that_bumps_into_something_is_held_until_enabled(lab_run) -> Non
     assert "arrived: 5/5" in out and "collisions: 0" in out
 
 
+@pytest.mark.parametrize("lab_run", [("--bump", "2@2")], indirect=True)
+def test_no_replan_while_a_robot_stands_between_two_cells_after_a_fault(lab_run) -> None:
+    """Robot 2's bumper stops it halfway through a drive. Enabled again while the run is paused,
+    it still stands between two cells: a replan (from its cell) is refused, saying why, until
+    the run goes on and robot 2 finishes that move."""
+    fleet, manager, port, folder = lab_run
+    ops = ScriptedConsole(port)
+    try:
+        ready(ops)
+        assert ops.ask("start").ok
+        ops.wait_for(lambda c: robot(c, 2).out == "failed", timeout=60, why="robot 2 held with its bumper fault")
+        assert ops.ask("pause").ok
+        ops.pump(0.5)  # the foot stays on the bumper for 0.25 s (1 fleet second): enable after it left
+        assert ops.ask("enable", robot=2).ok
+        ops.wait_for(lambda c: not robot(c, 2).out, timeout=10, why="robot 2 enabled")
+        answer = ops.ask("replan", time_limit=5.0)
+        assert not answer.ok and "robot 2 stopped between two cells after a fault" in answer.reason, answer
+        done = robot(ops, 2).done
+        assert ops.ask("start").ok
+        ops.wait_for(lambda c: robot(c, 2).done > done, timeout=60, why="robot 2 finishing its move")
+        answer = ops.ask("replan", time_limit=5.0)
+        assert answer.ok, answer.reason
+        proposal = ops.wait_for(lambda c: c.session.proposal, timeout=60, why="a proposal")
+        ops.wait_for(lambda c: c.state.run.proposal == proposal.id, timeout=5, why="the state naming the proposal")
+        assert ops.ask("reject", proposal=proposal.id).ok
+        assert manager.wait(200) == 0, manager.text()[-3000:]
+    finally:
+        ops.close()
+    out = manager.text()
+    assert "arrived: 5/5" in out and "collisions: 0" in out
+
+
 def test_replanning_around_a_robot_disabled_for_good(lab_run) -> None:
     fleet, manager, port, folder = lab_run
     ops = ScriptedConsole(port)

@@ -468,6 +468,19 @@ def _resume_after_replan(run: Run, now: float) -> None:
         resume(run, now, "resume")
 
 
+def _between_cells(run: Run) -> Optional[str]:
+    """Why not replan now: a robot enabled again after a fault in the middle of a move stands
+    between two cells until that move, sent again, is made (`RunState.halfway`). A plan from
+    its cell would send it on from where it does not stand, and others into the cell it is
+    partly in (a robot still out is walled in where it stopped: `replanning.walled`)."""
+    state = run.engine.run
+    ids = [run.fleet[a].id for a in range(state.num_agents) if state.halfway[a] and state.out[a] is None]
+    if not ids:
+        return None
+    return "robot{} {} stopped between two cells after a fault: start or step until {} that move".format(
+        "s" if len(ids) > 1 else "", ", ".join(str(i) for i in ids), "they finish" if len(ids) > 1 else "it finishes")
+
+
 _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "start": _why_not_start, "step": _why_not_step,
     "pause": lambda run: run.phase.refusal("pause"), "stop": lambda run: run.phase.refusal("stop"),
@@ -476,7 +489,7 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
         "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
         "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
         "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
-        else None),
+        else None) or _between_cells(run),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):
