@@ -114,7 +114,7 @@ def behind_taken_back(engine: Engine, cut: Cut, sent: bool = False) -> List[int]
     out = []
     for r in range(run.num_agents):
         upto = run.dispatched[r] if sent else cut.completed[r]
-        for a in range(run.first[r] + cut.base[r], run.first[r] + max(upto, cut.completed[r])):
+        for a in range(run.first[r] + cut.base[r], run.first[r] + upto):
             d = run.dep[a]
             q = run.agent[d] if d >= 0 else r
             if q != r and d - run.first[q] >= run.dispatched[q]:

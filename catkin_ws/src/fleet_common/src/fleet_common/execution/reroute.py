@@ -44,8 +44,8 @@ that could arrive sooner by a shortest path, or both:
 A look, once some robot is held up, also tries one more variant: the
 robots predicted within `critical` steps (3) of the makespan that a
 shortest way would bring in sooner, held up or not, while no robot is out
-(`critical=None`: not tried, the rule before 2026-11-26). The makespan is their arrival, and a
-plan may have them wind (LaCAM's random-32-32-20 plan has a robot make 35
+(`critical=None`: not tried, the rule before 2026-11-26). The makespan is
+their arrival, and a plan may have them wind (LaCAM's random-32-32-20 plan has a robot make 35
 moves where 13 would do); the same rule decides whether it pays.
 
 Scope. `RerouteRule.scope` says whom a reroute may give new paths: "held"
@@ -264,6 +264,11 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
         return before.arrival[h] - new_start(run, before, base, h) - maps.distances(goal)[here]
 
     kept = set(behind_taken_back(engine, cut, sent=True))  # never given a new path (`cut.behind_taken_back`)
+
+    def may_move(h: int) -> bool:
+        """Whether robot h may be given a new path at all: not halfway in a move it failed in
+        (it keeps that move), not sent a move behind one taken back."""
+        return not run.halfway[h] and h not in kept
     ranked = sorted(groups.items(), key=lambda g: (-sum(max(0, before.arrival[h] - before.arrival[g[0]])
                                                         for h in g[1]), g[0]))
     best: Optional[Tuple[float, Proposal, int, bool]] = None
@@ -272,10 +277,8 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     # (the late robot, the robots given new paths, whether they are the robots predicted last)
     variants: List[Tuple[int, List[int], bool]] = []
     for late, held in ranked[:rule.tries]:
-        # a robot halfway (it failed in a move, not yet made) keeps that move: it is never given a new path
-        gaining = [h for h in held if not run.halfway[h] and h not in kept and potential(h) > rule.margin]
-        alone = (run.out[late] is None and not run.halfway[late] and late not in kept
-                 and run.dispatched[late] < run.count(late))
+        gaining = [h for h in held if may_move(h) and potential(h) > rule.margin]
+        alone = run.out[late] is None and may_move(late) and run.dispatched[late] < run.count(late)
         if alone:
             variants.append((late, [late], False))
         if gaining:
@@ -287,8 +290,7 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     # invalid: a wider sweep of the operator-action runs, bench/README.md "The robots predicted last")
     if rule.critical is not None and all(o is None for o in run.out) and not any(run.halfway):
         last = [h for h in range(run.num_agents) if before.arrival[h] >= before.makespan - rule.critical
-                and run.out[h] is None and not run.halfway[h] and h not in kept
-                and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
+                and may_move(h) and run.dispatched[h] < run.count(h) and potential(h) > rule.margin]
         if last:
             variants.append((ranked[0][0], last, True))
     try:
