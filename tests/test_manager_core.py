@@ -245,6 +245,46 @@ def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
     assert f.run_until(lambda: done(f)) and f.at_goals()
 
 
+def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
+    """Robot 2's bumper is pressed halfway through its first drive: it stands between two cells,
+    out. A replan walls off the cell it leans into (`replanning.walled`); every look for a reroute
+    of the new plan plans on that walled map too, not on the whole one, or a reroute could send a
+    robot into the cell robot 2 half stands in. The others arrive, none too close."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, reroute="auto", reroute_timed=False))
+    f.robots[2].navigator.bumps = {1}
+    looks = []
+    finish = f.finish_looks
+    f.finish_looks = lambda: (looks.extend(f.looks), finish())  # type: ignore[method-assign]
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    pose = f.robots[2].navigator.true_pose()
+    assert min(abs(pose.x - round(pose.x)), abs(pose.y - round(pose.y))) < 0.05 < \
+        max(abs(pose.x - round(pose.x)), abs(pose.y - round(pose.y))), "between two cells"
+    f.hold_plans = True
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: len(f.jobs) == 1, 20)
+    grid = f.jobs[0].grid
+    walls = {(x, y) for x in range(grid.width) for y in range(grid.height)
+             if f.loaded.grid.free[y, x] and not grid.free[y, x]}
+    assert walls and all(math.hypot(x - pose.x, y - pose.y) < 0.6 for x, y in walls), walls
+    f.finish_plans()
+    assert f.run_until(lambda: [x for x in ops.received if type(x).__name__ == "Proposal"], 5)
+    proposal = [x for x in ops.received if type(x).__name__ == "Proposal"][-1]
+    assert f.ask(ops, "accept", proposal=proposal.id).ok
+    reroutes = f.core.run.rerouting
+    assert all(not reroutes.maps.grid.free[y, x] for x, y in walls), "a reroute may plan into the wall"
+    assert f.run_until(lambda: done(f))
+    goals = f.core.run.loaded.goals
+    for rid, robot in f.robots.items():
+        p = robot.navigator.true_pose()
+        assert rid == 2 or (round(p.x), round(p.y)) == goals[rid - 1]
+    assert f.core.summary().collisions == 0
+    for job in looks:
+        assert all(not job.maps.grid.free[y, x] for x, y in walls)
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

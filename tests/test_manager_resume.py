@@ -197,6 +197,8 @@ def test_a_robot_left_between_cells_is_held_and_planned_around():
             if math.hypot(x - pose[0], y - pose[1]) < size.safe_cells and f.loaded.grid.free[y, x]
             and (x, y) not in {tuple(c) for c in f.core.run.plan.positions[0]}]
     assert near and not any(grids[-1].free[y, x] for x, y in near), "the cells around it were walled off"
+    # and stay so for every reroute of the new plan (`Rerouting.keep_to`)
+    assert f.core.run.rerouting.maps.grid is grids[-1]
     plan = f.core.run.plan.positions
     others = [a for a in range(plan.shape[1]) if a != robot.agent]
     nearest = min(math.hypot(plan[t, a, 0] - pose[0], plan[t, a, 1] - pose[1])

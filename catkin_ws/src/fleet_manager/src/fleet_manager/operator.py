@@ -442,7 +442,7 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     plan = pending.result.plan
     moving = [run.fleet[a].id for a in range(plan.num_agents)
               if (plan.positions[1:, a] != plan.positions[:-1, a]).any()]
-    run.switch_plan(plan, "replan", now)
+    run.switch_plan(plan, "replan", now, pending.grid)
     run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
         len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
     run.replanner.resolved()

@@ -13,7 +13,10 @@ wait forever. A replan gets the others to their goals around them:
    the second cell of an out robot that stopped mid-move;
 3. the result comes back (`finished`) and is proposed to the consoles;
    `accept` switches the run to it (and resumes if the run was running),
-   `reject` goes back to the old plan.
+   `reject` goes back to the old plan. The cells walled off for it stay
+   walled for every reroute of that plan (`Rerouting.keep_to`): a reroute
+   planned on the whole map could send a robot into the cell an out robot
+   leans into, or past a robot left between cells.
 
 `Replanner` is the state machine of one replan at a time; it starts no
 thread and reads no clock. The old and the new plan both stay in the run
@@ -46,6 +49,7 @@ class Pending:
     result: ReplanResult
     current: List[Coord]
     out: Set[int]
+    grid: Grid  # the map it was planned on: walls included (`walled`, `Run.walls`)
 
 
 class Replanner:
@@ -96,7 +100,7 @@ class Replanner:
         if result.plan is None:
             self.state = IDLE
             return "replanning found no plan: {}".format(result.message)
-        self.pending = Pending(job.id, result, job.current, job.out)
+        self.pending = Pending(job.id, result, job.current, job.out, job.grid)
         self.state = PROPOSED
         return "replan {} proposed: {}".format(job.id, result.message)
 

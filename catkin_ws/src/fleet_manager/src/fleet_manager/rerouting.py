@@ -30,6 +30,12 @@ no clock:
    `REJECTED_PAUSE` plan steps), and it is dropped by itself as soon as a
    robot it reroutes moves on (`moved_since`).
 
+A plan a replan made with cells walled off (the cell an out robot stopped
+halfway into, the cells round a robot a manager restart found between cells:
+`replanning`) is rerouted on that walled map (`keep_to`, until the next
+replan): the engine's record puts such a robot in its cell, so a reroute on
+the whole map could send a robot into, or past, where it really stands.
+
 Scope all (`RerouteRule(scope="all")`, `--reroute-scope all`): a look is due
 when some robot is late (not only held up), and the reroute gives new paths to
 every robot whose remaining path changes, often most of the fleet. With 300
@@ -142,6 +148,12 @@ class Rerouting:
             self.pending = None
         if mode == "off":
             self.job = self._for = None
+
+    def keep_to(self, grid: Grid) -> None:
+        """Plan reroutes on `grid` from now on: the map a new plan was made on, with the cells it
+        was walled off from (`replanning`), so that no reroute of it sends a robot there."""
+        if grid is not self.maps.grid:
+            self.maps = Maps(grid)
 
     def set_scope(self, scope: str) -> None:
         """A scope from SCOPES (checked by the caller): the rule's other settings stay, its pace

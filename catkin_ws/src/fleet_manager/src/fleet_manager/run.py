@@ -365,9 +365,11 @@ class Run:
             self.phase.reason = reason
             self._phase_changed()
 
-    def switch_plan(self, plan: Plan, reason: str, now: float) -> None:
-        """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out."""
+    def switch_plan(self, plan: Plan, reason: str, now: float, grid: Optional[Grid] = None) -> None:
+        """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out; `grid`: the
+        map it was planned on, walls included (default: the run's), which its reroutes keep to."""
         old = self.engine
+        self.rerouting.keep_to(self.grid if grid is None else grid)
         self.standing.clear()
         self.walls.clear()
         self.plan_id += 1
