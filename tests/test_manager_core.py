@@ -285,6 +285,47 @@ def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
         assert all(not job.maps.grid.free[y, x] for x, y in walls)
 
 
+def test_a_robot_a_replan_left_between_two_cells_is_walled_in_by_every_later_replan():
+    """Robot 2 stops halfway through its first drive (bumper) and the operator replans: the new
+    plan gives it no move, so it stays between two cells, out and later enabled again. Each later
+    replan still walls off the cell it leans into (before, only a robot out with a move to finish
+    was walled in, and it was planned from its cell as if it stood there)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    f.robots[2].navigator.bumps = {1}
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    pose = f.robots[2].navigator.true_pose()
+    f.hold_plans = True
+    grids = []
+
+    def replanned(accept: bool) -> None:
+        assert f.ask(ops, "replan").ok
+        assert f.run_until(lambda: len(f.jobs) == 1, 20)
+        grids.append(f.jobs[0].grid)
+        f.finish_plans()
+        assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 5)
+        f.advance(0.1)  # the console sees the State that names the proposal
+        proposal = f.core.run.replanner.proposal_id
+        assert f.ask(ops, "accept" if accept else "reject", proposal=proposal).ok
+
+    replanned(True)
+    replanned(False)  # robot 2 still out, with no move in the plan
+    assert f.ask(ops, "enable", robot=2).ok
+    f.advance(1.0)
+    replanned(True)  # robot 2 enabled again, still where it stopped
+    assert f.robots[2].navigator.true_pose() == pose
+    walls = [{(x, y) for x in range(g.width) for y in range(g.height) if f.loaded.grid.free[y, x] and not g.free[y, x]}
+             for g in grids]
+    assert all(len(w) == 1 for w in walls) and walls[0] == walls[1] == walls[2], walls
+    (x, y), = walls[0]
+    # half a cell from it, and not the cell it is planned from: the one it leans into
+    assert math.hypot(x - pose.x, y - pose.y) == pytest.approx(0.5, abs=0.05) and (x, y) != f.core.run.positions()[1]
+    assert f.run_until(lambda: done(f))
+    assert f.core.summary().collisions == 0
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

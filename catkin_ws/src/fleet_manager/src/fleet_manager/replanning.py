@@ -10,7 +10,7 @@ wait forever. A replan gets the others to their goals around them:
    worker thread while it keeps serving robots and consoles): every robot
    that takes part from the cell it holds to its goal, with the out robots
    as obstacles (`fleet_common.planning.replan`, time-limited), walling off
-   the second cell of an out robot that stopped mid-move;
+   the second cell of every robot standing between two cells (`walled`);
 3. the result comes back (`finished`) and is proposed to the consoles;
    `accept` switches the run to it (and resumes if the run was running),
    `reject` goes back to the old plan. The cells walled off for it stay
@@ -111,17 +111,26 @@ class Replanner:
 
 def walled(grid: Grid, engine: Engine, robots: Sequence[Robot], here: Sequence[Coord],
            out: Set[int]) -> Grid:
-    """`grid` with the far cell of every out robot that stopped mid-move blocked."""
+    """`grid` with the far cell of every robot standing between two cells blocked: of an out
+    robot that stopped mid-move, its move's target; of any other (one out when an earlier replan
+    was made, which gave it no move, and perhaps enabled since), the neighbour its pose leans
+    towards. At a safe point nobody else stands between cells (a follower at its hold point is
+    in the middle of its drive)."""
     run, table = engine.run, engine.table
     free = grid.free.copy()
+    taken = {tuple(c) for c in here}
     for robot in robots:
-        if robot.agent not in out:
-            continue
-        a = run.next_incomplete(robot.agent)
         pose = robot.pose
         cell = here[robot.agent]
-        if a < 0 or pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
+        if pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
             continue
-        x, y = table.coord(run.dst[a])
-        free[y, x] = False
+        a = run.next_incomplete(robot.agent)
+        if robot.agent in out and a >= 0:
+            x, y = table.coord(run.dst[a])
+        else:
+            dx, dy = pose.x - cell[0], pose.y - cell[1]
+            x, y = ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
+                    else (cell[0], cell[1] + (1 if dy > 0 else -1)))
+        if grid.in_bounds((x, y)) and (x, y) not in taken:  # a robot's own cell stays its start
+            free[y, x] = False
     return Grid(free, name=grid.name)
