@@ -19,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fleet_common.execution import ActionCompleted, ActionStarted, Engine, EventError, Resume
+from fleet_common.grid import Grid
 from fleet_common.lab import lab_instance_path
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.robot_size import TURTLEBOT2
@@ -160,11 +161,12 @@ def test_a_robot_moved_while_no_manager_ran_is_named_and_replanned_from_where_it
     assert f.core.summary().collisions == 0
 
 
-def test_a_robot_left_between_cells_is_held_and_planned_around():
-    size = TURTLEBOT2
-    settings_ = ManagerSettings(step_time=0.5, size=size, accept=True)
-    f = started_run(lab(), settings=settings_)
-    grids = []
+def resumed_with_a_robot_between_cells(accept: bool) -> Tuple[MemoryFleet, int, Tuple[int, int], List[Grid]]:
+    """A run whose manager died; meanwhile a robot standing still was pushed half a cell towards a
+    free cell nobody needs now; another manager resumed it. The fleet, that robot, the cell it
+    leans into and the maps the replans were asked on."""
+    f = started_run(lab(), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, accept=accept))
+    grids: List[Grid] = []
     solve = f.solve
     f.solve = lambda job: grids.append(job.grid) or solve(job)
     assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
@@ -186,9 +188,16 @@ def test_a_robot_left_between_cells_is_held_and_planned_around():
     carry(f, rid, x + dx / 2, y + dy / 2)  # pushed half a cell towards a free cell nobody needs now
     f.resume_manager()
     f.advance(0.5)
+    return f, rid, (x + dx, y + dy), grids
+
+
+def test_a_robot_left_between_cells_is_held_and_planned_around():
+    size = TURTLEBOT2
+    f, rid, (x, y), grids = resumed_with_a_robot_between_cells(accept=True)
+    stray = f.robots[rid].navigator
     robot = f.core.fleet.by_id[rid]
     assert f.core.run.engine.run.out[robot.agent] == "failed" and "between cells" in robot.hold_reason
-    assert not grids[-1].free[y + dy, x + dx], "the cell it leans into is walled off for the replan"
+    assert not grids[-1].free[y, x], "the cell it leans into is walled off for the replan"
     told = " ".join(f.said)
     assert "robot {} stands at".format(rid) in told and "between cells, held and planned around" in told
     assert f.kinds("plan"), "--accept switches to the replan at once"
@@ -204,6 +213,22 @@ def test_a_robot_left_between_cells_is_held_and_planned_around():
     nearest = min(math.hypot(plan[t, a, 0] - pose[0], plan[t, a, 1] - pose[1])
                   for t in range(1, plan.shape[0]) for a in others if tuple(plan[t, a]) != tuple(plan[0, a]))
     assert nearest >= size.safe_cells, "a replanned robot passes the held one"
+
+
+def test_a_rejected_replan_after_a_resume_leaves_reroutes_walled_off_a_robot_between_cells():
+    """The operator rejects the replan a resume proposes: the run goes on with the old plan and
+    the robot between cells held out, and every reroute of it (`--reroute`) still keeps off the
+    cells walled round that robot (the engine's record has it in its cell)."""
+    f, rid, (x, y), grids = resumed_with_a_robot_between_cells(accept=False)
+    ops = f.console()
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 5)
+    f.advance(0.1)  # the console sees the State that names the proposal
+    assert f.ask(ops, "reject", proposal=f.core.run.replanner.proposal_id).ok
+    assert f.core.run.plan_id == 1 and not grids[-1].free[y, x]
+    walls = f.core.run.walls  # the cells round it, walled for the replan
+    assert (x, y) in walls
+    reroutes = f.core.run.rerouting.maps.grid
+    assert all(not reroutes.free[cy, cx] for cx, cy in walls), "a reroute may plan round it on the whole map"
 
 
 def test_a_run_that_had_not_started_is_resumed_waiting_for_start():

@@ -189,7 +189,7 @@ class RunCore:
         if run.replanner.state == SAFE_POINT and not run.driver.moving:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = run.positions()
-            grid = _without(walled(run.grid, run.engine, self.fleet.robots, here, out), run.walls)
+            grid = _without(walled(run.grid, self.fleet.robots, here), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         self._reroute_tick(now)
         if run.phase.phase == RUNNING:
@@ -242,6 +242,8 @@ class RunCore:
                 run.driver.hold_out(o.robot, "stands between cells after the manager restarted: planned "
                                     "around; put it on a cell and enable it", now)
                 told.append("{}: between cells, held and planned around".format(where))
+        if run.walls:  # reroutes keep off them too, whether the replan is accepted or not
+            run.rerouting.keep_to(_without(run.grid, run.walls))
         near = [r for r in self.fleet if r.flight is not None and r.flight.kind == "drive"
                 and r.pose is not None and r not in [o.robot for o in off]
                 and any(passes_near((r.pose.x, r.pose.y), (r.flight.target[0], r.flight.target[1]), o.pose, reach)

@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass
 from typing import Iterator, List, Optional, Sequence, Set
 
-from fleet_common.execution import Engine
 from fleet_common.grid import Coord, Grid
 from fleet_common.planning.replan import ReplanResult
 
@@ -109,14 +108,12 @@ class Replanner:
         self.pending = None
 
 
-def walled(grid: Grid, engine: Engine, robots: Sequence[Robot], here: Sequence[Coord],
-           out: Set[int]) -> Grid:
-    """`grid` with the far cell of every robot standing between two cells blocked: of an out
-    robot that stopped mid-move, its move's target; of any other (one out when an earlier replan
-    was made, which gave it no move, and perhaps enabled since), the neighbour its pose leans
-    towards. At a safe point nobody else stands between cells (a follower at its hold point is
-    in the middle of its drive)."""
-    run, table = engine.run, engine.table
+def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> Grid:
+    """`grid` with the far cell of every robot standing between two cells blocked: the neighbour
+    of its cell its pose leans towards. That is the target of the move an out robot stopped in,
+    and the cell a robot leans into that an earlier replan left between cells (it gave it no
+    move; out, or enabled since) or that was pushed off its cell. At a safe point nobody else
+    stands between cells (a follower at its hold point is in the middle of its drive)."""
     free = grid.free.copy()
     taken = {tuple(c) for c in here}
     for robot in robots:
@@ -124,13 +121,9 @@ def walled(grid: Grid, engine: Engine, robots: Sequence[Robot], here: Sequence[C
         cell = here[robot.agent]
         if pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
             continue
-        a = run.next_incomplete(robot.agent)
-        if robot.agent in out and a >= 0:
-            x, y = table.coord(run.dst[a])
-        else:
-            dx, dy = pose.x - cell[0], pose.y - cell[1]
-            x, y = ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
-                    else (cell[0], cell[1] + (1 if dy > 0 else -1)))
+        dx, dy = pose.x - cell[0], pose.y - cell[1]
+        x, y = ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
+                else (cell[0], cell[1] + (1 if dy > 0 else -1)))
         if grid.in_bounds((x, y)) and (x, y) not in taken:  # a robot's own cell stays its start
             free[y, x] = False
     return Grid(free, name=grid.name)
