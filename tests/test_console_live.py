@@ -366,6 +366,45 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert pump(console, lambda: app.agents.picture is not None and app.agents.picture.num_agents == 5, 5)
 
 
+def press(button: tk.Widget) -> None:
+    """A click on `button` as the pointer makes it: press and release over it."""
+    button.event_generate("<ButtonPress-1>", x=5, y=5)
+    button.event_generate("<ButtonRelease-1>", x=5, y=5)
+
+
+def test_a_greyed_replan_pressed_asks_and_the_answer_line_says_why_not(lab: Lab, consoles) -> None:
+    """Robot 2's bumper stops it halfway through its 2nd drive; enabled again while the run is
+    paused, it stands between two cells and the manager will not replan (its State greys Replan).
+    Pressing the greyed button asks all the same: the answer line says why; nothing else changes."""
+    lab.fleet(4.0, None, "--bump", "2@2")
+    lab.start_manager("--start")
+    console = consoles(lab.endpoint)
+    app, model = console.app, console.model
+    assert pump(console, lambda: model.robot(2) is not None and model.robot(2).out == "failed", 60)
+    app.admin.buttons["pause"].invoke()
+    assert pump(console, lambda: model.state.run.state == "paused", 10)
+    pump(console, lambda: False, 0.5)  # the foot leaves the bumper (1 fleet second)
+    app.ask("enable", robot=2)
+    assert pump(console, lambda: model.robot(2).out is None, 10)
+    replan = app.admin.buttons["replan"]
+    assert pump(console, lambda: replan.instate(["disabled"]), 5)
+    plan = model.setup.plan.id
+    press(replan)
+    assert pump(console, lambda: model.last_reply is not None and not model.last_reply.ok, 10)
+    shown = app.admin.answer.cget("text")
+    assert "replan: REFUSED: robot 2 stopped between two cells after a fault" in shown, shown
+    assert model.proposal is None and model.setup.plan.id == plan and model.state.run.state == "paused"
+    # an enabled button pressed asks once, by its own binding: Start goes on as ever
+    start = app.admin.buttons["start"]
+    assert start.instate(["!disabled"])
+    sent: List[str] = []
+    ask = app.admin.on_action
+    app.admin.on_action = lambda action, **args: (sent.append(action), ask(action, **args))
+    press(start)
+    assert sent == ["start"], sent
+    assert pump(console, lambda: running(console), 10)
+
+
 # ---- rerouting: the mode picked in the console, a reroute proposal on the map ---------------
 
 def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_picked_here(

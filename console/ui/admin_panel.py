@@ -10,8 +10,10 @@ Every control only asks (`on_action(action, args)`, which sends a request);
 what the panel shows comes from the manager's state, so a box ticked here
 shows the manager's view as soon as it answers, and a refused request
 changes nothing but the answer line. A run button the manager would refuse
-now (the State's `allowed`) is greyed; the answer line is cleared when the
-run moves on to another phase, so an old refusal never reads as a new one.
+now (the State's `allowed`) is greyed; pressed all the same, it asks, so that
+the answer line says why the manager will not (the State carries what is
+allowed, not why). The answer line is cleared when the run moves on to
+another phase, so an old refusal never reads as a new one.
 """
 from __future__ import annotations
 
@@ -87,6 +89,8 @@ class AdminPanel(ttk.Frame):
                 b = ttk.Button(bar, text=control.label, width=7, takefocus=0,
                                command=lambda a=control.action: self._button(a))
                 b.pack(side=tk.LEFT, padx=1, pady=1)
+                # before the button's own binding, while its state is the one clicked on
+                b.bind("<ButtonRelease-1>", lambda e, a=control.action: self._greyed(a, e))
                 self.buttons[control.action] = b
         self._proposal: Optional[int] = None
         self._connected = False
@@ -265,6 +269,14 @@ class AdminPanel(ttk.Frame):
                 self.on_action(action, proposal=self._proposal)
             return
         self.on_action(action)
+
+    def _greyed(self, action: str, event: Any) -> None:
+        """A greyed run button pressed (released over it): asked all the same, for the manager's
+        answer saying why it will not (a greyed button's own binding does nothing)."""
+        button = self.buttons[action]
+        over = 0 <= event.x < button.winfo_width() and 0 <= event.y < button.winfo_height()
+        if over and action in RUN_ACTIONS and self._connected and button.instate(["disabled"]):
+            self.on_action(action)
 
     def _strategy(self) -> None:
         if self._writing or not self.strategy.get():
