@@ -275,7 +275,7 @@ def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
     assert f.ask(ops, "accept", proposal=proposal.id).ok
     reroutes = f.core.run.rerouting
     assert all(not reroutes.maps.grid.free[y, x] for x, y in walls), "a reroute may plan into the wall"
-    assert f.run_until(lambda: done(f))
+    assert f.run_until(lambda: f.core.run.stuck(), 60)  # all but robot 2, which the plan leaves there
     goals = f.core.run.loaded.goals
     for rid, robot in f.robots.items():
         p = robot.navigator.true_pose()
@@ -324,6 +324,65 @@ def test_a_robot_a_replan_left_between_two_cells_is_walled_in_by_every_later_rep
     assert math.hypot(x - pose.x, y - pose.y) == pytest.approx(0.5, abs=0.05) and (x, y) != f.core.run.positions()[1]
     assert f.run_until(lambda: done(f)) and f.at_goals()  # robot 2 too: it takes part again
     assert f.core.summary().collisions == 0
+
+
+def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan_takes_it_home():
+    """Robot 2's bumper stops it in its first drive; a replan gets the others home around it and
+    leaves it where it stands. The others arrive, but the run is not done and the summary counts
+    4 of 5 arrived (before, "run done: arrived: 5/5" with robot 2 held between two cells); the
+    operator is told what to do. Enabled and replanned, it goes home and the run is done."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    f.robots[2].navigator.bumps = {1}
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+
+    def replanned() -> None:
+        assert f.ask(ops, "replan").ok
+        assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
+        f.advance(0.1)  # the console sees the State that names the proposal
+        assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
+
+    replanned()
+    told = [n.text for n in ops.notices()]
+    assert "robot 2 has no way home in plan 2 (out when it was made): enable it and replan, or disable it" in told
+    goals = f.core.run.loaded.goals
+    home = lambda rid: (round(f.robots[rid].navigator.true_pose().x),  # noqa: E731
+                        round(f.robots[rid].navigator.true_pose().y)) == goals[rid - 1]
+    assert f.run_until(lambda: all(home(rid) for rid in f.robots if rid != 2), 60)
+    f.advance(2.0)
+    assert f.phase == "running" and not home(2)
+    assert f.core.summary().lines()[0] == "arrived: 4/5"
+    assert f.core.run.stuck() and f.core.cannot_go_on(f.now) is None  # an unattended run gives up later
+    assert "robot 2 has no way home in plan 2" in (f.core.cannot_go_on(f.now + 60.0) or "")
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and "plan 2 has no way to its goal for robot 2: replan to take it home" in answer.reason
+    replanned()
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
+
+
+def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped_not_arrived():
+    """As above, and the manager dies after the others arrived: the one that takes over reads the
+    plan's record (`stranded`) and neither finishes the run nor counts robot 2 arrived."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    f.robots[2].navigator.bumps = {1}
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
+    f.advance(0.1)
+    assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
+    assert f.run_until(lambda: f.core.run.stuck(), 60)
+    f.kill_manager()
+    f.resume_manager()
+    f.advance(1.0)
+    agent = f.core.fleet.by_id[2].agent
+    assert f.core.run.stranded == {agent} and not f.core.run.all_arrived()
+    assert f.core.summary().lines()[0] == "arrived: 4/5" and f.phase != "done"
 
 
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():

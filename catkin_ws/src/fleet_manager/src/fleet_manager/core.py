@@ -465,6 +465,8 @@ class RunCore:
                 robot.id, "held by a fault" if why == "failed" else "disabled",
                 " ({})".format(robot.hold_reason) if robot.hold_reason else "",
                 "; {} for it".format(_robots_wait([self.fleet[a].id for a in waiting])) if waiting else ""))
+        if run.stranded_words():
+            parts.append(run.stranded_words())
         return "the run cannot go on without an operator: " + ("; ".join(parts) or "nothing can move")
 
     def stop_all(self, now: float) -> None:

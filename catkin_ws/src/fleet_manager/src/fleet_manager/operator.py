@@ -314,6 +314,9 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     if run.phase.phase == DONE and not run.engine.run.finished_agent(robot.agent):
         run.new_leg(robot, now)
         return True, "the run was done: robot {} drives on to its goal (a new leg)".format(robot.id)
+    if robot.agent in run.stranded:
+        return True, "plan {} has no way to its goal for robot {}: replan to take it home".format(
+            run.plan_id, robot.id)
     return True, ""
 
 
@@ -445,6 +448,8 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     run.switch_plan(plan, "replan", now, pending.grid)
     run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
         len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
+    if run.stranded_words():
+        run.out.tell("plan", None, run.stranded_words())
     run.replanner.resolved()
     _resume_after_replan(run, now)  # a new plan's engine starts paused: otherwise it stays so
     return True, "switched to plan {}".format(run.plan_id)

@@ -103,6 +103,8 @@ class ResumePoint:
     #: plan clock a console shows goes on from them (`Run.next_plan_clock` keeps it so live)
     plan_since: Optional[float] = None
     earlier_plans: float = 0.0
+    #: robot ids the plan leaves away from their goals (`Run.stranded`)
+    stranded: List[int] = field(default_factory=list)
     last_t: float = 0.0
     torn: bool = False
 
@@ -146,6 +148,8 @@ def read_resume(run: RunFolder) -> ResumePoint:
             t = _number(r.get("t"))
             point.earlier_plans += max(0.0, t - point.plan_since)
             point.plan_since = t
+        if kind == "plan":
+            point.stranded = [x for x in r.get("stranded") or [] if isinstance(x, int)]
         if kind == "plan" and r.get("reason") == "reroute":
             handed_over(point, r, pending)
         elif kind == "plan" and r.get("reason") != "loaded":

@@ -94,6 +94,9 @@ class Run:
         self.standing: Dict[int, Coord] = {}
         #: cells walled off for replanning around robots standing between cells
         self.walls: Set[Coord] = set()
+        #: agents the current plan leaves away from their goals: out when a replan was made, they
+        #: stand where they stopped; not arrived until a later plan takes them home (`replan`)
+        self.stranded: Set[int] = set()
         if resume is None:
             self.engine = self._engine(self.plan)
             self.driver = self._driver(self.engine)
@@ -147,9 +150,11 @@ class Run:
 
     def all_arrived(self) -> bool:
         """Every robot not disabled by an operator is at its goal (a robot held by a fault
-        has not arrived: it still takes part, and waits for someone to clear the fault)."""
+        has not arrived: it still takes part, and waits for someone to clear the fault; nor has
+        one the plan leaves away from its goal, `stranded`)."""
         run = self.engine.run
-        return all(run.out[a] == "disabled" or run.finished_agent(a) for a in range(run.num_agents))
+        return all(run.out[a] == "disabled" or (run.finished_agent(a) and a not in self.stranded)
+                   for a in range(run.num_agents))
 
     def disabled(self) -> List[int]:
         return [r.id for r in self.fleet if self.engine.run.out[r.agent] == "disabled"]
@@ -163,6 +168,17 @@ class Run:
         run = self.engine.run
         return not any(r.hold == "recover" or not r.link_up or (r.agent not in held and (
             r.flight is not None or run.dispatched[r.agent] > run.completed[r.agent])) for r in self.fleet)
+
+    def stranded_words(self) -> str:
+        """The robots the plan leaves away from their goals, and what the operator can do
+        ("" if none)."""
+        ids = sorted(self.fleet[a].id for a in self.stranded if self.engine.run.out[a] != "disabled")
+        if not ids:
+            return ""
+        one = len(ids) == 1
+        return ("robot{} {} {} no way home in plan {} (out when it was made): enable {} and replan, or "
+                "disable {}".format("" if one else "s", _ids(ids), "has" if one else "have", self.plan_id,
+                                    "it" if one else "them", "it" if one else "them"))
 
     def held_behind_out(self) -> Set[int]:
         """Followers whose leader is out: they wait at their hold point until it is back."""
@@ -303,6 +319,7 @@ class Run:
         records, the commands no reply settled sent again with their ids, nothing new until
         the robots are checked (`core.RunCore.resumed`)."""
         self.plan, self.plan_id = plan, point.plan_number
+        self.stranded = {self.fleet.by_id[rid].agent for rid in point.stranded if rid in self.fleet.by_id}
         self.out.add(ResumeRunFolder(point.folder))
         self.engine = self._engine(plan)
         self.driver = self._driver(self.engine)
@@ -370,6 +387,8 @@ class Run:
         map it was planned on, walls included (default: the run's), which its reroutes keep to."""
         old = self.engine
         self.rerouting.keep_to(self.grid if grid is None else grid)
+        goals = self.loaded.goals
+        self.stranded = {a for a in range(plan.num_agents) if tuple(plan.positions[-1, a]) != tuple(goals[a])}
         self.standing.clear()
         self.walls.clear()
         self.plan_id += 1
@@ -392,6 +411,8 @@ class Run:
                             "fleetcontrol-" + reason, True, 0)
         sol.orientation = self.loaded.solution.orientation
         self.out.add(WriteFile(name, format_solution(sol)))
+        if self.stranded:  # the summary does not count them arrived (`stranded`)
+            fields["stranded"] = sorted(self.fleet[a].id for a in self.stranded)
         self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
                         actions=action_counts(plan), starts=[list(c) for c in starts], **fields)
         self.out.desk.bump("plan {} ({})".format(self.plan_id, reason), robots=concerns)
@@ -455,6 +476,7 @@ class Run:
         self.started_at = self.plan_since = self.ended_at = None
         self.plan_start = 0.0
         self.plan_id += 1
+        self.stranded = set()
         old_out = self.engine.run.out
         engine = self._engine(plan)
         for agent, why in enumerate(old_out):

@@ -280,8 +280,11 @@ class SummaryBuilder:
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
             self.counted = CollisionCount(starts)
+        # robots the plan leaves where they stand, away from their goals (out when a replan was
+        # made: `fleet_manager.run.Run.stranded`) have not arrived
+        stranded = {self.agent[r] for r in record.get("stranded") or [] if r in self.agent}
         for i, n in enumerate(self.actions):
-            if n <= self.done[i]:
+            if n <= self.done[i] and i not in stranded:
                 self.arrival.setdefault(i, self.last_completion.get(i, t if not first else t))
             else:
                 self.arrival.pop(i, None)
