@@ -346,7 +346,7 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
 
     replanned()
     told = [n.text for n in ops.notices()]
-    assert "robot 2 has no way home in plan 2 (out when it was made): enable it and replan, or disable it" in told
+    assert "robot 2 has no way home in plan 2: replan (enable it first if out), or disable it" in told
     goals = f.core.run.loaded.goals
     home = lambda rid: (round(f.robots[rid].navigator.true_pose().x),  # noqa: E731
                         round(f.robots[rid].navigator.true_pose().y)) == goals[rid - 1]

@@ -94,8 +94,9 @@ class Run:
         self.standing: Dict[int, Coord] = {}
         #: cells walled off for replanning around robots standing between cells
         self.walls: Set[Coord] = set()
-        #: agents the current plan leaves away from their goals: out when a replan was made, they
-        #: stand where they stopped; not arrived until a later plan takes them home (`replan`)
+        #: agents the current plan leaves away from their goals (out when a replan was made, they
+        #: stand where they stopped; or a replan found no way for them): not arrived until a later
+        #: plan takes them home
         self.stranded: Set[int] = set()
         if resume is None:
             self.engine = self._engine(self.plan)
@@ -176,9 +177,9 @@ class Run:
         if not ids:
             return ""
         one = len(ids) == 1
-        return ("robot{} {} {} no way home in plan {} (out when it was made): enable {} and replan, or "
-                "disable {}".format("" if one else "s", _ids(ids), "has" if one else "have", self.plan_id,
-                                    "it" if one else "them", "it" if one else "them"))
+        return "robot{} {} {} no way home in plan {}: replan (enable {} first if out), or disable {}".format(
+            "" if one else "s", _ids(ids), "has" if one else "have", self.plan_id, "it" if one else "them",
+            "it" if one else "them")
 
     def held_behind_out(self) -> Set[int]:
         """Followers whose leader is out: they wait at their hold point until it is back."""
