@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,7 +22,7 @@ from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_manager.run_phase import TRANSITIONS
 from fleet_manager.settings import ManagerSettings
-from memory_fleet import MemoryFleet, lab_fleet
+from memory_fleet import MemoryConsole, MemoryFleet, lab_fleet
 
 _LAB: List[LoadedPlan] = []
 
@@ -245,20 +245,43 @@ def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
     assert f.run_until(lambda: done(f)) and f.at_goals()
 
 
+def bumped(**settings) -> Tuple[MemoryFleet, MemoryConsole]:
+    """The lab at the TurtleBot's size, started, robot 2 stopped between two cells by its bumper
+    in its first drive and held (`settings`: the manager's, step time and size aside)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, **settings))
+    f.robots[2].navigator.bumps = {1}
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    return f, ops
+
+
+def replanned(f: MemoryFleet, ops: MemoryConsole, accept: bool = True) -> None:
+    """The operator asks for a replan and answers its proposal (`answered`)."""
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: bool(f.jobs) or f.core.run.replanner.proposal_id is not None, 20)
+    answered(f, ops, accept)
+
+
+def answered(f: MemoryFleet, ops: MemoryConsole, accept: bool = True) -> None:
+    """The planning asked for is done (if `f.hold_plans` held it back) and, once the State names
+    the proposal, the operator accepts or rejects it."""
+    f.finish_plans()
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 5)
+    f.advance(0.1)  # the console sees the State that names the proposal
+    assert f.ask(ops, "accept" if accept else "reject", proposal=f.core.run.replanner.proposal_id).ok
+
+
 def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
     """Robot 2's bumper is pressed halfway through its first drive: it stands between two cells,
     out. A replan walls off the cell it leans into (`replanning.walled`); every look for a reroute
     of the new plan plans on that walled map too, not on the whole one, or a reroute could send a
     robot into the cell robot 2 half stands in. The others arrive, none too close."""
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, reroute="auto", reroute_timed=False))
-    f.robots[2].navigator.bumps = {1}
+    f, ops = bumped(reroute="auto", reroute_timed=False)
     looks = []
     finish = f.finish_looks
     f.finish_looks = lambda: (looks.extend(f.looks), finish())  # type: ignore[method-assign]
-    ops = f.console()
-    f.link_up()
-    f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
     pose = f.robots[2].navigator.true_pose()
     assert min(abs(pose.x - round(pose.x)), abs(pose.y - round(pose.y))) < 0.05 < \
         max(abs(pose.x - round(pose.x)), abs(pose.y - round(pose.y))), "between two cells"
@@ -269,10 +292,7 @@ def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
     walls = {(x, y) for x in range(grid.width) for y in range(grid.height)
              if f.loaded.grid.free[y, x] and not grid.free[y, x]}
     assert walls and all(math.hypot(x - pose.x, y - pose.y) < 0.6 for x, y in walls), walls
-    f.finish_plans()
-    assert f.run_until(lambda: [x for x in ops.received if type(x).__name__ == "Proposal"], 5)
-    proposal = [x for x in ops.received if type(x).__name__ == "Proposal"][-1]
-    assert f.ask(ops, "accept", proposal=proposal.id).ok
+    answered(f, ops)
     reroutes = f.core.run.rerouting
     assert all(not reroutes.maps.grid.free[y, x] for x, y in walls), "a reroute may plan into the wall"
     assert f.run_until(lambda: f.core.run.stuck(), 60)  # all but robot 2, which the plan leaves there
@@ -290,31 +310,16 @@ def test_a_robot_a_replan_left_between_two_cells_is_walled_in_by_every_later_rep
     plan gives it no move, so it stays between two cells, out and later enabled again. Each later
     replan still walls off the cell it leans into (before, only a robot out with a move to finish
     was walled in, and it was planned from its cell as if it stood there)."""
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    f.robots[2].navigator.bumps = {1}
-    ops = f.console()
-    f.link_up()
-    f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    f, ops = bumped()
     pose = f.robots[2].navigator.true_pose()
-    f.hold_plans = True
     grids = []
-
-    def replanned(accept: bool) -> None:
-        assert f.ask(ops, "replan").ok
-        assert f.run_until(lambda: len(f.jobs) == 1, 20)
-        grids.append(f.jobs[0].grid)
-        f.finish_plans()
-        assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 5)
-        f.advance(0.1)  # the console sees the State that names the proposal
-        proposal = f.core.run.replanner.proposal_id
-        assert f.ask(ops, "accept" if accept else "reject", proposal=proposal).ok
-
-    replanned(True)
-    replanned(False)  # robot 2 still out, with no move in the plan
+    solve = f.solve
+    f.solve = lambda job: grids.append(job.grid) or solve(job)
+    replanned(f, ops)
+    replanned(f, ops, accept=False)  # robot 2 still out, with no move in the plan
     assert f.ask(ops, "enable", robot=2).ok
     f.advance(1.0)
-    replanned(True)  # robot 2 enabled again, still where it stopped
+    replanned(f, ops)  # robot 2 enabled again, still where it stopped
     assert f.robots[2].navigator.true_pose() == pose
     walls = [{(x, y) for x in range(g.width) for y in range(g.height) if f.loaded.grid.free[y, x] and not g.free[y, x]}
              for g in grids]
@@ -331,20 +336,8 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     leaves it where it stands. The others arrive, but the run is not done and the summary counts
     4 of 5 arrived (before, "run done: arrived: 5/5" with robot 2 held between two cells); the
     operator is told what to do. Enabled and replanned, it goes home and the run is done."""
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    f.robots[2].navigator.bumps = {1}
-    ops = f.console()
-    f.link_up()
-    f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
-
-    def replanned() -> None:
-        assert f.ask(ops, "replan").ok
-        assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
-        f.advance(0.1)  # the console sees the State that names the proposal
-        assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
-
-    replanned()
+    f, ops = bumped()
+    replanned(f, ops)
     told = [n.text for n in ops.notices()]
     assert "robot 2 has no way home in plan 2: replan (enable it first if out), or disable it" in told
     goals = f.core.run.loaded.goals
@@ -358,7 +351,7 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert "robot 2 has no way home in plan 2" in (f.core.cannot_go_on(f.now + 60.0) or "")
     answer = f.ask(ops, "enable", robot=2)
     assert answer.ok and "plan 2 has no way to its goal for robot 2: replan to take it home" in answer.reason
-    replanned()
+    replanned(f, ops)
     assert f.run_until(lambda: done(f)) and f.at_goals()
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
@@ -366,16 +359,8 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
 def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped_not_arrived():
     """As above, and the manager dies after the others arrived: the one that takes over reads the
     plan's record (`stranded`) and neither finishes the run nor counts robot 2 arrived."""
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    f.robots[2].navigator.bumps = {1}
-    ops = f.console()
-    f.link_up()
-    f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
-    assert f.ask(ops, "replan").ok
-    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
-    f.advance(0.1)
-    assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
+    f, ops = bumped()
+    replanned(f, ops)
     assert f.run_until(lambda: f.core.run.stuck(), 60)
     f.kill_manager()
     f.resume_manager()
