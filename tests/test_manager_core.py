@@ -370,6 +370,22 @@ def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped
     assert f.core.summary().lines()[0] == "arrived: 4/5" and f.phase != "done"
 
 
+def test_a_robot_held_by_a_fault_and_then_disabled_is_out_for_good_and_the_run_can_end():
+    """Robot 2's bumper holds it between two cells; the operator disables it (a visitor broke it)
+    and replans: the others go home and the run is done, robot 2 counted disabled. Before, a
+    robot held by a fault stayed "failed" when disabled: still taking part, so the run never
+    ended and the operator was told to disable a robot already disabled."""
+    f, ops = bumped()
+    assert f.ask(ops, "disable", robot=2).ok
+    f.advance(0.2)
+    assert ops.state.robots[1].out == "disabled"
+    replanned(f, ops)
+    assert not any("has no way home" in n.text for n in ops.notices())  # disabled: nothing to do
+    assert f.run_until(lambda: done(f), 60)
+    assert f.core.summary().lines()[0] == "arrived: 4/4 (of 5 robots; 1 out)"
+    assert "disabled: robot 2" in f.core.run.phase.reason
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

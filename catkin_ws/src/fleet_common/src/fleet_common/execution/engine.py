@@ -316,8 +316,9 @@ class Engine:
     def _disabled(self, e: Disabled) -> Recheck:
         run, r = self.run, self._agent(e.agent, e)
         was_active = run.out[r] is None
-        if run.out[r] is None:
-            run.out[r] = DISABLED
+        # the operator's choice wins over a fault: out of the run, no longer waiting to be cleared
+        # (a robot failed halfway keeps that move and its cell: `halfway`)
+        run.out[r] = DISABLED
         run.dispatched[r] = max(run.started[r], run.completed[r])  # keeps only what it began
         self._forget_early(r)
         return (self.strategy.on_out(r) if was_active else ()), r
