@@ -386,6 +386,36 @@ def test_a_robot_held_by_a_fault_and_then_disabled_is_out_for_good_and_the_run_c
     assert "disabled: robot 2" in f.core.run.phase.reason
 
 
+def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out():
+    """Robot 4 follows robot 2 into the cell robot 2 is leaving, and robot 2's bumper stops it on
+    the way out: robot 4 waits at its hold point, in the middle of its drive, until robot 2 moves
+    on. A replan waits for every robot to stand, so it would wait for ever and the run with it
+    (Start refused while a replan is open; found by random operator sessions): it is refused,
+    saying why, and given up if robot 2 went out while the robots finished their moves. Robot 2
+    enabled again, both finish their moves and the run ends."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    f.robots[2].navigator.bumps = {3}
+    f.robots[2].navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 30)
+    assert f.run_until(lambda: bool(f.core.run.held_behind_out()), 5)
+    answer = f.ask(ops, "replan")
+    assert not answer.ok and answer.reason.startswith("robot 4 waits behind robot 2, which is out: a replan needs "
+                                                      "every robot standing; enable robot 2 and start"), answer.reason
+    assert f.phase == "running" and f.core.run.replanner.state == "idle"
+    # the same, robot 2 going out after the replan was asked for: it is given up, not waited on
+    f.core.run.replanner.request(True, None, None)
+    f.advance(0.5)
+    assert f.core.run.replanner.state == "idle"
+    assert any(n.text.startswith("replan given up: robot 4 waits behind robot 2") for n in ops.notices())
+    f.advance(1.0)  # the foot leaves the bumper
+    assert f.ask(ops, "enable", robot=2).ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+    assert f.core.summary().collisions == 0
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

@@ -186,6 +186,12 @@ class RunCore:
         run = self.run
         if run.resuming is not None and not run.not_ready():
             self.resumed(now)
+        if run.replanner.state == SAFE_POINT and run.driver.moving:
+            blocked = operator.behind_out(run)
+            if blocked:  # a leader went out while the robots finished their moves: no safe point comes
+                run.replanner.resolved()
+                run.say("replan given up: " + blocked)
+                self.out.tell("plan", None, "replan given up: " + blocked)
         if run.replanner.state == SAFE_POINT and not run.driver.moving:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = run.positions()

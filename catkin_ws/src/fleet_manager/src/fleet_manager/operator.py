@@ -43,7 +43,7 @@ from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "solved", "allowed", "why_not", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
@@ -486,6 +486,22 @@ def _between_cells(run: Run) -> Optional[str]:
         "s" if len(ids) > 1 else "", ", ".join(str(i) for i in ids), "they finish" if len(ids) > 1 else "it finishes")
 
 
+def behind_out(run: Run) -> Optional[str]:
+    """Why not replan now: a follower waits at its hold point, in the middle of its drive, behind
+    a robot that is out (stopped on its way out of the cell the follower enters). A replan starts
+    once every robot stands (no command in flight); this one stands only when its leader moves
+    on, so the replan would wait for ever, and Start with it (found by random operator sessions)."""
+    following = run.driver.following
+    pairs = sorted((run.fleet[a].id, run.fleet[following.leader_of(a)].id) for a in run.held_behind_out()
+                   if run.fleet[a].flight is not None)
+    if not pairs:
+        return None
+    waits = "; ".join("robot {} waits behind robot {}, which is out".format(f, lead) for f, lead in pairs)
+    return ("{}: a replan needs every robot standing; enable {} and start (both finish their moves), "
+            "or halt first").format(waits, "robot {}".format(pairs[0][1]) if len({p[1] for p in pairs}) == 1
+                                    else "those robots")
+
+
 _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "start": _why_not_start, "step": _why_not_step,
     "pause": lambda run: run.phase.refusal("pause"), "stop": lambda run: run.phase.refusal("stop"),
@@ -494,7 +510,7 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
         "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
         "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
         "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
-        else None) or _between_cells(run),
+        else None) or _between_cells(run) or behind_out(run),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):
