@@ -416,6 +416,33 @@ def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out(
     assert f.core.summary().collisions == 0
 
 
+def test_a_robot_disabled_in_the_middle_of_a_drive_that_then_faults_drives_on_when_enabled():
+    """Robot 5 is disabled while it drives (a disabled robot finishes the move it began) and its
+    bumper stops it halfway. Enabled again, it is sent that move again and the run ends. Before,
+    the fault of a robot already out was not given to the engine: it still counted the move as
+    under way, nothing sent it again, and the run stood still for ever, robot 2 waiting for
+    robot 5, with nothing said (found by random operator sessions)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    navigator = f.robots[5].navigator
+    navigator.bumps = {3}
+    navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    robot = f.core.fleet.by_id[5]
+    assert f.run_until(lambda: navigator._drives == 3 and robot.flight is not None and robot.flight.kind == "drive", 30)
+    assert f.ask(ops, "disable", robot=5).ok
+    assert f.run_until(lambda: robot.hold == "fault", 10)
+    pose = navigator.true_pose()
+    assert abs(pose.x - round(pose.x)) + abs(pose.y - round(pose.y)) > 0.3, "stopped between two cells"
+    state = f.core.run.engine.run
+    assert state.out[robot.agent] == "disabled" and state.halfway[robot.agent]  # the move is taken back
+    f.advance(1.0)  # the foot leaves the bumper
+    assert f.ask(ops, "enable", robot=5).ok
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+    assert f.core.summary().collisions == 0
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

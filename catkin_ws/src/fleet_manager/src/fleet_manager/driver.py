@@ -327,11 +327,15 @@ class Driver:
     def _robot_out(self, robot: Robot, reason: str, now: float, hold: str) -> None:
         robot.queue.clear()
         robot.moving_since = None
-        if self.engine.run.out[robot.agent] is None:
+        run = self.engine.run
+        disabled = run.out[robot.agent] == "disabled"
+        # a robot disabled in the middle of a drive finishes it, unless it fails: the engine
+        # takes that move back too (it stays disabled), or it would wait for it for ever
+        if run.out[robot.agent] is None or run.started[robot.agent] > run.completed[robot.agent]:
             self._progress(robot, RobotFailed(robot.agent, now), now)
         robot.hold = hold
         robot.hold_reason = reason
-        self.out.record("out", robot=robot.id, why="failed", reason=reason)
+        self.out.record("out", robot=robot.id, why="disabled" if disabled else "failed", reason=reason)
         self.out.tell("fault" if hold == FAULT else "run", robot.id, "robot {} {}: {}".format(
             robot.id, "held" if hold == FAULT else "stopped", reason))
 

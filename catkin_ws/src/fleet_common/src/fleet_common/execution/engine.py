@@ -306,7 +306,8 @@ class Engine:
     def _failed(self, e: RobotFailed) -> Recheck:
         run, r = self.run, self._agent(e.agent, e)
         was_active = run.out[r] is None
-        run.out[r] = FAILED
+        if run.out[r] != DISABLED:  # the operator's choice stands; the move begun is taken back all the same
+            run.out[r] = FAILED
         run.halfway[r] = run.halfway[r] or run.started[r] > run.completed[r]
         # nothing it was sent counts as done; on Enabled it is sent its next action again
         run.dispatched[r] = run.started[r] = run.completed[r]
