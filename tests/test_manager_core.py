@@ -384,6 +384,15 @@ def test_a_robot_held_by_a_fault_and_then_disabled_is_out_for_good_and_the_run_c
     assert f.run_until(lambda: done(f), 60)
     assert f.core.summary().lines()[0] == "arrived: 4/4 (of 5 robots; 1 out)"
     assert "disabled: robot 2" in f.core.run.phase.reason
+    # repaired after the end, robot 2 is enabled: the run goes on (before, it stayed done with
+    # robot 2 away from its goal, and a replan was refused: "the run is done")
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: "
+                                           "replan to take it home"), answer.reason
+    assert f.phase == "running"
+    replanned(f, ops)
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().lines()[0] == "arrived: 5/5"
 
 
 def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out():

@@ -311,13 +311,14 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     run.driver.enable(robot, now)
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
-    if run.phase.phase == DONE and not run.engine.run.finished_agent(robot.agent):
-        run.new_leg(robot, now)
-        return True, "the run was done: robot {} drives on to its goal (a new leg)".format(robot.id)
-    if robot.agent in run.stranded:
-        return True, "plan {} has no way to its goal for robot {}: replan to take it home".format(
-            run.plan_id, robot.id)
-    return True, ""
+    stranded = robot.agent in run.stranded
+    if stranded:
+        why = "plan {} has no way to its goal for robot {}: replan to take it home".format(run.plan_id, robot.id)
+    if run.phase.phase == DONE and (stranded or not run.engine.run.finished_agent(robot.agent)):
+        run.new_leg(robot, now)  # the run goes on (a stranded robot's leg: a replan to take it home)
+        return True, "the run was done: " + (why if stranded else
+                                              "robot {} drives on to its goal (a new leg)".format(robot.id))
+    return True, why if stranded else ""
 
 
 def disable(run: Run, args: Args, now: float) -> Answer:
