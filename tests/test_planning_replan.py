@@ -87,6 +87,17 @@ def test_no_plan_for_the_rest_is_reported() -> None:
     assert result.status == "no-solution" and "no plan exists" in result.message
 
 
+def test_an_agent_whose_goal_is_blocked_stays_put_and_the_others_are_planned() -> None:
+    """The manager blocks the cell a robot standing between two cells leans into; when that is
+    another robot's goal, that robot cannot reach it now: it stays where it is, reported, and
+    the others are planned (before, the whole replan failed: "goal ... is on a blocked cell")."""
+    walled = Grid.from_rows(["...@", "...."])  # (3, 1), agent 1's goal, blocked (the first row is the top)
+    assert not walled.is_free((3, 1))
+    result = replan(walled, [(0, 0), (0, 1)], [(2, 0), (3, 1)], out=set())
+    assert result.solved and result.unreachable == {1} and "agents 1 cannot reach" in result.message
+    assert tuple(result.plan.positions[-1, 0]) == (2, 0) and tuple(result.plan.positions[-1, 1]) == (0, 1)
+
+
 def test_bad_replanning_input_names_the_agent() -> None:
     with pytest.raises(InvalidProblemError, match="agent 1: current cell \\(2, 1\\) is on a blocked cell"):
         replan(HALL, [(0, 0), (2, 1)], [(1, 1), (0, 1)], out=set())

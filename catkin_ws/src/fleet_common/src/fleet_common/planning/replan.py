@@ -3,8 +3,9 @@
 The execution manager calls `replan` with each agent's current cell, the
 agents that are out (a dead battery, a robot taken off the floor) and the
 goals. Out agents stay where they are for the whole new plan: obstacles.
-Agents whose goal can no longer be reached (an out robot sits on it, or walls
-off the only corridor) are found before any search, by connected components
+Agents whose goal can no longer be reached (an out robot sits on it, the
+map's cells blocked round a robot standing between two cells cover it, or
+walls off the only corridor) are found before any search, by connected components
 of the map with the stationary robots as walls, repeated until nothing
 changes (a stranded robot is a wall for the others too); they stay put and
 are reported in `unreachable`. The others are planned from their current
@@ -89,8 +90,8 @@ def _check(grid: Grid, current: List[Coord], goals: List[Coord], out: Set[int]) 
             problems.append(msg)
     problems += duplicate_problems(current, "current cell")
     active = [i for i in range(n) if i not in out]
-    for i in active:
-        msg = cell_problem(grid, goals[i], "goal", i)
+    for i in active:  # a goal on a blocked cell is unreachable (`_stranded`), outside the map wrong
+        msg = cell_problem(grid, goals[i], "goal", i) if not grid.in_bounds(goals[i]) else None
         if msg is not None:
             problems.append(msg)
     problems += duplicate_problems([goals[i] for i in active], "goal", agents=active)
@@ -109,7 +110,7 @@ def _stranded(grid: Grid, current: List[Coord], goals: List[Coord], still: Set[i
         labels = component_labels(grid, blocked)
         w = grid.width
         new = {i for i in range(len(current)) if i not in walls and (
-            blocked[goals[i][1], goals[i][0]]
+            blocked[goals[i][1], goals[i][0]] or not grid.free[goals[i][1], goals[i][0]]
             or labels[current[i][1] * w + current[i][0]] != labels[goals[i][1] * w + goals[i][0]])}
         if not new:
             return stranded
