@@ -452,6 +452,36 @@ def test_a_robot_disabled_in_the_middle_of_a_drive_that_then_faults_drives_on_wh
     assert f.core.summary().collisions == 0
 
 
+def test_a_robot_halted_at_the_very_end_of_its_last_move_is_replanned_from_its_goal():
+    """The operator halts the fleet as robot 4 is a few centimetres short of its goal: its move
+    is taken back, so by the engine's record it stands in the cell before, leaning into its goal,
+    which a replan walls off for the others. Planned from the cell before, it could never reach
+    its goal and the run could never end (found by random operator sessions); it stands on its
+    goal, and is planned from there."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    robot, goal = f.core.fleet.by_id[4], f.core.run.loaded.goals[3]
+    navigator = f.robots[4].navigator
+    near = lambda: math.hypot(navigator.true_pose().x - goal[0], navigator.true_pose().y - goal[1])  # noqa: E731
+    assert f.run_until(lambda: robot.flight is not None and robot.flight.kind == "drive" and 0.05 < near() < 0.25, 30)
+    assert f.ask(ops, "halt").ok
+    f.advance(0.2)
+    state = f.core.run.engine.run
+    assert state.out[robot.agent] is not None and state.completed[robot.agent] < state.count(robot.agent)
+    replanned(f, ops)  # around the halted robots
+    for rid in f.robots:
+        f.ask(ops, "enable", robot=rid)
+    replanned(f, ops)  # every robot from where it stands
+    assert f.core.run.positions()[robot.agent] == tuple(goal) and not f.core.run.stranded
+    assert f.ask(ops, "start").ok  # halted: the run was paused
+    assert f.run_until(lambda: done(f), 60)
+    assert all(math.hypot(r.navigator.true_pose().x - g[0], r.navigator.true_pose().y - g[1]) < 0.3
+               for r, g in zip(f.robots.values(), f.core.run.loaded.goals))
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

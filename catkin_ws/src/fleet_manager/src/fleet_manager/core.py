@@ -48,7 +48,7 @@ from fleet_common.wire import PoseFeedback, Stop
 from . import operator
 from .outbox import Effect, Outbox, REROUTE
 from .refusals import RefusedRequests
-from .replanning import SAFE_POINT, walled
+from .replanning import SAFE_POINT, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import RESUMING, Fleet, Seen
@@ -194,7 +194,7 @@ class RunCore:
                 self.out.tell("plan", None, "replan given up: " + blocked)
         if run.replanner.state == SAFE_POINT and not run.driver.moving:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
-            here = run.positions()
+            here = stood_on(run.grid, self.fleet.robots, run.positions())
             grid = _without(walled(run.grid, self.fleet.robots, here), run.walls)
             self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
         self._reroute_tick(now)

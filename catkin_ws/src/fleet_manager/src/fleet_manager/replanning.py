@@ -108,6 +108,25 @@ class Replanner:
         self.pending = None
 
 
+def stood_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> List[Coord]:
+    """`here` (each robot's cell by the engine's record), with a robot whose pose is on another
+    free cell, nobody's, in that cell: one halted or stopped by a fault at the very end of a
+    move the engine took back stands in its target, and is planned from there (walled in at
+    its old cell, it could never be planned into the target, were that its goal)."""
+    out = list(here)
+    taken = {tuple(c) for c in here}
+    for robot in robots:
+        pose = robot.pose
+        if pose is None:
+            continue
+        cell = (int(round(pose.x)), int(round(pose.y)))
+        if (cell != tuple(here[robot.agent]) and cell not in taken and grid.in_bounds(cell) and grid.is_free(cell)
+                and math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL):
+            out[robot.agent] = cell
+            taken.add(cell)
+    return out
+
+
 def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> Grid:
     """`grid` with the far cell of every robot standing between two cells blocked: the neighbour
     of its cell its pose leans towards. That is the target of the move an out robot stopped in,
