@@ -1,0 +1,48 @@
+"""Random operator sessions over the in-memory manager, many seeds: does the run tell the truth?
+
+Each session (tests/operator_sessions.py) runs the lab plan on five virtual robots with random
+bumper presses and random operator presses (pause, start, step, halt, disable, enable, strategy,
+replan and its answer), then the clean-up lab staff would do; it checks that the run ends, that
+"done" means every robot is at its goal, that the summary counts exactly those, and that no two
+robots came too close; a session that raises counts as one that found something. Prints each such
+session, with what the operator did, and the count; exits non-zero if any did.
+
+    .venv/bin/python bench/operator_sessions.py [FIRST LAST]     # seeds FIRST..LAST-1, default 0 200
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the tests' sessions
+
+from operator_sessions import Session, session  # noqa: E402
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("first", type=int, nargs="?", default=0)
+    parser.add_argument("last", type=int, nargs="?", default=200)
+    args = parser.parse_args()
+    began = time.perf_counter()
+    bad = 0
+    for seed in range(args.first, args.last):
+        try:
+            found = session(seed)
+        except Exception as err:  # the manager's worker turns such an error into "replanning failed"
+            found = Session(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
+        if found.problems:
+            bad += 1
+            print("seed {}: {}".format(seed, "; ".join(found.problems)))
+            for t, action, given, ok, reason in found.log:
+                print("    {:6.1f} s  {} {} -> {}{}".format(t, action, given or "", "done" if ok else "refused",
+                                                           ": " + reason if reason else ""))
+    print("{} sessions in {:.0f} s: {} found something".format(args.last - args.first,
+                                                               time.perf_counter() - began, bad))
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

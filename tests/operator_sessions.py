@@ -1,0 +1,103 @@
+"""Random operator sessions over the in-memory manager (`memory_fleet`), judged by the truth.
+
+A session runs the lab plan on five virtual robots at the TurtleBot's size, some of
+whose bumpers a visitor presses in a random drive, rerouting off or automatic. An
+operator presses what a console offers, at random moments: pause, start, step,
+halt, disable or enable a robot, switch strategy, replan (and accept or reject the
+proposal). Then the operator cleans up as lab staff would: enable every robot,
+start, and replan while the run is stuck, a few times.
+
+What is checked is what a visitor and the run's report would say against where the
+robots really are: the run ends; "done" means every robot is at its goal; the
+summary counts as arrived exactly the robots at their goals; no two robots came
+closer than the safe distance. Used by tests/test_manager_operator_sessions.py
+(some seeds) and bench/operator_sessions.py (many).
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+from typing import List, Tuple
+
+from fleet_common.robot_size import TURTLEBOT2
+from fleet_manager.driver import AT_CELL
+from fleet_manager.settings import ManagerSettings
+from memory_fleet import MemoryFleet, lab_fleet
+from test_manager_core import lab
+
+#: what the operator may press; "wait" lets the run go on
+PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "strategy", "wait", "wait", "wait")
+
+
+@dataclass
+class Session:
+    """What happened (time, action, arguments, accepted, answer) and what was found wrong."""
+
+    seed: int
+    log: List[Tuple[float, str, dict, bool, str]] = field(default_factory=list)
+    problems: List[str] = field(default_factory=list)
+
+
+def session(seed: int) -> Session:
+    """One random session (see the module docstring)."""
+    rng = random.Random(seed)
+    out = Session(seed)
+    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(
+        step_time=0.5, size=TURTLEBOT2, reroute=rng.choice(["off", "auto"]), reroute_timed=False))
+    for robot in f.robots.values():
+        if rng.random() < 0.3:
+            robot.navigator.bumps = {rng.randint(1, 4)}
+            robot.navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+
+    def press(action: str, **args: object) -> bool:
+        answer = f.ask(ops, action, **args)
+        out.log.append((round(f.now, 1), action, dict(args), answer.ok, answer.reason))
+        return answer.ok
+
+    def answer_proposal(choice: str) -> None:
+        if f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20):
+            f.advance(0.1)  # the console sees the State that names the proposal
+            press(choice, proposal=f.core.run.replanner.proposal_id)
+
+    for _ in range(rng.randint(3, 12)):
+        f.advance(rng.uniform(0.2, 3.0))
+        action = rng.choice(PRESSES)
+        if action == "wait":
+            continue
+        args: dict = {}
+        if action in ("disable", "enable"):
+            args["robot"] = rng.randint(1, 5)
+        elif action == "strategy":
+            args["name"] = rng.choice(["adg", "step", "reorder"])
+        if press(action, **args) and action == "replan":
+            answer_proposal(rng.choice(["accept", "accept", "reject"]))
+    for _ in range(4):  # the clean-up
+        f.advance(1.0)  # a bumper is free again after 0.5 s
+        for rid in f.robots:
+            if f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent] is not None:
+                press("enable", robot=rid)
+        press("start")
+        if not f.run_until(lambda: f.phase == "done" or f.core.run.stuck(), 90) or f.phase == "done":
+            break
+        if press("replan"):
+            answer_proposal("accept")
+    goals = f.core.run.loaded.goals
+    home = {rid: math.hypot(r.navigator.true_pose().x - goals[rid - 1][0],
+                            r.navigator.true_pose().y - goals[rid - 1][1]) <= AT_CELL
+            for rid, r in f.robots.items()}
+    summary = f.core.summary()
+    if f.phase != "done":
+        out.problems.append("not done: {} ({})".format(f.phase, f.core.run.phase.reason or "no reason given"))
+    elif not all(home.values()):
+        out.problems.append("done, but robots {} are not at their goals".format(
+            [rid for rid, at in home.items() if not at]))
+    if sorted(summary.arrived) != sorted(rid for rid, at in home.items() if at):
+        out.problems.append("the summary counts robots {} arrived; at their goals: {}".format(
+            summary.arrived, [rid for rid, at in home.items() if at]))
+    if summary.collisions:
+        out.problems.append("{} pairs closer than the safe distance".format(summary.collisions))
+    return out

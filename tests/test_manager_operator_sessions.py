@@ -1,0 +1,39 @@
+"""Random operator sessions over the in-memory manager (`operator_sessions`): whatever the operator
+presses, and whatever bumpers are pressed, the run ends, "done" is true, the summary counts the robots
+at their goals, and no two robots come too close. bench/operator_sessions.py runs more seeds.
+
+The negative controls put back two defects these sessions found (each fixed on 2026-11-26): a robot
+a replan leaves where it stopped counted as arrived, and a replan that waits for ever on a follower
+held behind a robot that is out. Each makes sessions fail, so the checks can fail.
+"""
+from __future__ import annotations
+
+from fleet_manager import core, operator
+from fleet_manager.run import Run
+from operator_sessions import session
+
+SEEDS = range(40)
+
+
+def test_random_operator_sessions_end_and_the_run_tells_the_truth() -> None:
+    bad = [(s.seed, s.problems) for s in map(session, SEEDS) if s.problems]
+    assert not bad, bad
+
+
+def _found(seeds) -> bool:
+    """Whether some session of `seeds` finds a problem (stops at the first)."""
+    return any(session(seed).problems for seed in seeds)
+
+
+def test_a_robot_left_where_it_stopped_counted_arrived_is_caught(monkeypatch) -> None:
+    def old_all_arrived(self) -> bool:  # before 2026-11-26: the plan's end was arrival
+        run = self.engine.run
+        return all(run.out[a] == "disabled" or run.finished_agent(a) for a in range(run.num_agents))
+    monkeypatch.setattr(Run, "all_arrived", old_all_arrived)
+    assert _found(SEEDS)
+
+
+def test_a_replan_waiting_for_ever_behind_a_robot_out_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(operator, "behind_out", lambda run: None)
+    monkeypatch.setattr(core.operator, "behind_out", lambda run: None)
+    assert _found(range(40, 120))
