@@ -312,13 +312,12 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
     stranded = robot.agent in run.stranded
-    if stranded:
-        why = "plan {} has no way to its goal for robot {}: replan to take it home".format(run.plan_id, robot.id)
+    why = ("plan {} has no way to its goal for robot {}: replan to take it home".format(run.plan_id, robot.id)
+           if stranded else "")
     if run.phase.phase == DONE and (stranded or not run.engine.run.finished_agent(robot.agent)):
         run.new_leg(robot, now)  # the run goes on (a stranded robot's leg: a replan to take it home)
-        return True, "the run was done: " + (why if stranded else
-                                              "robot {} drives on to its goal (a new leg)".format(robot.id))
-    return True, why if stranded else ""
+        return True, "the run was done: " + (why or "robot {} drives on to its goal (a new leg)".format(robot.id))
+    return True, why
 
 
 def disable(run: Run, args: Args, now: float) -> Answer:
