@@ -482,6 +482,38 @@ def test_a_robot_halted_at_the_very_end_of_its_last_move_is_replanned_from_its_g
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
 
+def test_a_manager_that_takes_over_knows_a_move_a_halt_took_back_from_a_disabled_robot():
+    """The operator halts the fleet while robot 5 drives (its move is taken back), disables robot 5,
+    and the manager dies. The one that takes over reads that the move was taken back: enabled
+    again, robot 5 is sent it again and the run ends. Before, the new manager counted the move
+    under way, nothing sent it again, and the run stood still for ever (found by random operator
+    sessions with a manager restart)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    robot = f.core.fleet.by_id[5]
+    assert f.run_until(lambda: robot.flight is not None and robot.flight.kind == "drive"
+                       and f.core.run.engine.run.completed[robot.agent] >= 3, 30)
+    f.advance(0.3)  # half way
+    assert f.ask(ops, "halt").ok
+    f.advance(0.5)
+    assert f.ask(ops, "disable", robot=5).ok
+    f.kill_manager()
+    f.resume_manager()
+    f.advance(1.0)
+    state = f.core.run.engine.run
+    agent = f.core.fleet.by_id[5].agent
+    assert state.halfway[agent] and state.started[agent] == state.completed[agent]
+    ops = f.console()
+    for rid in f.robots:
+        if state.out[f.core.fleet.by_id[rid].agent] is not None:
+            assert f.ask(ops, "enable", robot=rid).ok
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().collisions == 0
+
+
 def test_replanning_around_a_robot_disabled_for_good_is_proposed_and_accepted():
     f = fleet()
     ops = f.console()

@@ -335,7 +335,8 @@ class Driver:
             self._progress(robot, RobotFailed(robot.agent, now), now)
         robot.hold = hold
         robot.hold_reason = reason
-        self.out.record("out", robot=robot.id, why="disabled" if disabled else "failed", reason=reason)
+        self.out.record("out", robot=robot.id, why="disabled" if disabled else "failed", reason=reason,
+                        **({"taken_back": True} if disabled else {}))  # for a manager that resumes
         self.out.tell("fault" if hold == FAULT else "run", robot.id, "robot {} {}: {}".format(
             robot.id, "held" if hold == FAULT else "stopped", reason))
 

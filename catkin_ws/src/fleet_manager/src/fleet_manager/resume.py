@@ -105,6 +105,9 @@ class ResumePoint:
     earlier_plans: float = 0.0
     #: robot ids the plan leaves away from their goals (`Run.stranded`)
     stranded: List[int] = field(default_factory=list)
+    #: robot ids whose move begun was taken back by a fault (or a halt) and not begun again: they
+    #: stand between two cells, that move not under way (`RunState.halfway`)
+    taken_back: Set[int] = field(default_factory=set)
     last_t: float = 0.0
     torn: bool = False
 
@@ -156,6 +159,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
             point.plan = str(r.get("file") or point.plan)
             point.completed.clear()
             point.started.clear()
+            point.taken_back.clear()
             point.passes.clear()
         elif kind == "pass" and all(isinstance(r.get(f), int) for f in ("robot", "index", "passed",
                                                                            "passed_index")):
@@ -163,6 +167,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
         elif kind == "action" and isinstance(robot, int) and isinstance(r.get("index"), int):
             counts = point.completed if r.get("phase") == "completed" else point.started
             counts[robot] = max(counts.get(robot, 0), r["index"] + 1)
+            point.taken_back.discard(robot)
         elif kind == "command" and isinstance(robot, int) and isinstance(r.get("id"), int):
             highest[robot] = max(highest.get(robot, 0), r["id"])
             command = _command(r)
@@ -177,6 +182,9 @@ def read_resume(run: RunFolder) -> ResumePoint:
             elif r.get("type") == "accepted" and sent is not None:
                 sent.accepted = True
         elif kind == "out" and isinstance(robot, int):
+            if (r.get("why") == "failed" or r.get("taken_back")) and \
+                    point.started.get(robot, 0) > point.completed.get(robot, 0):
+                point.taken_back.add(robot)  # a fault takes the move begun back (`Engine._failed`)
             if r.get("why") is None:
                 point.out.pop(robot, None)
             else:

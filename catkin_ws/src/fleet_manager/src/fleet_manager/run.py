@@ -327,8 +327,9 @@ class Run:
         fleet, run = self.fleet, self.engine.run
         agents = {r.id: r.agent for r in fleet}
         done = [min(point.completed.get(r.id, 0), run.count(r.agent)) for r in fleet]
-        began = [min(point.started.get(r.id, 0), run.count(r.agent)) for r in fleet]
-        sent = [min(point.dispatched(r.id), run.count(r.agent)) for r in fleet]
+        back = [r.id in point.taken_back for r in fleet]  # a move begun, then taken back by a fault
+        began = [d if b else min(point.started.get(r.id, 0), run.count(r.agent)) for r, d, b in zip(fleet, done, back)]
+        sent = [d if b else min(point.dispatched(r.id), run.count(r.agent)) for r, d, b in zip(fleet, done, back)]
         try:  # the cells' order as the passes of a re-ordering strategy left it, then the progress
             replay_passes(run, [(agents.get(a, -1), k, agents.get(b, -1), j) for a, k, b, j in point.passes])
             dispatches = self.engine.restore(done, began, sent, now)
@@ -339,6 +340,7 @@ class Run:
             fleet[d.agent].queue.append(d)
         for robot in fleet:
             robot.next_id = max(robot.next_id, point.next_id.get(robot.id, 1))
+            run.halfway[robot.agent] = back[robot.agent]  # between two cells until it makes that move
         for rid, (why, reason) in sorted(point.out.items()):
             robot = fleet.by_id.get(rid)
             if robot is None:
