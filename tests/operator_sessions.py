@@ -4,8 +4,10 @@ A session runs the lab plan on five virtual robots at the TurtleBot's size, some
 whose bumpers a visitor presses in a random drive, rerouting off or automatic. An
 operator presses what a console offers, at random moments: pause, start, step,
 halt, disable or enable a robot, switch strategy, replan (and accept or reject the
-proposal). Then the operator cleans up as lab staff would: enable every robot,
-start, and replan while the run is stuck, a few times.
+proposal); meanwhile a robot's link may drop for a while, and the manager may die
+and another take the run over from its records. Then the operator cleans up as lab
+staff would: enable every robot, answer a proposal, start, and replan while the run
+is stuck, a few times.
 
 What is checked is what a visitor and the run's report would say against where the
 robots really are: the run ends; "done" means every robot is at its goal; the
@@ -26,8 +28,10 @@ from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
 from test_manager_core import lab
 
-#: what the operator may press; "wait" lets the run go on
-PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "strategy", "wait", "wait", "wait")
+#: what the operator may press; "wait" lets the run go on; "link" drops a robot's link, "restart"
+#: kills the manager and starts another on its records
+PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "strategy", "link", "restart",
+           "wait", "wait", "wait")
 
 
 @dataclass
@@ -49,14 +53,20 @@ def session(seed: int) -> Session:
         if rng.random() < 0.3:
             robot.navigator.bumps = {rng.randint(1, 4)}
             robot.navigator.bump_seconds = 0.5
-    ops = f.console()
+    consoles = [f.console()]  # the operator's console; a new one after a restart
     f.link_up()
-    f.ask(ops, "start")
+    f.ask(consoles[0], "start")
+    down: set = set()
 
     def press(action: str, **args: object) -> bool:
-        answer = f.ask(ops, action, **args)
+        answer = f.ask(consoles[-1], action, **args)
         out.log.append((round(f.now, 1), action, dict(args), answer.ok, answer.reason))
         return answer.ok
+
+    def links_up() -> None:
+        for rid in sorted(down):
+            f.link_up(rid)
+        down.clear()
 
     def answer_proposal(choice: str) -> None:
         if f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20):
@@ -65,8 +75,30 @@ def session(seed: int) -> Session:
 
     for _ in range(rng.randint(3, 12)):
         f.advance(rng.uniform(0.2, 3.0))
+        for rid in sorted(down):
+            if rng.random() < 0.5:
+                f.link_up(rid)
+                down.discard(rid)
         action = rng.choice(PRESSES)
         if action == "wait":
+            continue
+        if action == "link":
+            rid = rng.randint(1, 5)
+            if rid not in down:
+                f.link_down(rid)
+                down.add(rid)
+                out.log.append((round(f.now, 1), "link down", {"robot": rid}, True, ""))
+            continue
+        if action == "restart":
+            links_up()
+            f.kill_manager()
+            f.advance(rng.uniform(0.2, 2.0))
+            f.resume_manager()
+            consoles.append(f.console())
+            f.advance(0.5)
+            out.log.append((round(f.now, 1), "restart", {}, True, f.core.run.phase.reason))
+            if f.core.run.replanner.proposal_id is not None:
+                answer_proposal("accept")
             continue
         args: dict = {}
         if action in ("disable", "enable"):
@@ -75,11 +107,14 @@ def session(seed: int) -> Session:
             args["name"] = rng.choice(["adg", "step", "reorder"])
         if press(action, **args) and action == "replan":
             answer_proposal(rng.choice(["accept", "accept", "reject"]))
-    for _ in range(4):  # the clean-up
+    links_up()
+    for _ in range(5):  # the clean-up
         f.advance(1.0)  # a bumper is free again after 0.5 s
         for rid in f.robots:
             if f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent] is not None:
                 press("enable", robot=rid)
+        if f.core.run.replanner.proposal_id is not None:
+            answer_proposal("accept")
         press("start")
         if not f.run_until(lambda: f.phase == "done" or f.core.run.stuck(), 90) or f.phase == "done":
             break
