@@ -245,15 +245,17 @@ def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
     assert f.run_until(lambda: done(f)) and f.at_goals()
 
 
-def bumped(**settings) -> Tuple[MemoryFleet, MemoryConsole]:
+def bumped(drive: int = 1, seconds: float = 1.0, **settings) -> Tuple[MemoryFleet, MemoryConsole]:
     """The lab at the TurtleBot's size, started, robot 2 stopped between two cells by its bumper
-    in its first drive and held (`settings`: the manager's, step time and size aside)."""
+    in its `drive`-th drive (pressed for `seconds`) and held (`settings`: the manager's, step
+    time and size aside)."""
     f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, **settings))
-    f.robots[2].navigator.bumps = {1}
+    f.robots[2].navigator.bumps = {drive}
+    f.robots[2].navigator.bump_seconds = seconds
     ops = f.console()
     f.link_up()
     f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 20)
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 30)
     return f, ops
 
 
@@ -402,13 +404,7 @@ def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out(
     (Start refused while a replan is open; found by random operator sessions): it is refused,
     saying why, and given up if robot 2 went out while the robots finished their moves. Robot 2
     enabled again, both finish their moves and the run ends."""
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    f.robots[2].navigator.bumps = {3}
-    f.robots[2].navigator.bump_seconds = 0.5
-    ops = f.console()
-    f.link_up()
-    f.ask(ops, "start")
-    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 30)
+    f, ops = bumped(drive=3, seconds=0.5)
     assert f.run_until(lambda: bool(f.core.run.held_behind_out()), 5)
     answer = f.ask(ops, "replan")
     assert not answer.ok and answer.reason.startswith("robot 4 waits behind robot 2, which is out: a replan needs "
