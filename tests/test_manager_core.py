@@ -307,11 +307,13 @@ def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
         assert all(not job.maps.grid.free[y, x] for x, y in walls)
 
 
-def test_a_robot_a_replan_left_between_two_cells_is_walled_in_by_every_later_replan():
+def test_a_robot_a_replan_left_between_two_cells_is_walled_in_while_out_then_finishes_its_move():
     """Robot 2 stops halfway through its first drive (bumper) and the operator replans: the new
-    plan gives it no move, so it stays between two cells, out and later enabled again. Each later
-    replan still walls off the cell it leans into (before, only a robot out with a move to finish
-    was walled in, and it was planned from its cell as if it stood there)."""
+    plan gives it no move, so it stays between two cells. While it is out, each later replan
+    still walls off the cell it leans into (before, only a robot out with a move to finish was
+    walled in, and it was planned from its cell as if it stood there). Enabled again, the next
+    replan plans it from that cell with the move into it first: it finishes the move it was
+    half through, and nobody is sent into the cell before it is in."""
     f, ops = bumped()
     pose = f.robots[2].navigator.true_pose()
     grids = []
@@ -321,14 +323,19 @@ def test_a_robot_a_replan_left_between_two_cells_is_walled_in_by_every_later_rep
     replanned(f, ops, accept=False)  # robot 2 still out, with no move in the plan
     assert f.ask(ops, "enable", robot=2).ok
     f.advance(1.0)
+    here = f.core.run.positions()[1]
     replanned(f, ops)  # robot 2 enabled again, still where it stopped
     assert f.robots[2].navigator.true_pose() == pose
     walls = [{(x, y) for x in range(g.width) for y in range(g.height) if f.loaded.grid.free[y, x] and not g.free[y, x]}
              for g in grids]
-    assert all(len(w) == 1 for w in walls) and walls[0] == walls[1] == walls[2], walls
+    assert len(walls[0]) == 1 and walls[0] == walls[1] and walls[2] == set(), walls
     (x, y), = walls[0]
     # half a cell from it, and not the cell it is planned from: the one it leans into
-    assert math.hypot(x - pose.x, y - pose.y) == pytest.approx(0.5, abs=0.05) and (x, y) != f.core.run.positions()[1]
+    assert math.hypot(x - pose.x, y - pose.y) == pytest.approx(0.5, abs=0.05) and (x, y) != here
+    agent = f.core.fleet.by_id[2].agent
+    plan = f.core.run.plan.positions
+    assert tuple(plan[0, agent]) == tuple(here) and tuple(plan[1, agent]) == (x, y)
+    assert (plan[1] == plan[0]).sum(axis=1).tolist().count(2) == len(f.robots) - 1  # the others wait
     assert f.run_until(lambda: done(f)) and f.at_goals()  # robot 2 too: it takes part again
     assert f.core.summary().collisions == 0
 
@@ -397,6 +404,26 @@ def test_a_robot_held_by_a_fault_and_then_disabled_is_out_for_good_and_the_run_c
     assert f.core.summary().lines()[0] == "arrived: 5/5"
 
 
+def test_a_robot_stopped_half_into_its_goal_and_enabled_again_is_planned_home():
+    """Robot 2's bumper stops it half into its goal cell, its last move taken back, and the
+    operator replans while it is out: its goal is walled off (nobody may drive into the cell it
+    leans into) and it is left where it stands. Enabled, it is told a replan takes it home, and
+    that replan plans it from its goal with the move into it first: it finishes the move it was
+    half through. Before, every replan walled off the cell it leans into, its own goal too, and
+    the run never ended (random operator sessions, seed 317)."""
+    f, ops = bumped(drive=10)
+    agent = f.core.fleet.by_id[2].agent
+    replanned(f, ops)
+    assert f.core.run.stranded == {agent}
+    f.advance(1.0)  # the foot leaves the bumper
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and "has no way to its goal for robot 2: replan to take it home" in answer.reason
+    replanned(f, ops)
+    assert f.core.run.stranded == set()
+    assert f.core.run.plan.positions[1, agent].tolist() == list(f.core.run.loaded.goals[agent])
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
+
 def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out():
     """Robot 4 follows robot 2 into the cell robot 2 is leaving, and robot 2's bumper stops it on
     the way out: robot 4 waits at its hold point, in the middle of its drive, until robot 2 moves
@@ -418,6 +445,27 @@ def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out(
     f.advance(1.0)  # the foot leaves the bumper
     assert f.ask(ops, "enable", robot=2).ok
     assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+def test_a_follower_disabled_behind_a_robot_that_is_out_still_finishes_its_move_under_a_new_manager():
+    """As above, and the operator disables robot 4 too; then the manager dies and another takes
+    over. Robot 4's drive is still in flight (it waits at its hold point), so the new manager
+    sends it again and must let it on once robot 2 has left. Before, the new manager forgot the
+    move with the disabled robot's unsent ones, so nothing ever released robot 4 and the run
+    never ended (found by random operator sessions, seeds 721, 809 and 991)."""
+    f, ops = bumped(drive=3, seconds=0.5)
+    assert f.run_until(lambda: bool(f.core.run.held_behind_out()), 5)
+    assert f.ask(ops, "disable", robot=4).ok
+    f.advance(1.0)  # the foot leaves the bumper
+    f.kill_manager()
+    f.resume_manager()
+    ops = f.console()
+    assert f.run_until(lambda: f.phase == "paused", 5)
+    for rid in (2, 4):
+        assert f.ask(ops, "enable", robot=rid).ok
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
     assert f.core.summary().collisions == 0
 
 

@@ -48,7 +48,7 @@ from fleet_common.wire import PoseFeedback, Stop
 from . import operator
 from .outbox import Effect, Outbox, REROUTE
 from .refusals import RefusedRequests
-from .replanning import SAFE_POINT, stood_on, walled
+from .replanning import SAFE_POINT, going_on, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import RESUMING, Fleet, Seen
@@ -195,8 +195,11 @@ class RunCore:
         if run.replanner.state == SAFE_POINT and not run.driver.moving:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = stood_on(run.grid, self.fleet.robots, run.positions())
-            grid = _without(walled(run.grid, self.fleet.robots, here), run.walls)
-            self.out.add(run.replanner.job(grid, here, list(run.loaded.goals), out))
+            on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
+            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), run.walls)
+            current = [on.get(a, c) for a, c in enumerate(here)]
+            self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
+                                           {a: here[a] for a in on}))
         self._reroute_tick(now)
         if run.phase.phase == RUNNING:
             run.driver.tick(now)

@@ -24,18 +24,23 @@ folder (plan-1.txt, plan-2.txt).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Iterator, List, Optional, Sequence, Set
+from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Set
+
+import numpy as np
 
 from fleet_common.grid import Coord, Grid
+from fleet_common.plan import Plan
 from fleet_common.planning.replan import ReplanResult
 
 from .driver import AT_CELL
 from .outbox import PlanJob
 from .robot import Robot
 
-__all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED"]
+__all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED", "going_on", "prefixed",
+           "stood_on", "walled"]
 
 IDLE, SAFE_POINT, PLANNING, PROPOSED = "idle", "safe-point", "planning", "proposed"
 
@@ -60,6 +65,7 @@ class Replanner:
         self.was_running = False
         self.pending: Optional[Pending] = None
         self._job: Optional[PlanJob] = None
+        self._first: Dict[int, Coord] = {}
         self._ids = ids if ids is not None else iter(range(1, 2 ** 62))  # shared with other planning jobs
 
     @property
@@ -81,9 +87,12 @@ class Replanner:
         self.time_limit = time_limit or self.default_limit
         self.method = method or "pp"
 
-    def job(self, grid: Grid, current: List[Coord], goals: List[Coord], out: Set[int]) -> PlanJob:
-        """At the safe point: the planning to run (and the replanner waits for its result)."""
+    def job(self, grid: Grid, current: List[Coord], goals: List[Coord], out: Set[int],
+            first: Optional[Dict[int, Coord]] = None) -> PlanJob:
+        """At the safe point: the planning to run (and the replanner waits for its result);
+        `first`: agents planned from a cell next to theirs, with the move into it first (`prefixed`)."""
         self._job = PlanJob(next(self._ids), grid, current, goals, out, self.time_limit, self.method)
+        self._first = dict(first or {})
         self.state = PLANNING
         return self._job
 
@@ -99,7 +108,10 @@ class Replanner:
         if result.plan is None:
             self.state = IDLE
             return "replanning found no plan: {}".format(result.message)
-        self.pending = Pending(job.id, result, job.current, job.out, job.grid)
+        if self._first:
+            result = dataclasses.replace(result, plan=prefixed(result.plan, self._first))
+        current = [self._first.get(a, c) for a, c in enumerate(job.current)]
+        self.pending = Pending(job.id, result, current, job.out, job.grid)
         self.state = PROPOSED
         return "replan {} proposed: {}".format(job.id, result.message)
 
@@ -127,22 +139,62 @@ def stood_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> List
     return out
 
 
-def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> Grid:
-    """`grid` with the far cell of every robot standing between two cells blocked: the neighbour
-    of its cell its pose leans towards. That is the target of the move an out robot stopped in,
+def leans_into(robot: Robot, cell: Coord) -> Optional[Coord]:
+    """The neighbour of `cell` that `robot`'s pose leans towards, if it stands between two
+    cells (farther than `AT_CELL` from `cell`'s centre); None if it stands on it or no pose."""
+    pose = robot.pose
+    if pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
+        return None
+    dx, dy = pose.x - cell[0], pose.y - cell[1]
+    return ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
+            else (cell[0], cell[1] + (1 if dy > 0 else -1)))
+
+
+def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set[int] = frozenset()) -> Grid:
+    """`grid` with the far cell of every robot standing between two cells blocked (but those of
+    the agents `skip`: `going_on` plans them into it): the neighbour of its cell its pose
+    leans towards. That is the target of the move an out robot stopped in,
     and the cell a robot leans into that an earlier replan left between cells (it gave it no
     move; out, or enabled since) or that was pushed off its cell. At a safe point nobody else
     stands between cells (a follower at its hold point is in the middle of its drive)."""
     free = grid.free.copy()
     taken = {tuple(c) for c in here}
     for robot in robots:
-        pose = robot.pose
-        cell = here[robot.agent]
-        if pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
-            continue
-        dx, dy = pose.x - cell[0], pose.y - cell[1]
-        x, y = ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
-                else (cell[0], cell[1] + (1 if dy > 0 else -1)))
-        if grid.in_bounds((x, y)) and (x, y) not in taken:  # a robot's own cell stays its start
-            free[y, x] = False
+        far = None if robot.agent in skip else leans_into(robot, here[robot.agent])
+        if far is not None and grid.in_bounds(far) and far not in taken:  # a robot's own cell stays its start
+            free[far[1], far[0]] = False
     return Grid(free, name=grid.name)
+
+
+def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Set[int],
+             walls: Iterable[Coord] = ()) -> Dict[int, Coord]:
+    """The robots taking part that stand between their cell and a free cell nobody else
+    stands in, leans into or keeps walled (`walls`): agent -> that cell. A replan plans each
+    from that cell and gives it first the move into it (`prefixed`), so it finishes the move it
+    is half through. Walled in, a robot halted half into its goal and then enabled could never
+    be planned home; planned from the far cell with no move, the run would count it arrived
+    while it stands between the two."""
+    taken = {tuple(c) for c in here}
+    walls = set(walls)
+    leaning = {robot.agent: leans_into(robot, here[robot.agent]) for robot in robots}
+    wanted: Dict[Coord, List[int]] = {}
+    for agent, far in leaning.items():
+        if far is not None:
+            wanted.setdefault(far, []).append(agent)
+    return {agent: far for agent, far in leaning.items()
+            if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
+            and far not in taken and far not in walls and len(wanted[far]) == 1}
+
+
+def prefixed(plan: Plan, first: Dict[int, Coord]) -> Plan:
+    """`plan` (made with the agents of `first` standing in the cells `going_on` gave them) with
+    one step before it: those agents at their cells of `first`, then moving into the cells the
+    plan starts them in, while everyone else waits."""
+    if not first:
+        return plan
+    row = plan.positions[:1].copy()
+    for agent, cell in first.items():
+        row[0, agent] = cell
+    orientations = None if plan.orientations is None else np.concatenate(
+        [plan.orientations[:1], plan.orientations])
+    return Plan(np.concatenate([row, plan.positions]), orientations)

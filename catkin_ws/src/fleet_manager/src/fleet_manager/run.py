@@ -341,13 +341,14 @@ class Run:
         for robot in fleet:
             robot.next_id = max(robot.next_id, point.next_id.get(robot.id, 1))
             run.halfway[robot.agent] = back[robot.agent]  # between two cells until it makes that move
+        disabled = []
         for rid, (why, reason) in sorted(point.out.items()):
             robot = fleet.by_id.get(rid)
             if robot is None:
                 continue
             if why == "disabled":
                 self.engine.handle(Disabled(robot.agent, now))
-                self.driver.drop_pending(robot)
+                disabled.append(robot)
             else:
                 self.engine.handle(RobotFailed(robot.agent, now))
                 robot.queue.clear()
@@ -366,6 +367,8 @@ class Run:
                     robot.flight = InFlight(u.command.id, kind, u.action, now, target)
                 if kind == "drive" and robot.queue and robot.queue[0].index == u.action:
                     self.driver.following.sent(robot.queue[0], u.hold)
+        for robot in disabled:  # after their drives in flight are back: those finish (a follower
+            self.driver.drop_pending(robot)  # among them is released as its leader goes on)
         self.started_at, self.plan_since = point.began, point.plan_since
         step = self.settings.step_time
         self.plan_start = point.earlier_plans / step if step > 0 else 0.0
