@@ -7,7 +7,10 @@ replan and its answer), then the clean-up lab staff would do; it checks that the
 robots came too close; a session that raises counts as one that found something. Prints each such
 session, with what the operator did, and the count; exits non-zero if any did.
 
-    .venv/bin/python bench/operator_sessions.py [FIRST LAST]     # seeds FIRST..LAST-1, default 0 200
+    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide]     # seeds FIRST..LAST-1, default 0 200
+
+`--wide` varies the run as well (`session`'s `wide`): robots as large as a cell, any strategy from
+the start, rerouting every robot, poses that reach the manager late.
 """
 from __future__ import annotations
 
@@ -25,12 +28,13 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("first", type=int, nargs="?", default=0)
     parser.add_argument("last", type=int, nargs="?", default=200)
+    parser.add_argument("--wide", action="store_true", help="vary the run too: size, strategy, scope, pose lag")
     args = parser.parse_args()
     began = time.perf_counter()
     bad = 0
     for seed in range(args.first, args.last):
         try:
-            found = session(seed)
+            found = session(seed, args.wide)
         except Exception as err:  # the manager's worker turns such an error into "replanning failed"
             found = Session(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
         if found.problems:

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import math
 import random
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import List, Tuple
 
-from fleet_common.robot_size import TURTLEBOT2
+from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_manager.driver import AT_CELL
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
@@ -43,12 +43,23 @@ class Session:
     problems: List[str] = field(default_factory=list)
 
 
-def session(seed: int) -> Session:
-    """One random session (see the module docstring)."""
+def session(seed: int, wide: bool = False) -> Session:
+    """One random session (see the module docstring). `wide`: the run varies too, drawn from a
+    second generator (the operator's presses stay those of the narrow session's seed): robots as
+    large as a cell, the run started under any strategy, rerouting every robot (scope all), and
+    poses that reach the manager late."""
     rng = random.Random(seed)
     out = Session(seed)
-    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(
-        step_time=0.5, size=TURTLEBOT2, reroute=rng.choice(["off", "auto"]), reroute_timed=False))
+    reroute = rng.choice(["off", "auto"])
+    settings = ManagerSettings(step_time=0.5, size=TURTLEBOT2, reroute=reroute, reroute_timed=False)
+    lag = 0.0
+    if wide:
+        run = random.Random(~seed)
+        settings = replace(settings, size=run.choice([TURTLEBOT2, TURTLEBOT2, cell_sized()]),
+                           strategy=run.choice(["adg", "step", "reorder"]),
+                           reroute_scope=run.choice(["held", "all"]))
+        lag = run.choice([0.0, 0.1, 0.3])
+    f = MemoryFleet(lab(), lab_fleet(), settings=settings, pose_lag=lag)
     for robot in f.robots.values():
         if rng.random() < 0.3:
             robot.navigator.bumps = {rng.randint(1, 4)}

@@ -105,6 +105,30 @@ def test_a_manager_killed_mid_run_is_replaced_and_the_run_completes():
     assert len(completed) == len(set(completed)) == total
 
 
+def test_a_pose_older_than_the_reply_that_ended_a_move_does_not_put_a_robot_off_the_plan():
+    """As above, with poses that reach the manager 0.3 s late: the first poses the new manager
+    hears were taken before the robots finished the moves they were making, while the replies to
+    the drives sent again say they finished. The replies win (a pose names the command the robot
+    was running): every robot is where the run left it, and the run goes on with no replan. Before,
+    the late poses put the robots off the plan, and a replan from the cells they had left sent
+    another robot into a cell one of them stood in (random operator sessions, --wide, seed 122)."""
+    f = MemoryFleet(lab(), lab_fleet(), pose_lag=0.3, settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    f.link_up()
+    f.advance(0.5)  # the first poses come in
+    assert f.ask(f.console(), "start").ok
+    total = f.core.run.engine.table.num_actions
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= total // 3)
+    assert any(r.flight is not None and r.flight.kind == "drive" for r in f.core.fleet)
+    f.kill_manager()
+    f.advance(3.0)  # the robots finish their moves without it
+    f.resume_manager()
+    assert f.run_until(lambda: f.core.run.resuming is None, 5)
+    assert "every robot where the run left it" in f.core.run.phase.reason, f.core.run.phase.reason
+    assert f.ask(f.console(), "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert f.core.summary().collisions == 0 and f.core.run.plan_id == 1
+
+
 def test_a_follower_at_its_hold_point_waits_for_the_new_manager_and_keeps_its_distance():
     size = TURTLEBOT2
     f = started_run(train(), 3, settings=ManagerSettings(step_time=0.5, size=size), speed=1.0)
@@ -237,6 +261,26 @@ def test_a_run_that_had_not_started_is_resumed_waiting_for_start():
     f.kill_manager()
     f.resume_manager()
     assert f.phase == "waiting" and f.core.run.resuming is None
+    assert f.ask(f.console(), "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+
+
+def test_a_run_begun_by_step_alone_is_resumed_under_way():
+    """The operator steps the run (never Start) and the manager dies: the one that takes over
+    goes on from where the robots are. Before, only a "running" state counted as begun, so it
+    waited for Start and refused it, the robots being off their starts, and told the operator
+    to resume, which it just had (random operator sessions, --wide, seeds 0, 13, 30, 74, 89)."""
+    f = MemoryFleet(lab(), lab_fleet())
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "step").ok
+    assert f.run_until(lambda: f.phase == "paused" and not f.core.run.driver.moving, 20)
+    done = list(f.core.run.engine.run.completed)
+    assert sum(done) > 0
+    f.kill_manager()
+    f.resume_manager()
+    assert f.run_until(lambda: f.core.run.resuming is None, 5)
+    assert f.phase == "paused" and list(f.core.run.engine.run.completed) == done
     assert f.ask(f.console(), "start").ok
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 

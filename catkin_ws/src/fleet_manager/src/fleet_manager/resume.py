@@ -98,7 +98,7 @@ class ResumePoint:
     phase: str = "waiting"
     #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
     passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
-    began: Optional[float] = None                   # t of the run's first "running"
+    began: Optional[float] = None                   # t the run left "waiting" (Start or Step)
     #: the current plan's step 0 (t), and the seconds the run's earlier plans ran before it: the
     #: plan clock a console shows goes on from them (`Run.next_plan_clock` keeps it so live)
     plan_since: Optional[float] = None
@@ -197,7 +197,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
             point.settings.update(r.get("settings") or {})
         elif kind == "state" and isinstance(r.get("run"), str):
             point.phase = r["run"]
-            if r["run"] == "running" and point.began is None:
+            if r["run"] != "waiting" and point.began is None:  # a Start, or a Step (paused after it)
                 point.began = point.plan_since = _number(r.get("t"))
     point.unsettled = {robot: [u for _, u in sorted(commands.items())]
                        for robot, commands in pending.items() if commands}
@@ -335,12 +335,16 @@ class OffPlan:
 
 def off_plan(fleet: Fleet, positions: List[Coord], out: List[Optional[str]], grid: Grid) -> List[OffPlan]:
     """The robots taking part that stand neither on the cell of their last completed action
-    (`positions`, by agent) nor on the move they are making."""
+    (`positions`, by agent) nor on the move they are making. A pose taken during a command
+    that has completed since is older than the reply: the reply says where the robot is."""
     found: List[OffPlan] = []
     taken: Set[Coord] = set()
     for robot in fleet:
         pose = robot.pose
         if out[robot.agent] is not None or pose is None:
+            continue
+        if not robot.pose_settled():
+            taken.add(positions[robot.agent])
             continue
         here = positions[robot.agent]
         flight = robot.flight

@@ -108,6 +108,15 @@ class Robot:
         seen = self.seen()
         return None if seen is None else seen.pose
 
+    def pose_settled(self) -> bool:
+        """Whether the pose the run uses was taken since the robot's last command ended, as far as
+        its replies tell: its own pose names the command it was running when taken, and one taken
+        during a command that has ended since (it came after the reply: late, or queued while no
+        manager listened) shows where the robot was, not where it is. Vicon's name none."""
+        if self.source == VICON or self.own is None:
+            return True
+        return self.own_current is None or (self.flight is not None and self.own_current == self.flight.id)
+
     def age(self, now: float, source: Optional[str] = None) -> Optional[float]:
         seen = self.seen(source)
         return None if seen is None else max(0.0, now - seen.at)
