@@ -307,6 +307,32 @@ def test_reroutes_after_a_replan_keep_off_the_cell_a_faulted_robot_leans_into():
         assert all(not job.maps.grid.free[y, x] for x, y in walls)
 
 
+@pytest.mark.parametrize("lag,wait", [(0.2, 0.0), (0.2, 0.12), (0.4, 0.0), (0.4, 0.08)])
+def test_a_replan_walls_off_the_cell_a_robot_stopped_in_even_when_its_poses_come_late(lag, wait):
+    """Poses reach the manager `lag` s late. The operator asks for a replan while robot 2 makes
+    its fourth drive, and robot 2's bumper stops it there, half into the next cell: the replan
+    must wall that cell off. Robot 2's stop ends the last move in flight, so the safe point comes
+    with the stop's reply, while the last pose heard was taken before it stopped, short of the
+    cell or still in its own: before, that cell stayed open for the others' new paths."""
+    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2), pose_lag=lag)
+    nav = f.robots[2].navigator
+    nav.bumps, nav.bump_seconds = {4}, 1.0
+    ops = f.console()
+    f.link_up()
+    f.advance(lag + 0.2)  # the first poses come in
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: nav._drives >= 4, 30)
+    f.advance(wait)
+    jobs = []
+    solve = f.solve
+    f.solve = lambda job: jobs.append(job) or solve(job)
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: bool(jobs), 10)
+    truth = nav.true_pose()
+    assert (truth.x, truth.y) == pytest.approx((7.5, 5.0), abs=0.05)  # stopped half into (7, 5)
+    assert not jobs[0].grid.free[5, 7] and tuple(jobs[0].current[f.core.fleet.by_id[2].agent]) == (8, 5)
+
+
 def test_a_robot_a_replan_left_between_two_cells_is_walled_in_while_out_then_finishes_its_move():
     """Robot 2 stops halfway through its first drive (bumper) and the operator replans: the new
     plan gives it no move, so it stays between two cells. While it is out, each later replan

@@ -192,7 +192,10 @@ class RunCore:
                 run.replanner.resolved()
                 run.say("replan given up: " + blocked)
                 self.out.tell("plan", None, "replan given up: " + blocked)
-        if run.replanner.state == SAFE_POINT and not run.driver.moving:
+        if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
+                r.pose_settled() for r in self.fleet.robots if r.link_up):
+            # a pose taken before a robot's last reply (late) may show it short of where it
+            # stopped: walls and cells are judged on the next one, taken after
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = stood_on(run.grid, self.fleet.robots, run.positions())
             on = going_on(run.grid, self.fleet.robots, here, out, run.walls)

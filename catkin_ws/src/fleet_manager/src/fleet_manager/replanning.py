@@ -5,12 +5,18 @@ wait forever. A replan gets the others to their goals around them:
 
 1. the run is paused and the replanner waits for a *safe point*: no robot
    in the middle of a command, so every robot that takes part stands on a
-   cell of the plan and nobody is mid-move across the switch;
+   cell of the plan and nobody is mid-move across the switch, and every
+   connected robot's pose taken since its last reply (`Robot.pose_settled`:
+   a late pose, taken before a bumper stopped the robot, shows it short of
+   where it stands, and the cell it leans into would go unwalled);
 2. it asks for planning (a `PlanJob`, which the manager's loop runs in a
    worker thread while it keeps serving robots and consoles): every robot
    that takes part from the cell it holds to its goal, with the out robots
    as obstacles (`fleet_common.planning.replan`, time-limited), walling off
-   the second cell of every robot standing between two cells (`walled`);
+   the second cell of every robot standing between two cells (`walled`),
+   but for a robot taking part that leans into a cell free of everyone
+   else: it is planned from that cell, the move into it first (`going_on`,
+   `prefixed`), so that it finishes the move it is half through;
 3. the result comes back (`finished`) and is proposed to the consoles;
    `accept` switches the run to it (and resumes if the run was running),
    `reject` goes back to the old plan. The cells walled off for it stay
