@@ -99,6 +99,25 @@ def test_go_to_starts_run_reset_and_run_again():
     assert any("every robot is on its start" in n.text for n in ops.notices())
 
 
+def test_reset_at_the_end_of_a_run_whose_poses_come_late_plans_from_the_goals():
+    """Poses reach the manager 0.4 s late, and the operator presses Reset as the run ends: the
+    last robot's replies say it is on its goal while its last pose heard was taken on its way
+    there. The way back is planned from the goals. Before, Reset was refused: "robot 5 stands at
+    ..., not on a cell's centre" (or, with the pose near a cell, planned from a cell it had left)."""
+    f = MemoryFleet(lab(), lab_fleet(), pose_lag=0.4, settings=ManagerSettings(step_time=0.5))
+    f.hold_plans = True
+    ops = f.console()
+    f.link_up()
+    f.advance(0.6)  # the first poses come in
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done", 60)
+    answer = f.ask(ops, "reset")
+    assert answer.ok and "drive back to their starts" in answer.reason, answer.reason
+    assert [tuple(c) for c in f.jobs[0].current] == [tuple(g) for g in lab().goals]
+    f.finish_plans()
+    assert f.run_until(lambda: ready(f)) and f.core.summary().collisions == 0
+
+
 def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reason():
     poses = at_goals_poses()
     poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)  # between two cells

@@ -242,12 +242,17 @@ class Run:
 
     def standing_cells(self) -> Tuple[List[Coord], str]:
         """The cell each robot stands on, from its pose (a disabled robot: where it stands, or the
-        cell it holds), and why not ("" when every robot taking part stands on a cell's centre)."""
+        cell it holds), and why not ("" when every robot taking part stands on a cell's centre).
+        A pose taken before the robot's last reply (late) gives way to the cell the reply left
+        it on."""
         cells: List[Coord] = []
         problems: List[str] = []
         for robot in self.fleet:
-            pose = robot.pose
             held = self.driver.position(robot)
+            if robot.pose is not None and not robot.pose_settled():
+                cells.append(held)
+                continue
+            pose = robot.pose
             if pose is None:
                 cells.append(held)
                 if self.engine.run.out[robot.agent] != "disabled":
