@@ -32,6 +32,8 @@ from test_manager_core import lab
 #: kills the manager and starts another on its records
 PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "strategy", "link", "restart",
            "wait", "wait", "wait")
+#: and in a wide session: stop, the reroute mode and scope, reset (back to the starts, run again)
+WIDE_PRESSES = ("stop", "reroute", "reset")
 
 
 @dataclass
@@ -47,7 +49,8 @@ def session(seed: int, wide: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
-    poses that reach the manager late."""
+    poses that reach the manager late; and the operator also presses stop, reset and the
+    reroute mode."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -90,7 +93,7 @@ def session(seed: int, wide: bool = False) -> Session:
             if rng.random() < 0.5:
                 f.link_up(rid)
                 down.discard(rid)
-        action = rng.choice(PRESSES)
+        action = rng.choice(PRESSES + WIDE_PRESSES if wide else PRESSES)
         if action == "wait":
             continue
         if action == "link":
@@ -116,6 +119,8 @@ def session(seed: int, wide: bool = False) -> Session:
             args["robot"] = rng.randint(1, 5)
         elif action == "strategy":
             args["name"] = rng.choice(["adg", "step", "reorder"])
+        elif action == "reroute":
+            args.update(mode=rng.choice(["off", "propose", "auto"]), scope=rng.choice(["held", "all"]))
         if press(action, **args) and action == "replan":
             answer_proposal(rng.choice(["accept", "accept", "reject"]))
     links_up()
@@ -127,8 +132,11 @@ def session(seed: int, wide: bool = False) -> Session:
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
         press("start")
-        if not f.run_until(lambda: f.phase == "done" or f.core.run.stuck(), 90) or f.phase == "done":
+        # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
+        if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck(), 90) or f.phase == "done":
             break
+        if f.phase == "waiting":
+            continue
         if press("replan"):
             answer_proposal("accept")
     goals = f.core.run.loaded.goals
