@@ -120,16 +120,63 @@ def test_reset_at_the_end_of_a_run_whose_poses_come_late_plans_from_the_goals():
 
 def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reason():
     poses = at_goals_poses()
-    poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)  # between two cells
+    poses[2] = Pose(poses[2].x + 0.45, poses[2].y + 0.45, 0.0)  # pushed off its cell, towards a corner
     f = MemoryFleet(lab(), lab_fleet(), poses=poses)
     ops = f.console()
     f.link_up()
     answer = f.ask(ops, "to_starts")
-    goal = lab().show(lab().goals[1])
     assert not answer.ok
-    assert "robot 2 stands at ({:.1f}, {:.1f}), not on a cell's centre".format(goal[0] + 0.5, goal[1]) \
-        in answer.reason
+    assert "robot 2 stands at" in answer.reason and "not on a cell's centre" in answer.reason, answer.reason
     assert not f.jobs and f.folders == 1 and f.phase == "waiting"
+
+
+def test_a_robot_between_two_cells_finishes_its_move_on_the_way_to_the_starts():
+    """Robot 2 stands half a cell off its goal, towards a free neighbour (halted there, or put
+    down by hand): the way to the starts has it drive into that cell first, everyone else
+    waiting a step, and on from there; nobody is planned into the cell it leans into before it
+    is in. Before, the way was refused ("not on a cell's centre") and the operator had to carry
+    the robot onto a cell."""
+    poses = at_goals_poses()
+    goal = lab().goals[1]
+    poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)
+    f = MemoryFleet(lab(), lab_fleet(), poses=poses, settings=ManagerSettings(step_time=0.5))
+    f.hold_plans = True
+    ops = f.console()
+    f.link_up()
+    answer = f.ask(ops, "to_starts")
+    assert answer.ok, answer.reason
+    job = f.jobs[0]
+    f.finish_plans()
+    way = f.core.run.plan.positions
+    # between its goal and the cell beyond: planned from one, the move into it from the other first
+    assert {tuple(way[0, 1]), tuple(way[1, 1])} == {tuple(goal), (goal[0] + 1, goal[1])}
+    assert tuple(job.current[1]) == tuple(way[1, 1])
+    assert (way[1] == way[0]).all(axis=1).sum() == 4  # the others wait that step
+    assert f.run_until(lambda: ready(f)) and f.core.summary().collisions == 0
+    starts = lab().starts
+    assert all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
+               for r, s in zip(f.robots.values(), starts))
+
+
+def test_the_way_to_the_starts_keeps_off_both_cells_of_a_disabled_robot_between_them():
+    """Robot 2, disabled, stands half a cell off its goal: it stays where it is, and the way to
+    the starts keeps the others off both cells it stands between (before, only off the cell it
+    held: the others could be planned past it, a cell-width short of it)."""
+    poses = at_goals_poses()
+    goal = lab().goals[1]
+    poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)
+    f = MemoryFleet(lab(), lab_fleet(), poses=poses, settings=ManagerSettings(step_time=0.5))
+    f.hold_plans = True
+    ops = f.console()
+    f.link_up()
+    f.advance(0.1)  # the console sees the robots connected
+    assert f.ask(ops, "disable", robot=2).ok
+    assert f.ask(ops, "to_starts").ok
+    job = f.jobs[0]
+    agent = f.core.fleet.by_id[2].agent
+    here, other = tuple(job.current[agent]), ({tuple(goal), (goal[0] + 1, goal[1])} - {tuple(job.current[agent])}).pop()
+    assert agent in job.out and here in {tuple(goal), (goal[0] + 1, goal[1])}
+    assert not job.grid.free[other[1], other[0]]
 
 
 def test_robots_already_on_their_starts_need_no_way_there():

@@ -1,6 +1,7 @@
 """Random operator sessions over the in-memory manager (`operator_sessions`): whatever the operator
 presses, and whatever bumpers are pressed, the run ends, "done" is true, the summary counts the robots
-at their goals, and no two robots come too close. bench/operator_sessions.py runs more seeds.
+at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
+pose lag vary). bench/operator_sessions.py runs more seeds.
 
 The negative controls put back two defects these sessions found (each fixed on 2026-11-26): a robot
 a replan leaves where it stopped counted as arrived, and a replan that waits for ever on a follower
@@ -17,6 +18,13 @@ SEEDS = range(40)
 
 def test_random_operator_sessions_end_and_the_run_tells_the_truth() -> None:
     bad = [(s.seed, s.problems) for s in map(session, SEEDS) if s.problems]
+    assert not bad, bad
+
+
+def test_wide_sessions_too_whatever_the_size_strategy_scope_and_pose_lag() -> None:
+    """The same over runs that vary (`session`'s `wide`): robots as large as a cell, any strategy,
+    rerouting every robot, poses 0.1-0.3 s late, and stop, reset and the reroute mode pressed."""
+    bad = [(s.seed, s.problems) for s in (session(seed, wide=True) for seed in SEEDS) if s.problems]
     assert not bad, bad
 
 

@@ -213,6 +213,49 @@ def test_a_robot_entering_a_cell_not_yet_left_is_a_collision(tmp_path: Path) -> 
     assert builder.summary().collisions == 1
 
 
+def halted_and_replanned_run(folder: Path, enter: float) -> None:
+    """Robots as large as a cell: robot 7 sets off (0,0)->(1,0) and is halted near the end of the
+    move, which it never completes; at 3 s a replan starts it on (1,0), where it stands. Robot 9
+    goes (0,1)->(0,0) at `enter`: after the replan (its plan 2 move), or before it (plan 1)."""
+    clock = FakeClock()
+    log = RunLog(folder, clock=clock)
+    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[7, 9],
+                    strategy="adg", actions=[1, 1], starts=[[0, 0], [0, 1]])
+
+    def at(t: float, kind: str, **fields) -> None:
+        clock.now = 100.0 + t
+        log.record(kind, **fields)
+
+    at(1.0, "state", run="running")
+    at(1.1, "action", robot=7, index=0, phase="started", src=[0, 0], dst=[1, 0])
+    if enter < 3.0:
+        at(enter, "action", robot=9, index=0, phase="started", src=[0, 1], dst=[0, 0])
+        at(enter + 0.5, "action", robot=9, index=0, phase="completed", src=[0, 1], dst=[0, 0])
+    at(1.8, "out", robot=7, why="failed", reason="halted: stopped by command 3")
+    at(3.0, "plan", file="plan-2.txt", robots=[7, 9], reason="replan", at=None, actions=[0, 1 if enter > 3.0 else 0],
+       starts=[[1, 0], [0, 1] if enter > 3.0 else [0, 0]])
+    if enter > 3.0:
+        at(enter, "action", robot=9, index=0, phase="started", src=[0, 1], dst=[0, 0])
+        at(enter + 0.5, "action", robot=9, index=0, phase="completed", src=[0, 1], dst=[0, 0])
+    log.close()
+
+
+@pytest.mark.parametrize("enter,collisions", [(4.0, 0), (2.0, 1)])
+def test_a_robot_a_replan_starts_on_the_target_of_a_move_it_never_completed_has_left_its_cell(
+        tmp_path: Path, enter: float, collisions: int) -> None:
+    """Robot 9 entering (0,0) after the replan started robot 7 on (1,0) is no collision (before,
+    the count kept robot 7 on (0,0) for the rest of the run: a collision counted in random operator
+    sessions, --wide, seed 382, where the robots never came closer than a cell); entering while
+    robot 7 was on its way, before the replan, is one."""
+    from fleet_common.runlog.summary import SummaryBuilder
+
+    halted_and_replanned_run(tmp_path, enter)
+    builder = SummaryBuilder()
+    for record in read_run(tmp_path).records:
+        builder.feed(record)
+    assert builder.summary().collisions == collisions
+
+
 def test_the_executed_plan_holds_each_cell_until_the_move_out_completes(tmp_path: Path) -> None:
     from fleet_common.runlog.executed import executed_plan
 

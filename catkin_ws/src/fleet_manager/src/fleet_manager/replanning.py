@@ -33,7 +33,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Set
+from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
@@ -147,9 +147,11 @@ def stood_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> List
 
 def leans_into(robot: Robot, cell: Coord) -> Optional[Coord]:
     """The neighbour of `cell` that `robot`'s pose leans towards, if it stands between two
-    cells (farther than `AT_CELL` from `cell`'s centre); None if it stands on it or no pose."""
+    cells (farther than `AT_CELL` from `cell`'s centre); None if it stands on it, or its pose
+    was taken before its last command ended (the callers wait for one taken since, or know
+    from the reply that the move completed), or it has none."""
     pose = robot.pose
-    if pose is None or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
+    if pose is None or not robot.pose_settled() or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
         return None
     dx, dy = pose.x - cell[0], pose.y - cell[1]
     return ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
@@ -183,6 +185,10 @@ def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Se
     taken = {tuple(c) for c in here}
     walls = set(walls)
     leaning = {robot.agent: leans_into(robot, here[robot.agent]) for robot in robots}
+    for robot in robots:  # between its cell and that one, not pushed off elsewhere
+        far, pose = leaning[robot.agent], robot.pose
+        if far is not None and pose is not None and _to_segment((pose.x, pose.y), here[robot.agent], far) > AT_CELL:
+            leaning[robot.agent] = None
     wanted: Dict[Coord, List[int]] = {}
     for agent, far in leaning.items():
         if far is not None:
@@ -204,3 +210,11 @@ def prefixed(plan: Plan, first: Dict[int, Coord]) -> Plan:
     orientations = None if plan.orientations is None else np.concatenate(
         [plan.orientations[:1], plan.orientations])
     return Plan(np.concatenate([row, plan.positions]), orientations)
+
+
+def _to_segment(p: Tuple[float, float], a: Coord, b: Coord) -> float:
+    """Distance from point `p` to the segment between the centres of cells `a` and `b`."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    length = dx * dx + dy * dy
+    f = 0.0 if length == 0 else min(1.0, max(0.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / length))
+    return math.hypot(p[0] - (a[0] + f * dx), p[1] - (a[1] + f * dy))

@@ -43,7 +43,7 @@ from fleet_common.runlog.summary import SummaryBuilder
 from .driver import AT_CELL, Driver
 from .following import Following
 from .outbox import NewRunFolder, Outbox, PlanJob, REROUTE, ResumeRunFolder, WriteFile
-from .replanning import Replanner
+from .replanning import Replanner, going_on, prefixed, walled
 from .rerouting import Rerouting, moved_since, moved_words
 from .resume import ResumePoint, Resuming
 from .robot import FAULT, HALTED, RESUMING, Fleet, InFlight, Robot
@@ -87,6 +87,7 @@ class Run:
         self.plan_start = 0.0
         self.ended_at: Optional[float] = None     # the run was done (the clock stops)
         self.to_starts_job: Optional[int] = None  # the way to the starts being planned
+        self.to_starts_first: Dict[int, Coord] = {}  # robots it has finish a move first (`prefixed`)
         self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
         #: a resumed run before its robots were checked (`resume.py`)
         self.resuming: Optional[Resuming] = None
@@ -242,33 +243,38 @@ class Run:
 
     def standing_cells(self) -> Tuple[List[Coord], str]:
         """The cell each robot stands on, from its pose (a disabled robot: where it stands, or the
-        cell it holds), and why not ("" when every robot taking part stands on a cell's centre).
-        A pose taken before the robot's last reply (late) gives way to the cell the reply left
-        it on."""
+        cell it holds), and why not ("" when every robot taking part stands on a cell's centre,
+        or between the nearest one and a free neighbour, a move the way to the starts finishes:
+        `_going_on`). A pose taken before the robot's last reply (late) gives way to the cell
+        the reply left it on."""
         cells: List[Coord] = []
+        off: List[Tuple[Robot, bool, bool]] = []  # not on a centre: (robot, on the map, centred)
         problems: List[str] = []
         for robot in self.fleet:
             held = self.driver.position(robot)
-            if robot.pose is not None and not robot.pose_settled():
-                cells.append(held)
-                continue
             pose = robot.pose
-            if pose is None:
+            if pose is None or not robot.pose_settled():
+                # a late pose, taken before the last reply: a completed move left the robot on
+                # its cell, but one that stopped it (out) did not say where: wait for the next
                 cells.append(held)
-                if self.engine.run.out[robot.agent] != "disabled":
+                if pose is None and self.engine.run.out[robot.agent] != "disabled":
                     problems.append("robot {} has not reported a pose".format(robot.id))
+                elif pose is not None and self.engine.run.out[robot.agent] is not None:
+                    problems.append("robot {} stopped a moment ago: no pose since yet".format(robot.id))
                 continue
             cell = (int(round(pose.x)), int(round(pose.y)))
             centred = math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL
             on_map = self.grid.in_bounds(cell) and self.grid.is_free(cell)
-            if centred and on_map:
-                cells.append(cell)
-            else:
-                cells.append(held)
-                if self.engine.run.out[robot.agent] != "disabled":
-                    problems.append("robot {} stands at {}, {}".format(
-                        robot.id, self.where(pose.x, pose.y), "not on a cell's centre" if on_map or not centred
-                        else "off the free cells of {}".format(self._map_words(self.grid))))
+            cells.append(cell if on_map else held)
+            if not (centred and on_map):
+                off.append((robot, on_map, centred))
+        going = self._going_on(cells)
+        for robot, on_map, centred in off:
+            if self.engine.run.out[robot.agent] != "disabled" and robot.agent not in going:
+                pose = robot.pose
+                problems.append("robot {} stands at {}, {}".format(
+                    robot.id, self.where(pose.x, pose.y), "not on a cell's centre" if on_map or not centred
+                    else "off the free cells of {}".format(self._map_words(self.grid))))
         if not problems:
             seen: dict = {}
             for robot, cell in zip(self.fleet, cells):
@@ -510,12 +516,23 @@ class Run:
 
     # ---- the way to the starts --------------------------------------------------------------
 
+    def _going_on(self, cells: Sequence[Coord]) -> Dict[int, Coord]:
+        """The robots taking part that stand between their cell (of `cells`) and a free one: the
+        way to the starts has them finish that move first (`replanning.going_on`)."""
+        out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] is not None}
+        return going_on(self.fleet_map, self.fleet.robots, cells, out)
+
     def plan_to_starts(self, cells: Sequence[Coord], now: float, reason: str) -> None:
         """Plan the way from `cells` (where the robots stand) to the target's starts, off the
-        loop; the run waits meanwhile (`to_starts_ready` carries on)."""
+        loop; the run waits meanwhile (`to_starts_ready` carries on). The cell a robot between
+        two cells leans into is walled off, but for one taking part that can finish its move
+        into it first (planned from there, the move prefixed: `replanning.prefixed`)."""
         out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] == "disabled"}
-        job = PlanJob(next(self.job_ids), self.fleet_map, list(cells), list(self.target.starts), out,
-                      self.settings.to_starts_limit, "pp")
+        on = self._going_on(cells)
+        grid = walled(self.fleet_map, self.fleet.robots, cells, set(on))
+        self.to_starts_first = {a: tuple(cells[a]) for a in on}
+        job = PlanJob(next(self.job_ids), grid, [on.get(a, c) for a, c in enumerate(cells)],
+                      list(self.target.starts), out, self.settings.to_starts_limit, "pp")
         self.to_starts_job = job.id
         self.out.add(job)
         self.move("to_starts" if self.phase.refusal("to_starts") is None else "reset", reason)
@@ -536,7 +553,7 @@ class Run:
             self.move("no_way", "no way to the starts of {}: {}".format(name, why))
             self.out.tell("run", None, "no way to the starts of {}: {}".format(name, why))
             return
-        plan = result.plan
+        plan = prefixed(result.plan, self.to_starts_first)
         starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
         sol = make_solution(self.fleet_map, self.target.solution.map_file or "", plan, starts,
                             list(self.target.starts), "fleetcontrol-to-starts", True,
@@ -560,10 +577,18 @@ class Run:
         self.ended_at = now
         disabled = self.disabled()
         if self.purpose == TO_STARTS:
-            self.move("arrived", "every robot is on its start")
-            self.load(self.target, now, "every robot is on its start",
-                      "every robot is on its start: press Start to run {}".format(self.target.name))
-            self.out.tell("run", None, "every robot is on its start of {}: ready for Start".format(self.target.name))
+            # a robot disabled when the way was planned stayed where it stood (enabled since, it
+            # takes part again): the target waits for Start all the same, which names it
+            away = [r.id for r in self.fleet if tuple(self.driver.position(r)) != tuple(self.target.starts[r.agent])]
+            said = ("every robot is on its start" if not away else "the way to the starts is driven, but robot{} "
+                    "{} stayed off {} (disabled on the way)".format("s" if len(away) > 1 else "", _ids(away),
+                                                                   "their starts" if len(away) > 1 else "its start"))
+            self.move("arrived", said)
+            self.load(self.target, now, said, "{}: {}".format(said, "press Start to run {}".format(self.target.name)
+                                                            if not away else "Go to starts drives {} there".format(
+                                                                "them" if len(away) > 1 else "it")))
+            self.out.tell("run", None, "every robot is on its start of {}: ready for Start".format(self.target.name)
+                          if not away else "{} of {}".format(said, self.target.name))
             return
         self.move("arrived", "every enabled robot is at its goal{}".format(
             "" if not disabled else " (disabled: robot{} {})".format("s" if len(disabled) > 1 else "",

@@ -171,6 +171,12 @@ class CollisionCount:
                           if r != agent and f != forward and max(s, start) < min(e, end))
         edge.append((start, end, agent, forward))
 
+    def stood(self, agent: int, cell: Coord, start: float, end: float) -> None:
+        """Robot `agent` is found on `cell` at `end` with no move there completed: if that is not
+        where the count has it, it went there over [start, end) (holding both cells meanwhile)."""
+        if agent < len(self._here) and self._here[agent][3] != tuple(cell):
+            self.add(agent, start, max(start, end), self._here[agent][3], tuple(cell))  # type: ignore[arg-type]
+
     def _enter(self, agent: int, cell: Coord, at: float, now: float) -> List:
         """A new visit from `at`; `now` is the latest completion (every open visit ends later)."""
         visit = [at, math.inf, agent, cell]

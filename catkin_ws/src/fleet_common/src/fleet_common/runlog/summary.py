@@ -280,6 +280,13 @@ class SummaryBuilder:
         starts = [tuple(c) for c in record.get("starts") or []]
         if first and len(starts) == len(robots):
             self.counted = CollisionCount(starts)
+        elif self.counted is not None and len(starts) == len(robots) and not _counts(base, len(robots)):
+            # a replan starts each robot where it stands: one stopped near the end of a move it
+            # never completed (a halt, a fault) stands on that move's target, one moved by hand
+            # elsewhere; either held both cells from the move's start (or now) until now
+            for i, cell in enumerate(starts):
+                began = self.started.pop(i, None)
+                self.counted.stood(i, cell, began[0] if began is not None else t, t)  # type: ignore[arg-type]
         # robots the plan leaves where they stand, away from their goals (out when a replan was
         # made: `fleet_manager.run.Run.stranded`) have not arrived
         stranded = {self.agent[r] for r in record.get("stranded") or [] if r in self.agent}
