@@ -30,7 +30,8 @@ from pathlib import Path
 from fleet_common.runlog.reader import RunFolder
 from fleet_manager.core import RunCore
 from fleet_manager.resume import read_resume
-from fleet_manager.outbox import LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, Say, Send, ToConsole, WriteFile
+from fleet_manager.outbox import (LoadJob, NewRunFolder, PlanJob, Record, RerouteJob, ResumeRunFolder, Say, Send,
+                                  ToConsole, WriteFile)
 from fleet_manager.plan_requests import solve_requested
 from fleet_manager.rerouting import look
 from fleet_common.plan_loading import LoadedPlan
@@ -119,6 +120,10 @@ class MemoryFleet:
         self.consoles: Dict[bytes, MemoryConsole] = {}
         self.records: List[Tuple[str, float, dict]] = []
         self.folders = 0
+        #: each run folder's records (a reset or Go to starts opens a new one); the one written to
+        self.folder_records: List[List[Tuple[str, float, dict]]] = []
+        self._folder = -1
+        self._resumed = -1  # the folder a resumed manager goes on writing to
         self.files: Dict[str, str] = {}
         self.replans: Dict[str, object] = {}  # plan-N.txt -> the plan it holds
         self.said: List[str] = []
@@ -158,7 +163,12 @@ class MemoryFleet:
                        up: Optional[Sequence[int]] = None) -> None:
         """A new manager on the records the dead one left (its run folder), at the same time;
         robots connect at once (those of `up`, if given: the others later, `link_up`)."""
-        records = [dict(fields, k=kind, t=t) for kind, t, fields in self.records]
+        # as `fleetctl manager --resume` alone: the newest folder of a run of the plan (not a way
+        # to the starts, which a new manager does not take over)
+        runs = [k for k, folder in enumerate(self.folder_records)
+                if folder and folder[0][0] == "run" and folder[0][2].get("purpose", "plan") == "plan"]
+        self._resumed = runs[-1] if runs else 0
+        records = [dict(fields, k=kind, t=t) for kind, t, fields in self.folder_records[self._resumed]]
         records[0].setdefault("started", None)
         point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
         plan = self.loaded.plan if point.plan == "plan-1.txt" else self.replans[point.plan]
@@ -199,6 +209,8 @@ class MemoryFleet:
                 robot.queued.append(effect.command)
         elif isinstance(effect, Record):
             self.records.append((effect.kind, effect.t, effect.fields))
+            if self._folder >= 0:
+                self.folder_records[self._folder].append((effect.kind, effect.t, effect.fields))
         elif isinstance(effect, ToConsole):
             console = self.consoles.get(effect.peer)
             if console is not None:
@@ -220,6 +232,10 @@ class MemoryFleet:
                 self.finish_loads()
         elif isinstance(effect, NewRunFolder):
             self.folders += 1
+            self.folder_records.append([])
+            self._folder = len(self.folder_records) - 1
+        elif isinstance(effect, ResumeRunFolder):
+            self._folder = self._resumed
         elif isinstance(effect, WriteFile):
             self.files[effect.name] = effect.text
             self.replans[effect.name] = self.core.run.plan
