@@ -3,13 +3,15 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back two defects these sessions found (each fixed on 2026-11-26): a robot
-a replan leaves where it stopped counted as arrived, and a replan that waits for ever on a follower
-held behind a robot that is out. Each makes sessions fail, so the checks can fail.
+The negative controls put back three defects these sessions found (each fixed on 2026-11-26): a robot
+a replan leaves where it stopped counted as arrived, a replan that waits for ever on a follower
+held behind a robot that is out, and a late pose taken for where a robot is. Each makes sessions
+fail, so the checks can fail.
 """
 from __future__ import annotations
 
 from fleet_manager import core, operator
+from fleet_manager.robot import Robot
 from fleet_manager.run import Run
 from operator_sessions import session
 
@@ -28,9 +30,15 @@ def test_wide_sessions_too_whatever_the_size_strategy_scope_and_pose_lag() -> No
     assert not bad, bad
 
 
-def _found(seeds) -> bool:
-    """Whether some session of `seeds` finds a problem (stops at the first)."""
-    return any(session(seed).problems for seed in seeds)
+def _found(seeds, wide: bool = False) -> bool:
+    """Whether some session of `seeds` finds a problem (stops at the first); one that raises does
+    (the manager's worker would turn a replan's error into "replanning failed")."""
+    def found(seed: int) -> bool:
+        try:
+            return bool(session(seed, wide).problems)
+        except Exception:
+            return True
+    return any(found(seed) for seed in seeds)
 
 
 def test_a_robot_left_where_it_stopped_counted_arrived_is_caught(monkeypatch) -> None:
@@ -45,3 +53,10 @@ def test_a_replan_waiting_for_ever_behind_a_robot_out_is_caught(monkeypatch) -> 
     monkeypatch.setattr(operator, "behind_out", lambda run: None)
     monkeypatch.setattr(core.operator, "behind_out", lambda run: None)
     assert _found(range(40, 120))
+
+
+def test_a_pose_taken_before_the_last_reply_taken_for_the_truth_is_caught(monkeypatch) -> None:
+    """Wide sessions hear poses late; trusting every pose as it comes (before 2026-11-26) planned a
+    robot from a cell it had left (seed 133: the replan found robot 2 on a cell it walled off)."""
+    monkeypatch.setattr(Robot, "pose_settled", lambda self: True)
+    assert _found([133], wide=True)
