@@ -185,14 +185,14 @@ def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Se
     taken = {tuple(c) for c in here}
     walls = set(walls)
     leaning = {robot.agent: leans_into(robot, here[robot.agent]) for robot in robots}
+    wanted: Dict[Coord, List[int]] = {}  # every robot's, as `walled` walls them
+    for agent, far in leaning.items():
+        if far is not None:
+            wanted.setdefault(far, []).append(agent)
     for robot in robots:  # between its cell and that one, not pushed off elsewhere
         far, pose = leaning[robot.agent], robot.pose
         if far is not None and pose is not None and _to_segment((pose.x, pose.y), here[robot.agent], far) > AT_CELL:
             leaning[robot.agent] = None
-    wanted: Dict[Coord, List[int]] = {}
-    for agent, far in leaning.items():
-        if far is not None:
-            wanted.setdefault(far, []).append(agent)
     return {agent: far for agent, far in leaning.items()
             if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
             and far not in taken and far not in walls and len(wanted[far]) == 1}
