@@ -22,6 +22,8 @@ import random
 from dataclasses import dataclass, field, replace
 from typing import List, Tuple
 
+from fleet_common.formats.instance import make_instance
+from fleet_common.plan_loading import LoadedPlan, from_instance
 from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_manager.driver import AT_CELL
 from fleet_manager.settings import ManagerSettings
@@ -34,6 +36,15 @@ PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "str
            "wait", "wait", "wait")
 #: and in a wide session: stop, the reroute mode and scope, reset (back to the starts, run again)
 WIDE_PRESSES = ("stop", "reroute", "reset")
+
+
+def crowded_lab(rng: random.Random) -> LoadedPlan:
+    """Eight robots on the lab's map between random cells, planned by LaCAM (trains of robots
+    following each other, as students' plans have them)."""
+    grid = lab().grid
+    cells = rng.sample(list(grid.free_cells()), 16)
+    inst = make_instance(grid, lab().solution.map_file or "lab.map", cells[:8], cells[8:])
+    return from_instance(inst, "eight robots on the lab map", solver="lacam", seed=rng.randint(0, 999))
 
 
 @dataclass
@@ -49,20 +60,23 @@ def session(seed: int, wide: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
-    poses that reach the manager late; and the operator also presses stop, reset and the
-    reroute mode."""
+    poses that reach the manager late, eight robots between random cells of the lab's map in a
+    third of them (`crowded_lab`); and the operator also presses stop, reset and the reroute mode."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
     settings = ManagerSettings(step_time=0.5, size=TURTLEBOT2, reroute=reroute, reroute_timed=False)
     lag = 0.0
+    loaded, n = lab(), 5
     if wide:
         run = random.Random(~seed)
         settings = replace(settings, size=run.choice([TURTLEBOT2, TURTLEBOT2, cell_sized()]),
                            strategy=run.choice(["adg", "step", "reorder"]),
                            reroute_scope=run.choice(["held", "all"]))
         lag = run.choice([0.0, 0.1, 0.3])
-    f = MemoryFleet(lab(), lab_fleet(), settings=settings, pose_lag=lag)
+        if run.random() < 1 / 3:
+            loaded, n = crowded_lab(run), 8
+    f = MemoryFleet(loaded, lab_fleet(n), settings=settings, pose_lag=lag)
     for robot in f.robots.values():
         if rng.random() < 0.3:
             robot.navigator.bumps = {rng.randint(1, 4)}
@@ -97,7 +111,7 @@ def session(seed: int, wide: bool = False) -> Session:
         if action == "wait":
             continue
         if action == "link":
-            rid = rng.randint(1, 5)
+            rid = rng.randint(1, n)
             if rid not in down:
                 f.link_down(rid)
                 down.add(rid)
@@ -116,7 +130,7 @@ def session(seed: int, wide: bool = False) -> Session:
             continue
         args: dict = {}
         if action in ("disable", "enable"):
-            args["robot"] = rng.randint(1, 5)
+            args["robot"] = rng.randint(1, n)
         elif action == "strategy":
             args["name"] = rng.choice(["adg", "step", "reorder"])
         elif action == "reroute":
