@@ -285,6 +285,28 @@ def test_a_run_begun_by_step_alone_is_resumed_under_way():
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
 
+def test_a_manager_that_dies_after_a_reset_goes_on_with_command_ids_the_robots_have_not_seen():
+    """The run is done, the operator resets it (the robots drive back to their starts, a run
+    folder of its own, then the plan's new folder waits for Start), and the manager dies. The new
+    manager resumes that folder in the same epoch, where no command was sent yet: it must not
+    number its commands from 1 again, for the robots remember those ids from the runs before and
+    would answer "completed" without moving (found by wide operator sessions, seed 1891: a robot
+    counted in a cell it never drove to). The run folder's first record says where the ids were."""
+    f = started_run(lab())
+    ops = f.console()
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert f.ask(ops, "reset").ok
+    assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan" and not f.core.run.not_ready())
+    f.kill_manager()
+    f.resume_manager()
+    replies = len(f.kinds("reply"))
+    assert f.phase == "waiting"
+    assert f.ask(f.console(), "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert not [r for r in f.kinds("reply")[replies:] if r.get("duplicate")]
+    assert f.core.summary().collisions == 0
+
+
 def test_the_records_of_a_resumed_run_read_as_one_run():
     f = started_run(lab())
     assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 15)

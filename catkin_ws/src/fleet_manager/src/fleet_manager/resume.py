@@ -143,6 +143,11 @@ def read_resume(run: RunFolder) -> ResumePoint:
     point.reroute_scope = _scope(run.run.get("reroute_scope"), "held")
     pending: Dict[int, Dict[int, Unsettled]] = {}
     highest: Dict[int, int] = {}
+    # the ids the manager had used before this folder (runs it drove before a reset or a load, in
+    # the same epoch): a robot answers an id it remembers with that command's outcome, unrun
+    ids = run.run.get("next_ids")
+    if isinstance(ids, list) and len(ids) == len(point.robots) and all(isinstance(n, int) for n in ids):
+        highest.update({robot: n - 1 for robot, n in zip(point.robots, ids) if n > 1})
     for r in run.records:
         kind = r.get("k")
         point.last_t = max(point.last_t, _number(r.get("t")))

@@ -324,6 +324,9 @@ class Run:
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
                         map=self.grid.name, step_time=self.settings.step_time,
                         size=size_fields(self.settings.size), purpose=self.purpose,
+                        # each robot's next command id: a manager resuming this folder speaks in
+                        # the same epoch, and the robots remember the ids of the folders before
+                        next_ids=[r.next_id for r in self.fleet],
                         **({"for_plan": self.target.name} if self.purpose == TO_STARTS else {}))
 
     def _resume(self, point: ResumePoint, plan: Plan, now: float) -> None:
