@@ -25,6 +25,7 @@ from typing import List, Tuple
 from fleet_common.formats.instance import make_instance
 from fleet_common.plan_loading import LoadedPlan, from_instance
 from fleet_common.robot_size import TURTLEBOT2, cell_sized
+from fleet_common.wire import Pose
 from fleet_manager.driver import AT_CELL
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
@@ -36,6 +37,17 @@ PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "str
            "wait", "wait", "wait")
 #: and in a wide session: stop, the reroute mode and scope, reset (back to the starts, run again)
 WIDE_PRESSES = ("stop", "reroute", "reset")
+
+
+def carry_to_a_cell(f: MemoryFleet, rid: int) -> None:
+    """Lab staff put robot `rid` (standing still) on the nearest free cell nobody stands on."""
+    navigator = f.robots[rid].navigator
+    at = navigator.true_pose()
+    taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y))
+             for other, r in f.robots.items() if other != rid}
+    cells = [c for c in f.core.run.grid.free_cells() if tuple(c) not in taken]
+    x, y = min(cells, key=lambda c: math.hypot(c[0] - at.x, c[1] - at.y))
+    navigator._rest = Pose(float(x), float(y), at.theta)
 
 
 def crowded_lab(rng: random.Random) -> LoadedPlan:
@@ -142,7 +154,11 @@ def session(seed: int, wide: bool = False) -> Session:
         f.advance(1.0)  # a bumper is free again after 0.5 s
         for rid in f.robots:
             if f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent] is not None:
-                press("enable", robot=rid)
+                if not press("enable", robot=rid) and "put it on a cell" in out.log[-1][4]:
+                    carry_to_a_cell(f, rid)  # as lab staff would, told so
+                    out.log.append((round(f.now, 1), "carried", {"robot": rid}, True, ""))
+                    f.advance(0.3)  # its next poses come in
+                    press("enable", robot=rid)
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
         if not press("start") and "Go to starts drives" in out.log[-1][4]:

@@ -118,6 +118,30 @@ def test_reset_at_the_end_of_a_run_whose_poses_come_late_plans_from_the_goals():
     assert f.run_until(lambda: ready(f)) and f.core.summary().collisions == 0
 
 
+def test_reset_after_a_halt_drives_the_halted_robots_back_to_their_starts_too():
+    """The operator halts the run (the robots stop where they are and hold until Start) and resets
+    it: the way to the starts is driven at once, as Start would, halted robots included. Before,
+    they stayed halted on a way that then never ended, Start refused as "already running" (wide
+    operator sessions, seed 1596)."""
+    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
+    assert f.ask(ops, "halt").ok
+    assert f.run_until(lambda: not f.core.run.driver.moving, 5)
+    assert any(r.hold == "halted" for r in f.core.fleet)
+    f.advance(0.2)  # poses taken since the robots stopped come in
+    answer = f.ask(ops, "reset")
+    assert answer.ok, answer.reason
+    assert f.run_until(lambda: ready(f), 60)
+    starts = lab().starts
+    assert all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
+               for r, s in zip(f.robots.values(), starts))
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+
+
 def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reason():
     poses = at_goals_poses()
     poses[2] = Pose(poses[2].x + 0.45, poses[2].y + 0.45, 0.0)  # pushed off its cell, towards a corner

@@ -29,7 +29,7 @@ from fleet_common.wire import Pose
 from fleet_manager.resume import read_resume
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
-from test_manager_core import closest_truth, run_recording, train
+from test_manager_core import answered, closest_truth, replanned, run_recording, train
 
 _LAB: List[LoadedPlan] = []
 
@@ -237,6 +237,33 @@ def test_a_robot_left_between_cells_is_held_and_planned_around():
     nearest = min(math.hypot(plan[t, a, 0] - pose[0], plan[t, a, 1] - pose[1])
                   for t in range(1, plan.shape[0]) for a in others if tuple(plan[t, a]) != tuple(plan[0, a]))
     assert nearest >= size.safe_cells, "a replanned robot passes the held one"
+
+
+def test_a_robot_carried_between_two_other_cells_is_enabled_only_once_put_on_a_cell():
+    """While no manager ran, robot 2 was carried from its goal to between two other cells; the new
+    manager holds it there. Enabled as it stands, it could be planned from neither cell (its
+    drive would start 1.5 cells from where the plan has it, and the robot refuses such a drive:
+    a fault, enabled and refused again, for ever; wide operator sessions, seed 1994), so the
+    enable is refused, saying what to do. Put on a cell, it is enabled and a replan takes it home."""
+    f = started_run(lab(), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    assert f.run_until(lambda: f.phase == "done")
+    goal = f.loaded.goals[1]
+    f.kill_manager()
+    carry(f, 2, goal[0] + 1.5, goal[1])
+    f.resume_manager()
+    ops = f.console()
+    assert f.run_until(lambda: f.core.fleet.by_id[2].hold == "fault", 5)
+    f.advance(0.5)
+    if f.core.run.replanner.proposal_id is not None:
+        answered(f, ops)
+    answer = f.ask(ops, "enable", robot=2)
+    assert not answer.ok and "between two cells" in answer.reason and "put it on a cell, then enable it" in answer.reason
+    carry(f, 2, goal[0] + 1, goal[1])
+    f.advance(0.3)
+    assert f.ask(ops, "enable", robot=2).ok
+    replanned(f, ops)
+    assert f.ask(ops, "start").ok or f.phase == "running"
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
 
 def test_a_rejected_replan_after_a_resume_leaves_reroutes_walled_off_a_robot_between_cells():

@@ -39,6 +39,7 @@ from fleet_common.plan_loading import LoadedPlan
 
 from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
+from .replanning import placed
 from .robot import HALTED, VICON, Robot
 from .run import TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
@@ -308,6 +309,11 @@ def enable(run: Run, args: Args, now: float) -> Answer:
         return _not_in_run(run, args["robot"])
     if run.engine.run.out[robot.agent] is None and robot.hold is None:
         return False, "robot {} is already enabled".format(robot.id)
+    here = run.positions()[robot.agent]
+    if not placed(run.grid, robot, here):  # carried off between two cells while it was out
+        pose = robot.pose
+        return False, ("robot {} stands at {}, between two cells away from {}, where the run has it: put it "
+                       "on a cell, then enable it".format(robot.id, run.where(pose.x, pose.y), run.loaded.show(here)))
     run.driver.enable(robot, now)
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)

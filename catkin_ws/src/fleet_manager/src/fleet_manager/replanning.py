@@ -45,8 +45,8 @@ from .driver import AT_CELL
 from .outbox import PlanJob
 from .robot import Robot
 
-__all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED", "going_on", "prefixed",
-           "stood_on", "walled"]
+__all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED", "going_on", "placed",
+           "prefixed", "stood_on", "walled"]
 
 IDLE, SAFE_POINT, PLANNING, PROPOSED = "idle", "safe-point", "planning", "proposed"
 
@@ -196,6 +196,21 @@ def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Se
     return {agent: far for agent, far in leaning.items()
             if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
             and far not in taken and far not in walls and len(wanted[far]) == 1}
+
+
+def placed(grid: Grid, robot: Robot, here: Coord) -> bool:
+    """Whether a replan can plan `robot` (the run has it on `here`) from where it stands: on
+    `here` or another free cell's centre (`stood_on`), or between `here` and a neighbour
+    (`going_on`, `walled`); not when it stands between two other cells, carried off its
+    line. Without a pose taken since its last reply, as far as anyone knows."""
+    pose = robot.pose
+    if pose is None or not robot.pose_settled() or math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL:
+        return True
+    cell = (int(round(pose.x)), int(round(pose.y)))
+    if math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL and grid.in_bounds(cell) and grid.is_free(cell):
+        return True
+    far = leans_into(robot, here)
+    return far is not None and _to_segment((pose.x, pose.y), here, far) <= AT_CELL
 
 
 def prefixed(plan: Plan, first: Dict[int, Coord]) -> Plan:

@@ -502,6 +502,8 @@ class Run:
         for agent, why in enumerate(old_out):
             if why == "disabled":  # the operator's choice outlives the plan
                 engine.handle(Disabled(agent, now))
+            elif self.fleet[agent].hold in (FAULT, HALTED):  # held still: out of the new run too, so
+                engine.handle(RobotFailed(agent, now))  # that enabling it (or Start) takes it back
         self._begin()
         self._drive(engine)
 
@@ -570,6 +572,10 @@ class Run:
         self.begin_clock(now)
         self.move("start", "driving every robot to its start for {} ({} moves)".format(
             name, sum(action_counts(plan))))
+        for robot in self.fleet:  # the way is driven at once, as Start would: halted robots go on
+            if robot.hold == HALTED:
+                self.driver.enable(robot, now)
+                self.out.record("out", robot=robot.id, why=None, reason="resumed after halt: the way to the starts")
         self.driver.handle(Resume(now), now)  # an engine starts paused
         self.out.broadcast(self.setup())
         self.out.tell("run", None, "robots driving to the starts of {}".format(name))
