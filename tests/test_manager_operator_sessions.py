@@ -60,3 +60,20 @@ def test_a_pose_taken_before_the_last_reply_taken_for_the_truth_is_caught(monkey
     robot from a cell it had left (seed 133: the replan found robot 2 on a cell it walled off)."""
     monkeypatch.setattr(Robot, "pose_settled", lambda self: True)
     assert _found([133], wide=True)
+
+
+def test_a_train_behind_a_robot_that_is_out_counts_as_stuck() -> None:
+    """Wide seed 384: eight robots; robot 1's bumper stops it on its way out of a cell, robot 4
+    follows it in and robot 5 follows robot 4, both waiting at their hold points. The run is stuck
+    until an operator acts (the clean-up enables robot 1 once told so); before, only robot 4
+    counted as held, robot 5's drive in flight kept the run "moving", and it never said stuck."""
+    assert not session(384, wide=True).problems
+
+
+def test_a_train_behind_a_robot_out_counted_moving_is_caught(monkeypatch) -> None:
+    def direct_only(self):  # before 2026-11-26: only the followers right behind the robot out
+        following, out = self.driver.following, self.engine.run.out
+        leaders = {agent: following.leader_of(agent) for agent in following.holds}
+        return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
+    monkeypatch.setattr(Run, "held_behind_out", direct_only)
+    assert _found([384], wide=True)

@@ -497,11 +497,16 @@ def behind_out(run: Run) -> Optional[str]:
     a robot that is out (stopped on its way out of the cell the follower enters). A replan starts
     once every robot stands (no command in flight); this one stands only when its leader moves
     on, so the replan would wait for ever, and Start with it (found by random operator sessions)."""
-    following = run.driver.following
-    pairs = sorted((run.fleet[a].id, run.fleet[following.leader_of(a)].id) for a in run.held_behind_out()
-                   if run.fleet[a].flight is not None)
-    if not pairs:
+    following, out = run.driver.following, run.engine.run.out
+    held = [a for a in run.held_behind_out() if run.fleet[a].flight is not None]
+    # named: each that waits right behind a robot that is out (a train behind it waits with it)
+    pairs = sorted((run.fleet[a].id, run.fleet[following.leader_of(a)].id) for a in held
+                   if out[following.leader_of(a)] is not None)
+    if not held:
         return None
+    if not pairs:  # (cannot be: a train's first follower waits right behind the robot out)
+        return "robots {} wait behind a robot that is out: a replan needs every robot standing".format(
+            ", ".join(str(run.fleet[a].id) for a in sorted(held)))
     waits = "; ".join("robot {} waits behind robot {}, which is out".format(f, lead) for f, lead in pairs)
     return ("{}: a replan needs every robot standing; enable {} and start (both finish their moves), "
             "or halt first").format(waits, "robot {}".format(pairs[0][1]) if len({p[1] for p in pairs}) == 1

@@ -183,10 +183,16 @@ class Run:
             "it" if one else "them")
 
     def held_behind_out(self) -> Set[int]:
-        """Followers whose leader is out: they wait at their hold point until it is back."""
+        """Followers whose leader is out, or is itself such a follower (a train behind a robot
+        that is out): they wait at their hold points until it is back."""
         following, out = self.driver.following, self.engine.run.out
         leaders = {agent: following.leader_of(agent) for agent in following.holds}
-        return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
+        held = {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
+        while True:
+            more = {agent for agent, leader in leaders.items() if leader in held} - held
+            if not more:
+                return held
+            held |= more
 
     # ---- where the robots are, in words -------------------------------------------------------
 
