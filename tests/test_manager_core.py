@@ -450,6 +450,36 @@ def test_a_robot_stopped_half_into_its_goal_and_enabled_again_is_planned_home():
     assert f.run_until(lambda: done(f), 60) and f.at_goals()
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
+def test_a_robot_left_half_off_its_goal_by_a_replan_has_not_arrived():
+    """Robot 2 is home early; a visitor pushes it half a cell off its goal and the operator
+    disables it, then replans for the others. The plan gives robot 2 no move, leaving it "on" its
+    goal: it has not arrived. Enabled after the others are home, it is told a replan takes it
+    home, and one drives it back onto its goal (before, it counted as home half a cell away and
+    the run stayed done; wide operator sessions, seeds 1666 and 1716)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    agent = f.core.fleet.by_id[2].agent
+    goal = f.core.run.loaded.goals[agent]
+    assert f.run_until(lambda: f.core.run.engine.run.finished_agent(agent) and not f.robots[2].navigator.moving, 30)
+    assert f.phase == "running"
+    assert f.ask(ops, "disable", robot=2).ok
+    nav = f.robots[2].navigator
+    nav._rest = Pose(goal[0] + 0.5, float(goal[1]), nav.true_pose().theta)  # pushed by a visitor
+    f.advance(0.3)
+    replanned(f, ops)
+    assert agent in f.core.run.stranded
+    assert f.run_until(lambda: done(f), 60)  # the others are home; robot 2 is out, not home
+    assert f.core.summary().lines()[0] == "arrived: 4/4 (of 5 robots; 1 out)"
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: "
+                                           "replan to take it home"), answer.reason
+    replanned(f, ops)
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
+
+
 def test_no_replan_waits_for_ever_on_a_follower_held_behind_a_robot_that_is_out():
     """Robot 4 follows robot 2 into the cell robot 2 is leaving, and robot 2's bumper stops it on
     the way out: robot 4 waits at its hold point, in the middle of its drive, until robot 2 moves

@@ -171,6 +171,16 @@ class Run:
         return not any(r.hold == "recover" or not r.link_up or (r.agent not in held and (
             r.flight is not None or run.dispatched[r.agent] > run.completed[r.agent])) for r in self.fleet)
 
+    def _left_between(self, agent: int, plan: Plan) -> bool:
+        """`plan` gives the robot of `agent` no move and it stands between two cells, off the
+        cell the plan leaves it on (an out robot stopped half out of its goal, walled in): it
+        has not arrived, even there, until a replan takes it onto the cell."""
+        if (plan.positions[:, agent] != plan.positions[0, agent]).any():
+            return False
+        robot = self.fleet[agent]
+        pose, cell = robot.pose, plan.positions[0, agent]
+        return pose is not None and robot.pose_settled() and math.hypot(pose.x - cell[0], pose.y - cell[1]) > AT_CELL
+
     def stranded_words(self) -> str:
         """The robots the plan leaves away from their goals, and what the operator can do
         ("" if none)."""
@@ -414,7 +424,8 @@ class Run:
         old = self.engine
         self.rerouting.keep_to(self.grid if grid is None else grid)
         goals = self.loaded.goals
-        self.stranded = {a for a in range(plan.num_agents) if tuple(plan.positions[-1, a]) != tuple(goals[a])}
+        self.stranded = {a for a in range(plan.num_agents)
+                         if tuple(plan.positions[-1, a]) != tuple(goals[a]) or self._left_between(a, plan)}
         self.standing.clear()
         self.walls.clear()
         self.plan_id += 1
