@@ -266,6 +266,31 @@ def test_a_robot_carried_between_two_other_cells_is_enabled_only_once_put_on_a_c
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
 
+def test_a_robot_put_on_a_cell_next_to_one_left_between_cells_is_replanned_from_it():
+    """While no manager ran, robot 2 was carried to between two cells and robot 1 onto a free cell
+    a cell and a half from it. The new manager walls off the cells around robot 2, but not the
+    one robot 1 stands on: it plans robot 1 from there. Before, the wall went up on robot 1's
+    cell and every replan failed ("current cell ... is on a blocked cell"; wide operator
+    sessions, seed 2418)."""
+    f = started_run(lab(), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    assert f.run_until(lambda: f.phase == "done")
+    grid = f.loaded.grid
+    goal = f.loaded.goals[1]
+    between = (goal[0] + 1.5, float(goal[1]))
+    taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y)) for r in f.robots.values()}
+    near = [(x, y) for x in range(grid.width) for y in range(grid.height) if grid.free[y, x] and (x, y) not in taken
+            and 1.0 < math.hypot(x - between[0], y - between[1]) < 1.2]
+    assert near
+    f.kill_manager()
+    carry(f, 2, *between)
+    carry(f, 1, *near[0])
+    f.resume_manager()
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10), f.said[-3:]
+    pending = f.core.run.replanner.pending
+    assert tuple(pending.current[f.core.fleet.by_id[1].agent]) == near[0]
+    assert pending.grid.free[near[0][1], near[0][0]]
+
+
 def test_a_rejected_replan_after_a_resume_leaves_reroutes_walled_off_a_robot_between_cells():
     """The operator rejects the replan a resume proposes: the run goes on with the old plan and
     the robot between cells held out, and every reroute of it (`--reroute`) still keeps off the

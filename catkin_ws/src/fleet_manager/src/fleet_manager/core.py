@@ -241,13 +241,15 @@ class RunCore:
             return
         size = self.settings.size
         reach = 1.0 if size.cell_sized else size.safe_cells
+        for o in off:  # first where each robot found on a cell stands: no wall goes up on it
+            if o.cell is not None:
+                run.standing[o.robot.agent] = o.cell
         keep = set(run.positions())
         told = []
         for o in off:
             where = "robot {} stands at {}, where the run has it at {}".format(
                 o.robot.id, run.where(*o.pose), run.loaded.show(o.expected))
             if o.cell is not None:
-                run.standing[o.robot.agent] = o.cell
                 told.append("{}: replanned from {}".format(where, run.loaded.show(o.cell)))
             else:
                 run.walls |= walls_around(o.pose, reach + 0.5, run.grid, keep)
