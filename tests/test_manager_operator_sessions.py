@@ -70,6 +70,16 @@ def test_a_train_behind_a_robot_that_is_out_counts_as_stuck() -> None:
     assert not session(384, wide=True).problems
 
 
+def test_the_wide_sessions_that_found_something_now_end_truly() -> None:
+    """Each found a defect fixed on 2026-11-26 (bench/README.md, "Wide sessions"): command ids
+    numbered again after a reset (1891) or after a second manager took over (3230), a reset after
+    a halt (1596), a robot carried between cells (1994), a robot left half off its goal (1666), a
+    wall on a robot's cell after a resume (2418)."""
+    bad = [(s.seed, s.problems) for s in (session(seed, wide=True) for seed in (1596, 1666, 1891, 1994, 2418, 3230))
+           if s.problems]
+    assert not bad, bad
+
+
 def test_a_train_behind_a_robot_out_counted_moving_is_caught(monkeypatch) -> None:
     def direct_only(self):  # before 2026-11-26: only the followers right behind the robot out
         following, out = self.driver.following, self.engine.run.out

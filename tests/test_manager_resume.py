@@ -359,6 +359,29 @@ def test_a_manager_that_dies_after_a_reset_goes_on_with_command_ids_the_robots_h
     assert f.core.summary().collisions == 0
 
 
+def test_a_second_manager_taking_over_numbers_above_the_ids_the_first_one_started_from():
+    """A manager that took over numbers its commands from above the log (releases of hold points
+    are not logged); if it dies too, the next one must number above where it started, not again
+    from the same place: a robot that was only released meanwhile (no logged command) would answer
+    the new manager's drive with that release's "completed", without moving (wide operator
+    sessions, seed 3230). The `resume` record says where each robot's ids started."""
+    from fleet_manager.resume import ID_MARGIN
+    records = [
+        {"k": "run", "t": 0.0, "version": 1, "source": "manager", "plan": "plan-1.txt", "robots": [1, 2],
+         "actions": [1, 1], "starts": [[0, 0], [1, 1]], "next_ids": [1, 1], "started": None},
+        {"k": "command", "t": 1.0, "robot": 1, "id": 6, "type": "drive", "x": 1.0, "y": 0.0, "action": 0},
+        {"k": "resume", "t": 2.0, "plan": "plan-1.txt", "completed": [0, 0], "sent": [[1, 6, "drive"]],
+         "next_ids": [6 + 1 + ID_MARGIN, 1 + ID_MARGIN]},
+    ]
+    point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
+    assert point.next_id[1] > 6 + 1 + ID_MARGIN and point.next_id[2] > 1 + ID_MARGIN
+    # and the first record of a folder the manager opened after others (a reset) says the same
+    records[0]["next_ids"] = [40, 50]
+    del records[2]
+    point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
+    assert point.next_id[1] >= 40 and point.next_id[2] >= 50
+
+
 def test_the_records_of_a_resumed_run_read_as_one_run():
     f = started_run(lab())
     assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 15)

@@ -145,11 +145,11 @@ def read_resume(run: RunFolder) -> ResumePoint:
     highest: Dict[int, int] = {}
     # the ids the manager had used before this folder (runs it drove before a reset or a load, in
     # the same epoch): a robot answers an id it remembers with that command's outcome, unrun
-    ids = run.run.get("next_ids")
-    if isinstance(ids, list) and len(ids) == len(point.robots) and all(isinstance(n, int) for n in ids):
-        highest.update({robot: n - 1 for robot, n in zip(point.robots, ids) if n > 1})
+    _ids_used(point, run.run, highest)
     for r in run.records:
         kind = r.get("k")
+        if kind == "resume":  # a manager that took over before: ids from where it started
+            _ids_used(point, r, highest)
         point.last_t = max(point.last_t, _number(r.get("t")))
         robot = r.get("robot")
         if kind == "plan" and r.get("reason") != "loaded" and point.plan_since is not None:
@@ -208,6 +208,15 @@ def read_resume(run: RunFolder) -> ResumePoint:
                        for robot, commands in pending.items() if commands}
     point.next_id = {robot: top + 1 + ID_MARGIN for robot, top in highest.items()}
     return point
+
+
+def _ids_used(point: ResumePoint, record: Record, highest: Dict[int, int]) -> None:
+    """Raise `highest` (robot id -> highest command id used) to the ids a `run` or `resume`
+    record says its manager's next ones were (`next_ids`, in the run's robot order)."""
+    ids = record.get("next_ids")
+    if isinstance(ids, list) and len(ids) == len(point.robots) and all(type(n) is int for n in ids):
+        for robot, n in zip(point.robots, ids):
+            highest[robot] = max(highest.get(robot, 0), n - 1)
 
 
 def handed_over(point: ResumePoint, record: Record, pending: Dict[int, Dict[int, Unsettled]]) -> None:

@@ -403,7 +403,10 @@ class Run:
         step = self.settings.step_time
         self.plan_start = point.earlier_plans / step if step > 0 else 0.0
         self.out.record("resume", started=None, plan=point.plan, completed=done, sent=again,
-                        dropped=0, downtime=round(max(0.0, now - point.last_t), 3))
+                        dropped=0, downtime=round(max(0.0, now - point.last_t), 3),
+                        # where this manager's ids start: a manager taking over after it numbers
+                        # above them (its releases are not logged, and the robots remember them)
+                        next_ids=[r.next_id for r in fleet])
         if point.began is not None:  # under way: nothing moves on before the robots are checked
             self.driver.releasing = False
             for robot in fleet:
