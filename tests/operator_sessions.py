@@ -161,6 +161,8 @@ def session(seed: int, wide: bool = False) -> Session:
                     press("enable", robot=rid)
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
+        if f.core.run.rerouting.proposal_id is not None:  # a reroute proposed (rerouting on "propose")
+            press("accept", proposal=f.core.run.rerouting.proposal_id)
         if not press("start") and "Go to starts drives" in out.log[-1][4]:
             press("to_starts")  # a robot disabled on the way back to the starts stayed off its start
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
