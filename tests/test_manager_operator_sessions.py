@@ -3,10 +3,10 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back three defects these sessions found (each fixed on 2026-11-26): a robot
+The negative controls put back four defects these sessions found (each fixed on 2026-11-26): a robot
 a replan leaves where it stopped counted as arrived, a replan that waits for ever on a follower
-held behind a robot that is out, and a late pose taken for where a robot is. Each makes sessions
-fail, so the checks can fail.
+held behind a robot that is out, a late pose taken for where a robot is, and a train of followers
+behind a robot that is out counted as moving. Each makes sessions fail, so the checks can fail.
 """
 from __future__ import annotations
 
