@@ -119,7 +119,6 @@ class MemoryFleet:
             self.robots[d.id] = MemoryRobot(d.id, pose, self.clock, speed, turn_speed)
         self.consoles: Dict[bytes, MemoryConsole] = {}
         self.records: List[Tuple[str, float, dict]] = []
-        self.folders = 0
         #: each run folder's records (a reset or Go to starts opens a new one); the one written to
         self.folder_records: List[List[Tuple[str, float, dict]]] = []
         self._folder = -1
@@ -142,6 +141,11 @@ class MemoryFleet:
         #: called after each batch of the core's effects is carried out (its records written)
         self.after_batch: Optional[Callable[[], None]] = None
         self.pump()
+
+    @property
+    def folders(self) -> int:
+        """Run folders opened so far."""
+        return len(self.folder_records)
 
     @property
     def now(self) -> float:
@@ -231,7 +235,6 @@ class MemoryFleet:
             if not self.hold_loads:
                 self.finish_loads()
         elif isinstance(effect, NewRunFolder):
-            self.folders += 1
             self.folder_records.append([])
             self._folder = len(self.folder_records) - 1
         elif isinstance(effect, ResumeRunFolder):

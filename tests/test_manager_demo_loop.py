@@ -154,12 +154,9 @@ def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reaso
     assert not f.jobs and f.folders == 1 and f.phase == "waiting"
 
 
-def test_a_robot_between_two_cells_finishes_its_move_on_the_way_to_the_starts():
-    """Robot 2 stands half a cell off its goal, towards a free neighbour (halted there, or put
-    down by hand): the way to the starts has it drive into that cell first, everyone else
-    waiting a step, and on from there; nobody is planned into the cell it leans into before it
-    is in. Before, the way was refused ("not on a cell's centre") and the operator had to carry
-    the robot onto a cell."""
+def robot_2_half_off_its_goal():
+    """The lab's robots at their goals but robot 2, half a cell off its goal towards a free cell;
+    planning held back (`finish_plans`). The fleet, the operator's console and robot 2's goal."""
     poses = at_goals_poses()
     goal = lab().goals[1]
     poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)
@@ -167,6 +164,16 @@ def test_a_robot_between_two_cells_finishes_its_move_on_the_way_to_the_starts():
     f.hold_plans = True
     ops = f.console()
     f.link_up()
+    return f, ops, goal
+
+
+def test_a_robot_between_two_cells_finishes_its_move_on_the_way_to_the_starts():
+    """Robot 2 stands half a cell off its goal, towards a free neighbour (halted there, or put
+    down by hand): the way to the starts has it drive into that cell first, everyone else
+    waiting a step, and on from there; nobody is planned into the cell it leans into before it
+    is in. Before, the way was refused ("not on a cell's centre") and the operator had to carry
+    the robot onto a cell."""
+    f, ops, goal = robot_2_half_off_its_goal()
     answer = f.ask(ops, "to_starts")
     assert answer.ok, answer.reason
     job = f.jobs[0]
@@ -186,13 +193,7 @@ def test_the_way_to_the_starts_keeps_off_both_cells_of_a_disabled_robot_between_
     """Robot 2, disabled, stands half a cell off its goal: it stays where it is, and the way to
     the starts keeps the others off both cells it stands between (before, only off the cell it
     held: the others could be planned past it, a cell-width short of it)."""
-    poses = at_goals_poses()
-    goal = lab().goals[1]
-    poses[2] = Pose(poses[2].x + 0.5, poses[2].y, 0.0)
-    f = MemoryFleet(lab(), lab_fleet(), poses=poses, settings=ManagerSettings(step_time=0.5))
-    f.hold_plans = True
-    ops = f.console()
-    f.link_up()
+    f, ops, goal = robot_2_half_off_its_goal()
     f.advance(0.1)  # the console sees the robots connected
     assert f.ask(ops, "disable", robot=2).ok
     assert f.ask(ops, "to_starts").ok

@@ -158,18 +158,24 @@ def test_any_values_round_trip_as_json(values: list) -> None:
 
 # ---- what is computed from a run folder -----------------------------------------------
 
-def crossing_run(folder: Path, collide: bool = False) -> None:
-    """Two robots in a 3-cell corridor: robot 7 moves (0,0)->(1,0)->(2,0); robot 9 waits at
-    (1,1) and enters (1,0) after robot 7 left it (or, with `collide`, while it is still there)."""
+def timed_run(folder: Path, actions: list, starts: list):
+    """A manager's run of robots 7 and 9 logged into `folder`, and `at(t, kind, **fields)`, which
+    records at `t` seconds into it."""
     clock = FakeClock()
     log = RunLog(folder, clock=clock)
     log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[7, 9],
-                    strategy="adg", actions=[2, 1], starts=[[0, 0], [1, 1]])
+                    strategy="adg", actions=actions, starts=starts)
 
     def at(t: float, kind: str, **fields) -> None:
         clock.now = 100.0 + t
         log.record(kind, **fields)
+    return log, at
 
+
+def crossing_run(folder: Path, collide: bool = False) -> None:
+    """Two robots in a 3-cell corridor: robot 7 moves (0,0)->(1,0)->(2,0); robot 9 waits at
+    (1,1) and enters (1,0) after robot 7 left it (or, with `collide`, while it is still there)."""
+    log, at = timed_run(folder, actions=[2, 1], starts=[[0, 0], [1, 1]])
     at(1.0, "state", run="running")
     at(1.0, "command", robot=7, id=1, type="drive", action=0)
     at(1.1, "action", robot=7, index=0, phase="started", src=[0, 0], dst=[1, 0])
@@ -217,15 +223,7 @@ def halted_and_replanned_run(folder: Path, enter: float) -> None:
     """Robots as large as a cell: robot 7 sets off (0,0)->(1,0) and is halted near the end of the
     move, which it never completes; at 3 s a replan starts it on (1,0), where it stands. Robot 9
     goes (0,1)->(0,0) at `enter`: after the replan (its plan 2 move), or before it (plan 1)."""
-    clock = FakeClock()
-    log = RunLog(folder, clock=clock)
-    log.run_started(source="manager", time_unit="s", plan="plan-1.txt", robots=[7, 9],
-                    strategy="adg", actions=[1, 1], starts=[[0, 0], [0, 1]])
-
-    def at(t: float, kind: str, **fields) -> None:
-        clock.now = 100.0 + t
-        log.record(kind, **fields)
-
+    log, at = timed_run(folder, actions=[1, 1], starts=[[0, 0], [0, 1]])
     at(1.0, "state", run="running")
     at(1.1, "action", robot=7, index=0, phase="started", src=[0, 0], dst=[1, 0])
     if enter < 3.0:
