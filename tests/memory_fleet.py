@@ -21,6 +21,7 @@ from fleet_common.errors import FleetError
 from fleet_common.control import codec
 from fleet_common.limits import MAX_MANAGER_BYTES
 from fleet_common.control import messages as m
+from fleet_common.plan import Plan
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
 from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
@@ -121,6 +122,9 @@ class MemoryFleet:
         self.records: List[Tuple[str, float, dict]] = []
         #: each run folder's records (a reset or Go to starts opens a new one); the one written to
         self.folder_records: List[List[Tuple[str, float, dict]]] = []
+        #: each run folder's first plan, and the plan it runs or drives the robots to the starts of
+        self.folder_plans: List[Plan] = []
+        self.folder_targets: List[LoadedPlan] = []
         self._folder = -1
         self._resumed = -1  # the folder a resumed manager goes on writing to
         self.files: Dict[str, str] = {}
@@ -167,17 +171,17 @@ class MemoryFleet:
                        up: Optional[Sequence[int]] = None) -> None:
         """A new manager on the records the dead one left (its run folder), at the same time;
         robots connect at once (those of `up`, if given: the others later, `link_up`)."""
-        # as `fleetctl manager --resume` alone: the newest folder of a run of the plan (not a way
-        # to the starts, which a new manager does not take over)
+        # as `fleetctl manager --resume` alone: the newest folder of a run of the plan, or of a way
+        # to its starts (the new manager drives it on, the plan waiting for Start after it)
         runs = [k for k, folder in enumerate(self.folder_records)
-                if folder and folder[0][0] == "run" and folder[0][2].get("purpose", "plan") == "plan"]
+                if folder and folder[0][0] == "run" and self.folder_targets[k].name == self.loaded.name]
         self._resumed = runs[-1] if runs else 0
         records = [dict(fields, k=kind, t=t) for kind, t, fields in self.folder_records[self._resumed]]
         records[0].setdefault("started", None)
         point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
-        plan = self.loaded.plan if point.plan == "plan-1.txt" else self.replans[point.plan]
-        self.core = RunCore(self.loaded, self.definitions, settings or self.settings, "session-2",
-                            self.now, resume=(point, plan))
+        plan = self.folder_plans[self._resumed] if point.plan == "plan-1.txt" else self.replans[point.plan]
+        self.core = RunCore(self.folder_targets[self._resumed], self.definitions, settings or self.settings,
+                            "session-2", self.now, resume=(point, plan))
         for robot in self.robots.values():  # new links come up; the commands sent again reach them
             robot.sent_ids.clear()
             robot.queued.clear()  # the dead manager's
@@ -236,6 +240,8 @@ class MemoryFleet:
                 self.finish_loads()
         elif isinstance(effect, NewRunFolder):
             self.folder_records.append([])
+            self.folder_plans.append(self.core.run.plan)
+            self.folder_targets.append(self.core.run.target)
             self._folder = len(self.folder_records) - 1
         elif isinstance(effect, ResumeRunFolder):
             self._folder = self._resumed

@@ -482,3 +482,36 @@ def test_restore_refuses_progress_the_dependencies_do_not_allow():
     with pytest.raises(EventError):
         engine.restore(completed, completed, completed, 0.0)
     assert sum(engine.run.completed) == 0 and engine.run.version == 0  # nothing changed
+
+
+def test_a_manager_that_dies_on_the_way_to_the_starts_drives_the_robots_on_to_them():
+    """The operator resets a run under way (the robots drive back to their starts, a run of its
+    own) and the manager dies on the way. The new manager takes the way over: the robots go on to
+    their starts, and the plan waits for Start in a new folder, as if the manager had lived.
+    Before, `--resume` took over the run the reset had ended and drove the robots to their goals."""
+    f = started_run(lab())
+    ops = f.console()
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
+    assert f.ask(ops, "stop").ok  # the robots finish their moves
+    assert f.run_until(lambda: not f.core.run.driver.moving, 10)
+    f.advance(0.2)  # a pose from each robot standing
+    assert f.ask(ops, "reset").ok
+    assert f.run_until(lambda: f.core.run.purpose == "to-starts" and sum(f.core.run.engine.run.completed) >= 3)
+    way = f.core.run.plan
+    folders = f.folders
+    f.kill_manager()
+    f.advance(1.0)  # the robots finish what they were running
+    f.resume_manager()
+    assert f.core.run.purpose == "to-starts" and f.core.run.plan is way
+    assert f.core.run.target.name == lab().name and f.folders == folders  # the way's folder goes on
+    assert f.run_until(lambda: f.core.run.resuming is None, 5)
+    ops = f.console()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.core.run.purpose == "plan" and f.phase == "waiting", 60)
+    assert f.folders == folders + 1  # the plan's new folder, waiting for Start
+    for rid, start in zip(f.robots, lab().starts):
+        pose = f.robots[rid].navigator.true_pose()
+        assert math.hypot(pose.x - start[0], pose.y - start[1]) < 0.05, (rid, pose, start)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+    assert f.core.summary().collisions == 0

@@ -73,3 +73,47 @@ def test_a_manager_killed_mid_run_is_started_again_on_its_folder_and_the_run_com
     report = fleetctl("report", folder, "-o", tmp_path / "report.html")
     assert report.returncode == 0, report.stderr
     assert "resumed at " in (tmp_path / "report.html").read_text()
+
+
+def test_a_manager_killed_on_the_way_to_the_starts_is_started_again_and_drives_the_robots_there(
+        tmp_path: Path) -> None:
+    """Reset mid-run opens a way to the starts (a run folder of its own); the manager is killed on
+    it and `fleetctl manager PLAN --resume` (no folder) takes the way over: the robots reach their
+    starts and the plan waits for Start in a new folder, as if the manager had lived."""
+    definitions, feedback, console_port = fleet_definitions(tmp_path, 5)
+    truth, runs = tmp_path / "truth.jsonl", tmp_path / "runs"
+    plan = lab_instance_path()
+    fleet = start_fleet(tmp_path, definitions, feedback, "--time-scale", "5", "--truth", truth)
+    run_args = ("--log", runs, "--step-time", "0.5")
+    manager = start_manager(tmp_path, plan, definitions, console_port, *run_args, "--start")
+    console = ScriptedConsole(console_port)
+    again = None
+    try:
+        console.wait_for(lambda c: c.state and sum(r.done for r in c.state.robots) >= 10, timeout=120,
+                         why="ten moves done")
+        assert console.ask("stop").ok
+        console.wait_for(lambda c: "reset" in (c.state.run.allowed or ()), timeout=30, why="Reset allowed")
+        assert console.ask("reset").ok
+        console.wait_for(lambda c: c.state.run.purpose == "to-starts" and sum(r.done for r in c.state.robots) >= 2,
+                         timeout=60, why="the robots on their way to the starts")
+        manager.kill()
+        console.close()
+        folders = sorted(runs.iterdir())
+        assert len(folders) == 2  # the plan's run, the way to its starts
+        again = start_manager(tmp_path, plan, definitions, console_port, *run_args, "--resume", "--start",
+                              name="manager-again")
+        again.wait_line("resuming {}".format(folders[1]), 60)
+        console = ScriptedConsole(console_port)
+        console.wait_for(lambda c: c.state and c.state.run.purpose == "plan" and c.state.run.state == "waiting"
+                         and "start" in (c.state.run.allowed or ()), timeout=120,
+                         why="every robot on its start, the plan waiting for Start")
+        assert len(sorted(runs.iterdir())) == 3
+        assert console.ask("start").ok
+        console.wait_for(lambda c: c.state.run.state == "done", timeout=120, why="the run done")
+    finally:
+        console.close()
+        manager.stop()
+        if again is not None:
+            again.stop()
+        fleet.stop()
+    check_truth(truth, goals_of(sorted(runs.iterdir())[-1]))  # every robot home, nothing ran twice

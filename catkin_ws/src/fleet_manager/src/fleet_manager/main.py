@@ -208,7 +208,9 @@ def run(args: argparse.Namespace) -> int:
     if resume is not None:
         engine = manager.core.run.engine
         print("resuming {}: {}, {} of {} actions done{}".format(
-            resume[0].folder, resume[0].plan, sum(engine.run.completed), engine.table.num_actions,
+            resume[0].folder, resume[0].plan if resume[0].for_plan is None
+            else "the way to the starts of {}".format(resume[0].for_plan),
+            sum(engine.run.completed), engine.table.num_actions,
             "" if resume[0].began is not None else " (the run had not started)"), flush=True)
     outcome: Optional[str] = None
     try:

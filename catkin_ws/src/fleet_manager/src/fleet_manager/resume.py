@@ -29,6 +29,11 @@ Nothing moves until that check is done: no release of a follower, no new
 action (the resumed run is paused until Start). The run log goes on in the
 same folder after a `resume` record, on the same clock.
 
+A way to the starts (Go to starts, Reset) is a run of its own folder, and is
+taken over the same way: the new manager drives the robots on to the starts
+of the plan it was for (`ResumePoint.for_plan`), which then waits for Start
+in a new folder, as it would have had its manager lived.
+
 A rerouted run changed plan with robots mid-move (`handover`): the reroute's
 `plan` record says, by robot, which move of the old plan the new plan starts
 it with (`base`) and how many of the new plan's moves it has done already
@@ -119,6 +124,13 @@ class ResumePoint:
     @property
     def robots(self) -> List[int]:
         return [int(r) for r in self.run.get("robots") or []]
+
+    @property
+    def for_plan(self) -> Optional[str]:
+        """The plan whose starts the run drove the robots to (a way to the starts, the run's
+        `purpose` "to-starts"), None for a run of a plan."""
+        name = self.run.get("for_plan")
+        return name if self.run.get("purpose") == "to-starts" and isinstance(name, str) and name else None
 
     @property
     def plan_number(self) -> int:

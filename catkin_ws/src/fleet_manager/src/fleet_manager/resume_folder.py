@@ -2,7 +2,9 @@
 decides from the records).
 
 `--resume RUNDIR` names the folder; `--resume` alone takes the newest folder
-in the --log folder whose run was of PLAN on the same robots. A run that
+in the --log folder whose run was of PLAN on the same robots, or drove them
+to PLAN's starts (a way to the starts: PLAN is then the plan file of the
+newest run of PLAN beside it, as it was loaded). A run that
 ended with every robot home (`done`) has nothing to resume. The plans are
 the folder's own (plan-1.txt, and the last replan's plan-N.txt), read with
 the map folders plus the folder the plan first came from; the robots are
@@ -51,17 +53,21 @@ def load_resume(args: argparse.Namespace, definitions: Path, map_dirs: Sequence[
     if point.phase == "done":
         raise FleetError("{}: that run is done (every robot reached its goal): nothing to resume; "
                          "start a new run without --resume".format(folder))
-    name = str(run.run.get("plan_name") or run.run.get("plan"))
+    way = point.for_plan is not None
+    name = point.for_plan or str(run.run.get("plan_name") or run.run.get("plan"))
     if args.plan is not None and not last and not _same(args.plan, name):
-        raise FleetError("{} ran {}, not {}: leave PLAN out to resume it".format(folder, name, args.plan))
+        raise FleetError("{} ran {}{}, not {}: leave PLAN out to resume it".format(
+            folder, "the way to the starts of " if way else "", name, args.plan))
     if args.robots is not None and list(args.robots) != point.robots:
         raise FleetError("{} ran on robots {}, not {}: leave --robots out to resume it".format(
             folder, ",".join(map(str, point.robots)), ",".join(map(str, args.robots))))
     fleet = pick_robots(robots, point.robots, str(definitions))
     dirs = [Path(name).parent, *map_dirs]
     first = load_plan(folder / str(run.run["plan"]), len(fleet), "the run's robots", dirs, repair=False)
-    loaded = dataclasses.replace(first, name=name, note="resumed from {}".format(folder))
     current = first.plan
+    if way:  # the run goes on with the plan the way was for (`Run` drives the way first)
+        first = _way_target(folder, name, point.robots, len(fleet), dirs)
+    loaded = dataclasses.replace(first, name=name, note="resumed from {}".format(folder))
     if point.plan != run.run["plan"]:
         if not (folder / point.plan).is_file():
             raise FleetError("cannot resume {}: {} is missing, the plan its records run since {}; Go to starts "
@@ -77,6 +83,19 @@ def load_resume(args: argparse.Namespace, definitions: Path, map_dirs: Sequence[
     return fleet, loaded, (point, current)
 
 
+def _way_target(way: Path, name: str, robots: List[int], size: int, dirs: Sequence[Path]) -> LoadedPlan:
+    """The plan the way to the starts in folder `way` was for (`name`), as it was loaded: the
+    first plan file of the newest run folder of it beside and before `way`."""
+    for folder in _run_folders(way.parent):
+        if folder.name >= way.name:
+            continue
+        run = _first_record(folder / EVENTS_FILE)
+        if _of(run, name, robots) and (folder / plan_file(1)).is_file():
+            return load_plan(folder / plan_file(1), size, "the run's robots", dirs, repair=False)
+    raise FleetError("cannot resume {}: it drove the robots to the starts of {}, whose run folder is not beside "
+                     "it; start the manager on that plan and press Go to starts".format(way, name))
+
+
 def _since(run: RunFolder, name: str) -> str:
     """When the run changed to plan file `name`, and why, in words."""
     record = next((r for r in run.of("plan") if r.get("file") == name), {})
@@ -88,15 +107,27 @@ def _since(run: RunFolder, name: str) -> str:
 def last_run(log_dir: Path, plan: str, robots: List[int]) -> Path:
     """The newest run folder in `log_dir` of `plan` on `robots` (FleetError naming what was
     looked for when there is none)."""
-    folders = sorted((p for p in log_dir.iterdir() if (p / EVENTS_FILE).is_file()), reverse=True) \
-        if log_dir.is_dir() else []
-    for folder in folders:
+    for folder in _run_folders(log_dir):
         run = _first_record(folder / EVENTS_FILE)
-        if run is not None and run.get("k") == "run" and run.get("source") == "manager" \
-                and _same(Path(plan), str(run.get("plan_name"))) and list(run.get("robots") or []) == robots:
+        if _of(run, plan, robots) or _of(run, plan, robots, "to-starts"):
             return folder
     raise FleetError("no run of {} on robots {} in {} to resume (give the run folder: --resume RUNDIR)".format(
         plan, ",".join(map(str, robots)), log_dir))
+
+
+def _run_folders(log_dir: Path) -> List[Path]:
+    """The run folders in `log_dir`, newest first (their names begin with the time)."""
+    return sorted((p for p in log_dir.iterdir() if (p / EVENTS_FILE).is_file()), reverse=True) \
+        if log_dir.is_dir() else []
+
+
+def _of(run: Optional[dict], plan: str, robots: List[int], purpose: str = "plan") -> bool:
+    """`run` (a folder's first record) is the manager's run of `plan` on `robots` (`purpose`
+    "to-starts": the way to its starts)."""
+    named = "for_plan" if purpose == "to-starts" else "plan_name"
+    return run is not None and run.get("k") == "run" and run.get("source") == "manager" \
+        and run.get("purpose", "plan") == purpose and _same(Path(plan), str(run.get(named))) \
+        and list(run.get("robots") or []) == robots
 
 
 def _first_record(path: Path) -> Optional[dict]:

@@ -350,6 +350,8 @@ class Run:
         records, the commands no reply settled sent again with their ids, nothing new until
         the robots are checked (`core.RunCore.resumed`)."""
         self.plan, self.plan_id = plan, point.plan_number
+        if point.for_plan is not None:  # a way to the starts: the target (loaded) waits for Start after it
+            self.loaded, self.purpose = self._way(plan, "resumed from {}".format(point.folder)), TO_STARTS
         self.stranded = {self.fleet.by_id[rid].agent for rid in point.stranded if rid in self.fleet.by_id}
         self.out.add(ResumeRunFolder(point.folder))
         self.engine = self._engine(plan)
@@ -562,6 +564,15 @@ class Run:
         self.out.add(job)
         self.move("to_starts" if self.phase.refusal("to_starts") is None else "reset", reason)
 
+    def _way(self, plan: Plan, note: str, comp_time_ms: int = 0) -> LoadedPlan:
+        """`plan`, the way from where the robots stand to the target's starts, as a loaded plan."""
+        starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
+        sol = make_solution(self.fleet_map, self.target.solution.map_file or "", plan, starts,
+                            list(self.target.starts), "fleetcontrol-to-starts", True, comp_time_ms)
+        sol.orientation = self.target.solution.orientation
+        return LoadedPlan(plan, self.fleet_map, starts, list(self.target.starts),
+                          "to the starts of {}".format(self.target.name), sol, self.target.show, note)
+
     def to_starts_ready(self, result: Optional[ReplanResult], error: Optional[str], now: float) -> None:
         """The way to the starts is planned (or not): run it, or say why not."""
         self.to_starts_job = None
@@ -579,13 +590,7 @@ class Run:
             self.out.tell("run", None, "no way to the starts of {}: {}".format(name, why))
             return
         plan = prefixed(result.plan, self.to_starts_first)
-        starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
-        sol = make_solution(self.fleet_map, self.target.solution.map_file or "", plan, starts,
-                            list(self.target.starts), "fleetcontrol-to-starts", True,
-                            round(result.comp_time_ms))
-        sol.orientation = self.target.solution.orientation
-        way = LoadedPlan(plan, self.fleet_map, starts, list(self.target.starts),
-                         "to the starts of {}".format(name), sol, self.target.show, result.message)
+        way = self._way(plan, result.message, round(result.comp_time_ms))
         self._end("the robots drive to the starts first (a run of its own)")
         self.loaded, self.purpose = way, TO_STARTS
         self._new_run(plan, now)
