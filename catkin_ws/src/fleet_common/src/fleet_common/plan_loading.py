@@ -12,7 +12,7 @@ validator, in the file's own coordinates (`file_coordinates`). Pure: values in, 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any, Callable, List, Optional, Sequence
 
 from .errors import FleetError
@@ -60,6 +60,12 @@ class LoadedPlan:
     solution: Solution              # the plan as a mapf-IR solution (what a run folder records)
     show: Callable[[Coord], Coord]  # base cell -> the file's own coordinates, for messages
     note: str = ""                  # how it came to be ("planned by lacam in 120 ms")
+
+    @property
+    def title(self) -> str:
+        """The name as an operator reads it: the file name of the path it was loaded from (the
+        run folder keeps the whole `name`)."""
+        return PurePath(self.name).name or self.name
 
     @property
     def solver(self) -> str:

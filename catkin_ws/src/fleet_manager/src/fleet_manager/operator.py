@@ -136,7 +136,7 @@ def resume(run: Run, now: float, trigger: str = "start") -> None:
             run.driver.enable(robot, now)
             run.out.record("out", robot=robot.id, why=None, reason="resumed after halt")
     run.move(trigger, "" if run.purpose != TO_STARTS else "driving every robot to its start for {}".format(
-        run.target.name))
+        run.target.title))
     run.driver.handle(Resume(now), now)
 
 
@@ -215,7 +215,7 @@ def to_starts(run: Run, args: Args, now: float) -> Answer:
     if refusal:
         return False, refusal
     cells, _ = run.standing_cells()
-    run.plan_to_starts(cells, now, "planning the way to the starts of {}".format(run.target.name))
+    run.plan_to_starts(cells, now, "planning the way to the starts of {}".format(run.target.title))
     return True, "planning the way to the starts; the robots drive there next"
 
 
@@ -224,12 +224,12 @@ def reset(run: Run, args: Args, now: float) -> Answer:
     if refusal:
         return False, refusal
     if run.on_target_starts():
-        run.load(run.target, now, "reset by operator", "{} again: waiting for Start".format(run.target.name))
-        return True, "{} again from its starts, in a new run folder".format(run.target.name)
+        run.load(run.target, now, "reset by operator", "{} again: waiting for Start".format(run.target.title))
+        return True, "{} again from its starts, in a new run folder".format(run.target.title)
     cells, _ = run.standing_cells()
-    run.plan_to_starts(cells, now, "reset: planning the way back to the starts of {}".format(run.target.name))
+    run.plan_to_starts(cells, now, "reset: planning the way back to the starts of {}".format(run.target.title))
     return True, "the robots drive back to their starts first (planning the way), then {} waits for " \
-        "Start in a new run folder".format(run.target.name)
+        "Start in a new run folder".format(run.target.title)
 
 
 # ---- robots and strategy --------------------------------------------------------------------
@@ -368,7 +368,7 @@ def load(run: Run, args: Args, now: float) -> Answer:
         return False, refusal
     if isinstance(loaded, Requested):  # solved off the loop: the robots and consoles are served meanwhile
         job = LoadJob(next(run.job_ids), loaded)
-        run.loading = (job.id, loaded.name)
+        run.loading = (job.id, loaded.name)  # as the console named it
         run.out.add(job)
         run.out.desk.bump("solving {}".format(loaded.name))
         return True, "{} is an instance: solving it (at most {:g} s); it is loaded when solved".format(
@@ -407,7 +407,7 @@ def _other_map(run: Run, name: str, mine: Grid) -> Optional[str]:
 def _load(run: Run, loaded: LoadedPlan, now: float) -> str:
     run.load(loaded, now)
     where = "" if run.on_target_starts() else "; the robots are not on its starts: Go to starts drives them there"
-    return "{} loaded ({}){}".format(loaded.name, loaded.note, where)
+    return "{} loaded ({}){}".format(loaded.title, loaded.note, where)
 
 
 def replan(run: Run, args: Args, now: float) -> Answer:

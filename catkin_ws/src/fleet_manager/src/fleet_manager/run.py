@@ -503,7 +503,7 @@ class Run:
         self.purpose = PLAN
         self._new_run(loaded.plan, now)
         self.move("load" if self.phase.refusal("load") is None else "reset",
-                  reason or "{} loaded; waiting for Start".format(loaded.name))
+                  reason or "{} loaded; waiting for Start".format(loaded.title))
         self.out.broadcast(self.setup())
 
     def _end(self, why: str) -> None:
@@ -571,14 +571,14 @@ class Run:
                             list(self.target.starts), "fleetcontrol-to-starts", True, comp_time_ms)
         sol.orientation = self.target.solution.orientation
         return LoadedPlan(plan, self.fleet_map, starts, list(self.target.starts),
-                          "to the starts of {}".format(self.target.name), sol, self.target.show, note)
+                          "to the starts of {}".format(self.target.title), sol, self.target.show, note)
 
     def to_starts_ready(self, result: Optional[ReplanResult], error: Optional[str], now: float) -> None:
         """The way to the starts is planned (or not): run it, or say why not."""
         self.to_starts_job = None
         if self.phase.phase != WAITING:
             return  # nobody waits for it any more
-        name = self.target.name
+        name = self.target.title
         if error is not None or result is None or result.plan is None or result.unreachable:
             why = error or (result.message if result is not None else "no result")
             if result is not None and result.unreachable:
@@ -618,11 +618,11 @@ class Run:
                     "{} stayed off {} (disabled on the way)".format("s" if len(away) > 1 else "", _ids(away),
                                                                    "their starts" if len(away) > 1 else "its start"))
             self.move("arrived", said)
-            self.load(self.target, now, said, "{}: {}".format(said, "press Start to run {}".format(self.target.name)
+            self.load(self.target, now, said, "{}: {}".format(said, "press Start to run {}".format(self.target.title)
                                                             if not away else "Go to starts drives {} there".format(
                                                                 "them" if len(away) > 1 else "it")))
-            self.out.tell("run", None, "every robot is on its start of {}: ready for Start".format(self.target.name)
-                          if not away else "{} of {}".format(said, self.target.name))
+            self.out.tell("run", None, "every robot is on its start of {}: ready for Start".format(self.target.title)
+                          if not away else "{} of {}".format(said, self.target.title))
             return
         self.move("arrived", "every enabled robot is at its goal{}".format(
             "" if not disabled else " (disabled: robot{} {})".format("s" if len(disabled) > 1 else "",
