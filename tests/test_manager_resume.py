@@ -515,3 +515,61 @@ def test_a_manager_that_dies_on_the_way_to_the_starts_drives_the_robots_on_to_th
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
     assert f.core.summary().collisions == 0
+
+
+def way_cut_by_a_dying_manager(seed: int) -> Tuple[bool, float]:
+    """A run stopped after a random number of moves (or done), sent back to its starts (Reset),
+    its manager killed at a random moment of the way (poses on time or 0.2 s late) and another
+    taking over: (every robot ended on its start and then, started, on its goal; the closest two
+    true centres came, cells)."""
+    rng = random.Random(seed)
+    size = TURTLEBOT2
+    f = MemoryFleet(lab(), lab_fleet(), ManagerSettings(step_time=0.5, size=size, accept=True),
+                    pose_lag=rng.choice([0.0, 0.0, 0.2]))
+    f.link_up()
+    f.advance(0.5)  # the first poses in
+    assert f.ask(f.console(), "start").ok
+    seen: List[float] = []
+
+    def until(condition, limit: float) -> bool:
+        end = f.now + limit
+        while not condition() and f.now < end:
+            f.advance(0.05)
+            closest_truth(f, seen)
+        return condition()
+
+    def go_on(seconds: float) -> None:
+        until(lambda: False, seconds)
+
+    moves = rng.randint(3, 40)
+    assert until(lambda: sum(f.core.run.engine.run.completed) >= moves or f.phase == "done", 60)
+    ops = f.console()
+    if f.phase != "done":
+        assert f.ask(ops, "stop").ok
+    assert until(lambda: not f.core.run.driver.moving, 10)
+    go_on(0.3)  # poses of the robots standing
+    assert f.ask(ops, "reset").ok  # (Go to starts opens the same way, from a run waiting for Start)
+    assert until(lambda: f.core.run.purpose == "to-starts", 5)
+    go_on(rng.uniform(0.0, 4.0))
+    f.kill_manager()
+    go_on(rng.uniform(0.2, 2.0))
+    f.resume_manager()
+    ops = f.console()
+    assert until(lambda: f.core.run.resuming is None and not f.core.run.replanner.open, 10)
+    if f.core.run.purpose == "to-starts":
+        assert f.ask(ops, "start").ok
+    # (the robots' poses may come 0.2 s late: Start waits for them)
+    home = until(lambda: f.core.run.purpose == "plan" and f.phase == "waiting" and not f.core.run.not_ready(), 60)
+    home = home and all(math.hypot(r.navigator.true_pose().x - s[0], r.navigator.true_pose().y - s[1]) < 0.05
+                        for r, s in zip(f.robots.values(), lab().starts))
+    if home:
+        assert f.ask(ops, "start").ok
+        home = until(lambda: f.phase == "done", 60) and f.at_goals()
+    return home, min(seen)
+
+
+def test_ways_to_the_starts_cut_by_a_dying_manager_end_on_the_starts_at_the_safe_distance():
+    for seed in range(10):  # `bench/way_resumes.py` runs more
+        home, closest = way_cut_by_a_dying_manager(seed)
+        assert home, "seed {}: the robots did not reach their starts, then their goals".format(seed)
+        assert closest >= TURTLEBOT2.safe_cells - 0.01, "seed {}: {:.3f} cells".format(seed, closest)
