@@ -313,3 +313,24 @@ def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goa
         assert answer.ok == (action in allowed), (action, allowed, answer.reason)
         f.advance(wait)
     assert f.core.summary().collisions == 0
+
+
+def test_start_at_the_end_of_the_way_waits_for_the_poses_taken_there_and_says_so():
+    """Poses come 0.3 s late. The way to the starts ends ("every robot is on its start: press
+    Start") when the last robot's reply says it arrived; its pose, taken on the way, still has it
+    short of its start. Start then says that it waits for that pose, and goes a moment later.
+    Before, it was refused with the robot "at (5.0, 1.4), its start is (5, 1)" and told to Go to
+    starts, which it just had (random operator sessions)."""
+    f = MemoryFleet(lab(), lab_fleet(), pose_lag=0.3, poses=at_goals_poses(),
+                    settings=ManagerSettings(step_time=0.5))
+    ops = f.console()
+    f.link_up()
+    f.advance(0.5)  # the first poses come in
+    assert f.ask(ops, "to_starts").ok
+    assert f.run_until(lambda: f.core.run.purpose == "plan", 60)
+    answer = f.ask(ops, "start")
+    assert not answer.ok and "a moment ago: waiting for" in answer.reason, answer.reason
+    assert "start" not in ops.state.run.allowed
+    assert f.run_until(lambda: not f.core.run.not_ready(), 1.0)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()

@@ -229,6 +229,7 @@ class Run:
             return "not connected: robot{} {}{}".format(
                 "s" if len(down) > 1 else "", _ids(down), " ({})".format("; ".join(sorted(why)[:2])) if why else "")
         off: List[str] = []
+        settling: List[int] = []
         outside = 0
         for robot in self.fleet:
             if self.engine.run.out[robot.agent] is not None:
@@ -237,12 +238,18 @@ class Run:
             pose = robot.pose
             if pose is None:
                 off.append("robot {} has not reported a pose".format(robot.id))
+            elif not robot.pose_settled():  # taken during a move that has ended since: where it was
+                settling.append(robot.id)
             elif math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
                 cell = (int(round(pose.x)), int(round(pose.y)))
                 if not self.grid.in_bounds(cell) or not self.grid.is_free(cell):
                     outside += 1
                 off.append("robot {} is at {}, its start is {}".format(
                     robot.id, self.where(pose.x, pose.y), self.where(*start)))
+        if not off and settling:  # (a way to the starts just driven: poses 0.1-0.3 s late)
+            return "robot{} {} finished {} move a moment ago: waiting for {} pose".format(
+                "s" if len(settling) > 1 else "", _ids(settling), "a" if len(settling) > 1 else "its",
+                "their next" if len(settling) > 1 else "its next")
         if not off:
             return ""
         text = "not on their start cells (the plan file's coordinates): " + "; ".join(off[:5]) + (
