@@ -10,6 +10,7 @@ safe distance) and by the run folder: one folder tells the whole run, and
 """
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -100,6 +101,14 @@ def test_a_manager_killed_on_the_way_to_the_starts_is_started_again_and_drives_t
         console.close()
         folders = sorted(runs.iterdir())
         assert len(folders) == 2  # the plan's run, the way to its starts
+        alone = tmp_path / "alone"  # the way's folder without the plan's beside it: said in one line
+        alone.mkdir()
+        shutil.copytree(folders[1], alone / folders[1].name)
+        refused = fleetctl("manager", plan, "--definitions", definitions, "--log", alone, "--resume",
+                           "--no-curve", "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port),
+                           "--time-limit", "5")
+        assert refused.returncode != 0 and "Traceback" not in refused.stderr, refused.stderr
+        assert "whose run folder is not beside it" in refused.stderr.strip().splitlines()[-1], refused.stderr
         again = start_manager(tmp_path, plan, definitions, console_port, *run_args, "--resume", "--start",
                               name="manager-again")
         again.wait_line("resuming {}".format(folders[1]), 60)
