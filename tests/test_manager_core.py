@@ -391,6 +391,40 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
 
+def test_a_robot_a_replan_left_on_a_cell_is_given_a_way_home_when_enabled_and_nobody_stops():
+    """Robot 2 is disabled standing on a cell, and a replan takes the others home around it, leaving
+    it there. Enabled again while the run goes on, it is given a way to its goal around the others
+    (a reroute's plan and hand-over), and nobody stops for it: no replan, no pause. Before, it was
+    told to ask for a replan, which pauses the run until every robot stands."""
+    size = TURTLEBOT2
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=size))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    agent = f.core.fleet.by_id[2].agent
+    assert f.run_until(lambda: f.core.run.engine.run.completed[agent] >= 2, 30)
+    assert f.ask(ops, "disable", robot=2).ok  # it finishes the move it is making, on a cell
+    assert f.run_until(lambda: not f.robots[2].navigator.moving, 5)
+    f.advance(0.3)
+    replanned(f, ops)
+    assert agent in f.core.run.stranded and f.phase == "running"
+    f.advance(2.0)
+    plan_id, paused = f.core.run.plan_id, []
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("robot 2 drives to its goal: plan {} takes it there around the "
+                                           "others".format(plan_id + 1)), answer.reason
+    assert agent not in f.core.run.stranded and not f.core.run.replanner.open
+    seen: List[float] = []
+    while f.phase != "done" and f.now < 120:
+        f.advance(0.05, step=0.05)
+        closest_truth(f, seen)
+        paused.append(f.phase != "running" and f.phase != "done")
+    assert f.phase == "done" and f.at_goals() and not any(paused)
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
+    assert min(seen) >= size.safe_cells - 0.01
+    assert any(r.get("reason") == "reroute" for r in f.kinds("plan"))
+
+
 def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped_not_arrived():
     """As above, and the manager dies after the others arrived: the one that takes over reads the
     plan's record (`stranded`) and neither finishes the run nor counts robot 2 arrived."""

@@ -16,7 +16,8 @@ own, planned first), `reset` starts the plan over in a new run folder, the
 robots driving back to their starts first. Strategy switches, the reroute
 mode, enabling and disabling robots, and the position source apply at once,
 whatever the phase (a robot enabled after the end of the run drives on: a new
-leg). `accept` and `reject` answer a replan's proposal or a reroute's
+leg; one a replan left away from its goal, enabled while the run is running,
+is given a way home around the others at once: `Run.take_home`). `accept` and `reject` answer a replan's proposal or a reroute's
 (`rerouting`: accepted, it is handed over at once if the robots it reroutes
 have not moved since; the run never paused for it).
 
@@ -318,8 +319,12 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
     stranded = robot.agent in run.stranded
+    if stranded and run.phase.phase == RUNNING and not run.replanner.open and run.rerouting.proposal_id is None:
+        if run.take_home(robot, now) is None:  # a way home around the others, the run going on
+            return True, "robot {} drives to its goal: plan {} takes it there around the others".format(
+                robot.id, run.plan_id)
     why = ("plan {} has no way to its goal for robot {}: replan to take it home".format(run.plan_id, robot.id)
-           if stranded else "")
+           if robot.agent in run.stranded else "")
     if run.phase.phase == DONE and (stranded or not run.engine.run.finished_agent(robot.agent)):
         run.new_leg(robot, now)  # the run goes on (a stranded robot's leg: a replan to take it home)
         return True, "the run was done: " + (why or "robot {} drives on to its goal (a new leg)".format(robot.id))

@@ -30,7 +30,7 @@ from fleet_common.errors import FleetError
 from fleet_common.execution import Disabled, Engine, EventError, Resume, RobotFailed
 from fleet_common.execution.handover import HandoverError, hand_over
 from fleet_common.execution.reorder import replay as replay_passes
-from fleet_common.execution.reroute import Reroute, RerouteRule
+from fleet_common.execution.reroute import Reroute, RerouteRule, way_home
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -500,6 +500,39 @@ class Run:
         self.driver.hand_over(new, base, dispatches, now)
         self.engine = new
         return None
+
+    def take_home(self, robot: Robot, now: float) -> Optional[str]:
+        """Robot `robot`, enabled again where the plan had left it away from its goal (`stranded`),
+        given a way to its goal around the others while the run goes on (`reroute.way_home`, handed
+        over as a reroute), and with it every other robot taking part that the plan leaves away
+        from its goal (it may have had no way then, this one in it); why not (nothing changed).
+        Only robots standing on the centre of the cell the run has them on, a pose taken since
+        their last reply saying so: one between two cells, or carried elsewhere, a replan plans
+        from where it stands (`replanning.going_on`, `stood_on`)."""
+        cells = self.positions()
+
+        def on_centre(r: Robot) -> bool:
+            here, pose = cells[r.agent], r.pose
+            return pose is not None and r.pose_settled() and math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL
+
+        if not on_centre(robot):
+            return "it does not stand on the centre of {}".format(self.loaded.show(cells[robot.agent]))
+        others = [r for r in self.fleet if r.agent in self.stranded and r is not robot
+                  and self.engine.run.out[r.agent] is None and on_centre(r)]
+        found = None
+        for group in ([robot] + others, [robot]) if others else ([robot],):
+            found = way_home(self.engine, self.rerouting.maps, now,
+                             {r.agent: tuple(self.loaded.goals[r.agent]) for r in group})  # type: ignore[misc]
+            if found is not None:
+                break
+        if found is None:
+            return "no way to its goal around the others now"
+        was = set(self.stranded)
+        self.stranded -= set(found.agents)  # the plan record says so: they count once home
+        why = self.reroute(found, now)
+        if why is not None:
+            self.stranded = was
+        return why
 
     def load(self, loaded: LoadedPlan, now: float, why: str = "another plan was loaded",
              reason: str = "") -> None:

@@ -117,7 +117,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from ..errors import FleetError
 from ..grid import Grid
@@ -133,7 +133,7 @@ from .lateness import behind, delayed, expected_steps, held_up, late_robots
 from .reroute_all import replan
 
 __all__ = ["MODES", "SCOPES", "EVERY", "FREEZE", "RerouteError", "RerouteRule", "Reroute", "expected_steps", "behind",
-           "delayed", "held_up", "worth_a_look", "later_by", "decide", "Rerouter"]
+           "delayed", "held_up", "worth_a_look", "later_by", "decide", "way_home", "Rerouter"]
 
 #: What `--reroute` accepts: never, ask the operator (the manager), or reroute at once.
 MODES = ("off", "propose", "auto")
@@ -317,6 +317,40 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     return Reroute(proposal.plan, cut, proposal.agents, late, lag,
                    sum(before.arrival) - sum(proposal.arrival), before.makespan, max(proposal.arrival),
                    tuple(groups[late]), last=for_last)
+
+
+def way_home(engine: Engine, maps: Maps, now: float, goals: Dict[int, Tuple[int, int]],
+             deadline: Optional[Deadline] = None) -> Optional[Reroute]:
+    """A plan from now that takes the robots of `goals` (agent -> goal cell, planned in this order)
+    from where they stand to their goals around the others, their paths and each cell's order kept,
+    or None: one has no way there now, or may not be given a new path (out, halfway in a move it
+    failed in, sent a move behind one taken back). For robots the plan leaves away from their goals
+    (out when the plan was made) that take part again: the run goes on, nobody stops. The same
+    plan, prediction and hand-over as a reroute's, so just as safe (see above); no rule: they have
+    no other way home but a replan."""
+    run = engine.run
+    cut = cut_of(engine, now)
+    agents = list(goals)
+    kept = behind_taken_back(engine, cut, sent=True)
+    if not agents or any(run.out[a] is not None or run.halfway[a] or a in kept for a in agents) \
+            or behind_taken_back(engine, cut):
+        return None
+    ready = ready_steps(run, now)
+    before = earliest_starts(run, ready, engine.follow, cut.base)
+    if unplaced(run, before, cut.base, range(run.num_agents)):
+        return None
+    try:
+        proposal = plan_around(run, maps.grid, maps, before, ready, engine.follow, cut.base, agents,
+                               deadline or Deadline(None), goals=goals)
+    except DeadlineReached:
+        return None
+    if proposal is None:
+        return None
+    report = validate_plan(proposal.plan, maps.grid, strict_rotations=True, max_findings_per_kind=1)
+    if not report.ok:  # never, by construction (reroute_plan); refused all the same
+        raise RerouteError("a way home's plan is not valid: {}".format(report.errors[0]))
+    return Reroute(proposal.plan, cut, tuple(agents), agents[0], None, sum(before.arrival) - sum(proposal.arrival),
+                   before.makespan, max(proposal.arrival), (), home=True)
 
 
 class Rerouter:

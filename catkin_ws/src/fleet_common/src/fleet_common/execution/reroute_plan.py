@@ -76,6 +76,9 @@ class Reroute:
     after: int
     held: Tuple[int, ...]
     last: bool = False
+    #: `agents` take part again away from their goals, where the plan had left them
+    #: (`reroute.way_home`): ways there around the others
+    home: bool = False
 
     def describe(self, name: Callable[[int], object] = str) -> str:
         """One line for the operator, e.g. "robots 3, 7 rerouted around robot 12, late 6 steps: 9
@@ -91,6 +94,10 @@ class Reroute:
         if self.gain < 1:  # scope all pays on the makespan: the arrivals' sum may grow
             end = self.before - self.after
             sooner = "the last robot {} step{} sooner".format(end, "" if end == 1 else "s")
+        if self.home:
+            return "{}, away from {} goal{} in the plan, given {} there around the others".format(
+                robots(self.agents), "its" if len(self.agents) == 1 else "their", "s" if len(self.agents) > 1 else "",
+                "a way" if len(self.agents) == 1 else "ways")
         if self.last:
             return "{}, predicted last, rerouted onto {} while robot {} is {}: {}".format(
                 robots(self.agents), "shorter ways" if len(self.agents) > 1 else "a shorter way",
@@ -218,10 +225,10 @@ def reserve(res: Reservations, ids: np.ndarray, arrival: np.ndarray, park: bool 
 
 def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready: Sequence[int],
                 follow: bool, base: Sequence[int], chosen: Sequence[int],
-                deadline: Deadline) -> Optional[Proposal]:
+                deadline: Deadline, goals: Optional[Dict[int, Tuple[int, int]]] = None) -> Optional[Proposal]:
     """Plan `chosen` (in this order) around the others, from the cut whose moves to start from are
-    `base` (`cut.Cut.base`); None when one of them finds no path. Raises
-    `st_astar.DeadlineReached` when `deadline` expires."""
+    `base` (`cut.Cut.base`), each to its plan's goal (or to the cell `goals` gives it); None when
+    one of them finds no path. Raises `st_astar.DeadlineReached` when `deadline` expires."""
     table, n = run.table, run.num_agents
     kept_s = kept_schedule(run, schedule, ready, follow, base, chosen)
     mine = set(chosen)
@@ -250,7 +257,7 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
         key = (s + 1) * v + here
         if key in holding:  # its own hold, not someone else's reservation
             res.vertex.discard(key)
-        goal = grid.index(table.goal(r))
+        goal = grid.index((goals or {}).get(r) or table.goal(r))
         path = space_time_astar(maps.moves, here, goal, maps.distances(goal), res, deadline, start_time=s)
         if path is None:
             return None
