@@ -101,14 +101,15 @@ def test_negative_control_ways_home_through_the_others_are_caught(monkeypatch: p
     monkeypatch.setattr(reroute, "validate_plan", lambda *args, **kwargs: _Valid())
     monkeypatch.setattr(adg, "_raise_vertex", lambda *args, **kwargs: None)
     caught = 0
-    for seed in range(60):
+    for seed in range(100):
         try:
             done, home, closest, safe = disabled_then_enabled(seed)
-        except AssertionError:
-            caught += 1
+        except AssertionError:  # the harness could not go on: not the judge's catch
             continue
-        caught += home and (closest < safe - 0.01 or not done)
-    assert caught >= 1, "no unsafe way home caught in 60 runs"
+        caught += home and closest < safe - 0.01
+        if caught:
+            break  # one is enough: the judge can fail
+    assert caught >= 1, "no unsafe way home caught in 100 runs"
 
 
 class _Valid:
