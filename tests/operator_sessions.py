@@ -68,12 +68,14 @@ class Session:
     problems: List[str] = field(default_factory=list)
 
 
-def session(seed: int, wide: bool = False) -> Session:
+def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
     poses that reach the manager late, eight robots between random cells of the lab's map in a
-    third of them (`crowded_lab`); and the operator also presses stop, reset and the reroute mode."""
+    third of them (`crowded_lab`); and the operator also presses stop, reset and the reroute mode.
+    `dying` (wide sessions): the operator often stops and resets, and the manager often dies on the
+    way back to the starts (draws of its own: the presses stay the seed's)."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -113,6 +115,18 @@ def session(seed: int, wide: bool = False) -> Session:
             f.advance(0.1)  # the console sees the State that names the proposal
             press(choice, proposal=f.core.run.replanner.proposal_id)
 
+    def restart(dead: float) -> None:
+        links_up()
+        f.kill_manager()
+        f.advance(dead)
+        f.resume_manager()
+        consoles.append(f.console())
+        f.advance(0.5)
+        out.log.append((round(f.now, 1), "restart", {}, True, f.core.run.phase.reason))
+        if f.core.run.replanner.proposal_id is not None:
+            answer_proposal("accept")
+
+    die = random.Random(seed * 7919 + 1)  # `dying`: its own draws, the presses stay the seed's
     for _ in range(rng.randint(3, 12)):
         f.advance(rng.uniform(0.2, 3.0))
         for rid in sorted(down):
@@ -120,6 +134,11 @@ def session(seed: int, wide: bool = False) -> Session:
                 f.link_up(rid)
                 down.discard(rid)
         action = rng.choice(PRESSES + WIDE_PRESSES if wide else PRESSES)
+        if dying and die.random() < 0.25:  # stop, and reset once the robots stand
+            press("stop")
+            f.run_until(lambda: not f.core.run.driver.moving, 10)
+            f.advance(0.4)  # poses taken standing
+            action = "reset"
         if action == "wait":
             continue
         if action == "link":
@@ -130,15 +149,7 @@ def session(seed: int, wide: bool = False) -> Session:
                 out.log.append((round(f.now, 1), "link down", {"robot": rid}, True, ""))
             continue
         if action == "restart":
-            links_up()
-            f.kill_manager()
-            f.advance(rng.uniform(0.2, 2.0))
-            f.resume_manager()
-            consoles.append(f.console())
-            f.advance(0.5)
-            out.log.append((round(f.now, 1), "restart", {}, True, f.core.run.phase.reason))
-            if f.core.run.replanner.proposal_id is not None:
-                answer_proposal("accept")
+            restart(rng.uniform(0.2, 2.0))
             continue
         args: dict = {}
         if action in ("disable", "enable"):
@@ -147,8 +158,12 @@ def session(seed: int, wide: bool = False) -> Session:
             args["name"] = rng.choice(["adg", "step", "reorder"])
         elif action == "reroute":
             args.update(mode=rng.choice(["off", "propose", "auto"]), scope=rng.choice(["held", "all"]))
-        if press(action, **args) and action == "replan":
+        accepted = press(action, **args)
+        if accepted and action == "replan":
             answer_proposal(rng.choice(["accept", "accept", "reject"]))
+        if accepted and action == "reset" and dying and die.random() < 0.7:  # the manager dies on the way
+            f.advance(die.uniform(0.0, 3.0))
+            restart(die.uniform(0.2, 2.0))
     links_up()
     for _ in range(5):  # the clean-up
         f.advance(1.0)  # a bumper is free again after 0.5 s

@@ -3,10 +3,11 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back four defects these sessions found (each fixed on 2026-11-26): a robot
+The negative controls put back five defects these sessions found (each fixed on 2026-11-26): a robot
 a replan leaves where it stopped counted as arrived, a replan that waits for ever on a follower
-held behind a robot that is out, a late pose taken for where a robot is, and a train of followers
-behind a robot that is out counted as moving. Each makes sessions fail, so the checks can fail.
+held behind a robot that is out, a late pose taken for where a robot is, a train of followers
+behind a robot that is out counted as moving, and a replan refused on the way to the starts. Each
+makes sessions fail, so the checks can fail.
 """
 from __future__ import annotations
 
@@ -87,3 +88,21 @@ def test_a_train_behind_a_robot_out_counted_moving_is_caught(monkeypatch) -> Non
         return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
     monkeypatch.setattr(Run, "held_behind_out", direct_only)
     assert _found([384], wide=True)
+
+
+def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> None:
+    """Wide sessions where the operator often stops and resets and the manager often dies on the
+    way back to the starts (`session`'s `dying`), and seed 143 of them: there a replan made on the
+    resumed way left two robots between cells without a way on, and a replan on the way to the
+    starts was refused, so nothing could take them on (fixed on 2026-11-26: a replan is allowed on
+    the way to the starts)."""
+    bad = [(s.seed, s.problems) for s in (session(seed, wide=True, dying=True) for seed in [*range(20), 143])
+           if s.problems]
+    assert not bad, bad
+
+
+def test_a_replan_refused_on_the_way_to_the_starts_is_caught(monkeypatch) -> None:
+    refusal = operator._WHY_NOT["replan"]
+    monkeypatch.setitem(operator._WHY_NOT, "replan", lambda run: (  # before 2026-11-26
+        "the run is on its way to the starts" if run.purpose == "to-starts" else refusal(run)))
+    assert session(143, wide=True, dying=True).problems

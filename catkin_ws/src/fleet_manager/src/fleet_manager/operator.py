@@ -522,8 +522,9 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "start": _why_not_start, "step": _why_not_step,
     "pause": lambda run: run.phase.refusal("pause"), "stop": lambda run: run.phase.refusal("stop"),
     "halt": lambda run: run.phase.refusal("halt"),
+    # (on the way to the starts too: its goals are the starts; a robot stuck on the way, or left
+    # without one by a replan, has no other way on: Reset and Go to starts plan the same)
     "replan": lambda run: run.phase.refusal("replan") or (
-        "the run is on its way to the starts" if run.purpose == TO_STARTS else None) or (
         "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
         "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
         else None) or _between_cells(run) or behind_out(run),
