@@ -3,11 +3,11 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back five defects these sessions found (each fixed on 2026-11-26): a robot
+The negative controls put back six defects these sessions found (each fixed on 2026-11-26): a robot
 a replan leaves where it stopped counted as arrived, a replan that waits for ever on a follower
 held behind a robot that is out, a late pose taken for where a robot is, a train of followers
-behind a robot that is out counted as moving, and a replan refused on the way to the starts. Each
-makes sessions fail, so the checks can fail.
+behind a robot that is out counted as moving, a replan refused on the way to the starts, and a
+replan made from a cell two robots hold. Each makes sessions fail, so the checks can fail.
 """
 from __future__ import annotations
 
@@ -95,8 +95,10 @@ def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> Non
     way back to the starts (`session`'s `dying`), and seed 143 of them: there a replan made on the
     resumed way left two robots between cells without a way on, and a replan on the way to the
     starts was refused, so nothing could take them on (fixed on 2026-11-26: a replan is allowed on
-    the way to the starts)."""
-    bad = [(s.seed, s.problems) for s in (session(seed, wide=True, dying=True) for seed in [*range(20), 143])
+    the way to the starts); and seed 1496, where a replan raised: robot 4, halted in the middle of
+    its move behind a robot stopped by its bumper, had a follower in the cell it was leaving, and
+    both were planned from that cell (the replan now gives up saying so: `RunCore._sharing`)."""
+    bad = [(s.seed, s.problems) for s in (session(seed, wide=True, dying=True) for seed in [*range(20), 143, 1496])
            if s.problems]
     assert not bad, bad
 
@@ -106,3 +108,12 @@ def test_a_replan_refused_on_the_way_to_the_starts_is_caught(monkeypatch) -> Non
     monkeypatch.setitem(operator._WHY_NOT, "replan", lambda run: (  # before 2026-11-26
         "the run is on its way to the starts" if run.purpose == "to-starts" else refusal(run)))
     assert session(143, wide=True, dying=True).problems
+
+
+def test_a_replan_from_a_cell_two_robots_hold_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_sharing", lambda self, current: "")  # before 2026-11-26
+    try:
+        found = bool(session(1496, wide=True, dying=True).problems)
+    except Exception:  # the replan raises: two robots on one cell
+        found = True
+    assert found

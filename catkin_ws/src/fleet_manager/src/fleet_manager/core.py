@@ -29,13 +29,14 @@ State, and is recorded once a minute per console (`refusals`).
 """
 from __future__ import annotations
 
+import math
 from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from fleet_common.control import Bye, Notice, Waiting
 from fleet_common.control.desk import ControlDesk
 from fleet_common.execution import Freeze, Thaw
 from fleet_common.execution.reroute import Reroute
-from fleet_common.grid import Grid
+from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
@@ -47,11 +48,12 @@ from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
 from .outbox import Effect, Outbox, REROUTE
+from .driver import AT_CELL
 from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, going_on, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
-from .robot import RESUMING, Fleet, Seen
+from .robot import RESUMING, Fleet, Robot, Seen
 from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
@@ -201,8 +203,14 @@ class RunCore:
             on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
             grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), run.walls)
             current = [on.get(a, c) for a, c in enumerate(here)]
-            self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
-                                           {a: here[a] for a in on}))
+            shared = self._sharing(current)
+            if shared:  # no plan has two robots on a cell: say what would let the replan plan them
+                run.replanner.resolved()
+                run.say("replan given up: " + shared)
+                self.out.tell("plan", None, "replan given up: " + shared)
+            else:
+                self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
+                                               {a: here[a] for a in on}))
         self._reroute_tick(now)
         if run.phase.phase == RUNNING:
             run.driver.tick(now)
@@ -219,6 +227,26 @@ class RunCore:
         for line in self._refusals.counts(now):
             self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def _sharing(self, current: List[Coord]) -> str:
+        """Why a replan cannot plan from `current` ("" if it can): two robots would start on one cell.
+        A robot halted in the middle of its move, behind a robot that stopped in the cell it enters,
+        with a follower already in the cell it leaves, stands on neither (found by random operator
+        sessions, `--dying`, seed 1496)."""
+        run = self.run
+        seen: Dict[Coord, Robot] = {}
+        for robot, cell in zip(self.fleet, current):
+            other = seen.setdefault(tuple(cell), robot)
+            if other is robot:
+                continue
+            between = next((r for r in (robot, other) if r.pose is not None
+                            and math.hypot(r.pose.x - cell[0], r.pose.y - cell[1]) > AT_CELL), robot)
+            pose = between.pose
+            return ("robots {} and {} would both start on {}: robot {} stands between two cells{}; let it "
+                    "finish its move (Start, and enable the robot ahead of it if that one is out), or put it "
+                    "on a free cell").format(other.id, robot.id, run.loaded.show(cell), between.id,
+                                             "" if pose is None else " at {}".format(run.where(pose.x, pose.y)))
+        return ""
 
     def resumed(self, now: float) -> None:
         """A resumed run's robots have all answered: those standing where the run left them go
