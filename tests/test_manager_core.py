@@ -873,3 +873,33 @@ def test_an_unattended_run_whose_follower_waits_behind_a_disabled_robot_says_why
     assert f.run_until(lambda: f.core.cannot_go_on(f.now) is not None, 30)
     reason = f.core.cannot_go_on(f.now)
     assert "robot 1 is disabled; robots 2, 3 wait for it" in reason, reason
+
+
+def test_a_robot_left_away_from_its_goal_and_enabled_while_paused_is_given_its_way_home_at_start():
+    """As above, but the operator pauses the run before enabling robot 2 (told a replan takes it
+    home, the run not running): Start gives it its way home around the others, no replan needed."""
+    size = TURTLEBOT2
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=size))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    agent = f.core.fleet.by_id[2].agent
+    assert f.run_until(lambda: f.core.run.engine.run.completed[agent] >= 2, 30)
+    assert f.ask(ops, "disable", robot=2).ok
+    assert f.run_until(lambda: not f.robots[2].navigator.moving, 5)
+    f.advance(0.3)
+    replanned(f, ops)
+    assert agent in f.core.run.stranded
+    f.advance(1.0)
+    assert f.ask(ops, "pause").ok
+    assert f.run_until(lambda: not f.core.run.driver.moving, 5)
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and "replan to take it home" in answer.reason, answer.reason
+    answer = f.ask(ops, "start")
+    assert answer.ok and answer.reason.startswith("robot 2 drives to its goal: plan 3 takes it there"), answer.reason
+    seen: List[float] = []
+    while f.phase != "done" and f.now < 120:
+        f.advance(0.05, step=0.05)
+        closest_truth(f, seen)
+    assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 3
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= size.safe_cells - 0.01

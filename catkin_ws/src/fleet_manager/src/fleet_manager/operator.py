@@ -17,7 +17,8 @@ robots driving back to their starts first. Strategy switches, the reroute
 mode, enabling and disabling robots, and the position source apply at once,
 whatever the phase (a robot enabled after the end of the run drives on: a new
 leg; one a replan left away from its goal, enabled while the run is running,
-is given a way home around the others at once: `Run.take_home`). `accept` and `reject` answer a replan's proposal or a reroute's
+is given a way home around the others at once, and if enabled while it was
+paused or stopped, at Start: `Run.take_home`). `accept` and `reject` answer a replan's proposal or a reroute's
 (`rerouting`: accepted, it is handed over at once if the robots it reroutes
 have not moved since; the run never paused for it).
 
@@ -127,7 +128,23 @@ def start(run: Run, args: Args, now: float) -> Answer:
     if run.phase.phase == WAITING:
         run.begin_clock(now)
     resume(run, now)
-    return True, ""
+    return True, _ways_home(run, now)
+
+
+def _ways_home(run: Run, now: float) -> str:
+    """Robots a replan left away from their goals that take part again (enabled while the run was
+    paused or stopped) are given ways home around the others once it runs (`Run.take_home`)."""
+    waiting = [r for r in run.fleet if r.agent in run.stranded and run.engine.run.out[r.agent] is None]
+    if not waiting or run.phase.phase != RUNNING or run.replanner.open or run.rerouting.proposal_id is not None:
+        return ""
+    for robot in waiting:
+        if run.take_home(robot, now) is None:
+            break
+    home = [r.id for r in waiting if r.agent not in run.stranded]
+    return "" if not home else "robot{} {} drive{} to {} goal{}: plan {} takes {} there around the others".format(
+        "s" if len(home) > 1 else "", ", ".join(map(str, home)), "" if len(home) > 1 else "s",
+        "their" if len(home) > 1 else "its", "s" if len(home) > 1 else "", run.plan_id,
+        "them" if len(home) > 1 else "it")
 
 
 def resume(run: Run, now: float, trigger: str = "start") -> None:
