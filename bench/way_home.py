@@ -13,39 +13,21 @@ the safe distance, and the closest approach over all, in cells of 0.7 m.
 """
 from __future__ import annotations
 
-import argparse
 import sys
-import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from seeded_runs import main
+from test_manager_way_home import disabled_then_enabled
 
-from test_manager_way_home import disabled_then_enabled  # noqa: E402
+def one(seed: int):
+    done, home, closest, safe = disabled_then_enabled(seed)
+    return done and closest >= safe - 0.01, (home, closest - safe)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("first", type=int)
-    parser.add_argument("last", type=int)
-    args = parser.parse_args()
-    began = time.monotonic()
-    failed, homes, margin = [], 0, float("inf")
-    for seed in range(args.first, args.last):
-        try:
-            done, home, closest, safe = disabled_then_enabled(seed)
-        except AssertionError as err:
-            print("seed {}: {}".format(seed, str(err).splitlines()[0] if str(err) else "assertion"), flush=True)
-            failed.append(seed)
-            continue
-        homes += home
-        margin = min(margin, closest - safe)
-        if not done or closest < safe - 0.01:
-            failed.append(seed)
-    print("{} runs in {:.0f} s: the way home taken in {}; {} did not hold {}; closest approach {:+.3f} cells "
-          "from the safe distance".format(args.last - args.first, time.monotonic() - began, homes, len(failed),
-                                          failed[:20], margin))
-    return 1 if failed else 0
+def closing(count: int, seconds: float, failed, figures) -> str:
+    return "{} runs in {:.0f} s: the way home taken in {}; {} did not hold {}; closest approach {:+.3f} cells " \
+        "from the safe distance".format(count, seconds, sum(home for home, _ in figures), len(failed), failed[:20],
+                                        min((margin for _, margin in figures), default=float("inf")))
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(__doc__.splitlines()[0], one, closing))

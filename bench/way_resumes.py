@@ -14,38 +14,24 @@ hold, and the closest approach over all.
 """
 from __future__ import annotations
 
-import argparse
 import sys
-import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from fleet_common.robot_size import TURTLEBOT2  # noqa: E402
-from test_manager_resume import way_cut_by_a_dying_manager  # noqa: E402
+from seeded_runs import main
+from fleet_common.robot_size import TURTLEBOT2
+from test_manager_resume import way_cut_by_a_dying_manager
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("first", type=int)
-    parser.add_argument("last", type=int)
-    args = parser.parse_args()
-    began = time.monotonic()
-    failed, closest = [], float("inf")
-    for seed in range(args.first, args.last):
-        try:
-            home, nearest = way_cut_by_a_dying_manager(seed)
-        except AssertionError as err:
-            home, nearest = False, float("inf")
-            print("seed {}: {}".format(seed, str(err).splitlines()[0] if str(err) else "assertion"), flush=True)
-        closest = min(closest, nearest)
-        if not home or nearest < TURTLEBOT2.safe_cells - 0.01:
-            failed.append(seed)
-    print("{} seeds in {:.0f} s: {} did not hold {}; closest approach {:.3f} cells ({:.3f} m; safe distance "
-          "{:.3f} m)".format(args.last - args.first, time.monotonic() - began, len(failed), failed[:20], closest,
-                             closest * TURTLEBOT2.cell, TURTLEBOT2.safe))
-    return 1 if failed else 0
+def one(seed: int):
+    home, nearest = way_cut_by_a_dying_manager(seed)
+    return home and nearest >= TURTLEBOT2.safe_cells - 0.01, nearest
+
+
+def closing(count: int, seconds: float, failed, nearest) -> str:
+    closest = min(nearest, default=float("inf"))
+    return "{} seeds in {:.0f} s: {} did not hold {}; closest approach {:.3f} cells ({:.3f} m; safe distance " \
+        "{:.3f} m)".format(count, seconds, len(failed), failed[:20], closest, closest * TURTLEBOT2.cell,
+                           TURTLEBOT2.safe)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(__doc__.splitlines()[0], one, closing))

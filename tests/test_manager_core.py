@@ -391,25 +391,32 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
 
-def test_a_robot_a_replan_left_on_a_cell_is_given_a_way_home_when_enabled_and_nobody_stops():
-    """Robot 2 is disabled standing on a cell, and a replan takes the others home around it, leaving
-    it there. Enabled again while the run goes on, it is given a way to its goal around the others
-    (a reroute's plan and hand-over), and nobody stops for it: no replan, no pause. Before, it was
-    told to ask for a replan, which pauses the run until every robot stands."""
-    size = TURTLEBOT2
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=size))
+def left_away_by_a_replan() -> Tuple[MemoryFleet, MemoryConsole, int]:
+    """The lab at the TurtleBot's size, started; robot 2 disabled after two moves (it finishes the
+    move it is making, on a cell) and a replan accepted that takes the others home around it and
+    leaves it there, the run going on: (the fleet, the operator's console, robot 2's agent)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
     ops = f.console()
     f.link_up()
     assert f.ask(ops, "start").ok
     agent = f.core.fleet.by_id[2].agent
     assert f.run_until(lambda: f.core.run.engine.run.completed[agent] >= 2, 30)
-    assert f.ask(ops, "disable", robot=2).ok  # it finishes the move it is making, on a cell
+    assert f.ask(ops, "disable", robot=2).ok
     assert f.run_until(lambda: not f.robots[2].navigator.moving, 5)
     f.advance(0.3)
     replanned(f, ops)
     assert agent in f.core.run.stranded and f.phase == "running"
+    return f, ops, agent
+
+
+def test_a_robot_a_replan_left_on_a_cell_is_given_a_way_home_when_enabled_and_nobody_stops():
+    """Robot 2 is disabled standing on a cell, and a replan takes the others home around it, leaving
+    it there. Enabled again while the run goes on, it is given a way to its goal around the others
+    (a reroute's plan and hand-over), and nobody stops for it: no replan, no pause. Before, it was
+    told to ask for a replan, which pauses the run until every robot stands."""
+    f, ops, agent = left_away_by_a_replan()
     f.advance(2.0)
-    plan_id, paused = f.core.run.plan_id, []
+    plan_id, phases = f.core.run.plan_id, []
     answer = f.ask(ops, "enable", robot=2)
     assert answer.ok and answer.reason == ("robot 2 drives to its goal: plan {} takes it there around the "
                                            "others".format(plan_id + 1)), answer.reason
@@ -418,11 +425,27 @@ def test_a_robot_a_replan_left_on_a_cell_is_given_a_way_home_when_enabled_and_no
     while f.phase != "done" and f.now < 120:
         f.advance(0.05, step=0.05)
         closest_truth(f, seen)
-        paused.append(f.phase != "running" and f.phase != "done")
-    assert f.phase == "done" and f.at_goals() and not any(paused)
+        phases.append(f.phase)
+    assert f.phase == "done" and f.at_goals() and set(phases[:-1]) == {"running"}
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
-    assert min(seen) >= size.safe_cells - 0.01
+    assert min(seen) >= TURTLEBOT2.safe_cells - 0.01
     assert any(r.get("reason") == "reroute" for r in f.kinds("plan"))
+
+
+def test_a_robot_left_away_from_its_goal_and_enabled_while_paused_is_given_its_way_home_at_start():
+    """As above, but the operator pauses the run before enabling robot 2 (told a replan takes it
+    home, the run not running): Start gives it its way home around the others, no replan needed."""
+    f, ops, agent = left_away_by_a_replan()
+    f.advance(1.0)
+    assert f.ask(ops, "pause").ok
+    assert f.run_until(lambda: not f.core.run.driver.moving, 5)
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and "replan to take it home" in answer.reason, answer.reason
+    answer = f.ask(ops, "start")
+    assert answer.ok and answer.reason.startswith("robot 2 drives to its goal: plan 3 takes it there"), answer.reason
+    seen = run_recording(f, 120)
+    assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 3
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= TURTLEBOT2.safe_cells - 0.01
 
 
 def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped_not_arrived():
@@ -874,32 +897,3 @@ def test_an_unattended_run_whose_follower_waits_behind_a_disabled_robot_says_why
     reason = f.core.cannot_go_on(f.now)
     assert "robot 1 is disabled; robots 2, 3 wait for it" in reason, reason
 
-
-def test_a_robot_left_away_from_its_goal_and_enabled_while_paused_is_given_its_way_home_at_start():
-    """As above, but the operator pauses the run before enabling robot 2 (told a replan takes it
-    home, the run not running): Start gives it its way home around the others, no replan needed."""
-    size = TURTLEBOT2
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=size))
-    ops = f.console()
-    f.link_up()
-    assert f.ask(ops, "start").ok
-    agent = f.core.fleet.by_id[2].agent
-    assert f.run_until(lambda: f.core.run.engine.run.completed[agent] >= 2, 30)
-    assert f.ask(ops, "disable", robot=2).ok
-    assert f.run_until(lambda: not f.robots[2].navigator.moving, 5)
-    f.advance(0.3)
-    replanned(f, ops)
-    assert agent in f.core.run.stranded
-    f.advance(1.0)
-    assert f.ask(ops, "pause").ok
-    assert f.run_until(lambda: not f.core.run.driver.moving, 5)
-    answer = f.ask(ops, "enable", robot=2)
-    assert answer.ok and "replan to take it home" in answer.reason, answer.reason
-    answer = f.ask(ops, "start")
-    assert answer.ok and answer.reason.startswith("robot 2 drives to its goal: plan 3 takes it there"), answer.reason
-    seen: List[float] = []
-    while f.phase != "done" and f.now < 120:
-        f.advance(0.05, step=0.05)
-        closest_truth(f, seen)
-    assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 3
-    assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= size.safe_cells - 0.01
