@@ -385,7 +385,8 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert f.core.run.stuck() and f.core.cannot_go_on(f.now) is None  # an unattended run gives up later
     assert "robot 2 has no way home in plan 2" in (f.core.cannot_go_on(f.now + 60.0) or "")
     answer = f.ask(ops, "enable", robot=2)
-    assert answer.ok and "plan 2 has no way to its goal for robot 2: replan to take it home" in answer.reason
+    assert answer.ok and answer.reason == ("plan 2 has no way to its goal for robot 2: it does not stand on the "
+                                           "centre of (11, 8); replan to take it home"), answer.reason
     replanned(f, ops)
     assert f.run_until(lambda: done(f)) and f.at_goals()
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
@@ -448,6 +449,43 @@ def test_a_robot_left_away_from_its_goal_and_enabled_while_paused_is_given_its_w
     assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= TURTLEBOT2.safe_cells - 0.01
 
 
+def test_a_robot_left_away_and_enabled_while_a_replan_waits_is_given_its_way_home_once_the_run_goes_on():
+    """As above, but the operator asks for another replan (robot 2 still out) and enables robot 2
+    while its proposal waits: told it is given a way home once the run goes on. The new plan leaves
+    robot 2 where it stands too; once it runs, robot 2 is given its way home around the others, and
+    the run ends with every robot home and no third replan. Before, it was told to replan, and the
+    run stayed stuck until the operator did."""
+    f, ops, agent = left_away_by_a_replan()
+    f.advance(1.0)
+    f.hold_plans = True
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: bool(f.jobs), 20)
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("plan 2 leaves robot 2 away from its goal: it is given a way home "
+                                           "around the others once the run goes on, or replan to take it "
+                                           "home"), answer.reason
+    answered(f, ops)
+    assert f.core.run.plan_id == 3 and agent in f.core.run.stranded
+    seen = run_recording(f, 120)
+    assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 4  # the way home: no replan
+    assert "robot 2 drives to its goal: plan 4 takes it there around the others" in [n.text for n in ops.notices()]
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= TURTLEBOT2.safe_cells - 0.01
+
+
+def test_a_robot_left_away_and_enabled_after_the_others_are_home_drives_home_at_once():
+    """Robot 2 stays out, away from its goal, until the others are home and the run is done.
+    Enabled then, the run goes on and robot 2 drives home around the others at once: no replan.
+    Before, it was told to replan to take it home."""
+    f, ops, agent = left_away_by_a_replan()
+    assert f.run_until(lambda: done(f), 60)
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("the run was done: robot 2 drives to its goal: plan 3 takes it there "
+                                           "around the others"), answer.reason
+    seen = run_recording(f, 60)
+    assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 3
+    assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= TURTLEBOT2.safe_cells - 0.01
+
+
 def test_a_resumed_manager_still_counts_the_robot_a_replan_left_where_it_stopped_not_arrived():
     """As above, and the manager dies after the others arrived: the one that takes over reads the
     plan's record (`stranded`) and neither finishes the run nor counts robot 2 arrived."""
@@ -479,8 +517,8 @@ def test_a_robot_held_by_a_fault_and_then_disabled_is_out_for_good_and_the_run_c
     # repaired after the end, robot 2 is enabled: the run goes on (before, it stayed done with
     # robot 2 away from its goal, and a replan was refused: "the run is done")
     answer = f.ask(ops, "enable", robot=2)
-    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: "
-                                           "replan to take it home"), answer.reason
+    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: it does "
+                                           "not stand on the centre of (11, 8); replan to take it home"), answer.reason
     assert f.phase == "running"
     replanned(f, ops)
     assert f.run_until(lambda: done(f), 60) and f.at_goals()
@@ -500,7 +538,8 @@ def test_a_robot_stopped_half_into_its_goal_and_enabled_again_is_planned_home():
     assert f.core.run.stranded == {agent}
     f.advance(1.0)  # the foot leaves the bumper
     answer = f.ask(ops, "enable", robot=2)
-    assert answer.ok and "has no way to its goal for robot 2: replan to take it home" in answer.reason
+    assert answer.ok and answer.reason == ("plan 2 has no way to its goal for robot 2: it does not stand on the "
+                                           "centre of (2, 8); replan to take it home"), answer.reason
     replanned(f, ops)
     assert f.core.run.stranded == set()
     assert f.core.run.plan.positions[1, agent].tolist() == list(f.core.run.loaded.goals[agent])
@@ -530,8 +569,8 @@ def test_a_robot_left_half_off_its_goal_by_a_replan_has_not_arrived():
     assert f.run_until(lambda: done(f), 60)  # the others are home; robot 2 is out, not home
     assert f.core.summary().lines()[0] == "arrived: 4/4 (of 5 robots; 1 out)"
     answer = f.ask(ops, "enable", robot=2)
-    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: "
-                                           "replan to take it home"), answer.reason
+    assert answer.ok and answer.reason == ("the run was done: plan 2 has no way to its goal for robot 2: it does "
+                                           "not stand on the centre of (1, 8); replan to take it home"), answer.reason
     replanned(f, ops)
     assert f.run_until(lambda: done(f), 60) and f.at_goals()
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0

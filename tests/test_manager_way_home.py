@@ -27,6 +27,7 @@ from operator_sessions import crowded_lab
 from test_manager_core import answered, closest_truth, lab, replanned
 
 HOME = "drives to its goal"
+LATER = "it drives home once one opens"
 
 
 def disabled_then_enabled(seed: int) -> Tuple[bool, bool, float, float]:
@@ -75,8 +76,12 @@ def disabled_then_enabled(seed: int) -> Tuple[bool, bool, float, float]:
             running.pop()
         assert set(running) <= {"running"}, "the run paused or stopped for a way home: {}".format(
             sorted(set(running)))
+    elif f.phase != "done" and LATER in answer.reason:  # tried again each plan step while it runs
+        home = until(lambda: f.phase == "done", 30) or home
+        if f.phase != "done":
+            replanned(f, ops)
     elif f.phase != "done" and "replan to take it home" in answer.reason:
-        replanned(f, ops)  # no way around the others now: the replan takes it
+        replanned(f, ops)  # between two cells, or a replan open: the replan takes it
     elif f.phase == "done" and "replan to take it home" in answer.reason:
         replanned(f, ops)  # enabled after the end: a new leg
     until(lambda: f.phase == "done", 120)

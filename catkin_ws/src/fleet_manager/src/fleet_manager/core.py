@@ -91,6 +91,7 @@ class RunCore:
         self.news = False
         self._refusals = _Burst()
         self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...]]] = None
+        self._home_due = 0.0  # when robots left away from their goals are next given ways home
 
     def take(self) -> List[Effect]:
         """The effects of the inputs so far, in order (and forget them)."""
@@ -212,6 +213,7 @@ class RunCore:
                 self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
                                                {a: here[a] for a in on}))
         self._reroute_tick(now)
+        self._ways_home_tick(now)
         if run.phase.phase == RUNNING:
             run.driver.tick(now)
         if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
@@ -227,6 +229,19 @@ class RunCore:
         for line in self._refusals.counts(now):
             self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def _ways_home_tick(self, now: float) -> None:
+        """A robot a replan left away from its goal, enabled again while no way home around the
+        others was free (a disabled robot in it, its pose not settled yet), is tried again once a
+        plan step while the run runs: it drives home once a way opens, and nobody has to replan."""
+        run = self.run
+        if (run.phase.phase != RUNNING or run.purpose != PLAN or not run.stranded or now < self._home_due
+                or run.rerouting.job is not None or run.engine.frozen):
+            return
+        self._home_due = now + run.engine.run.clock.step_time
+        said = operator.ways_home(run, now)
+        if said:
+            self.out.tell("plan", None, said)
 
     def _sharing(self, current: List[Coord]) -> str:
         """Why a replan cannot plan from `current` ("" if it can): two robots would start on one cell.

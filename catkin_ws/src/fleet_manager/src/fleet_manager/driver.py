@@ -278,7 +278,7 @@ class Driver:
                                 src=d.src, dst=d.dst)
                 self._progress(robot, ActionStarted(robot.agent, d.index, now), now)
             return
-        robot.flight = None
+        robot.flight, robot.ended_at = None, now
         if isinstance(reply, Completed):
             self._completed(robot, flight, now)
         elif isinstance(reply, Failed):

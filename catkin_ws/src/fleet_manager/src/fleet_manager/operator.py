@@ -16,9 +16,10 @@ own, planned first), `reset` starts the plan over in a new run folder, the
 robots driving back to their starts first. Strategy switches, the reroute
 mode, enabling and disabling robots, and the position source apply at once,
 whatever the phase (a robot enabled after the end of the run drives on: a new
-leg; one a replan left away from its goal, enabled while the run is running,
-is given a way home around the others at once, and if enabled while it was
-paused or stopped, at Start: `Run.take_home`). `accept` and `reject` answer a replan's proposal or a reroute's
+leg; one a replan left away from its goal, enabled while the run is running or
+after its end, is given a way home around the others at once; enabled while
+it was paused or stopped, at Start; and if no way was free then, once one
+opens, tried again every plan step: `Run.take_home`, `ways_home`). `accept` and `reject` answer a replan's proposal or a reroute's
 (`rerouting`: accepted, it is handed over at once if the robots it reroutes
 have not moved since; the run never paused for it).
 
@@ -43,10 +44,10 @@ from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .replanning import placed
 from .robot import HALTED, VICON, Robot
-from .run import TO_STARTS, Run
+from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ways_home", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
@@ -128,12 +129,14 @@ def start(run: Run, args: Args, now: float) -> Answer:
     if run.phase.phase == WAITING:
         run.begin_clock(now)
     resume(run, now)
-    return True, _ways_home(run, now)
+    return True, ways_home(run, now)
 
 
-def _ways_home(run: Run, now: float) -> str:
+def ways_home(run: Run, now: float) -> str:
     """Robots a replan left away from their goals that take part again (enabled while the run was
-    paused or stopped) are given ways home around the others once it runs (`Run.take_home`)."""
+    paused or stopped, or with no way round then) are given ways home around the others while it
+    runs (`Run.take_home`): at Start, and again every plan step (`RunCore.tick`); what to tell the
+    operator ("" if nobody was given one)."""
     waiting = [r for r in run.fleet if r.agent in run.stranded and run.engine.run.out[r.agent] is None]
     if not waiting or run.phase.phase != RUNNING or run.replanner.open or run.rerouting.proposal_id is not None:
         return ""
@@ -336,16 +339,24 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
     stranded = robot.agent in run.stranded
-    if stranded and run.phase.phase == RUNNING and not run.replanner.open and run.rerouting.proposal_id is None:
-        if run.take_home(robot, now) is None:  # a way home around the others, the run going on
-            return True, "robot {} drives to its goal: plan {} takes it there around the others".format(
-                robot.id, run.plan_id)
-    why = ("plan {} has no way to its goal for robot {}: replan to take it home".format(run.plan_id, robot.id)
-           if robot.agent in run.stranded else "")
-    if run.phase.phase == DONE and (stranded or not run.engine.run.finished_agent(robot.agent)):
-        run.new_leg(robot, now)  # the run goes on (a stranded robot's leg: a replan to take it home)
-        return True, "the run was done: " + (why or "robot {} drives on to its goal (a new leg)".format(robot.id))
-    return True, why
+    leg = run.phase.phase == DONE and (stranded or not run.engine.run.finished_agent(robot.agent))
+    if leg:
+        run.new_leg(robot, now)  # the run goes on
+    was = "the run was done: " if leg else ""
+    if not stranded:
+        return True, was + ("robot {} drives on to its goal (a new leg)".format(robot.id) if leg else "")
+    if run.phase.phase != RUNNING or run.replanner.open or run.rerouting.proposal_id is not None:
+        return True, was + ("plan {} leaves robot {} away from its goal: it is given a way home around the others "
+                            "once the run goes on, or replan to take it home".format(run.plan_id, robot.id))
+    why = run.take_home(robot, now)
+    if why is None:  # a way home around the others, the run going on
+        return True, was + "robot {} drives to its goal: plan {} takes it there around the others".format(
+            robot.id, run.plan_id)
+    if why == NO_WAY_HOME:  # tried again while the run goes on (`ways_home`)
+        return True, was + ("robot {} has no way to its goal around the others now: it drives home once one "
+                            "opens, or replan to take it home".format(robot.id))
+    return True, was + "plan {} has no way to its goal for robot {}: {}; replan to take it home".format(
+        run.plan_id, robot.id, why)
 
 
 def disable(run: Run, args: Args, now: float) -> Answer:

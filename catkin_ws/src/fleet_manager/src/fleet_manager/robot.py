@@ -37,6 +37,11 @@ VICON = "vicon"
 RECOVER, FAULT, HALTED, RESUMING = "recover", "fault", "halted", "resuming"
 HOLDS = (RECOVER, FAULT, HALTED, RESUMING)
 
+#: A Vicon pose that reached the manager this long after a robot's reply was taken after the
+#: robot stopped: Tracker sends a frame a few milliseconds after the cameras take it, and UDP to
+#: pose is about a millisecond (bench/README.md "Vicon"); 50 ms leaves room for a busy network.
+VICON_LATENCY = 0.05
+
 
 @dataclass(frozen=True)
 class Seen:
@@ -88,6 +93,7 @@ class Robot:
     facing: Optional[float] = None    # heading its last completed turn or drive left it at
     next_id: int = 1                  # its next command id (they increase per manager epoch)
     releases: Set[int] = field(default_factory=set)  # ids of releases not yet settled
+    ended_at: Optional[float] = None  # when the reply that ended its last command arrived
 
     @property
     def link_up(self) -> bool:
@@ -112,8 +118,13 @@ class Robot:
         """Whether the pose the run uses was taken since the robot's last command ended, as far as
         its replies tell: its own pose names the command it was running when taken, and one taken
         during a command that has ended since (it came after the reply: late, or queued while no
-        manager listened) shows where the robot was, not where it is. Vicon's name none."""
-        if self.source == VICON or self.own is None:
+        manager listened) shows where the robot was, not where it is. Vicon's name none: one
+        counts if it arrived `VICON_LATENCY` after that reply. The last pose of a robot Vicon
+        has lost (occluded) may be from moves ago, and the run must not plan from it."""
+        if self.source == VICON:
+            seen = self.vicon
+            return seen is None or self.ended_at is None or seen.at >= self.ended_at + VICON_LATENCY
+        if self.own is None:
             return True
         return self.own_current is None or (self.flight is not None and self.own_current == self.flight.id)
 

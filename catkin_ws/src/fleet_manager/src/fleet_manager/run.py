@@ -46,15 +46,17 @@ from .outbox import NewRunFolder, Outbox, PlanJob, REROUTE, ResumeRunFolder, Wri
 from .replanning import Replanner, going_on, prefixed, walled
 from .rerouting import Rerouting, moved_since, moved_words
 from .resume import ResumePoint, Resuming
-from .robot import FAULT, HALTED, RESUMING, Fleet, InFlight, Robot
+from .robot import FAULT, HALTED, RESUMING, VICON, Fleet, InFlight, Robot
 from .run_phase import RUNNING, WAITING, RunPhase
 from .settings import ManagerSettings
 from .state_view import setup
 
-__all__ = ["Run", "PLAN", "TO_STARTS"]
+__all__ = ["Run", "PLAN", "TO_STARTS", "NO_WAY_HOME"]
 
 #: What a run is for: the plan the operator chose, or the way to its starts.
 PLAN, TO_STARTS = "plan", "to-starts"
+#: `Run.take_home`'s answer when the others leave no way (a robot out in it, one parked on it)
+NO_WAY_HOME = "no way to its goal around the others now"
 
 
 def action_counts(plan: Plan) -> List[int]:
@@ -230,6 +232,7 @@ class Run:
                 "s" if len(down) > 1 else "", _ids(down), " ({})".format("; ".join(sorted(why)[:2])) if why else "")
         off: List[str] = []
         settling: List[int] = []
+        lost: List[int] = []  # Vicon's pose, the one the run uses, is older than the last move
         outside = 0
         for robot in self.fleet:
             if self.engine.run.out[robot.agent] is not None:
@@ -239,13 +242,15 @@ class Run:
             if pose is None:
                 off.append("robot {} has not reported a pose".format(robot.id))
             elif not robot.pose_settled():  # taken during a move that has ended since: where it was
-                settling.append(robot.id)
+                (lost if robot.vicon_lost and robot.source == VICON else settling).append(robot.id)
             elif math.hypot(pose.x - start[0], pose.y - start[1]) > AT_CELL:
                 cell = (int(round(pose.x)), int(round(pose.y)))
                 if not self.grid.in_bounds(cell) or not self.grid.is_free(cell):
                     outside += 1
                 off.append("robot {} is at {}, its start is {}".format(
                     robot.id, self.where(pose.x, pose.y), self.where(*start)))
+        if not off and lost:
+            return lost_words(lost)
         if not off and settling:  # (a way to the starts just driven: poses 0.1-0.3 s late)
             return "robot{} {} finished {} move a moment ago: waiting for {} pose".format(
                 "s" if len(settling) > 1 else "", _ids(settling), "a" if len(settling) > 1 else "its",
@@ -283,7 +288,8 @@ class Run:
                 if pose is None and self.engine.run.out[robot.agent] != "disabled":
                     problems.append("robot {} has not reported a pose".format(robot.id))
                 elif pose is not None and self.engine.run.out[robot.agent] is not None:
-                    problems.append("robot {} stopped a moment ago: no pose since yet".format(robot.id))
+                    problems.append(lost_words([robot.id]) if robot.vicon_lost and robot.source == VICON
+                                    else "robot {} stopped a moment ago: no pose since yet".format(robot.id))
                 continue
             cell = (int(round(pose.x)), int(round(pose.y)))
             centred = math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL
@@ -526,7 +532,7 @@ class Run:
             if found is not None:
                 break
         if found is None:
-            return "no way to its goal around the others now"
+            return NO_WAY_HOME
         was = set(self.stranded)
         self.stranded -= set(found.agents)  # the plan record says so: they count once home
         why = self.reroute(found, now)
@@ -673,6 +679,15 @@ class Run:
         self.ended_at = None
         self.move("leg", "robot {} enabled again after the end: a new leg to its goal".format(robot.id))
         self.out.tell("run", robot.id, "robot {} enabled after the end: a new leg of the run".format(robot.id))
+
+
+def lost_words(ids: List[int]) -> str:
+    """What the operator can do about robots whose Vicon pose, the one the run uses, is older
+    than their last move: Vicon lost them (occluded, or out of the cameras' view)."""
+    one = len(ids) == 1
+    return ("Vicon has not seen robot{} {} since {} last move: wait until it does, or choose {} own "
+            "pose{} (position source)".format("" if one else "s", _ids(ids), "its" if one else "their",
+                                              "the robot's" if one else "the robots'", "" if one else "s"))
 
 
 def _ids(ids: List[int]) -> str:

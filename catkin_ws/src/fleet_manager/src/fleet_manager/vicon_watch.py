@@ -32,7 +32,7 @@ class ViconWatch:
         for fix in fixes:
             robot = self.fleet.by_id.get(fix.robot_id)
             if robot is not None:
-                robot.vicon = Seen(fix.pose, now)
+                robot.vicon = Seen(fix.pose, now - fix.age)  # when it arrived: it may wait a poll
         stale = self.fleet.stale_after
         for robot in self.fleet:
             own, seen = robot.own, robot.vicon
