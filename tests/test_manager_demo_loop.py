@@ -142,6 +142,48 @@ def test_reset_after_a_halt_drives_the_halted_robots_back_to_their_starts_too():
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
 
+def test_reset_pressed_right_after_a_halt_waits_for_the_robots_to_stand_and_then_drives_them_back():
+    """The operator halts the run and presses Reset at once, while the robots are still stopping:
+    the manager answers that it resets once every robot stands, and does (told as a notice): the
+    robots drive back to their starts at a safe distance and the plan waits for Start. Before,
+    Reset was refused ("some robots are still finishing a move; wait until they stand", then
+    "robot 3 stopped a moment ago: no pose since yet") and had to be pressed again."""
+    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
+    assert f.ask(ops, "halt").ok
+    answer = f.ask(ops, "reset")
+    assert answer.ok and answer.reason == ("Reset once every robot stands (some are finishing a move or have "
+                                           "just stopped)"), answer.reason
+    assert f.run_until(lambda: ready(f), 60)
+    told = [n.text for n in ops.notices()]
+    assert ("Reset: the robots drive back to their starts first (planning the way), then {} waits for Start "
+            "in a new run folder".format(lab().title)) in told, told
+    assert all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
+               for r, s in zip(f.robots.values(), lab().starts))
+    assert f.core.summary().collisions == 0
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals()
+
+
+def test_a_reset_waiting_for_the_robots_to_stand_is_called_off_by_start():
+    """Stop, Reset while the robots finish their moves, then Start before they stand: the operator
+    changed their mind. The Reset is called off, says why, and the run goes on to its end."""
+    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
+    assert f.ask(ops, "stop").ok and f.core.run.driver.moving
+    assert f.ask(ops, "reset").ok
+    assert f.ask(ops, "start").ok
+    f.advance(0.1)
+    assert "Reset called off: pause or stop the run first" in [n.text for n in ops.notices()]
+    assert f.run_until(lambda: f.phase == "done") and f.at_goals() and f.core.run.plan_id == 1
+
+
 def test_robots_off_their_cells_are_refused_the_way_to_the_starts_with_the_reason():
     poses = at_goals_poses()
     poses[2] = Pose(poses[2].x + 0.45, poses[2].y + 0.45, 0.0)  # pushed off its cell, towards a corner

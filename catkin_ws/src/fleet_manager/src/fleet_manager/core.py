@@ -212,6 +212,9 @@ class RunCore:
             else:
                 self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
                                                {a: here[a] for a in on}))
+        said = operator.way_after(run, now)
+        if said:
+            self.out.tell("run", None, said)
         self._reroute_tick(now)
         self._ways_home_tick(now)
         if run.phase.phase == RUNNING:

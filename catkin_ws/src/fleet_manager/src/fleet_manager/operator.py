@@ -47,13 +47,15 @@ from .robot import HALTED, VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ways_home", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ways_home", "way_after", "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
 _REPLAN_OPEN = "a replan is being made or awaits accept/reject; answer it first"
 _TO_STARTS_BUSY = "the way to the starts is being planned; the robots drive there next"
-_MOVING = "some robots are still finishing a move; wait until they stand"
+#: How long a Reset or Go to starts pressed while robots finish their moves waits for them to
+#: stand (a drive takes 2-3 s on the lab's robots; a halted robot's next pose comes within 0.2 s)
+WAY_AFTER_LIMIT = 15.0
 
 
 def apply(run: Run, action: str, args: Args, now: float) -> Answer:
@@ -219,22 +221,67 @@ def _why_not_reset(run: Run) -> Optional[str]:
 
 
 def _way_refusal(run: Run) -> Optional[str]:
-    """Why the robots cannot be sent anywhere now: not all connected, some moving, some off cells."""
+    """Why the robots cannot be sent anywhere now: not all connected, some off cells (None while
+    some are finishing a move, `_settling`: the way waits for them, `_after_settling`)."""
     down = [r.id for r in run.fleet if not r.link_up and run.engine.run.out[r.agent] != "disabled"]
     if down:
         return "not connected: robot{} {}".format("s" if len(down) > 1 else "", ", ".join(map(str, down)))
-    if run.driver.moving:
-        return _MOVING
+    if _once(run, "settling", lambda: _settling(run)):
+        return None
     if _once(run, "on_starts", run.on_target_starts):
         return None
     _, problem = _once(run, "standing", run.standing_cells)
     return "cannot plan the way to the starts: " + problem if problem else None
 
 
+def _settling(run: Run) -> bool:
+    """Some robot is finishing a move, or was stopped in one a moment ago (halted, disabled, its
+    bumper) and its pose since has not come yet: where it stands is known a moment later. (One
+    whose reply says it completed its move stands on that cell, whatever its late pose says. A
+    robot Vicon lost is not settling: that wait has no end the manager can foresee, and
+    `Run.standing_cells` says so.)"""
+    out = run.engine.run.out
+    return run.driver.moving or any(
+        r.link_up and out[r.agent] is not None and r.pose is not None and not r.pose_settled()
+        and not (r.source == VICON and r.vicon_lost) for r in run.fleet)
+
+
+def _after_settling(run: Run, action: str, now: float) -> str:
+    """Reset or Go to starts pressed while robots finish their moves (after Stop, Pause or Halt):
+    carried out once they stand (`way_after`), not refused with "wait until they stand"."""
+    run.way_after = (action, now)
+    return "{} once every robot stands (some are finishing a move or have just stopped)".format(_LABELS[action])
+
+
+def way_after(run: Run, now: float) -> Optional[str]:
+    """A Reset or Go to starts waiting for the robots to stand (`_after_settling`): carried out
+    once they do, called off if something else (Start, a replan, a robot's link lost) makes it
+    refused meanwhile, given up after `WAY_AFTER_LIMIT`; what to tell the operator (None: it
+    waits on, or none waits)."""
+    if run.way_after is None:
+        return None
+    action, since = run.way_after
+    refusal = _WHY_NOT[action](run)
+    if not refusal and _settling(run):
+        if now - since < WAY_AFTER_LIMIT:
+            return None
+        refusal = "some robots did not stand within {:.0f} s".format(WAY_AFTER_LIMIT)
+    run.way_after = None
+    if refusal:
+        return "{} called off: {}".format(_LABELS[action], refusal)
+    done, text = ACTIONS[action](run, {}, now)
+    return "{}: {}".format(_LABELS[action], text) if done else "{} called off: {}".format(_LABELS[action], text)
+
+
+_LABELS = {"reset": "Reset", "to_starts": "Go to starts"}
+
+
 def to_starts(run: Run, args: Args, now: float) -> Answer:
     refusal = _why_not_to_starts(run)
     if refusal:
         return False, refusal
+    if _settling(run):
+        return True, _after_settling(run, "to_starts", now)
     cells, _ = run.standing_cells()
     run.plan_to_starts(cells, now, "planning the way to the starts of {}".format(run.target.title))
     return True, "planning the way to the starts; the robots drive there next"
@@ -244,6 +291,8 @@ def reset(run: Run, args: Args, now: float) -> Answer:
     refusal = _why_not_reset(run)
     if refusal:
         return False, refusal
+    if _settling(run):
+        return True, _after_settling(run, "reset", now)
     if run.on_target_starts():
         run.load(run.target, now, "reset by operator", "{} again: waiting for Start".format(run.target.title))
         return True, "{} again from its starts, in a new run folder".format(run.target.title)

@@ -101,6 +101,8 @@ class Run:
         #: stand where they stopped; or a replan found no way for them): not arrived until a later
         #: plan takes them home
         self.stranded: Set[int] = set()
+        #: a Reset or Go to starts that waits for the robots to stand: (action, when pressed)
+        self.way_after: Optional[Tuple[str, float]] = None
         if resume is None:
             self.engine = self._engine(self.plan)
             self.driver = self._driver(self.engine)
@@ -544,6 +546,7 @@ class Run:
              reason: str = "") -> None:
         """Another plan (the operator's `load`, or the target again after `reset` or the way to
         its starts): a new run, in a new run folder, waiting for Start."""
+        self.way_after = None  # (a Reset pressed before: it was for the plan run so far)
         self._end(why)
         self.target = self.loaded = loaded
         self.purpose = PLAN
