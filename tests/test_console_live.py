@@ -27,6 +27,7 @@ from console.live.link import ManagerLink
 from console.live.model import LiveModel
 from console.ui import capture
 from console.ui.admin_panel import DISABLED, ENABLED
+from console.ui.hover_tip import DELAY_MS
 from console.ui.live_app import LiveApp
 from console.ui.robot_layer import GREY
 from console.ui.wait_layer import WAIT
@@ -602,6 +603,55 @@ def test_the_run_menu_and_the_run_buttons_ask_the_same_actions(display: str) -> 
     finally:
         root.destroy()
         gc.collect()
+
+def test_a_greyed_start_says_why_on_hover_and_its_run_menu_entry_too(display: str) -> None:
+    """The State says why Start would be refused: the pointer resting on the greyed button shows
+    that sentence in a note below it, the Run menu's greyed entry begins it after a dash; once
+    the manager allows Start, the note goes and the entry is plain "Start" again."""
+    from types import SimpleNamespace
+
+    from console.live.feed import LinkStatus
+    from console.ui.live_actions import MENU_WHY_CHARS
+    from fleet_common.control import RunInfo, State
+
+    why = ("not on their start cells (the plan file's coordinates): robot 3 is at (5, 10), its start is "
+           "(5, 1); Go to starts drives them there, or continue their last run (fleetctl manager --resume)")
+    root = tk.Tk()
+    try:
+        feed, model = LiveFeed(), LiveModel("tcp://127.0.0.1:1")
+        app = LiveApp(root, feed, model, lambda action, **args: None)
+        root.after_cancel(app._after)
+        window = SimpleNamespace(app=app)
+        feed.offer(LinkStatus(CONNECTED, "connected"), 0.0)
+        waiting = RunInfo("waiting", "", "adg", 1, 0.0, 0.0, 1, 0, 5, None, 0, None, allowed=("to_starts",),
+                          why_not={"start": why, "halt": "nothing is moving (the run is waiting)"})
+        feed.offer(State(1, 3, waiting, ()), 0.0)
+        app.refresh()
+        start, tip = app.admin.buttons["start"], app.admin.tips["start"]
+        assert start.instate(["disabled"]) and not tip.shown
+        start.event_generate("<Enter>", x=5, y=5)
+        assert pump(window, lambda: tip.window is not None and tip.window.winfo_viewable(), 5)
+        assert tip.shown == why
+        assert tip.window.winfo_rooty() >= start.winfo_rooty() + start.winfo_height()  # below, not over it
+        menu = app.run_menu
+        label = menu.entrycget(0, "label")
+        assert label.startswith("Start \u2014 not on their start cells (the plan file's coordinates): robot 3 is")
+        assert label.endswith("\u2026") and len(label) <= len("Start \u2014 ") + MENU_WHY_CHARS + 1
+        assert menu.entrycget(0, "state") == "disabled"
+        assert menu.entrycget(3, "label") == "Stop \u2014 the manager would refuse it now (press it to ask why)"
+        # the manager allows Start: the note goes at once, the entry is plain again
+        feed.offer(State(2, 4, dataclasses.replace(waiting, allowed=("start", "step"), why_not={}), ()), 0.0)
+        app.refresh()
+        assert start.instate(["!disabled"]) and tip.window is None
+        assert menu.entrycget(0, "label") == "Start" and menu.entrycget(0, "state") == "normal"
+        start.event_generate("<Leave>")
+        start.event_generate("<Enter>", x=5, y=5)  # an enabled button has nothing to explain
+        pump(window, lambda: False, 2 * DELAY_MS / 1000)
+        assert tip.window is None
+    finally:
+        root.destroy()
+        gc.collect()
+
 
 def test_the_presentation_view_shows_the_map_alone_and_f11_brings_the_operators_window_back(display: str) -> None:
     from console.live.feed import LinkStatus

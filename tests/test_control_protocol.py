@@ -185,7 +185,7 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
     """`plan_start` (the steps a run's earlier plans took) is newer than some consoles, whose decoder
     refuses a field it does not know: a run's first plan leaves it out, a later one sends it."""
     first = State(7, 3, RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, 0, None, 0, None), ())
-    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start", "reroute_scope"}
+    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start", "reroute_scope", "why_not"}
     assert set(json.loads(encode(first))["run"]) == known_before  # all an older console knows
     assert decode(encode(first), m.MANAGER_MESSAGES) == first
     rerouted = State(8, 4, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, plan_start=7.25), ())
@@ -198,6 +198,30 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
                                 reroute_scope="all"), ())
     assert json.loads(encode(every))["run"]["reroute_scope"] == "all"
     assert decode(encode(every), m.MANAGER_MESSAGES) == every
+
+
+def test_why_a_run_action_is_refused_comes_with_the_state_one_line_each_and_a_bad_reason_is_named() -> None:
+    """The State says why the manager would refuse each run action it does not allow: a reason as
+    long as the manager sends (one line, cut to WHY_NOT_CHARS) comes through unchanged; longer,
+    or of the wrong type, the State is refused naming the field."""
+    from fleet_common.limits import one_line
+
+    down = "not connected: robots " + ", ".join(map(str, range(1, 301))) + " (silent for 3.5 s)"
+    reason = one_line(down, m.WHY_NOT_CHARS)
+    assert len(reason) == m.WHY_NOT_CHARS and reason.endswith("300 (silent for 3.5 s)")
+    run = RunInfo("waiting", "", "adg", 1, 0.0, 0.0, 1, 0, 300, None, 0, None, allowed=("to_starts",),
+                  why_not={"start": reason, "halt": "nothing is moving (the run is waiting)"})
+    state = State(7, 3, run, ())
+    assert decode(encode(state), m.MANAGER_MESSAGES) == state
+    frame = json.loads(encode(state))
+    for bad, named in (({"start": reason + "!"}, "run.why_not.start"), (["start"], "run.why_not"),
+                       ({"start": 5}, "run.why_not.start"), ({"x" * 41: "no"}, "run.why_not")):
+        frame["run"]["why_not"] = bad
+        with pytest.raises(ControlProtocolError, match="field '{}' of a state message".format(named)):
+            decode(json.dumps(frame).encode(), m.MANAGER_MESSAGES)
+    frame["run"]["why_not"] = {str(k): "no" for k in range(51)}  # more reasons than there are actions
+    with pytest.raises(ControlProtocolError, match="must be an object of at most 50 keys"):
+        decode(json.dumps(frame).encode(), m.MANAGER_MESSAGES)
 
 
 def test_a_scene_carries_a_large_plan_compactly() -> None:

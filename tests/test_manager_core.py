@@ -15,6 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from fleet_common.control import RUN_ACTIONS
 from fleet_common.lab import lab_instance_path
 from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_common.wire import Pose
@@ -81,6 +82,31 @@ def test_start_is_refused_until_every_robot_is_connected_and_on_its_start():
     assert not answer.ok and "robot 3 is at (0, 13), its start is (5, 1)" in answer.reason
     assert "Go to starts drives them there" in answer.reason and "--resume" in answer.reason
     assert f.phase == "waiting" and not any(f.robots[i].commands for i in f.robots if i != 3)
+
+
+def test_the_state_says_why_a_greyed_run_action_would_be_refused_until_it_is_allowed():
+    """What a console shows on a greyed button: Start, robot 3 away from its start, names it, in
+    the words the manager answers Start with; Reset while running, the phase's refusal; a reason
+    goes once its action is allowed (Reset once paused: it waits for the robots to stand)."""
+    goal = lab().goals[2]
+    f = fleet(poses={3: Pose(float(goal[0]), float(goal[1]), 0.0)})  # on its goal, its start free
+    ops = f.console()
+    f.link_up()
+    f.advance(0.3)
+    run = ops.state.run
+    assert "start" not in run.allowed and "robot 3 is at (5, 10), its start is (5, 1)" in run.why_not["start"]
+    assert run.why_not["start"] == f.ask(ops, "start").reason
+    assert set(run.why_not) == {a for a in RUN_ACTIONS if a not in run.allowed}
+    assert f.ask(ops, "to_starts").ok
+    assert f.run_until(lambda: "start" in ops.state.run.allowed, 60)
+    assert "start" not in ops.state.run.why_not
+    assert f.ask(ops, "start").ok
+    f.advance(0.3)
+    assert ops.state.run.why_not["reset"] == "pause or stop the run first"
+    assert f.ask(ops, "pause").ok
+    f.advance(0.1)  # the robots finish the move they are making: a Reset would wait for them
+    assert "reset" in ops.state.run.allowed and "reset" not in ops.state.run.why_not
+    assert "pause" in ops.state.run.why_not  # (paused already: the phase says so)
 
 
 def test_a_robot_whose_poses_stop_is_stale_after_half_a_second_as_the_readme_says():

@@ -344,15 +344,16 @@ RUN_REQUESTS = ["start", "pause", "stop", "step", "halt", "reset", "to_starts"]
 @given(st.lists(st.tuples(st.sampled_from(RUN_REQUESTS), st.floats(0.0, 2.0)), min_size=1, max_size=10),
        st.booleans())
 def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goals):
-    """The console greys a button when the State does not list its action: that must be the
-    manager's own answer, whatever happened before (and every run stays safe)."""
+    """The console greys a button when the State does not list its action, and says why: that
+    must be the manager's own answer, whatever happened before (and every run stays safe)."""
     f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses() if from_goals else None)
     ops = f.console()
     f.link_up()
     for action, wait in steps:
-        allowed = operator.allowed(f.core.run, f.now)
+        allowed, refused = operator.allowed(f.core.run, f.now), operator.refusals(f.core.run, f.now)
         answer = f.ask(ops, action)
         assert answer.ok == (action in allowed), (action, allowed, answer.reason)
+        assert answer.ok or answer.reason == refused[action]
         f.advance(wait)
     assert f.core.summary().collisions == 0
 

@@ -10,10 +10,14 @@ Every control only asks (`on_action(action, args)`, which sends a request);
 what the panel shows comes from the manager's state, so a box ticked here
 shows the manager's view as soon as it answers, and a refused request
 changes nothing but the answer line. A run button the manager would refuse
-now (the State's `allowed`) is greyed; pressed all the same, it asks, so that
-the answer line says why the manager will not (the State carries what is
-allowed, not why). The answer line is cleared when the run moves on to
-another phase, so an old refusal never reads as a new one.
+now (the State's `allowed`) is greyed, and the pointer resting on it shows
+why in a note below it (`HoverTip`; the State's `why_not`, the sentence the
+manager would answer with): a note by the pointer is where the operator is
+looking, and it leaves the answer line to the manager's answers, so that a
+reason read while hovering never passes for an answer to a request. Pressed
+all the same, a greyed button asks, and the answer line says it too (a
+manager of old says why only then). The answer line is cleared when the run
+moves on to another phase, so an old refusal never reads as a new one.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ from fleet_common.execution.reroute import MODES as REROUTE_MODES, SCOPES as RER
 from ..live.describe import RobotRow
 from ..live.feed import CONNECTED, LOST, LinkStatus, Reply
 from ..live.model import reply_text
+from .hover_tip import HoverTip
 from .table import scrolled_table
 
 Action = Callable[..., None]
@@ -72,6 +77,20 @@ def usable(action: str, run: Optional[RunInfo], connected: bool) -> bool:
     return run.allowed is None or action not in RUN_ACTIONS or action in run.allowed
 
 
+def why_greyed(action: str, run: Optional[RunInfo], connected: bool) -> str:
+    """Why the control of `action` is greyed, in a line ("" when it may be pressed)."""
+    if usable(action, run, connected):
+        return ""
+    if not connected:
+        return "not connected to the manager"
+    if run is None:
+        return "no state from the manager yet"
+    if action in ("accept", "reject"):
+        return "no proposal to answer"
+    why = (run.why_not or {}).get(action)
+    return why or "the manager would refuse it now (press it to ask why)"
+
+
 class AdminPanel(ttk.Frame):
     def __init__(self, master: tk.Misc, on_action: Action, on_pick: Callable[[Optional[int]], None]) -> None:
         super().__init__(master, padding=(6, 4))
@@ -94,6 +113,9 @@ class AdminPanel(ttk.Frame):
                 self.buttons[control.action] = b
         self._proposal: Optional[int] = None
         self._connected = False
+        self._run: Optional[RunInfo] = None  # what the buttons were greyed for
+        self.tips = {action: HoverTip(b, lambda a=action: why_greyed(a, self._run, self._connected))
+                     for action, b in self.buttons.items()}
         self._answered: Optional[tuple] = None  # the run's phase when the answer shown came
         for button in self.buttons.values():
             button.state(["disabled"])  # until a manager says what it would do
@@ -210,11 +232,14 @@ class AdminPanel(ttk.Frame):
             self._writing = False
 
     def grey(self, run: Optional[RunInfo]) -> None:
-        """Grey the run buttons the manager would refuse now (all of them without a manager);
-        Accept and Reject answer the proposal that made them usable."""
+        """Grey the run buttons the manager would refuse now (all of them without a manager), a
+        note saying why shown on the one the pointer rests on; Accept and Reject answer the
+        proposal that made them usable."""
         self._proposal = None if run is None else run.proposal
+        self._run = run
         for action, button in self.buttons.items():
             button.state(["!disabled"] if usable(action, run, self._connected) else ["disabled"])
+            self.tips[action].refresh()
 
     def show_rows(self, row_of: Callable[[int], RobotRow]) -> None:
         """Rows from `row_of(robot id)`: only those in view are made and written if they changed

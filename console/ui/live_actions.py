@@ -3,6 +3,11 @@
 A mixin of `LiveApp`, as `PlayerActions` is of the player: the menus and the
 panels reach each action by name (`window.LiveWindow` lists what they use of it). `ask` is the one way a control reaches the
 manager: a request based on the version of the state the window shows.
+
+A greyed Run menu entry says why after a dash, its beginning ("Start — not
+on their start cells (the plan file's coordinates): robot 3 is at…"): Tk's
+menus have no notes on hover, and a greyed entry cannot be pressed to ask;
+the whole sentence is on the run button's note.
 """
 from __future__ import annotations
 
@@ -13,9 +18,13 @@ from typing import Any, Optional
 from ..keys import AGENTS, KEYS, VIEW
 from ..live.describe import cell_text, greyed
 from . import capture
-from .admin_panel import RUN_CONTROLS, usable
+from .admin_panel import RUN_CONTROLS, RunControl, usable, why_greyed
 from .help_window import show_keys
 from .window import LiveWindow
+
+#: Characters of the reason a greyed Run menu entry carries, at most (a menu is as wide as its
+#: longest entry).
+MENU_WHY_CHARS = 72
 
 
 class LiveActions:
@@ -88,11 +97,14 @@ class LiveActions:
             " {}={}".format(k, v) for k, v in sorted(args.items()) if k != "text")))
 
     def grey_run_menu(self: "LiveWindow") -> None:
-        """The Run menu's entries as the buttons: greyed when the manager would refuse them."""
+        """The Run menu's entries as the buttons: greyed when the manager would refuse them, saying
+        why (without a manager, every entry greyed says nothing: the map's banner says it once)."""
         run = self.model.state.run if self.model.state is not None else None
+        connected = self.model.connected
         for index, control in enumerate(c for c in RUN_CONTROLS if c.menu is not None):
-            self.run_menu.entryconfigure(index, state=tk.NORMAL if usable(control.action, run, self.model.connected)
-                                         else tk.DISABLED)
+            why = why_greyed(control.action, run, connected) if connected and run is not None else ""
+            self.run_menu.entryconfigure(index, state=tk.NORMAL if usable(control.action, run, connected)
+                                         else tk.DISABLED, label=menu_label(control, why))
 
     def do_presentation(self: "LiveWindow") -> None:
         """The map for visitors, full screen (F11 again: back to the operator's window)."""
@@ -109,3 +121,13 @@ class LiveActions:
                                             filetypes=[("PNG image", "*.png")], title="Save window as PNG")
         if path:
             self.root.after(200, self._guarded(lambda: self.save_window(path)))
+
+
+def menu_label(control: RunControl, why: str) -> str:
+    """`control`'s Run menu entry, with `why` it is greyed after a dash: its beginning, cut after a
+    word (a menu entry is one line; what a long reason names first is what matters most)."""
+    if not why:
+        return control.menu or control.label
+    if len(why) > MENU_WHY_CHARS:
+        why = why[:MENU_WHY_CHARS].rsplit(" ", 1)[0].rstrip(",;:( ") + "\u2026"
+    return "{} \u2014 {}".format(control.menu or control.label, why)

@@ -13,7 +13,8 @@ Buttons, boxes and menu entries only send requests through the link
 (`ask`); the picture changes when the manager's state says so, and every
 answer, refusals included, is shown in the admin panel, the status line and
 the event list. Run buttons and menu entries the manager would refuse are
-greyed. The File menu opens plans and instances for the fleet
+greyed, and say why (a note on the button the pointer rests on, the reason's
+beginning in the menu entry). The File menu opens plans and instances for the fleet
 (`LiveFiles`); F11 switches to the presentation view for visitors
 (`Presentation`). Positions are written in the coordinates the view shows:
 the plan file's own unless the operator switched (m).
@@ -268,10 +269,10 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
         self._show_robot()
 
     def _grey_controls(self) -> None:
-        """The run's buttons and menu entries greyed as soon as what the manager allows changes
-        (not at the panels' pace: a button must not be pressable a quarter second too long)."""
+        """The run's buttons and menu entries greyed, saying why, as soon as what the manager allows
+        changes (not at the panels' pace: a button must not be pressable a quarter second too long)."""
         run = self.model.state.run if self.model.state is not None else None
-        key = (self.model.connected, None if run is None else (run.allowed, run.proposal))
+        key = (self.model.connected, None if run is None else (run.allowed, run.proposal, run.why_not))
         if key != self._greyed_for:
             self._greyed_for = key
             self.admin.grey(run)

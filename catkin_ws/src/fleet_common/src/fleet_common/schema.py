@@ -5,7 +5,7 @@ declare their messages with these checkers and decode them through them, so a
 frame is checked, and a refusal worded, the same way in both. Messages nest (a
 state holds a run and robots, a status a pose), so instead of one hand-written
 check per field there are small checkers that compose: `Int`, `Num`, `Str`,
-`Bool`, `Opt`, `ListOf`, `Obj`, `AnyObj`, and `Record`, an `Obj` that builds its
+`Bool`, `Opt`, `ListOf`, `MapOf`, `Obj`, `AnyObj`, and `Record`, an `Obj` that builds its
 dataclass (a message, or a record inside one). Each takes the decoded value and
 the path to it (`robots[3].waiting.on[0]`) and returns the value as the program
 wants it, or raises `SchemaError` saying where and what was expected. Nothing
@@ -22,7 +22,7 @@ from typing import Any, Callable, Dict, Optional, Sequence, Type
 
 from .errors import FleetError
 
-__all__ = ["SchemaError", "Checker", "Int", "Num", "Str", "Bool", "Opt", "ListOf", "Obj", "Record",
+__all__ = ["SchemaError", "Checker", "Int", "Num", "Str", "Bool", "Opt", "ListOf", "MapOf", "Obj", "Record",
            "AnyObj", "short"]
 
 
@@ -154,6 +154,32 @@ class ListOf(Checker):
 
     def dump(self, value: Any) -> Any:
         return [self.inner.dump(v) for v in value[:self.max_len]]
+
+
+class MapOf(Checker):
+    """A JSON object of at most `max_len` keys, each checked by `key`, its value by `inner`: a dict
+    (reasons by action: the keys are data, not field names as in `Obj`)."""
+
+    plain = False  # values are cut as `inner` cuts them
+
+    def __init__(self, key: Str, inner: Checker, max_len: int = 100) -> None:
+        self.key, self.inner, self.max_len = key, inner, max_len
+        self.what = "an object of at most {} keys".format(max_len)
+
+    def __call__(self, value: Any, path: str) -> Dict[str, Any]:
+        if not isinstance(value, dict) or len(value) > self.max_len:
+            raise self.fail(value, path)
+        out: Dict[str, Any] = {}
+        for name, item in value.items():
+            try:
+                name = self.key(name, "")
+            except SchemaError as err:
+                raise SchemaError("has a key that " + err.problem, path) from None
+            out[name] = self.inner(item, "{}.{}".format(path, name) if path else name)
+        return out
+
+    def dump(self, value: Any) -> Any:
+        return {k: self.inner.dump(v) for k, v in list(value.items())[:self.max_len]}
 
 
 class AnyObj(Checker):

@@ -32,11 +32,13 @@ from __future__ import annotations
 import math
 from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
-from fleet_common.control import Bye, Notice, Waiting
+from fleet_common.control import RUN_ACTIONS, Bye, Notice, Waiting
+from fleet_common.control.messages import WHY_NOT_CHARS
 from fleet_common.control.desk import ControlDesk
 from fleet_common.execution import Freeze, Thaw
 from fleet_common.execution.reroute import Reroute
 from fleet_common.grid import Coord, Grid
+from fleet_common.limits import one_line
 from fleet_common.plan import Plan
 from fleet_common.plan_loading import LoadedPlan
 from fleet_common.planning.replan import ReplanResult
@@ -90,7 +92,8 @@ class RunCore:
         #: something changed that consoles should see soon (the loop publishes within its rate)
         self.news = False
         self._refusals = _Burst()
-        self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...]]] = None
+        #: (key, when, allowed, why not the others): `_allowed_now`
+        self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...], Dict[str, str]]] = None
         self._home_due = 0.0  # when robots left away from their goals are next given ways home
 
     def take(self) -> List[Effect]:
@@ -435,21 +438,25 @@ class RunCore:
     def state(self, now: float, waits: Dict[int, Waiting]):
         self._states += 1
         run = self.run
+        allowed, why_not = self._allowed_now(now)
         return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
                            run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
-                           self.collisions, waits, run.driver.following, run.purpose, self._allowed_now(now),
+                           self.collisions, waits, run.driver.following, run.purpose, allowed, why_not,
                            run.rerouting.mode, run.rerouting.proposal_id, run.plan_start, run.rerouting.rule.scope)
 
-    def _allowed_now(self, now: float) -> Tuple[str, ...]:
-        """What the manager would carry out now: again when anything decisive changed, else at
-        most every ALLOWED_EVERY seconds (where 300 standing robots are costs milliseconds)."""
+    def _allowed_now(self, now: float) -> Tuple[Tuple[str, ...], Dict[str, str]]:
+        """What the manager would carry out now, and why not the rest (one line each): again when
+        anything decisive changed, else at most every ALLOWED_EVERY seconds (where 300 standing
+        robots are costs milliseconds)."""
         run = self.run
         key = (self.desk.version, run.phase.phase, run.purpose, run.to_starts_job, run.replanner.state,
                run.driver.moving, run.rerouting.proposal_id)
         last = self._allowed
         if last is None or last[0] != key or now - last[1] >= ALLOWED_EVERY:
-            self._allowed = (key, now, operator.allowed(run, now))
-        return self._allowed[2]
+            refused = operator.refusals(run, now)
+            self._allowed = (key, now, tuple(a for a in RUN_ACTIONS if a not in refused),
+                             {a: one_line(why, WHY_NOT_CHARS) for a, why in refused.items()})
+        return self._allowed[2], self._allowed[3]
 
     def publish(self, now: float) -> bool:
         """Who waits for whom to the run log when it changed; the State to the consoles not sent

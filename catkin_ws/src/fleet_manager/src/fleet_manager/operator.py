@@ -25,7 +25,8 @@ have not moved since; the run never paused for it).
 
 Each run action without arguments has its refusal written once (`why_not`),
 so that the State can say which of them the manager would carry out now
-(`allowed`) and a console greys the others.
+(`allowed`) and why not the others (`refusals`, one pass for both): a console
+greys them and says why.
 """
 from __future__ import annotations
 
@@ -47,7 +48,8 @@ from .robot import HALTED, VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
-__all__ = ["apply", "resume", "solved", "allowed", "why_not", "behind_out", "ways_home", "way_after", "ACTIONS"]
+__all__ = ["apply", "resume", "solved", "allowed", "refusals", "why_not", "behind_out", "ways_home", "way_after",
+           "ACTIONS"]
 
 Answer = Tuple[bool, str]
 Args = Dict[str, Any]
@@ -75,10 +77,19 @@ def why_not(run: Run, action: str, now: float) -> str:
 
 def allowed(run: Run, now: float) -> Tuple[str, ...]:
     """The run actions the manager would carry out now (what they share is looked at once)."""
+    refused = refusals(run, now)
+    return tuple(a for a in RUN_ACTIONS if a not in refused)
+
+
+def refusals(run: Run, now: float) -> Dict[str, str]:
+    """The run actions the manager would refuse now, each with why (the sentence its answer would
+    give), in RUN_ACTIONS' order; the others are allowed. One pass: what the refusals share is
+    looked at once."""
     _SHARED.clear()
     _SHARED["on"] = run
     try:
-        return tuple(a for a in RUN_ACTIONS if not why_not(run, a, now))
+        answers = ((a, why_not(run, a, now)) for a in RUN_ACTIONS)
+        return {a: why for a, why in answers if why}
     finally:
         _SHARED.clear()
 

@@ -58,13 +58,15 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
                 fleet: Fleet, phase: RunPhase, plan_id: int, replanner: Replanner,
                 min_distance: Optional[float], collisions: int,
                 waits: Dict[int, Waiting], following: Following, purpose: str = "plan",
-                allowed: Optional[Tuple[str, ...]] = None, reroute: str = "off",
+                allowed: Optional[Tuple[str, ...]] = None, why_not: Optional[Dict[str, str]] = None,
+                reroute: str = "off",
                 reroute_proposal: Optional[int] = None, plan_start: float = 0.0,
                 reroute_scope: str = "held") -> State:
     """The State at `now`; `clock` is the seconds since the run started (0 before), `plan_steps`
     the plan steps since the current plan's step 0 (a robot's `behind` is measured from it; the
     plan's clock shown stops at the makespan), `plan_start` the run's plan steps before that step 0
-    (earlier plans of the run: the clock a console shows goes on across a reroute)."""
+    (earlier plans of the run: the clock a console shows goes on across a reroute); `why_not` says
+    why the run actions not `allowed` would be refused (one line each)."""
     run = engine.run
     plan_time = plan_steps
     running = phase.phase == RUNNING
@@ -103,7 +105,7 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
         robots=len(fleet), min_distance=min_distance, collisions=collisions,
         proposal=replanner.proposal_id if reroute_proposal is None else reroute_proposal,
         replanning=replanner.busy, purpose=purpose, allowed=allowed, reroute=reroute,
-        plan_start=round(plan_start, 3), reroute_scope=reroute_scope)
+        plan_start=round(plan_start, 3), reroute_scope=reroute_scope, why_not=why_not)
     return State(seq, version, info, tuple(robots))
 
 

@@ -32,6 +32,8 @@ from typing import Any, ClassVar, Dict, Optional, Tuple
 
 import numpy as np
 
+from ..limits import MAX_MESSAGE_CHARS
+
 PROTOCOL_VERSION = 1
 
 #: Where a manager listens by default, and where a console looks for it.
@@ -45,6 +47,10 @@ PURPOSES = ("plan", "to-starts")
 ORIENTATIONS = ("mapf-ir", "base")
 LINK_STATES = ("connecting", "up", "down", "failed")
 SOURCES = ("robot", "vicon")
+#: Longest reason a State gives for a run action the manager would refuse (`RunInfo.why_not`):
+#: one line as the command line prints it, cut in the middle (`limits.one_line`) so that what
+#: to do, said last, stays (300 robots not connected make a long list).
+WHY_NOT_CHARS = MAX_MESSAGE_CHARS
 
 
 # ---- console -> manager ---------------------------------------------------------------
@@ -209,6 +215,11 @@ class RunInfo:
     #: whom a reroute may give new paths: "held" (the robots a late one holds up) or "all" (every
     #: robot, replanned from the cut). Sent only when "all": a console older than it refuses it.
     reroute_scope: str = "held"
+    #: why the manager would refuse each run action it does not allow now, by action: one line
+    #: each, of at most WHY_NOT_CHARS; None: a manager of old that does not say (left out of the
+    #: frame). A manager that has it always sends it, and a console older than it refuses a field
+    #: it does not know: such consoles are updated with the manager.
+    why_not: Optional[Dict[str, str]] = None
 
     @property
     def run_steps(self) -> float:
