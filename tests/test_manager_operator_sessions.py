@@ -3,11 +3,12 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back six defects these sessions found (each fixed on 2026-11-26): a robot
-a replan leaves where it stopped counted as arrived, a replan that waits for ever on a follower
-held behind a robot that is out, a late pose taken for where a robot is, a train of followers
-behind a robot that is out counted as moving, a replan refused on the way to the starts, and a
-replan made from a cell two robots hold. Each makes sessions fail, so the checks can fail.
+The negative controls put back seven defects these sessions found (each fixed on 2026-11-26): a
+robot a replan leaves where it stopped counted as arrived, a replan that waits for ever on a
+follower held behind a robot that is out, a late pose taken for where a robot is, a train of
+followers behind a robot that is out counted as moving, a replan refused on the way to the starts,
+a replan made from a cell two robots hold, and a way home through the cell a robot out leans
+into, after a restart. Each makes sessions fail, so the checks can fail.
 """
 from __future__ import annotations
 
@@ -97,10 +98,22 @@ def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> Non
     starts was refused, so nothing could take them on (fixed on 2026-11-26: a replan is allowed on
     the way to the starts); and seed 1496, where a replan raised: robot 4, halted in the middle of
     its move behind a robot stopped by its bumper, had a follower in the cell it was leaving, and
-    both were planned from that cell (the replan now gives up saying so: `RunCore._sharing`)."""
-    bad = [(s.seed, s.problems) for s in (session(seed, wide=True, dying=True) for seed in [*range(20), 143, 1496])
-           if s.problems]
+    both were planned from that cell (the replan now gives up saying so: `RunCore._sharing`); and
+    seeds 92 and 169, below."""
+    bad = [(s.seed, s.problems) for s in (session(seed, wide=True, dying=True)
+                                          for seed in [*range(20), 92, 143, 169, 1496]) if s.problems]
     assert not bad, bad
+
+
+def test_a_way_home_through_the_cell_a_robot_out_leans_into_after_a_restart_is_caught(monkeypatch) -> None:
+    """Dying seed 92: robot 4, stopped between two cells by its bumper, is out, and a replan plans
+    the others around it (the cell it leans into walled off) and leaves it there. The manager dies
+    and another takes the run over: the plan holds robot 4's cell, and the wall went with the old
+    manager. At Start, robot 2, which the plan also left away from its goal, was given its way home
+    through the cell robot 4 leans into: 0.5 cells from robot 4's centre, the safe distance 0.65.
+    A resumed manager now walls it off again (`RunCore._wall_out_between`; fixed 2026-11-26)."""
+    monkeypatch.setattr(core.RunCore, "_wall_out_between", lambda self, keep: None)
+    assert session(92, wide=True, dying=True).problems
 
 
 def test_a_replan_refused_on_the_way_to_the_starts_is_caught(monkeypatch) -> None:

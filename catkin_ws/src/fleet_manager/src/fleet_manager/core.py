@@ -30,7 +30,7 @@ State, and is recorded once a minute per console (`refusals`).
 from __future__ import annotations
 
 import math
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.control import RUN_ACTIONS, Bye, Notice, Waiting
 from fleet_common.control.messages import WHY_NOT_CHARS
@@ -52,7 +52,7 @@ from . import operator
 from .outbox import Effect, Outbox, REROUTE
 from .driver import AT_CELL
 from .refusals import RefusedRequests
-from .replanning import SAFE_POINT, going_on, stood_on, walled
+from .replanning import SAFE_POINT, going_on, leans_into, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import RESUMING, Fleet, Robot, Seen
@@ -281,6 +281,11 @@ class RunCore:
         for robot in self.fleet:
             if robot.hold == RESUMING:
                 robot.hold = None
+        for o in off:  # first where each robot found on a cell stands: no wall goes up on it
+            if o.cell is not None:
+                run.standing[o.robot.agent] = o.cell
+        keep = set(run.positions())
+        self._wall_out_between(keep)
         if not off:
             run.say("resumed from {}: every robot where the run left it; Start drives on".format(folder))
             self.out.tell("run", None, "resumed from {}: every robot stands where the run left it".format(folder))
@@ -290,10 +295,6 @@ class RunCore:
             return
         size = self.settings.size
         reach = 1.0 if size.cell_sized else size.safe_cells
-        for o in off:  # first where each robot found on a cell stands: no wall goes up on it
-            if o.cell is not None:
-                run.standing[o.robot.agent] = o.cell
-        keep = set(run.positions())
         told = []
         for o in off:
             where = "robot {} stands at {}, where the run has it at {}".format(
@@ -323,6 +324,25 @@ class RunCore:
         self.out.desk.bump("replan requested")
         self.out.tell("plan", None, "resumed from {}: {}; a replan from where they stand follows".format(
             folder, "; ".join(told)))
+
+    def _wall_out_between(self, keep: Set[Coord]) -> None:
+        """A resumed run's robots that are out and stand between two cells with no move left in the
+        plan (a bumper stopped them in a move, a replan planned around them and left them there):
+        the plan holds the cell each has, not the one it leans into, which the manager that made
+        the plan walled off (`replanning.walled`) and whose walls went with it. Walled off again
+        (but cells robots stand on, `keep`), so that no reroute or way home of this manager sends
+        a robot there (`Rerouting.keep_to`). (One with a move left, into that cell, has it held by
+        the engine: `reroute_plan._hold_targets`.)"""
+        run = self.run
+        held = run.positions()
+        state = run.engine.run
+        for robot in self.fleet:
+            a = robot.agent
+            far = leans_into(robot, held[a]) if state.out[a] is not None and state.finished_agent(a) else None
+            if far is not None and run.grid.in_bounds(far) and far not in keep:
+                run.walls.add(far)
+        if run.walls:
+            run.rerouting.keep_to(_without(run.grid, run.walls))
 
     def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
                    now: float) -> None:
