@@ -13,7 +13,8 @@ hold both cells and finish the move when started again); `stop` sends
 nothing new and lets robots finish the move they are making; `to_starts`
 sends the robots from where they stand to the plan's starts (a run of its
 own, planned first), `reset` starts the plan over in a new run folder, the
-robots driving back to their starts first. Strategy switches, the reroute
+robots driving back to their starts first (either, pressed while robots are
+still finishing their moves, is carried out once they stand: `way_after`). Strategy switches, the reroute
 mode, enabling and disabling robots, and the position source apply at once,
 whatever the phase (a robot enabled after the end of the run drives on: a new
 leg; one a replan left away from its goal, enabled while the run is running or
