@@ -21,6 +21,8 @@ from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_common.wire import Pose
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
+from fleet_common.planning.problem import InvalidProblemError
+from fleet_manager import core
 from fleet_manager.run_phase import TRANSITIONS
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryConsole, MemoryFleet, lab_fleet
@@ -871,6 +873,48 @@ def train(moves: int = 6) -> LoadedPlan:
     grid = lab_grid()
     sol = make_solution(grid, "lab.map", plan, plan.starts, plan.goals, "hand", True, 0)
     return LoadedPlan(plan, grid, list(plan.starts), list(plan.goals), "train", sol, lambda c: c)
+
+
+def train_halted_behind_a_bumper() -> Tuple[MemoryFleet, MemoryConsole]:
+    """The train at the TurtleBot's size: robot 1's bumper stops it halfway into its third move and
+    holds it; robot 2 waits at its hold point behind it, halfway too, and robot 3 has followed
+    robot 2 onto the cell robot 2 is leaving. The operator halts the run and asks for a replan."""
+    f = MemoryFleet(train(), lab_fleet(3), ManagerSettings(step_time=0.5, size=TURTLEBOT2), speed=1.0)
+    f.robots[1].navigator.bumps = {3}
+    f.robots[1].navigator.bump_seconds = 30.0
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.core.fleet.by_id[1].hold == "fault", 30)
+    f.advance(0.5)  # robot 3 closes up onto (3, 5)
+    assert f.ask(ops, "halt").ok
+    assert f.run_until(lambda: not f.core.run.driver.moving, 5)
+    f.advance(0.3)  # poses taken standing
+    assert f.ask(ops, "replan").ok
+    return f, ops
+
+
+def test_a_replan_from_a_cell_two_robots_would_share_gives_up_and_says_what_lets_it_go_on():
+    """Robot 2 stands between (3, 5) and the cell robot 1 holds, robot 3 on (3, 5): a replan would
+    plan both from (3, 5). It gives up and says why and what to do; before, the planner raised
+    (random operator sessions, `--dying` seed 1496)."""
+    f, ops = train_halted_behind_a_bumper()
+    f.advance(0.5)
+    said = ("replan given up: robots 2 and 3 would both start on (3, 5): robot 2 stands between two cells at "
+            "(3.8, 5.0); let it finish its move (Start, and enable the robot ahead of it if that one is out), "
+            "or put it on a free cell")
+    assert f.core.run.phase.reason == said and said in [n.text for n in ops.notices()]
+    assert not f.core.run.replanner.open
+
+
+def test_a_replan_planned_from_a_cell_two_robots_share_is_caught(monkeypatch: pytest.MonkeyPatch):
+    """The negative control: without the check, the replan is asked to plan robots 2 and 3 from one
+    cell, and the planner refuses the problem (the manager's worker would say "replanning
+    failed", naming agents, not robots)."""
+    monkeypatch.setattr(core.RunCore, "_sharing", lambda self, current: "")
+    with pytest.raises(InvalidProblemError, match="same current cell"):
+        f, ops = train_halted_behind_a_bumper()
+        f.advance(0.5)
 
 
 def closest_truth(f: MemoryFleet, record: List[float]) -> None:

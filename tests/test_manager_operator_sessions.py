@@ -3,12 +3,14 @@ presses, and whatever bumpers are pressed, the run ends, "done" is true, the sum
 at their goals, and no two robots come too close, also in wide sessions (size, strategy, scope and
 pose lag vary). bench/operator_sessions.py runs more seeds.
 
-The negative controls put back seven defects these sessions found (each fixed on 2026-11-26): a
+The negative controls put back six defects these sessions found (each fixed on 2026-11-26): a
 robot a replan leaves where it stopped counted as arrived, a replan that waits for ever on a
 follower held behind a robot that is out, a late pose taken for where a robot is, a train of
 followers behind a robot that is out counted as moving, a replan refused on the way to the starts,
-a replan made from a cell two robots hold, and a way home through the cell a robot out leans
-into, after a restart. Each makes sessions fail, so the checks can fail.
+and a way home through the cell a robot out leans into, after a restart. (A seventh, a replan made
+from a cell two robots hold, no seed of the first 2,000 dying sessions reaches since Reset waits
+for the robots to stand and the sessions take other turns: its control is a scenario in
+tests/test_manager_core.py.) Each makes sessions fail, so the checks can fail.
 """
 from __future__ import annotations
 
@@ -123,10 +125,3 @@ def test_a_replan_refused_on_the_way_to_the_starts_is_caught(monkeypatch) -> Non
     assert session(143, wide=True, dying=True).problems
 
 
-def test_a_replan_from_a_cell_two_robots_hold_is_caught(monkeypatch) -> None:
-    monkeypatch.setattr(core.RunCore, "_sharing", lambda self, current: "")  # before 2026-11-26
-    try:
-        found = bool(session(1496, wide=True, dying=True).problems)
-    except Exception:  # the replan raises: two robots on one cell
-        found = True
-    assert found
