@@ -7,12 +7,13 @@ replan and its answer), then the clean-up lab staff would do; it checks that the
 robots came too close; a session that raises counts as one that found something. Prints each such
 session, with what the operator did, and the count; exits non-zero if any did.
 
-    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide]     # seeds FIRST..LAST-1, default 0 200
+    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide] [--dying] [--vicon]  # seeds FIRST..LAST-1, default 0 200
 
 `--wide` varies the run as well (`session`'s `wide`): robots as large as a cell, any strategy from
 the start, rerouting every robot, poses that reach the manager late. `--dying` (with `--wide`):
 after a reset the manager dies on the way back to the starts in 7 of 10 cases, and another takes
-the way over.
+the way over. `--vicon`: the manager reads a simulated Vicon stream, the run starts on either
+position source, the operator switches sources at random and robots are occluded from Vicon.
 """
 from __future__ import annotations
 
@@ -33,12 +34,14 @@ def main() -> int:
     parser.add_argument("--wide", action="store_true", help="vary the run too: size, strategy, scope, pose lag")
     parser.add_argument("--dying", action="store_true",
                         help="with --wide: the manager often dies on the way back to the starts after a reset")
+    parser.add_argument("--vicon", action="store_true",
+                        help="Vicon's stream too: random position sources, switches and occlusions")
     args = parser.parse_args()
     began = time.perf_counter()
     bad = 0
     for seed in range(args.first, args.last):
         try:
-            found = session(seed, args.wide, args.dying)
+            found = session(seed, args.wide, args.dying, args.vicon)
         except Exception as err:  # the manager's worker turns such an error into "replanning failed"
             found = Session(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
         if found.problems:

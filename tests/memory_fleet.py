@@ -11,11 +11,16 @@ looks for a reroute are run in place (a look by the function the manager's
 worker runs). The manager may die (`kill_manager`: the robots go on, what
 they answer is lost) and another take over from the records it left
 (`resume_manager`), as `fleetctl manager --resume` does from a run folder.
+With a `MemoryVicon`, Vicon sees the robots from outside too, as the manager's
+stream does (`vicon`: frames of their true poses, late, some lost).
 """
 from __future__ import annotations
 
+import math
+import random
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
+from typing import Callable, Deque, Dict, List, Optional, Sequence, Set, Tuple
 
 from fleet_common.errors import FleetError
 from fleet_common.control import codec
@@ -24,6 +29,7 @@ from fleet_common.control import messages as m
 from fleet_common.plan import Plan
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
+from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
 from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
 from pathlib import Path
@@ -73,6 +79,52 @@ class MemoryRobot:
         self.session = "s{}".format(int(self.session[1:]) + 1)
 
 
+class MemoryVicon:
+    """Vicon Tracker as the manager's stream gives it (`ViconProvider.handle_readable`): every
+    `period` s a frame with each robot's true pose, heard a `latency` later (drawn per frame, in
+    order, as over one UDP path); a frame is lost now and then (`drops`), and a robot occluded
+    (`occlude`) is in no frame. Its draws are its own (`rng`): a fleet's other draws stay."""
+
+    def __init__(self, rng: random.Random, period: float = 0.01, latency: Tuple[float, float] = (0.005, 0.03),
+                 drops: float = 0.03) -> None:
+        self.rng = rng
+        self.period = period
+        self.latency = latency
+        self.drops = drops
+        self.next_frame = 0.0
+        self.frame = 0
+        self.occluded: Dict[int, float] = {}  # robot id -> until when no frame has it
+        self.in_flight: Deque[Tuple[float, List[ViconFix]]] = deque()  # (heard at, the frame's robots)
+
+    def occlude(self, robot_id: int, until: float) -> None:
+        self.occluded[robot_id] = max(until, self.occluded.get(robot_id, until))
+
+    def next_event(self) -> float:
+        """When a frame is next taken or heard."""
+        return min(self.next_frame, self.in_flight[0][0] if self.in_flight else float("inf"))
+
+    def take_frame(self, robots: Dict[int, "MemoryRobot"], names: Dict[int, str], now: float) -> None:
+        """A frame of the robots not occluded, where they really are (taken `now`)."""
+        self.frame += 1
+        self.next_frame = now + self.period
+        if self.rng.random() < self.drops:
+            return
+        fixes = [ViconFix(names[rid], r.navigator.true_pose(), self.frame, 0.0, False, rid)
+                 for rid, r in robots.items() if self.occluded.get(rid, -1.0) <= now]
+        heard = now + self.rng.uniform(*self.latency)
+        if self.in_flight:  # one path: a frame never overtakes the one before it
+            heard = max(heard, self.in_flight[-1][0])
+        self.in_flight.append((heard, fixes))
+
+    def heard(self, now: float) -> List[ViconFix]:
+        """The frames heard by `now`: each robot's latest fix in them (as a read of the socket)."""
+        latest: Dict[int, ViconFix] = {}
+        while self.in_flight and self.in_flight[0][0] <= now + 1e-9:
+            for fix in self.in_flight.popleft()[1]:
+                latest[fix.robot_id] = fix  # type: ignore[index]
+        return list(latest.values())
+
+
 @dataclass
 class MemoryConsole:
     """A console: what it received, decoded; what it asked and the answers."""
@@ -107,12 +159,17 @@ class MemoryConsole:
 class MemoryFleet:
     def __init__(self, loaded: LoadedPlan, definitions: Sequence[RobotDefinition],
                  settings: Optional[ManagerSettings] = None, poses: Optional[Dict[int, Pose]] = None,
-                 speed: float = 2.0, turn_speed: float = 6.0, pose_lag: float = 0.0) -> None:
+                 speed: float = 2.0, turn_speed: float = 6.0, pose_lag: float = 0.0,
+                 vicon: Optional[MemoryVicon] = None) -> None:
         self.clock = FakeClock()
         self.settings = settings or ManagerSettings(step_time=0.5)
         self.loaded = loaded
         self.definitions = list(definitions)
-        self.core: Optional[RunCore] = RunCore(loaded, definitions, self.settings, "session-1", 0.0)
+        #: Vicon's stream, if the manager reads one (as `--vicon PORT`: the core's ViconWatch)
+        self.vicon = vicon
+        self._vicon_names = {d.id: d.vicon_name for d in definitions}
+        self.core: Optional[RunCore] = RunCore(loaded, definitions, self.settings, "session-1", 0.0,
+                                               vicon=vicon is not None)
         starts = loaded.starts
         self.robots: Dict[int, MemoryRobot] = {}
         for i, d in enumerate(definitions):
@@ -142,6 +199,8 @@ class MemoryFleet:
         #: poses reach the manager this late (a slow network, a busy robot): (t, feedback) queued
         self.pose_lag = pose_lag
         self._poses: List[Tuple[float, PoseFeedback]] = []
+        #: the closest two robots really came, at any step or Vicon frame: (cells, id, id, time)
+        self.closest: Optional[Tuple[float, int, int, float]] = None
         #: called after each batch of the core's effects is carried out (its records written)
         self.after_batch: Optional[Callable[[], None]] = None
         self.pump()
@@ -163,6 +222,8 @@ class MemoryFleet:
         self.pump()
         self.core = None  # type: ignore[assignment]
         self._replies.clear()
+        if self.vicon is not None:  # its datagrams reach no socket
+            self.vicon.in_flight.clear()
         for robot in self.robots.values():
             robot.up = False
         self.consoles.clear()
@@ -181,7 +242,7 @@ class MemoryFleet:
         point = read_resume(RunFolder(Path("memory-run"), records, torn=False))
         plan = self.folder_plans[self._resumed] if point.plan == "plan-1.txt" else self.replans[point.plan]
         self.core = RunCore(self.folder_targets[self._resumed], self.definitions, settings or self.settings,
-                            "session-2", self.now, resume=(point, plan))
+                            "session-2", self.now, vicon=self.vicon is not None, resume=(point, plan))
         for robot in self.robots.values():  # new links come up; the commands sent again reach them
             robot.sent_ids.clear()
             robot.queued.clear()  # the dead manager's
@@ -312,12 +373,9 @@ class MemoryFleet:
         """Let `seconds` pass: robots move and report, the core does what is due."""
         end = self.now + seconds
         while self.now < end - 1e-9:
+            self._vicon_until(min(end, self.now + step))
             self.clock.t = min(end, self.now + step)
-            for robot in self.robots.values():  # (a robot's motion goes on unpolled: it keeps time)
-                if robot.up:
-                    for _, reply in robot.executor.poll():
-                        if reply.id in robot.sent_ids:
-                            self._replies.append(RobotReply(robot.id, reply))
+            self._poll_robots()
             if self.core is None:
                 continue
             self.pump()
@@ -329,6 +387,38 @@ class MemoryFleet:
             self.core.log_poses(self.now)
             self.core.publish(self.now)
             self.pump()
+
+    def _poll_robots(self) -> None:
+        """The robots' replies so far; and how close two of them really came (`closest`)."""
+        for robot in self.robots.values():  # (a robot's motion goes on unpolled: it keeps time)
+            if robot.up:
+                for _, reply in robot.executor.poll():
+                    if reply.id in robot.sent_ids:
+                        self._replies.append(RobotReply(robot.id, reply))
+        truth = [(rid, r.navigator.true_pose()) for rid, r in self.robots.items()]
+        for i, (a, p) in enumerate(truth):
+            for b, q in truth[i + 1:]:
+                d = math.hypot(p.x - q.x, p.y - q.y)
+                if self.closest is None or d < self.closest[0]:
+                    self.closest = (d, a, b, self.now)
+
+    def _vicon_until(self, t: float) -> None:
+        """Vicon's frames taken and heard before `t`, each at its own time (a hundred a second,
+        between the fleet's steps): the manager's loop reads Vicon's socket as soon as it is
+        readable. The robots are polled first, so a bumper stops a robot where Vicon sees it."""
+        vicon = self.vicon
+        if vicon is None:
+            return
+        while vicon.next_event() < t - 1e-9:
+            self.clock.t = max(self.now, vicon.next_event())
+            self._poll_robots()
+            if vicon.next_frame <= self.now + 1e-9:
+                vicon.take_frame(self.robots, self._vicon_names, self.now)
+            fixes = vicon.heard(self.now)
+            if self.core is not None:
+                if fixes:
+                    self.core.vicon(fixes, self.now)
+                self.pump()
 
     def run_until(self, condition: Callable[[], bool], limit: float = 120.0) -> bool:
         """Advance until `condition()` (True) or `limit` seconds have passed (False)."""

@@ -7,7 +7,9 @@ halt, disable or enable a robot, switch strategy, replan (and accept or reject t
 proposal); meanwhile a robot's link may drop for a while, and the manager may die
 and another take the run over from its records. Then the operator cleans up as lab
 staff would: enable every robot, answer a proposal, start, and replan while the run
-is stuck, a few times.
+is stuck, a few times. With Vicon (`vicon`), the manager reads a simulated Vicon stream
+(`MemoryVicon`), the run starts on either position source, the operator switches the
+source at random (every robot or one), and robots are occluded from Vicon for a while.
 
 What is checked is what a visitor and the run's report would say against where the
 robots really are: the run ends; "done" means every robot is at its goal; the
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import math
 import random
+import re
 from dataclasses import dataclass, field, replace
 from typing import List, Tuple
 
@@ -28,7 +31,7 @@ from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_common.wire import Pose
 from fleet_manager.driver import AT_CELL
 from fleet_manager.settings import ManagerSettings
-from memory_fleet import MemoryFleet, lab_fleet
+from memory_fleet import MemoryFleet, MemoryVicon, lab_fleet
 from test_manager_core import lab
 
 #: what the operator may press; "wait" lets the run go on; "link" drops a robot's link, "restart"
@@ -68,14 +71,19 @@ class Session:
     problems: List[str] = field(default_factory=list)
 
 
-def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
+def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
     poses that reach the manager late, eight robots between random cells of the lab's map in a
     third of them (`crowded_lab`); and the operator also presses stop, reset and the reroute mode.
     `dying` (wide sessions): the operator often stops and resets, and the manager often dies on the
-    way back to the starts (draws of its own: the presses stay the seed's)."""
+    way back to the starts (draws of its own: the presses stay the seed's). `vicon`: the manager
+    reads Vicon's stream (100 or 50 frames a second, 5-30 ms late, a few lost), the run starts on
+    either source, and between the presses (and in the clean-up) the operator may switch the source
+    and a robot may be occluded, for up to 3 s or now and then for up to 20 s (draws of its own too);
+    and no two robots may really come closer than the safe distance (the run's count sees only the
+    poses it used)."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -90,20 +98,46 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
         lag = run.choice([0.0, 0.1, 0.3])
         if run.random() < 1 / 3:
             loaded, n = crowded_lab(run), 8
-    f = MemoryFleet(loaded, lab_fleet(n), settings=settings, pose_lag=lag)
+    eye = random.Random(seed * 7919 + 2)  # `vicon`: its own draws, the presses stay the seed's
+    camera = MemoryVicon(random.Random(seed * 7919 + 3), period=eye.choice([0.01, 0.02]),
+                         drops=eye.choice([0.0, 0.02, 0.1])) if vicon else None
+    f = MemoryFleet(loaded, lab_fleet(n), settings=settings, pose_lag=lag, vicon=camera)
     for robot in f.robots.values():
         if rng.random() < 0.3:
             robot.navigator.bumps = {rng.randint(1, 4)}
             robot.navigator.bump_seconds = 0.5
     consoles = [f.console()]  # the operator's console; a new one after a restart
     f.link_up()
-    f.ask(consoles[0], "start")
-    down: set = set()
 
     def press(action: str, **args: object) -> bool:
         answer = f.ask(consoles[-1], action, **args)
         out.log.append((round(f.now, 1), action, dict(args), answer.ok, answer.reason))
         return answer.ok
+
+    if vicon:  # the run starts on either source, once Vicon's first frames are in
+        f.advance(0.1)
+        press("source", source=eye.choice(["robot", "vicon"]))
+    f.ask(consoles[0], "start")
+    down: set = set()
+
+    def switch_source() -> None:
+        """The operator chooses a source: for every robot or for one."""
+        press("source", source=eye.choice(["robot", "vicon"]), robot=eye.choice([None, eye.randint(1, n)]))
+
+    def occlude() -> None:
+        """Someone stands between the cameras and a robot for a while; now and then Vicon loses
+        a robot for longer (a marker knocked off, a robot under a table's edge)."""
+        rid, seconds = eye.randint(1, n), eye.uniform(0.05, 3.0) if eye.random() < 0.8 else eye.uniform(3.0, 20.0)
+        camera.occlude(rid, f.now + seconds)  # type: ignore[union-attr]
+        out.log.append((round(f.now, 1), "occluded", {"robot": rid, "seconds": round(seconds, 2)}, True, ""))
+
+    def own_poses_if_lost(reason: str) -> None:
+        """Robots a refusal says Vicon does not see (or never saw since the manager started): staff
+        choose their own poses for them, as told."""
+        told = re.findall(r"robot (\d+) has not reported a pose", reason)
+        lost = re.search(r"Vicon has not seen robots? ([\d, ]+) since", reason)
+        for rid in sorted({int(r) for r in told + (lost.group(1).split(", ") if lost else [])}):
+            press("source", source="robot", robot=rid)
 
     def links_up() -> None:
         for rid in sorted(down):
@@ -123,6 +157,8 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
         consoles.append(f.console())
         f.advance(0.5)
         out.log.append((round(f.now, 1), "restart", {}, True, f.core.run.phase.reason))
+        if vicon and eye.random() < 0.5:  # a new manager starts on the robots' own poses
+            switch_source()
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
 
@@ -133,6 +169,10 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
             if rng.random() < 0.5:
                 f.link_up(rid)
                 down.discard(rid)
+        if vicon and eye.random() < 0.3:
+            occlude()
+        if vicon and eye.random() < 0.3:
+            switch_source()
         action = rng.choice(PRESSES + WIDE_PRESSES if wide else PRESSES)
         if dying and die.random() < 0.25:  # stop, and reset once the robots stand
             press("stop")
@@ -167,6 +207,8 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
     links_up()
     for _ in range(8):  # the clean-up (dying seeds 1855, 1962: a bumper stops a robot twice, 6 rounds)
         f.advance(1.0)  # a bumper is free again after 0.5 s
+        if vicon and eye.random() < 0.3:  # also while the staff clean up
+            occlude()
         for rid in f.robots:
             if f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent] is not None:
                 if not press("enable", robot=rid) and "put it on a cell" in out.log[-1][4]:
@@ -180,6 +222,8 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
             press("accept", proposal=f.core.run.rerouting.proposal_id)
         if not press("start") and "Go to starts drives" in out.log[-1][4]:
             press("to_starts")  # a robot disabled on the way back to the starts stayed off its start
+        if vicon:
+            own_poses_if_lost(out.log[-1][4])
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
         if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck(), 90) or f.phase == "done":
             break
@@ -187,6 +231,8 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
             continue
         if press("replan"):
             answer_proposal("accept")
+        elif vicon:
+            own_poses_if_lost(out.log[-1][4])
     goals = f.core.run.loaded.goals
     home = {rid: math.hypot(r.navigator.true_pose().x - goals[rid - 1][0],
                             r.navigator.true_pose().y - goals[rid - 1][1]) <= AT_CELL
@@ -202,4 +248,8 @@ def session(seed: int, wide: bool = False, dying: bool = False) -> Session:
             summary.arrived, [rid for rid, at in home.items() if at]))
     if summary.collisions:
         out.problems.append("{} pairs closer than the safe distance".format(summary.collisions))
+    if vicon and not settings.size.cell_sized and f.closest is not None and \
+            f.closest[0] < settings.size.safe_cells - 1e-3:  # the run's own count may miss what Vicon did not see
+        out.problems.append("robots {} and {} came {:.2f} cells apart at {:.1f} s (safe: {:.2f})".format(
+            f.closest[1], f.closest[2], f.closest[0], f.closest[3], settings.size.safe_cells))
     return out
