@@ -111,6 +111,19 @@ def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> Non
     assert not bad, bad
 
 
+def test_a_replan_plans_a_robot_from_a_cell_walled_off_for_it_after_a_restart() -> None:
+    """Seed 484: robot 1 is out between (4, 8) and (5, 8), nearer to (5, 8), and the plan has it on
+    (4, 8); the manager that takes the run over walls off (5, 8) (below). A replan plans robot 1
+    from the cell it stands nearer to, (5, 8): the wall is not kept there. Before, the planner
+    refused the problem ("agent 0: current cell (5, 8) is on a blocked cell")."""
+    assert not session(484).problems
+
+
+def test_a_replan_from_a_walled_cell_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_walls_but", lambda self, current: self.run.walls)
+    assert _found([484])
+
+
 def test_a_way_home_through_the_cell_a_robot_out_leans_into_after_a_restart_is_caught(monkeypatch) -> None:
     """Dying seed 92: robot 4, stopped between two cells by its bumper, is out, and a replan plans
     the others around it (the cell it leans into walled off) and leaves it there. The manager dies

@@ -205,8 +205,8 @@ class RunCore:
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = stood_on(run.grid, self.fleet.robots, run.positions())
             on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
-            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), run.walls)
             current = [on.get(a, c) for a, c in enumerate(here)]
+            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), self._walls_but(current))
             shared = self._sharing(current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.replanner.resolved()
@@ -324,6 +324,12 @@ class RunCore:
         self.out.desk.bump("replan requested")
         self.out.tell("plan", None, "resumed from {}: {}; a replan from where they stand follows".format(
             folder, "; ".join(told)))
+
+    def _walls_but(self, current: List[Coord]) -> Set[Coord]:
+        """The run's walls a replan keeps off, but the cells it plans robots from (`current`): a
+        wall a resumed manager put up where a robot out leans (`_wall_out_between`) is that robot's
+        own cell once it stands nearer to it than to the one the plan had it on (seed 484)."""
+        return self.run.walls - {tuple(c) for c in current}
 
     def _wall_out_between(self, keep: Set[Coord]) -> None:
         """A resumed run's robots that are out and stand between two cells with no move left in the
