@@ -22,7 +22,9 @@ from fleet_common.wire import Pose
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.planning.problem import InvalidProblemError
+from fleet_common.execution import reroute
 from fleet_manager import core
+from fleet_manager import run as run_module
 from fleet_manager.run_phase import TRANSITIONS
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryConsole, MemoryFleet, lab_fleet
@@ -498,6 +500,35 @@ def test_a_robot_left_away_and_enabled_while_a_replan_waits_is_given_its_way_hom
     assert f.phase == "done" and f.at_goals() and f.core.run.plan_id == 4  # the way home: no replan
     assert "robot 2 drives to its goal: plan 4 takes it there around the others" in [n.text for n in ops.notices()]
     assert f.core.summary().lines()[0] == "arrived: 5/5" and min(seen) >= TURTLEBOT2.safe_cells - 0.01
+
+
+def test_a_way_home_its_own_checks_refuse_is_not_handed_over_and_the_manager_goes_on(monkeypatch):
+    """A way home whose plan the validation refuses (never, by construction; a wall a resumed
+    manager put up on a cell a kept path crosses could) is said and not handed over, whether asked
+    for by enable or by the manager's own retry each plan step: nothing raises in the loop."""
+    monkeypatch.setattr(reroute, "validate_plan", lambda *args, **kwargs: _Refused())
+    f, ops, agent = left_away_by_a_replan()
+    f.advance(2.0)
+    answer = f.ask(ops, "enable", robot=2)
+    assert answer.ok and answer.reason == ("plan 2 has no way to its goal for robot 2: a way home's plan is not "
+                                           "valid: a test's refusal; replan to take it home"), answer.reason
+    f.advance(3.0)  # the retries, every plan step
+    assert f.phase == "running" and agent in f.core.run.stranded and f.core.run.plan_id == 2
+    replanned(f, ops)
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+
+
+def test_a_way_home_refused_by_its_checks_raising_in_the_loop_is_caught(monkeypatch):
+    monkeypatch.setattr(reroute, "validate_plan", lambda *args, **kwargs: _Refused())
+    monkeypatch.setattr(run_module, "RerouteError", type("NeverRaised", (Exception,), {}))
+    f, ops, agent = left_away_by_a_replan()
+    f.advance(2.0)
+    with pytest.raises(reroute.RerouteError):
+        f.ask(ops, "enable", robot=2)
+
+
+class _Refused:
+    ok, errors = False, ["a test's refusal"]
 
 
 def test_a_robot_left_away_and_enabled_after_the_others_are_home_drives_home_at_once():

@@ -30,7 +30,7 @@ from fleet_common.errors import FleetError
 from fleet_common.execution import Disabled, Engine, EventError, Resume, RobotFailed
 from fleet_common.execution.handover import HandoverError, hand_over
 from fleet_common.execution.reorder import replay as replay_passes
-from fleet_common.execution.reroute import Reroute, RerouteRule, way_home
+from fleet_common.execution.reroute import Reroute, RerouteError, RerouteRule, way_home
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
@@ -529,8 +529,11 @@ class Run:
                   and self.engine.run.out[r.agent] is None and on_centre(r)]
         found = None
         for group in ([robot] + others, [robot]) if others else ([robot],):
-            found = way_home(self.engine, self.rerouting.maps, now,
-                             {r.agent: tuple(self.loaded.goals[r.agent]) for r in group})  # type: ignore[misc]
+            try:
+                found = way_home(self.engine, self.rerouting.maps, now,
+                                 {r.agent: tuple(self.loaded.goals[r.agent]) for r in group})  # type: ignore[misc]
+            except RerouteError as err:  # a plan its own checks refuse: said, nothing handed over
+                return str(err)  # (the caller is the loop: a request, or a tick)
             if found is not None:
                 break
         if found is None:
