@@ -111,17 +111,27 @@ def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> Non
     assert not bad, bad
 
 
-def test_a_replan_plans_a_robot_from_a_cell_walled_off_for_it_after_a_restart() -> None:
-    """Seed 484: robot 1 is out between (4, 8) and (5, 8), nearer to (5, 8), and the plan has it on
-    (4, 8); the manager that takes the run over walls off (5, 8) (below). A replan plans robot 1
-    from the cell it stands nearer to, (5, 8): the wall is not kept there. Before, the planner
-    refused the problem ("agent 0: current cell (5, 8) is on a blocked cell")."""
-    assert not session(484).problems
+def test_a_robot_out_between_cells_enabled_after_a_restart_finishes_its_move() -> None:
+    """Wide seed 2502: robots 2 and 8 are stopped between two cells by their bumpers, a replan
+    leaves them there, the manager dies, another takes over, and the operator enables both. A
+    replan then has robot 8 finish the move it is half through, as it would without the restart.
+    A first version of the fix below walled off the cell it leans into for the replan too: robot 8
+    was planned from its other cell and drove across a corner, 0.56 cells from robot 2 (the safe
+    distance 0.65). And seed 484 (narrow), where that wall stood on the cell a robot was planned
+    from, and the planner refused the problem."""
+    bad = [(s.seed, s.problems) for s in (session(2502, wide=True), session(484)) if s.problems]
+    assert not bad, bad
 
 
-def test_a_replan_from_a_walled_cell_is_caught(monkeypatch) -> None:
-    monkeypatch.setattr(core.RunCore, "_walls_but", lambda self, current: self.run.walls)
-    assert _found([484])
+def test_a_robot_kept_from_finishing_its_move_after_a_restart_is_caught(monkeypatch) -> None:
+    leaning = core.RunCore._out_leaning_into
+
+    def also_walled(self, keep):  # the first version: the replan kept off them as well
+        leans = leaning(self, keep)
+        self.run.walls |= leans
+        return leans
+    monkeypatch.setattr(core.RunCore, "_out_leaning_into", also_walled)
+    assert _found([2502], wide=True)
 
 
 def test_a_way_home_through_the_cell_a_robot_out_leans_into_after_a_restart_is_caught(monkeypatch) -> None:
@@ -130,8 +140,9 @@ def test_a_way_home_through_the_cell_a_robot_out_leans_into_after_a_restart_is_c
     and another takes the run over: the plan holds robot 4's cell, and the wall went with the old
     manager. At Start, robot 2, which the plan also left away from its goal, was given its way home
     through the cell robot 4 leans into: 0.5 cells from robot 4's centre, the safe distance 0.65.
-    A resumed manager now walls it off again (`RunCore._wall_out_between`; fixed 2026-11-26)."""
-    monkeypatch.setattr(core.RunCore, "_wall_out_between", lambda self, keep: None)
+    A resumed manager's reroutes and ways home now keep off it again (`RunCore._out_leaning_into`;
+    fixed 2026-11-26)."""
+    monkeypatch.setattr(core.RunCore, "_out_leaning_into", lambda self, keep: set())
     assert session(92, wide=True, dying=True).problems
 
 

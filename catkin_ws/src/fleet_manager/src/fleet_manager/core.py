@@ -206,7 +206,7 @@ class RunCore:
             here = stood_on(run.grid, self.fleet.robots, run.positions())
             on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
             current = [on.get(a, c) for a, c in enumerate(here)]
-            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), self._walls_but(current))
+            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), run.walls)
             shared = self._sharing(current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.replanner.resolved()
@@ -285,7 +285,9 @@ class RunCore:
             if o.cell is not None:
                 run.standing[o.robot.agent] = o.cell
         keep = set(run.positions())
-        self._wall_out_between(keep)
+        leans = self._out_leaning_into(keep)
+        if leans:
+            run.rerouting.keep_to(_without(run.grid, run.walls | leans))
         if not off:
             run.say("resumed from {}: every robot where the run left it; Start drives on".format(folder))
             self.out.tell("run", None, "resumed from {}: every robot stands where the run left it".format(folder))
@@ -307,7 +309,7 @@ class RunCore:
                                     "around; put it on a cell and enable it", now)
                 told.append("{}: between cells, held and planned around".format(where))
         if run.walls:  # reroutes keep off them too, whether the replan is accepted or not
-            run.rerouting.keep_to(_without(run.grid, run.walls))
+            run.rerouting.keep_to(_without(run.grid, run.walls | leans))
         near = [r for r in self.fleet if r.flight is not None and r.flight.kind == "drive"
                 and r.pose is not None and r not in [o.robot for o in off]
                 and any(passes_near((r.pose.x, r.pose.y), (r.flight.target[0], r.flight.target[1]), o.pose, reach)
@@ -325,30 +327,27 @@ class RunCore:
         self.out.tell("plan", None, "resumed from {}: {}; a replan from where they stand follows".format(
             folder, "; ".join(told)))
 
-    def _walls_but(self, current: List[Coord]) -> Set[Coord]:
-        """The run's walls a replan keeps off, but the cells it plans robots from (`current`): a
-        wall a resumed manager put up where a robot out leans (`_wall_out_between`) is that robot's
-        own cell once it stands nearer to it than to the one the plan had it on (seed 484)."""
-        return self.run.walls - {tuple(c) for c in current}
-
-    def _wall_out_between(self, keep: Set[Coord]) -> None:
-        """A resumed run's robots that are out and stand between two cells with no move left in the
-        plan (a bumper stopped them in a move, a replan planned around them and left them there):
-        the plan holds the cell each has, not the one it leans into, which the manager that made
-        the plan walled off (`replanning.walled`) and whose walls went with it. Walled off again
-        (but cells robots stand on, `keep`), so that no reroute or way home of this manager sends
-        a robot there (`Rerouting.keep_to`). (One with a move left, into that cell, has it held by
-        the engine: `reroute_plan._hold_targets`.)"""
+    def _out_leaning_into(self, keep: Set[Coord]) -> Set[Coord]:
+        """For a resumed run: the cells that robots out, standing between two cells with no move
+        left in the plan (a bumper stopped them in a move, a replan planned around them and left
+        them there), lean into, but cells robots stand on (`keep`). The plan holds the cell each
+        has, not that one, which the manager that made the plan walled off (`replanning.walled`)
+        for its reroutes, and whose walls went with it: this manager's reroutes and ways home keep
+        off them too (`Rerouting.keep_to`; dying seeds 92 and 169: a way home through one). Not
+        the run's `walls`: a replan walls them off itself, but for a robot enabled since, which
+        finishes its move into it (`replanning.going_on`; wide seed 2502: kept from it, it was
+        planned from its other cell and drove across the corner). A robot out with a move left,
+        into that cell, has it held by the engine (`reroute_plan._hold_targets`)."""
         run = self.run
         held = run.positions()
         state = run.engine.run
+        leans: Set[Coord] = set()
         for robot in self.fleet:
             a = robot.agent
             far = leans_into(robot, held[a]) if state.out[a] is not None and state.finished_agent(a) else None
             if far is not None and run.grid.in_bounds(far) and far not in keep:
-                run.walls.add(far)
-        if run.walls:
-            run.rerouting.keep_to(_without(run.grid, run.walls))
+                leans.add(far)
+        return leans
 
     def plan_ready(self, job_id: int, result: Optional[ReplanResult], error: Optional[str],
                    now: float) -> None:
