@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from fleet_manager import core, operator
 from fleet_manager.robot import VICON, Robot
+from fleet_manager import run as run_module
 from fleet_manager.run import Run
 from operator_sessions import session
 
@@ -132,6 +133,21 @@ def test_a_robot_kept_from_finishing_its_move_after_a_restart_is_caught(monkeypa
         return leans
     monkeypatch.setattr(core.RunCore, "_out_leaning_into", also_walled)
     assert _found([2502], wide=True)
+
+
+def test_robots_halted_in_the_middle_of_their_moves_are_not_given_ways_home() -> None:
+    """Vicon session 2283: the operator halts a train (robot 1 0.18 cells past its cell towards
+    robot 8's, robot 8 0.18 cells out of it), a replan leaves every robot where it stands, and all
+    are enabled and started: each was given a way home from its cell as if it stood on its centre,
+    and robot 8's first drive, into the cell robot 1 was leaving the other way, cut the corner, 0.59
+    cells from robot 1 (the safe distance 0.65). A way home now needs the robot within its own
+    arrival tolerance of its cell's centre (`run.ON_CENTRE`); the others are replanned."""
+    assert not session(2283, wide=True, vicon=True).problems
+
+
+def test_ways_home_from_halfway_through_a_move_are_caught(monkeypatch) -> None:
+    monkeypatch.setattr(run_module, "ON_CENTRE", 0.3)  # before: AT_CELL
+    assert session(2283, wide=True, vicon=True).problems
 
 
 def test_a_way_home_through_the_cell_a_robot_out_leans_into_after_a_restart_is_caught(monkeypatch) -> None:

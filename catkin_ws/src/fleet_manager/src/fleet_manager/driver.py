@@ -57,7 +57,7 @@ from .following import Following
 from .outbox import Outbox
 from .robot import FAULT, HALTED, RECOVER, InFlight, Robot, Seen
 
-__all__ = ["Driver", "TURN_TOLERANCE", "AT_CELL"]
+__all__ = ["Driver", "TURN_TOLERANCE", "AT_CELL", "MADE_IT"]
 
 #: A robot facing its next cell within this angle (radians) drives without a turn first.
 TURN_TOLERANCE = math.radians(20.0)

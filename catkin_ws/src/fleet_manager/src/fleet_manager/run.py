@@ -40,7 +40,7 @@ from fleet_common.runlog.records import FORMAT_VERSION, plan_file, size_fields
 from fleet_common.robot_size import STOP_OVERSHOOT_M
 from fleet_common.runlog.summary import SummaryBuilder
 
-from .driver import AT_CELL, Driver
+from .driver import AT_CELL, MADE_IT, Driver
 from .following import Following
 from .outbox import NewRunFolder, Outbox, PlanJob, REROUTE, ResumeRunFolder, WriteFile
 from .replanning import Replanner, going_on, prefixed, walled
@@ -57,6 +57,10 @@ __all__ = ["Run", "PLAN", "TO_STARTS", "NO_WAY_HOME"]
 PLAN, TO_STARTS = "plan", "to-starts"
 #: `Run.take_home`'s answer when the others leave no way (a robot out in it, one parked on it)
 NO_WAY_HOME = "no way to its goal around the others now"
+#: A robot given a way home drives on at once, followed and following as if it stood on its cell's
+#: centre: it must, within its own arrival tolerance. `AT_CELL` (0.3 cells) would let one halted
+#: in the middle of its move count, and its first drive would cut a corner (Vicon session 2283).
+ON_CENTRE = MADE_IT
 
 
 def action_counts(plan: Plan) -> List[int]:
@@ -514,14 +518,14 @@ class Run:
         given a way to its goal around the others while the run goes on (`reroute.way_home`, handed
         over as a reroute), and with it every other robot taking part that the plan leaves away
         from its goal (it may have had no way then, this one in it); why not (nothing changed).
-        Only robots standing on the centre of the cell the run has them on, a pose taken since
+        Only robots standing on the centre of the cell the run has them on (`ON_CENTRE`), a pose taken since
         their last reply saying so: one between two cells, or carried elsewhere, a replan plans
         from where it stands (`replanning.going_on`, `stood_on`)."""
         cells = self.positions()
 
         def on_centre(r: Robot) -> bool:
             here, pose = cells[r.agent], r.pose
-            return pose is not None and r.pose_settled() and math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL
+            return pose is not None and r.pose_settled() and math.hypot(pose.x - here[0], pose.y - here[1]) <= ON_CENTRE
 
         if not on_centre(robot):
             return "it does not stand on the centre of {}".format(self.loaded.show(cells[robot.agent]))
