@@ -118,26 +118,35 @@ def test_reset_at_the_end_of_a_run_whose_poses_come_late_plans_from_the_goals():
     assert f.run_until(lambda: ready(f)) and f.core.summary().collisions == 0
 
 
-def test_reset_after_a_halt_drives_the_halted_robots_back_to_their_starts_too():
-    """The operator halts the run (the robots stop where they are and hold until Start) and resets
-    it: the way to the starts is driven at once, as Start would, halted robots included. Before,
-    they stayed halted on a way that then never ended, Start refused as "already running" (wide
-    operator sessions, seed 1596)."""
+def eight_moves_in(halt: bool):
+    """The lab run started, and halted (or stopped) once its robots have made 8 moves in all."""
     f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
     ops = f.console()
     f.link_up()
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
-    assert f.ask(ops, "halt").ok
+    assert f.ask(ops, "halt" if halt else "stop").ok
+    return f, ops
+
+
+def on_their_starts(f: MemoryFleet) -> bool:
+    return all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
+               for r, s in zip(f.robots.values(), lab().starts))
+
+
+def test_reset_after_a_halt_drives_the_halted_robots_back_to_their_starts_too():
+    """The operator halts the run (the robots stop where they are and hold until Start) and resets
+    it: the way to the starts is driven at once, as Start would, halted robots included. Before,
+    they stayed halted on a way that then never ended, Start refused as "already running" (wide
+    operator sessions, seed 1596)."""
+    f, ops = eight_moves_in(halt=True)
     assert f.run_until(lambda: not f.core.run.driver.moving, 5)
     assert any(r.hold == "halted" for r in f.core.fleet)
     f.advance(0.2)  # poses taken since the robots stopped come in
     answer = f.ask(ops, "reset")
     assert answer.ok, answer.reason
     assert f.run_until(lambda: ready(f), 60)
-    starts = lab().starts
-    assert all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
-               for r, s in zip(f.robots.values(), starts))
+    assert on_their_starts(f)
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
 
@@ -148,12 +157,7 @@ def test_reset_pressed_right_after_a_halt_waits_for_the_robots_to_stand_and_then
     robots drive back to their starts at a safe distance and the plan waits for Start. Before,
     Reset was refused ("some robots are still finishing a move; wait until they stand", then
     "robot 3 stopped a moment ago: no pose since yet") and had to be pressed again."""
-    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
-    ops = f.console()
-    f.link_up()
-    assert f.ask(ops, "start").ok
-    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
-    assert f.ask(ops, "halt").ok
+    f, ops = eight_moves_in(halt=True)
     answer = f.ask(ops, "reset")
     assert answer.ok and answer.reason == ("Reset once every robot stands (some are finishing a move or have "
                                            "just stopped)"), answer.reason
@@ -161,8 +165,7 @@ def test_reset_pressed_right_after_a_halt_waits_for_the_robots_to_stand_and_then
     told = [n.text for n in ops.notices()]
     assert ("Reset: the robots drive back to their starts first (planning the way), then {} waits for Start "
             "in a new run folder".format(lab().title)) in told, told
-    assert all(abs(r.navigator.true_pose().x - s[0]) < 1e-6 and abs(r.navigator.true_pose().y - s[1]) < 1e-6
-               for r, s in zip(f.robots.values(), lab().starts))
+    assert on_their_starts(f)
     assert f.core.summary().collisions == 0
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done") and f.at_goals()
@@ -171,12 +174,8 @@ def test_reset_pressed_right_after_a_halt_waits_for_the_robots_to_stand_and_then
 def test_a_reset_waiting_for_the_robots_to_stand_is_called_off_by_start():
     """Stop, Reset while the robots finish their moves, then Start before they stand: the operator
     changed their mind. The Reset is called off, says why, and the run goes on to its end."""
-    f = MemoryFleet(lab(), lab_fleet(), settings=ManagerSettings(step_time=0.5))
-    ops = f.console()
-    f.link_up()
-    assert f.ask(ops, "start").ok
-    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 8)
-    assert f.ask(ops, "stop").ok and f.core.run.driver.moving
+    f, ops = eight_moves_in(halt=False)
+    assert f.core.run.driver.moving
     assert f.ask(ops, "reset").ok
     assert f.ask(ops, "start").ok
     f.advance(0.1)

@@ -30,6 +30,17 @@ def with_vicon() -> MemoryFleet:
     return f
 
 
+def started_with_vicon(robot_3_moves: int):
+    """`with_vicon`, the first poses in, started, until robot 3 has made `robot_3_moves` moves."""
+    f = with_vicon()
+    ops = f.console()
+    f.link_up()
+    f.advance(0.5)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: completed(f, 3) >= robot_3_moves, 30)
+    return f, ops
+
+
 def completed(f: MemoryFleet, rid: int) -> int:
     return f.core.run.engine.run.completed[f.core.fleet.by_id[rid].agent]
 
@@ -39,12 +50,7 @@ def test_the_way_to_the_starts_is_planned_from_where_a_robot_vicon_lost_really_s
     resets it (the robots drive back to their starts first): the way starts from the cell robot
     3's replies put it on, not from the one Vicon last saw it on, and every robot reaches its start
     at a safe distance."""
-    f = with_vicon()
-    ops = f.console()
-    f.link_up()
-    f.advance(0.5)
-    assert f.ask(ops, "start").ok
-    assert f.run_until(lambda: completed(f, 3) >= 2, 30)
+    f, ops = started_with_vicon(robot_3_moves=2)
     last_seen = f.core.fleet.by_id[3].vicon.pose
     f.vicon.occlude(3, FOR_EVER)
     assert f.run_until(lambda: completed(f, 3) >= 5, 30)
@@ -65,12 +71,7 @@ def test_start_waits_for_vicon_to_see_a_robot_it_lost_and_says_so():
     """After a reset drove the robots back to their starts, Vicon has not seen robot 3 since before
     its last move: Start says so and what the operator can do, and goes once Vicon sees robot 3
     again."""
-    f = with_vicon()
-    ops = f.console()
-    f.link_up()
-    f.advance(0.5)
-    assert f.ask(ops, "start").ok
-    assert f.run_until(lambda: completed(f, 3) >= 3, 30)
+    f, ops = started_with_vicon(robot_3_moves=3)
     assert f.ask(ops, "stop").ok
     f.vicon.occlude(3, FOR_EVER)
     assert f.run_until(lambda: not f.core.run.driver.moving, 10)
