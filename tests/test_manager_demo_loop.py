@@ -21,7 +21,9 @@ from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.planning import solve
 from fleet_common.formats.mapfile import read_map
 from fleet_common.wire import Pose
+from fleet_common.execution.following import point_at
 from fleet_manager import operator
+from fleet_manager.following import Following
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
 
@@ -355,6 +357,50 @@ def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goa
         assert answer.ok or answer.reason == refused[action]
         f.advance(wait)
     assert f.core.summary().collisions == 0
+
+
+#: found by the test above (2026-11-27): a halt on the way to the starts, and Reset at once
+HALT_ON_THE_WAY = [("start", 2.0), ("reset", 1.875), ("start", 1.0), ("start", 1.0625), ("halt", 0.0), ("reset", 1.0)]
+
+
+def closest_after(steps) -> MemoryFleet:
+    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
+    ops = f.console()
+    f.link_up()
+    for action, wait in steps:
+        f.ask(ops, action)
+        f.advance(wait)
+    f.advance(3.0)
+    return f
+
+
+def test_a_follower_keeps_its_distance_from_a_leader_halted_just_into_a_move():
+    """Robot 2 is halted 0.13 cells into a move towards robot 1 on the way to the starts; the
+    Reset plans it from its cell (within `AT_CELL` of the centre) out the other side, and robot 1
+    follows it into that cell. Its hold point kept the safe distance from the cell's centre, not
+    from robot 2, and it stopped 0.55 cells from it. The leader's path now starts where it
+    stands (`Following._leader_path`)."""
+    f = closest_after(HALT_ON_THE_WAY)
+    size = f.core.settings.size
+    assert f.closest is not None and f.closest[0] >= size.safe_cells - 1e-3, f.closest
+    assert f.core.summary().collisions == 0
+
+
+def test_a_follower_held_from_the_leaders_cell_centre_is_caught(monkeypatch):
+    def from_the_centre(self, leader, lead):  # before: the leader on the line of its move
+        run, table = self.engine.run, self.engine.table
+        a0 = min(run.first[leader] + run.completed[leader], lead)
+        src, dst = table.coord(run.src[a0]), table.coord(run.dst[a0])
+        robot, f = self.fleet[leader], 0.0
+        pose, flight = robot.own, robot.flight
+        if (pose is not None and flight is not None and flight.kind == "drive"
+                and flight.index == a0 - run.first[leader] and robot.own_current == flight.id):
+            dx, dy = dst[0] - src[0], dst[1] - src[1]
+            f = min(1.0, max(0.0, (pose.pose.x - src[0]) * dx + (pose.pose.y - src[1]) * dy))
+        return [point_at(src, dst, f)] + [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
+    monkeypatch.setattr(Following, "_leader_path", from_the_centre)
+    f = closest_after(HALT_ON_THE_WAY)
+    assert f.closest[0] < f.core.settings.size.safe_cells - 1e-3 and f.core.summary().collisions
 
 
 def test_start_at_the_end_of_the_way_waits_for_the_poses_taken_there_and_says_so():

@@ -9,8 +9,11 @@ the follower's move from which it stays at least the safe distance (diameter
 (`fleet_common.execution.following.hold_fraction`). Where the leader is comes
 from its last reported pose, read along the move the engine knows it is
 making (not before its start: it completed the move before; not past its end:
-it has not completed this one). Each new pose of a leader moves its followers'
-hold points on (a `Release`, sent when the point moved on by `STEP` or more),
+it has not completed this one), and the point it really stands on or drives from
+if that is off the line (a robot halted just into a move, planned from its cell since, leaves
+the cell from where it stands: a follower held from the cell's centre came 0.55 cells from it;
+its drive, from there to the end of its move, is part of its path). Each new pose of a leader
+moves its followers' hold points on (a `Release`, sent when the point moved on by `STEP` or more),
 and its completion of the move out of the cell lets them drive to the end.
 
 Why it is safe, whatever the delays and latencies. A leader only ever moves
@@ -126,9 +129,17 @@ class Following:
         src, dst = table.coord(run.src[a0]), table.coord(run.dst[a0])
         robot = self.fleet[leader]
         f = 0.0
+        here: Optional[Point] = None  # where it stands or drives from, off the line of its move
         pose, flight = robot.own, robot.flight
         if (pose is not None and flight is not None and flight.kind == "drive"
                 and flight.index == a0 - run.first[leader] and robot.own_current == flight.id):
             dx, dy = dst[0] - src[0], dst[1] - src[1]
             f = min(1.0, max(0.0, (pose.pose.x - src[0]) * dx + (pose.pose.y - src[1]) * dy))
-        return [point_at(src, dst, f)] + [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
+            here = (pose.pose.x, pose.pose.y)
+        elif (flight is None or flight.kind == "turn") and robot.pose is not None and robot.pose_settled():
+            here = (robot.pose.x, robot.pose.y)
+        start = point_at(src, dst, f)
+        ahead = [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
+        if here is None or math.hypot(here[0] - start[0], here[1] - start[1]) < 1e-6:
+            return [start] + ahead
+        return [start, here] + ahead
