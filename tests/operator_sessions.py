@@ -13,8 +13,10 @@ source at random (every robot or one), and robots are occluded from Vicon for a 
 
 What is checked is what a visitor and the run's report would say against where the
 robots really are: the run ends; "done" means every robot is at its goal; the
-summary counts as arrived exactly the robots at their goals; no two robots came
-closer than the safe distance. Used by tests/test_manager_operator_sessions.py
+summary counts as arrived exactly the robots at their goals; the run counted no pair
+closer than the safe distance, and no two robots really came closer (their true
+poses, every 50 ms of the fleet's clock; a TurtleBot's safe distance when the run
+models them as large as a cell). Used by tests/test_manager_operator_sessions.py
 (some seeds) and bench/operator_sessions.py (many).
 """
 from __future__ import annotations
@@ -42,15 +44,21 @@ PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "str
 WIDE_PRESSES = ("stop", "reroute", "reset")
 
 
+def carry_to(f: MemoryFleet, rid: int, x: float, y: float) -> None:
+    """Lab staff put robot `rid` down at (x, y), once it stands still (it may be turning in place)."""
+    navigator = f.robots[rid].navigator
+    f.run_until(lambda: not navigator.moving, 5)
+    navigator._rest = Pose(x, y, navigator.true_pose().theta)
+
+
 def carry_to_a_cell(f: MemoryFleet, rid: int) -> None:
     """Lab staff put robot `rid` (standing still) on the nearest free cell nobody stands on."""
-    navigator = f.robots[rid].navigator
-    at = navigator.true_pose()
+    at = f.robots[rid].navigator.true_pose()
     taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y))
              for other, r in f.robots.items() if other != rid}
     cells = [c for c in f.core.run.grid.free_cells() if tuple(c) not in taken]
     x, y = min(cells, key=lambda c: math.hypot(c[0] - at.x, c[1] - at.y))
-    navigator._rest = Pose(float(x), float(y), at.theta)
+    carry_to(f, rid, float(x), float(y))
 
 
 def crowded_lab(rng: random.Random) -> LoadedPlan:
@@ -71,7 +79,8 @@ class Session:
     problems: List[str] = field(default_factory=list)
 
 
-def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False) -> Session:
+def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False,
+            carrying: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
@@ -83,7 +92,9 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     either source, and between the presses (and in the clean-up) the operator may switch the source
     and a robot may be occluded, for up to 3 s or now and then for up to 20 s (draws of its own too);
     and no two robots may really come closer than the safe distance (the run's count sees only the
-    poses it used)."""
+    poses it used). `carrying`: between the presses lab staff now and then pick up a robot standing
+    still (most often one that is out) and put it down on a free cell, or between two, well away
+    from the others, and sometimes back where it was (draws of their own too)."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -119,6 +130,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         press("source", source=eye.choice(["robot", "vicon"]))
     f.ask(consoles[0], "start")
     down: set = set()
+    taken_from: dict = {}  # `carrying`: robot -> where staff picked it up
 
     def switch_source() -> None:
         """The operator chooses a source: for every robot or for one."""
@@ -147,7 +159,8 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     def answer_proposal(choice: str) -> None:
         if f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20):
             f.advance(0.1)  # the console sees the State that names the proposal
-            press(choice, proposal=f.core.run.replanner.proposal_id)
+            if press(choice, proposal=f.core.run.replanner.proposal_id) and choice == "accept":
+                taken_from.clear()  # (`carrying`) the run has every robot where it stands now
 
     def restart(dead: float) -> None:
         links_up()
@@ -162,6 +175,86 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
 
+    hand = random.Random(seed * 7919 + 4)  # `carrying`: its own draws, the presses stay the seed's
+
+    def clear(rid: int, x: float, y: float) -> bool:
+        """No other robot stands within the safe distance of where staff would put robot `rid`."""
+        return all(math.hypot(r.navigator.true_pose().x - x, r.navigator.true_pose().y - y) >= TURTLEBOT2.safe_cells
+                   for o, r in f.robots.items() if o != rid)
+
+    def pick_up() -> None:
+        """Lab staff carry a robot standing still elsewhere, or back to where they took it from,
+        while the run is under way; they put it down where they see no robot near, none driving
+        towards it (a robot drives up to two cells a second here: 2.5 cells away, it is 1.5 away
+        when the run has seen the robot put down and stopped it)."""
+        if f.phase not in ("running", "paused", "stopped"):
+            return
+        still = [rid for rid, r in f.robots.items() if not r.navigator.moving and rid not in down]
+        # (not one whose link is down: nothing tells the manager where it is until it is back up)
+        back = [rid for rid in still if rid in taken_from and clear(rid, *taken_from[rid])]
+        if back and hand.random() < 0.3:
+            rid = hand.choice(back)
+            carry_to(f, rid, *taken_from.pop(rid))
+            out.log.append((round(f.now, 1), "carried back", {"robot": rid}, True, ""))
+            return
+        if not still:
+            return
+        out_ = [rid for rid in still if f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent] is not None]
+        rid = hand.choice(out_ if out_ and hand.random() < 0.7 else still)
+        others = [(r.navigator.true_pose(), 2.5 if r.navigator.moving else 1.5)
+                  for o, r in f.robots.items() if o != rid]
+        cells = [c for c in f.core.run.grid.free_cells()
+                 if all(math.hypot(c[0] - p.x, c[1] - p.y) >= away for p, away in others)]
+        if not cells:
+            return
+        x, y = hand.choice(cells)
+        grid = f.core.run.grid
+        sides = [(dx, dy) for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))
+                 if grid.in_bounds((x + dx, y + dy)) and grid.is_free((x + dx, y + dy))]
+        if sides and hand.random() < 0.3:  # put down between two free cells
+            dx, dy = hand.choice(sides)
+            x, y = x + dx / 2, y + dy / 2
+        at = f.robots[rid].navigator.true_pose()
+        taken_from.setdefault(rid, (at.x, at.y))
+        carry_to(f, rid, float(x), float(y))
+        out.log.append((round(f.now, 1), "carried", {"robot": rid, "to": (x, y)}, True, ""))
+        f.advance(0.2)  # staff step back (a link dropped the moment it is put down: nothing can see it)
+
+    def put_right(reason: str) -> bool:
+        """Robots a refusal says were moved by hand: put on a cell if told so; then replanned from
+        where they stand while the run is under way and a replan may be made, else put back where
+        the run has them."""
+        for rid in map(int, re.findall(r"robot (\d+) stands at [^:;]*not on a free cell's centre", reason)):
+            carry_to_a_cell(f, rid)
+            out.log.append((round(f.now, 1), "carried", {"robot": rid}, True, ""))
+            f.advance(0.6)
+            return True  # told again what is left
+        moved = [int(r) for r in re.findall(r"robot (\d+) stands at [^:;]*where the run has it", reason)]
+        if not moved:
+            return False
+        if f.phase in ("running", "paused", "stopped") and (press("replan") or (
+                "or halt first" in out.log[-1][4] and press("halt") and press("replan"))):  # as told
+            answer_proposal("accept")
+            return True
+        halfway = re.match(r"robots? ([\d, ]+) stopped between two cells after a fault", out.log[-1][4])
+        if halfway and not all(clear(rid, *taken_from.get(rid, (math.inf, math.inf))) for rid in moved):
+            for rid in map(int, halfway.group(1).split(", ")):  # they cannot finish: Start is refused
+                press("disable", robot=rid)
+            if press("replan"):
+                answer_proposal("accept")
+                return True
+        held = f.core.run.positions()  # (no replan now: robots between cells must finish first)
+        for rid in moved:  # back where it was, as the console says (the run has it on that cell)
+            spot = taken_from.pop(rid, tuple(map(float, held[f.core.fleet.by_id[rid].agent])))
+            if not clear(rid, *spot):  # somebody was put down there since: on a cell of its own
+                carry_to_a_cell(f, rid)
+                out.log.append((round(f.now, 1), "carried", {"robot": rid}, True, ""))
+                continue
+            carry_to(f, rid, *spot)
+            out.log.append((round(f.now, 1), "carried back", {"robot": rid}, True, ""))
+        f.advance(0.6)  # its next poses come in (up to 0.3 s late in wide sessions)
+        return True
+
     die = random.Random(seed * 7919 + 1)  # `dying`: its own draws, the presses stay the seed's
     for _ in range(rng.randint(3, 12)):
         f.advance(rng.uniform(0.2, 3.0))
@@ -173,6 +266,8 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             occlude()
         if vicon and eye.random() < 0.3:
             switch_source()
+        if carrying and hand.random() < 0.2:
+            pick_up()
         action = rng.choice(PRESSES + WIDE_PRESSES if wide else PRESSES)
         if dying and die.random() < 0.25:  # stop, and reset once the robots stand
             press("stop")
@@ -216,12 +311,16 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
                     out.log.append((round(f.now, 1), "carried", {"robot": rid}, True, ""))
                     f.advance(0.3)  # its next poses come in
                     press("enable", robot=rid)
+                if put_right(out.log[-1][4]):  # replanned from where it stands, or put back
+                    press("enable", robot=rid)
         if f.core.run.replanner.proposal_id is not None:
             answer_proposal("accept")
         if f.core.run.rerouting.proposal_id is not None:  # a reroute proposed (rerouting on "propose")
             press("accept", proposal=f.core.run.rerouting.proposal_id)
         if not press("start") and "Go to starts drives" in out.log[-1][4]:
             press("to_starts")  # a robot disabled on the way back to the starts stayed off its start
+        if put_right(out.log[-1][4]):
+            press("start")
         if vicon:
             own_poses_if_lost(out.log[-1][4])
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
@@ -233,6 +332,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             answer_proposal("accept")
         elif vicon:
             own_poses_if_lost(out.log[-1][4])
+        put_right(out.log[-1][4])
     goals = f.core.run.loaded.goals
     home = {rid: math.hypot(r.navigator.true_pose().x - goals[rid - 1][0],
                             r.navigator.true_pose().y - goals[rid - 1][1]) <= AT_CELL
@@ -248,8 +348,11 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             summary.arrived, [rid for rid, at in home.items() if at]))
     if summary.collisions:
         out.problems.append("{} pairs closer than the safe distance".format(summary.collisions))
-    if vicon and not settings.size.cell_sized and f.closest is not None and \
-            f.closest[0] < settings.size.safe_cells - 1e-3:  # the run's own count may miss what Vicon did not see
+    # The truth as well as the run's own count, which sees only the poses the manager had (late
+    # ones, or none while Vicon lost a robot). The robots are TurtleBots whatever the run's model:
+    # robots modelled as large as a cell keep at least a TurtleBot's safe distance too.
+    safe = min(settings.size.safe_cells, TURTLEBOT2.safe_cells)
+    if f.closest is not None and f.closest[0] < safe - 1e-3:
         out.problems.append("robots {} and {} came {:.2f} cells apart at {:.1f} s (safe: {:.2f})".format(
-            f.closest[1], f.closest[2], f.closest[0], f.closest[3], settings.size.safe_cells))
+            f.closest[1], f.closest[2], f.closest[0], f.closest[3], safe))
     return out

@@ -12,10 +12,13 @@ from a cell two robots hold, no seed of the first 2,000 dying sessions reaches s
 for the robots to stand and the sessions take other turns: its control is a scenario in
 tests/test_manager_core.py.) Each makes sessions fail, so the checks can fail. The sessions on
 Vicon (`session`'s `vicon`) have a control of their own: a pose Vicon lost taken for where a
-robot is.
+robot is; and Vicon seed 2839 one: a replan through the cell a robot with no pose stands half in.
+The sessions where lab staff carry robots (`carrying`) have theirs: a robot moved by hand not
+noticed. Every session is judged by the robots' true poses as well as by the run's own count.
 """
 from __future__ import annotations
 
+from fleet_manager import carried as carried_module
 from fleet_manager import core, operator
 from fleet_manager.robot import VICON, Robot
 from fleet_manager import run as run_module
@@ -195,3 +198,41 @@ def test_a_pose_vicon_lost_taken_for_where_the_robot_is_is_caught(monkeypatch) -
     monkeypatch.setattr(Robot, "pose_settled", old_settled)
     assert session(247, wide=True, vicon=True).problems
     assert session(404, wide=True, vicon=True).problems
+
+
+def test_a_robot_half_into_a_cell_with_no_pose_is_planned_around() -> None:
+    """Vicon session 2839 (found at 7cb9ebe): robot 2's bumper stopped it half into (9, 5); the
+    manager died, and the one that took over read every robot from Vicon, which had not seen robot
+    2 since (occluded). A replan, with no pose for robot 2, walled nothing around it, and sent robot
+    4 into (9, 5): 0.50 cells from robot 2. A replan now walls the cell a robot out stopped half
+    into by the engine's record (`Run.halfway_cells`), pose or none."""
+    assert not session(2839, wide=True, vicon=True).problems
+
+
+def test_a_replan_through_the_cell_a_robot_without_a_pose_stands_half_in_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(Run, "halfway_cells", lambda self: set())  # before: by the pose alone
+    assert session(2839, wide=True, vicon=True).problems
+
+
+#: sessions where lab staff carry robots standing still elsewhere (bench/operator_sessions.py
+#: --carrying runs more)
+CARRYING_SEEDS = range(12)
+
+
+def test_sessions_with_robots_carried_by_hand_end_truly() -> None:
+    """Between the presses, lab staff pick up a robot standing still (most often one that is out)
+    and put it down elsewhere, on a cell or between two, or back: the run halts, refuses to drive
+    on until it is back or replanned from where it stands, and no two robots come too close."""
+    bad = [(s.seed, s.problems) for s in (session(seed, carrying=True) for seed in CARRYING_SEEDS)
+           if s.problems]
+    bad += [(s.seed, s.problems) for s in (session(seed, wide=True, carrying=True) for seed in CARRYING_SEEDS)
+            if s.problems]
+    assert not bad, bad
+
+
+def test_robots_carried_by_hand_and_not_noticed_are_caught(monkeypatch) -> None:
+    """Before: the run had a carried robot where it had last seen it stand, and drove others
+    into it."""
+    for module in (carried_module, core, operator):
+        monkeypatch.setattr(module, "carried", lambda run: [])
+    assert any(session(seed, carrying=True).problems for seed in CARRYING_SEEDS)

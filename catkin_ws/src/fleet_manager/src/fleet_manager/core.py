@@ -35,7 +35,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
 from fleet_common.control import RUN_ACTIONS, Bye, Notice, Waiting
 from fleet_common.control.messages import WHY_NOT_CHARS
 from fleet_common.control.desk import ControlDesk
-from fleet_common.execution import Freeze, Thaw
+from fleet_common.execution import Freeze, Pause, Thaw
 from fleet_common.execution.reroute import Reroute
 from fleet_common.grid import Coord, Grid
 from fleet_common.limits import one_line
@@ -49,6 +49,7 @@ from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
+from .carried import UNDER_WAY, carried, carried_words, halt_near
 from .outbox import Effect, Outbox, REROUTE
 from .driver import AT_CELL
 from .refusals import RefusedRequests
@@ -68,6 +69,8 @@ _STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up
 _SETUP_EVERY = 1.0  # s: a console saying hello again sooner is not sent the whole setup again
 #: Seconds the run actions a State allows may lag the robots' poses (the key's changes count at once).
 ALLOWED_EVERY = 0.25
+#: s between two looks for robots moved by hand (`carried`): poses come ten times a second
+CARRIED_EVERY = 0.1
 
 
 class RunCore:
@@ -95,6 +98,8 @@ class RunCore:
         #: (key, when, allowed, why not the others): `_allowed_now`
         self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...], Dict[str, str]]] = None
         self._home_due = 0.0  # when robots left away from their goals are next given ways home
+        self._carried_due = 0.0  # when robots are next judged for standing where the run has them
+        self._carried_told: Set[int] = set()  # the robots found moved by hand, told already
 
     def take(self) -> List[Effect]:
         """The effects of the inputs so far, in order (and forget them)."""
@@ -206,7 +211,7 @@ class RunCore:
             here = stood_on(run.grid, self.fleet.robots, run.positions())
             on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
             current = [on.get(a, c) for a, c in enumerate(here)]
-            grid = _without(walled(run.grid, self.fleet.robots, here, set(on)), run.walls)
+            grid = _without(walled(run.grid, self.fleet.robots, here, set(on), run.halfway_cells()), run.walls)
             shared = self._sharing(current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.replanner.resolved()
@@ -218,6 +223,7 @@ class RunCore:
         said = operator.way_after(run, now)
         if said:
             self.out.tell("run", None, said)
+        self._carried_tick(now)
         self._reroute_tick(now)
         self._ways_home_tick(now)
         if run.phase.phase == RUNNING:
@@ -235,6 +241,34 @@ class RunCore:
         for line in self._refusals.counts(now):
             self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def _carried_tick(self, now: float) -> None:
+        """Robots moved by hand while the run is under way (`carried`), judged ten times a second:
+        the run halts, drives that would pass near them stop short, and the operator is told once
+        per robot found."""
+        run = self.run
+        if now < self._carried_due:
+            return
+        self._carried_due = now + CARRIED_EVERY
+        found = carried(run) if run.phase.phase in UNDER_WAY else []
+        ids = {c.robot.id for c in found}
+        new, self._carried_told = ids - self._carried_told, ids
+        if not found:
+            return
+        size = self.settings.size
+        stopped = halt_near(run, found, 1.0 if size.cell_sized else size.safe_cells)
+        words = carried_words(run, found)
+        halted = run.phase.phase == RUNNING
+        if halted:
+            if not run.engine.paused:
+                run.driver.handle(Pause(now), now)
+            run.move("halt", "halted: " + words)
+        for rid in sorted(new):  # the presentation's ticker
+            run.out.desk.bump("robot {} moved by hand{}".format(rid, ": the run halts" if halted else ""), rid)
+        if new or stopped:
+            short = "" if not stopped else "; robot{} {} stopped short".format(
+                "s" if len(stopped) > 1 else "", ", ".join(str(r.id) for r in stopped))
+            self.out.tell("run", None, ("halted: " if halted else "") + words + short)
 
     def _ways_home_tick(self, now: float) -> None:
         """A robot a replan left away from its goal, enabled again while no way home around the

@@ -42,6 +42,7 @@ from fleet_common.grid import Grid
 from fleet_common.limits import one_line
 from fleet_common.plan_loading import LoadedPlan
 
+from .carried import carried, carried_words, replan_refusal
 from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .replanning import placed
@@ -119,11 +120,16 @@ def _busy(run: Run) -> Optional[str]:
 
 
 def _why_not_start(run: Run) -> Optional[str]:
-    return _busy(run) or run.phase.refusal("start") or _ready(run)
+    return _busy(run) or run.phase.refusal("start") or _ready(run) or _moved(run)
 
 
 def _why_not_step(run: Run) -> Optional[str]:
-    return run.phase.refusal("step") or _busy(run) or _ready(run)
+    return run.phase.refusal("step") or _busy(run) or _ready(run) or _moved(run)
+
+
+def _moved(run: Run) -> str:
+    """Why no robot may drive now ("" if they may): one was moved by hand (`carried`)."""
+    return _once(run, "carried", lambda: carried_words(run, carried(run)))
 
 
 def _ready(run: Run) -> str:
@@ -396,6 +402,9 @@ def enable(run: Run, args: Args, now: float) -> Answer:
         pose = robot.pose
         return False, ("robot {} stands at {}, between two cells away from {}, where the run has it: put it "
                        "on a cell, then enable it".format(robot.id, run.where(pose.x, pose.y), run.loaded.show(here)))
+    moved = [c for c in carried(run) if c.robot is robot]
+    if moved:  # carried onto another cell while it was out: its next drive would start from there
+        return False, carried_words(run, moved) + ", then enable it"
     run.driver.enable(robot, now)
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
     run.out.desk.bump("robot {} enabled".format(robot.id), robot.id)
@@ -569,7 +578,7 @@ def reject(run: Run, args: Args, now: float) -> Answer:
 def _resume_after_replan(run: Run, now: float) -> None:
     """Drive on if the run was running when the replan was asked for and nobody paused or
     stopped it since."""
-    if run.replanner.was_running and run.phase.refusal("resume") is None:
+    if run.replanner.was_running and run.phase.refusal("resume") is None and not carried(run):
         resume(run, now, "resume")
 
 
@@ -582,8 +591,10 @@ def _between_cells(run: Run) -> Optional[str]:
     ids = [run.fleet[a].id for a in range(state.num_agents) if state.halfway[a] and state.out[a] is None]
     if not ids:
         return None
-    return "robot{} {} stopped between two cells after a fault: start or step until {} that move".format(
-        "s" if len(ids) > 1 else "", ", ".join(str(i) for i in ids), "they finish" if len(ids) > 1 else "it finishes")
+    return ("robot{} {} stopped between two cells after a fault: start or step until {} that move, or "
+            "disable {} (planned around where {})").format(
+        "s" if len(ids) > 1 else "", ", ".join(str(i) for i in ids), "they finish" if len(ids) > 1 else "it finishes",
+        "them" if len(ids) > 1 else "it", "they stand" if len(ids) > 1 else "it stands")
 
 
 def behind_out(run: Run) -> Optional[str]:
@@ -616,7 +627,7 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "replan": lambda run: run.phase.refusal("replan") or (
         "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
         "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
-        else None) or _between_cells(run) or behind_out(run),
+        else None) or _between_cells(run) or behind_out(run) or replan_refusal(run),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):

@@ -46,7 +46,7 @@ from .outbox import PlanJob
 from .robot import Robot
 
 __all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED", "going_on", "placed",
-           "prefixed", "stood_on", "walled"]
+           "prefixed", "stood_on", "to_segment", "walled"]
 
 IDLE, SAFE_POINT, PLANNING, PROPOSED = "idle", "safe-point", "planning", "proposed"
 
@@ -158,17 +158,19 @@ def leans_into(robot: Robot, cell: Coord) -> Optional[Coord]:
             else (cell[0], cell[1] + (1 if dy > 0 else -1)))
 
 
-def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set[int] = frozenset()) -> Grid:
+def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set[int] = frozenset(),
+           halfway: Iterable[Coord] = ()) -> Grid:
     """`grid` with the far cell of every robot standing between two cells blocked (but those of
     the agents `skip`: `going_on` plans them into it): the neighbour of its cell its pose
     leans towards. That is the target of the move an out robot stopped in,
     and the cell a robot leans into that an earlier replan left between cells (it gave it no
     move; out, or enabled since) or that was pushed off its cell. At a safe point nobody else
-    stands between cells (a follower at its hold point is in the middle of its drive)."""
+    stands between cells (a follower at its hold point is in the middle of its drive). The
+    cells of `halfway` too (`Run.halfway_cells`: by the engine's record, pose or none)."""
     free = grid.free.copy()
     taken = {tuple(c) for c in here}
-    for robot in robots:
-        far = None if robot.agent in skip else leans_into(robot, here[robot.agent])
+    fars = [None if robot.agent in skip else leans_into(robot, here[robot.agent]) for robot in robots]
+    for far in fars + [tuple(c) for c in halfway]:
         if far is not None and grid.in_bounds(far) and far not in taken:  # a robot's own cell stays its start
             free[far[1], far[0]] = False
     return Grid(free, name=grid.name)
@@ -191,7 +193,7 @@ def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Se
             wanted.setdefault(far, []).append(agent)
     for robot in robots:  # between its cell and that one, not pushed off elsewhere
         far, pose = leaning[robot.agent], robot.pose
-        if far is not None and pose is not None and _to_segment((pose.x, pose.y), here[robot.agent], far) > AT_CELL:
+        if far is not None and pose is not None and to_segment((pose.x, pose.y), here[robot.agent], far) > AT_CELL:
             leaning[robot.agent] = None
     return {agent: far for agent, far in leaning.items()
             if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
@@ -210,7 +212,7 @@ def placed(grid: Grid, robot: Robot, here: Coord) -> bool:
     if math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL and grid.in_bounds(cell) and grid.is_free(cell):
         return True
     far = leans_into(robot, here)
-    return far is not None and _to_segment((pose.x, pose.y), here, far) <= AT_CELL
+    return far is not None and to_segment((pose.x, pose.y), here, far) <= AT_CELL
 
 
 def prefixed(plan: Plan, first: Dict[int, Coord]) -> Plan:
@@ -227,7 +229,7 @@ def prefixed(plan: Plan, first: Dict[int, Coord]) -> Plan:
     return Plan(np.concatenate([row, plan.positions]), orientations)
 
 
-def _to_segment(p: Tuple[float, float], a: Coord, b: Coord) -> float:
+def to_segment(p: Tuple[float, float], a: Tuple[float, float], b: Tuple[float, float]) -> float:
     """Distance from point `p` to the segment between the centres of cells `a` and `b`."""
     dx, dy = b[0] - a[0], b[1] - a[1]
     length = dx * dx + dy * dy

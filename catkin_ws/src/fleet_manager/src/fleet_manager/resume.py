@@ -59,6 +59,7 @@ from fleet_common.runlog.records import plan_file
 from fleet_common.wire import Command, DriveToPosition, Stop, Turn
 
 from .driver import AT_CELL
+from .replanning import to_segment
 from .robot import Fleet, Robot
 
 __all__ = ["ResumePoint", "Unsettled", "read_resume", "Resuming", "OffPlan", "off_plan", "walls_around",
@@ -376,7 +377,7 @@ def off_plan(fleet: Fleet, positions: List[Coord], out: List[Optional[str]], gri
         flight = robot.flight
         if flight is not None and flight.kind == "drive" and robot.queue and robot.queue[0].index == flight.index:
             d = robot.queue[0]
-            if _to_segment((pose.x, pose.y), d.src, d.dst) <= AT_CELL:
+            if to_segment((pose.x, pose.y), d.src, d.dst) <= AT_CELL:
                 continue
         elif math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL:
             taken.add(here)
@@ -411,15 +412,7 @@ def walls_around(pose: Point, reach: float, grid: Grid, keep: Set[Coord]) -> Set
 
 def passes_near(start: Point, end: Coord, pose: Point, distance: float) -> bool:
     """The straight drive from `start` to `end` comes closer than `distance` to `pose`."""
-    return _to_segment(pose, start, end) < distance
-
-
-def _to_segment(p: Point, a: Tuple[float, float], b: Tuple[float, float]) -> float:
-    ax, ay = float(a[0]), float(a[1])
-    dx, dy = float(b[0]) - ax, float(b[1]) - ay
-    length = dx * dx + dy * dy
-    f = 0.0 if length == 0 else min(1.0, max(0.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / length))
-    return math.hypot(p[0] - (ax + f * dx), p[1] - (ay + f * dy))
+    return to_segment(pose, start, end) < distance
 
 
 def _ids(ids: List[int]) -> str:

@@ -597,6 +597,21 @@ class Run:
         return setup(self.grid, self.fleet, self.plan_id, self.plan, self.loaded.name,
                      self.settings.step_time, self.settings.size, self.loaded.solution.orientation)
 
+    def halfway_cells(self) -> Set[Coord]:
+        """The cells robots out with no pose stopped halfway into (a fault in the middle of the
+        move: the engine keeps the cell for them, `RunState.halfway`). A replan walls off the
+        cell a robot leans into by its pose (`replanning.walled`); a robot with no pose from the
+        chosen source (Vicon has not seen it since this manager started) leans into nothing, and
+        one was planned through the cell another stood half in (Vicon session 2839): these are
+        walled off by the engine's record."""
+        state, table = self.engine.run, self.engine.table
+        cells: Set[Coord] = set()
+        for a in range(state.num_agents):
+            nxt = state.next_incomplete(a)
+            if state.out[a] is not None and state.halfway[a] and nxt >= 0 and self.fleet[a].pose is None:
+                cells.add(tuple(table.coord(state.dst[nxt])))  # type: ignore[arg-type]
+        return cells
+
     # ---- the way to the starts --------------------------------------------------------------
 
     def _going_on(self, cells: Sequence[Coord]) -> Dict[int, Coord]:
@@ -612,7 +627,7 @@ class Run:
         into it first (planned from there, the move prefixed: `replanning.prefixed`)."""
         out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] == "disabled"}
         on = self._going_on(cells)
-        grid = walled(self.fleet_map, self.fleet.robots, cells, set(on))
+        grid = walled(self.fleet_map, self.fleet.robots, cells, set(on), self.halfway_cells())
         self.to_starts_first = {a: tuple(cells[a]) for a in on}
         job = PlanJob(next(self.job_ids), grid, [on.get(a, c) for a, c in enumerate(cells)],
                       list(self.target.starts), out, self.settings.to_starts_limit, "pp")

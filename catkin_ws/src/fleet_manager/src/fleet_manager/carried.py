@@ -1,0 +1,173 @@
+"""Robots moved by hand while a run is under way: found, named, and nobody driven into them.
+
+Lab staff pick up a robot they disabled (or a visitor pushes one standing still) and put it
+down elsewhere while the manager runs. The engine still has it on the cell of its last
+completed move, so every other robot's plan treats the cell it now stands on as free: the
+next robot whose path crosses it drives into it (found by hand: a disabled robot carried onto
+the next cell of another robot's path, Start pressed, the two centres met).
+
+Theory of operation. A robot *stands where the run has it* when its pose is within `AT_CELL`
+of the cell the run holds for it (`Run.positions`); or between that cell and a neighbour (on
+the line between their centres, farther than `AT_CELL` from either): stopped in the middle of
+a move by a halt, a fault or Stop, a state the run itself makes, which a replan walls in or
+finishes (`replanning.walled`, `going_on`), whatever the engine recorded of the move since (a
+reroute, a hand-over); or on the neighbour's centre when the run knows it is entering it: the
+target of its next move, if it was sent that move (halted or stopped at its very end) or no
+other robot is due in that cell before it (a replan's first move, finishing one it was half
+through), or a cell the current plan keeps walled off around it, or a cell the run holds for
+another robot (nobody else enters that cell while that robot holds it). Only robots standing
+still are judged (a link, no command in flight, a pose taken since their last reply,
+`Robot.pose_settled`, and received after it): a moving robot's pose is somewhere on its drive,
+and a pose taken before its last reply may show it short of where that reply left it (an idle
+robot's own pose names no command: one taken before a quick command began, received before its
+reply, showed robot 28 of 50 virtual robots a cell back).
+Any other standing robot was moved by hand (`carried`). Before a run's first move only robots
+out are judged (the others must stand on their starts for Start: `Run.not_ready`).
+
+When a robot is found moved:
+
+- a run under way halts (running: no new move is sent; robots whose drive passes within the
+  safe distance of where the moved robot stands stop where they are, `passes_near`; the others
+  finish their moves and stand), and the operator is told once;
+- Start, Step and Enable are refused, naming the robot, where it stands and where the run has
+  it, and what to do: put it back; or, under way, a replan, which plans from where it stands if
+  that is a free cell's centre nobody holds (`replanning.stood_on`) or a neighbour's line it
+  can finish or be walled in on (`replanning.placed`), and is refused while it stands between
+  other cells (put it on a cell); or, once the run is done, Reset.
+
+Why it is safe: a robot's plan only ever sends it into cells the engine believes free, and
+the moved robot's cell is believed free only while the run has it elsewhere; once found, no
+move is released until it is back where the run has it or a replan has it where it stands,
+and no drive already under way that would pass near it goes on. The robot on the line of a
+move it was not sent, into a cell where another robot is due first, counts as moved: that
+robot would drive in. A stale pose: a robot's pose stops counting while its link is down or a
+command is in flight, so a moved robot is found with its first pose after it is put down
+(judged ten times a second); until then only drives sent before it was picked up go on, and
+those passing near where it is found stop short. A robot moved while its link is down is
+found once the link is back: nothing tells the manager where it is meanwhile (not a moved
+robot's own pose, and the run does not judge a robot whose link is down on Vicon's either).
+A robot with no pose at all (Vicon has not
+seen it since the manager started) is not judged: Start and replans plan from the engine's
+record, which walls off the cell a robot out stopped half into (`Run.halfway_cells`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, List, Optional, Set, Tuple
+
+from fleet_common.execution.run import RunState
+from fleet_common.grid import Coord
+
+from .driver import AT_CELL
+from .replanning import leans_into, placed, to_segment
+from .resume import passes_near
+from .robot import Robot
+from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
+
+if TYPE_CHECKING:
+    from .run import Run
+
+__all__ = ["Carried", "carried", "carried_words", "halt_near", "replan_refusal", "UNDER_WAY"]
+
+#: the phases of a run under way, whose engine has every robot on a cell of its plan
+UNDER_WAY = (RUNNING, PAUSED, STOPPED)
+
+
+@dataclass(frozen=True)
+class Carried:
+    """A robot standing away from where the run has it."""
+
+    robot: Robot
+    pose: Tuple[float, float]
+    here: Coord  # where the run has it
+
+
+def carried(run: "Run") -> List[Carried]:
+    """The robots standing still away from where the run has them (the module's docstring).
+    Before a run's first move (waiting) only robots out are judged: the others must stand on
+    their starts for Start (`Run.not_ready`), while one out stays where the run has it."""
+    waiting = run.phase.phase == WAITING
+    held = run.positions()
+    state, table = run.engine.run, run.engine.table
+    kept = run.rerouting.maps.grid  # the map the current plan was made on, its walls included
+    holding = {tuple(c) for c in held}
+    found: List[Carried] = []
+    for robot in run.fleet:
+        pose = robot.pose
+        seen = robot.seen()
+        if (pose is None or seen is None or not robot.link_up or robot.flight is not None or not robot.pose_settled()
+                or (robot.ended_at is not None and seen.at < robot.ended_at)
+                or (waiting and state.out[robot.agent] is None)):
+            continue
+        here = tuple(held[robot.agent])
+        if math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL:
+            continue
+        far = leans_into(robot, here)
+        if far is not None and to_segment((pose.x, pose.y), here, far) <= AT_CELL:
+            if math.hypot(pose.x - far[0], pose.y - far[1]) > AT_CELL:
+                continue  # between its cell and a neighbour: stopped in a move (a replan walls it in)
+            a, nxt = robot.agent, state.next_incomplete(robot.agent)
+            entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
+                state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
+                or _first_in(state, nxt))  # (a replan's first move, finishing one it was half through)
+            if entering or far in holding or not (kept.in_bounds(far) and kept.is_free(far)):
+                continue
+        found.append(Carried(robot, (pose.x, pose.y), here))  # type: ignore[arg-type]
+    return found
+
+
+def _first_in(state: RunState, action: int) -> bool:
+    """No other robot is due in the cell `action` enters before it: the previous visitor's move
+    out of it (`RunState.dep`) is made, or there is none."""
+    d = state.dep[action]
+    return d < 0 or bool(state.done[d]) or state.agent[d] == state.agent[action]
+
+
+def carried_words(run: "Run", found: List[Carried]) -> str:
+    """What to tell the operator of the robots `found` ("" if none), and what to do: under way,
+    a replan plans from where they stand; when done, a Reset does; before the first move, the
+    run has them on their starts."""
+    if not found:
+        return ""
+    parts = ["robot {} stands at {}, away from {} where the run has it".format(
+        c.robot.id, run.where(*c.pose), run.loaded.show(c.here)) for c in found[:3]]
+    more = "; and {} more".format(len(found) - 3) if len(found) > 3 else ""
+    one = len(found) == 1
+    them, they = ("it", "it stands") if one else ("them", "they stand")
+    phase = run.phase.phase
+    back = "put {} back where {} {}".format(them, "it" if one else "they", "was" if one else "were")
+    todo = ("{}, or on a free cell and replan (planned from where {})".format(back, they)
+            if phase in UNDER_WAY else "{}, or Reset (the way to the starts starts from where {})".format(
+                back, they) if phase == DONE else back)
+    return "{}{}: {}".format("; ".join(parts), more, todo)
+
+
+def replan_refusal(run: "Run") -> Optional[str]:
+    """Why a replan cannot plan from where a moved robot stands: between cells, or on a cell the
+    run holds for another robot (None: it can, `replanning.stood_on`)."""
+    taken: Set[Coord] = {tuple(c) for c in run.positions()}  # type: ignore[misc]
+    for c in carried(run):
+        cell = (int(round(c.pose[0])), int(round(c.pose[1])))
+        if math.hypot(c.pose[0] - cell[0], c.pose[1] - cell[1]) <= AT_CELL:
+            if run.grid.in_bounds(cell) and run.grid.is_free(cell) and cell not in taken:
+                taken.add(cell)
+                continue
+        elif placed(run.grid, c.robot, c.here):  # between its cell and a neighbour: walled, or finished
+            continue
+        return ("robot {} stands at {}, away from {} where the run has it and not on a free cell's centre: put "
+                "it on one (or back), then replan".format(c.robot.id, run.where(*c.pose), run.loaded.show(c.here)))
+    return None
+
+
+def halt_near(run: "Run", found: List[Carried], reach: float) -> List[Robot]:
+    """Stop the robots whose drive under way passes within `reach` (cells) of a robot `found`;
+    which were stopped."""
+    moved = {id(c.robot) for c in found}
+    near = [r for r in run.fleet if r.flight is not None and r.flight.kind == "drive" and r.pose is not None
+            and id(r) not in moved
+            and any(passes_near((r.pose.x, r.pose.y), (r.flight.target[0], r.flight.target[1]), c.pose, reach)
+                    for c in found)]
+    if near:
+        run.driver.halt(near)
+    return near
