@@ -236,3 +236,23 @@ def test_robots_carried_by_hand_and_not_noticed_are_caught(monkeypatch) -> None:
     for module in (carried_module, core, operator):
         monkeypatch.setattr(module, "carried", lambda run: [])
     assert any(session(seed, carrying=True).problems for seed in CARRYING_SEEDS)
+
+
+def test_a_robot_carried_while_vicon_does_not_see_it_is_found_by_its_own_pose() -> None:
+    """Vicon `--carrying` session 107: staff pick up robot 5 while they stand between it and the
+    cameras (occluded 2.6 s), every robot on Vicon. Vicon's last pose of it said it had not moved,
+    and a replan sent robot 3 through where it stood (0.03 cells). While Vicon has not seen a robot
+    for longer than its own localization, its own pose is judged instead, and the operator is told
+    to choose it to replan from there (Vicon session 237: put back while occluded, it was still
+    seen where Vicon had last seen it)."""
+    assert not session(107, wide=True, vicon=True, carrying=True).problems
+    assert not session(237, wide=True, vicon=True, carrying=True).problems
+
+
+def test_a_robot_carried_out_of_vicons_sight_and_judged_on_vicon_alone_is_caught(monkeypatch) -> None:
+    def vicon_alone(robot, stale_after):
+        seen, ended = robot.seen(), robot.ended_at
+        return ([((seen.pose.x, seen.pose.y), False)] if seen is not None and robot.pose_settled()
+                and (ended is None or seen.at >= ended) else [])
+    monkeypatch.setattr(carried_module, "_standing_poses", vicon_alone)
+    assert session(107, wide=True, vicon=True, carrying=True).problems

@@ -38,17 +38,19 @@ When a robot is found moved:
 Why it is safe: a robot's plan only ever sends it into cells the engine believes free, and
 the moved robot's cell is believed free only while the run has it elsewhere; once found, no
 move is released until it is back where the run has it or a replan has it where it stands,
-and no drive already under way that would pass near it goes on. The robot on the line of a
-move it was not sent, into a cell where another robot is due first, counts as moved: that
-robot would drive in. A stale pose: a robot's pose stops counting while its link is down or a
-command is in flight, so a moved robot is found with its first pose after it is put down
-(judged ten times a second); until then only drives sent before it was picked up go on, and
-those passing near where it is found stop short. A robot moved while its link is down is
-found once the link is back: nothing tells the manager where it is meanwhile (not a moved
-robot's own pose, and the run does not judge a robot whose link is down on Vicon's either).
-A robot with no pose at all (Vicon has not
-seen it since the manager started) is not judged: Start and replans plan from the engine's
-record, which walls off the cell a robot out stopped half into (`Run.halfway_cells`).
+and no drive already under way that would pass near it goes on. The robot on a neighbour's
+centre it was not sent into, where another robot is due first, counts as moved: that robot would
+drive in. A stale pose: a robot's pose stops counting while its link is down or a command is in
+flight, so a moved robot is found with its first pose after it is put down (judged ten times a
+second); until then only drives sent before it was picked up go on, and those passing near where
+it is found stop short. On Vicon, a robot Vicon has not seen for `stale_after` longer than its own
+localization (staff stand between it and the cameras while they carry it) is judged on its own
+pose instead, and the operator is told to choose that pose to replan from it. A robot moved while its
+link is down is found once the link is back: nothing tells the manager where it is meanwhile. A
+robot with no pose the run may use (Vicon has not seen it since the manager started, its own
+names a command) is not judged: Start and replans plan from the engine's record, which walls off the cell a robot out stopped half into
+(`Run.halfway_cells`). A robot pushed half a cell towards a neighbour stands as one stopped in a
+move does, and is judged so (walled in by a replan), as before this check.
 """
 from __future__ import annotations
 
@@ -60,9 +62,9 @@ from fleet_common.execution.run import RunState
 from fleet_common.grid import Coord
 
 from .driver import AT_CELL
-from .replanning import leans_into, placed, to_segment
+from .replanning import placed, to_segment
 from .resume import passes_near
-from .robot import Robot
+from .robot import VICON, Robot
 from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
 
 if TYPE_CHECKING:
@@ -81,6 +83,7 @@ class Carried:
     robot: Robot
     pose: Tuple[float, float]
     here: Coord  # where the run has it
+    own: bool = False  # by its own pose, Vicon (the chosen source) not seeing it
 
 
 def carried(run: "Run") -> List[Carried]:
@@ -89,32 +92,57 @@ def carried(run: "Run") -> List[Carried]:
     their starts for Start (`Run.not_ready`), while one out stays where the run has it."""
     waiting = run.phase.phase == WAITING
     held = run.positions()
-    state, table = run.engine.run, run.engine.table
-    kept = run.rerouting.maps.grid  # the map the current plan was made on, its walls included
+    state = run.engine.run
     holding = {tuple(c) for c in held}
     found: List[Carried] = []
     for robot in run.fleet:
-        pose = robot.pose
-        seen = robot.seen()
-        if (pose is None or seen is None or not robot.link_up or robot.flight is not None or not robot.pose_settled()
-                or (robot.ended_at is not None and seen.at < robot.ended_at)
-                or (waiting and state.out[robot.agent] is None)):
+        if not robot.link_up or robot.flight is not None or (waiting and state.out[robot.agent] is None):
             continue
         here = tuple(held[robot.agent])
-        if math.hypot(pose.x - here[0], pose.y - here[1]) <= AT_CELL:
-            continue
-        far = leans_into(robot, here)
-        if far is not None and to_segment((pose.x, pose.y), here, far) <= AT_CELL:
-            if math.hypot(pose.x - far[0], pose.y - far[1]) > AT_CELL:
-                continue  # between its cell and a neighbour: stopped in a move (a replan walls it in)
-            a, nxt = robot.agent, state.next_incomplete(robot.agent)
-            entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
-                state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
-                or _first_in(state, nxt))  # (a replan's first move, finishing one it was half through)
-            if entering or far in holding or not (kept.in_bounds(far) and kept.is_free(far)):
-                continue
-        found.append(Carried(robot, (pose.x, pose.y), here))  # type: ignore[arg-type]
+        for (x, y), own in _standing_poses(robot, run.fleet.stale_after):
+            if not _where_the_run_has_it(run, robot, (x, y), here, holding):  # type: ignore[arg-type]
+                found.append(Carried(robot, (x, y), here, own))  # type: ignore[arg-type]
+                break
     return found
+
+
+def _standing_poses(robot: Robot, stale_after: float) -> List[Tuple[Tuple[float, float], bool]]:
+    """Where robot `robot` (no command in flight) stands by the poses received since its last
+    reply, and whether by its own pose where Vicon is the chosen source: the chosen source's,
+    taken since that reply (`Robot.pose_settled`); but on Vicon, its own pose instead while Vicon
+    has not seen it for `stale_after` longer than its own localization has (staff carrying a
+    robot stand between it and the cameras: Vicon session 107 of `--carrying`, where a robot
+    carried while occluded was planned through; and 237, where one put back while occluded was
+    still seen where Vicon had last seen it)."""
+    ended = robot.ended_at
+    own, vicon = robot.own, robot.vicon
+    if (robot.source == VICON and own is not None and robot.own_current is None and (ended is None or own.at >= ended)
+            and (vicon is None or own.at - vicon.at > stale_after)):
+        return [((own.pose.x, own.pose.y), True)]
+    seen = robot.seen()
+    if seen is not None and robot.pose_settled() and (ended is None or seen.at >= ended):
+        return [((seen.pose.x, seen.pose.y), False)]
+    return []
+
+
+def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], here: Coord,
+                          holding: Set[Coord]) -> bool:
+    """Whether a robot standing at `pose` stands where the run has it (`here`: its cell)."""
+    if math.hypot(pose[0] - here[0], pose[1] - here[1]) <= AT_CELL:
+        return True
+    dx, dy = pose[0] - here[0], pose[1] - here[1]
+    far = ((here[0] + (1 if dx > 0 else -1), here[1]) if abs(dx) >= abs(dy)
+           else (here[0], here[1] + (1 if dy > 0 else -1)))  # the neighbour it leans towards
+    if to_segment(pose, here, far) > AT_CELL:
+        return False
+    if math.hypot(pose[0] - far[0], pose[1] - far[1]) > AT_CELL:
+        return True  # between its cell and a neighbour: stopped in a move (a replan walls it in)
+    state, table, kept = run.engine.run, run.engine.table, run.rerouting.maps.grid
+    a, nxt = robot.agent, state.next_incomplete(robot.agent)
+    entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
+        state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
+        or _first_in(state, nxt))  # (a replan's first move, finishing one it was half through)
+    return entering or far in holding or not (kept.in_bounds(far) and kept.is_free(far))
 
 
 def _first_in(state: RunState, action: int) -> bool:
@@ -130,8 +158,10 @@ def carried_words(run: "Run", found: List[Carried]) -> str:
     run has them on their starts."""
     if not found:
         return ""
-    parts = ["robot {} stands at {}, away from {} where the run has it".format(
-        c.robot.id, run.where(*c.pose), run.loaded.show(c.here)) for c in found[:3]]
+    parts = ["robot {} stands at {}{}, away from {} where the run has it".format(
+        c.robot.id, run.where(*c.pose), " by its own pose (Vicon has not seen robot {} since: choose its own "
+        "pose, position source, to replan from there)".format(c.robot.id) if c.own else "",
+        run.loaded.show(c.here)) for c in found[:3]]
     more = "; and {} more".format(len(found) - 3) if len(found) > 3 else ""
     one = len(found) == 1
     them, they = ("it", "it stands") if one else ("them", "they stand")
