@@ -107,4 +107,6 @@ def _settled(state: m.State, events: List[m.Notice]) -> bool:
     return (all(r.source == "vicon" for r in state.robots)
             and all(not robots[i].stale for i in (1, 3, 5)) and robots[4].stale
             and robots[2].disagree
-            and any(e.kind == "vicon" and e.robot == 4 for e in events))
+            and any(e.kind == "vicon" and e.robot == 4 for e in events)
+            # the notice of robot 2 may come a State after the State that says it disagrees
+            and any(e.kind == "vicon" and e.robot == 2 for e in events))
