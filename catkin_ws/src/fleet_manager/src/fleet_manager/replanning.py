@@ -166,7 +166,7 @@ def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set
     and the cell a robot leans into that an earlier replan left between cells (it gave it no
     move; out, or enabled since) or that was pushed off its cell. At a safe point nobody else
     stands between cells (a follower at its hold point is in the middle of its drive). The
-    cells of `halfway` too (`Run.halfway_cells`: by the engine's record, pose or none)."""
+    cells of `halfway` too (`Run.halfway_cells`: robots out with no pose, by the engine's record)."""
     free = grid.free.copy()
     taken = {tuple(c) for c in here}
     fars = [None if robot.agent in skip else leans_into(robot, here[robot.agent]) for robot in robots]
