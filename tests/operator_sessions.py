@@ -54,9 +54,9 @@ def carry_to(f: MemoryFleet, rid: int, x: float, y: float) -> None:
 def carry_to_a_cell(f: MemoryFleet, rid: int) -> None:
     """Lab staff put robot `rid` (standing still) on the nearest free cell nobody stands on."""
     at = f.robots[rid].navigator.true_pose()
-    taken = {(round(r.navigator.true_pose().x), round(r.navigator.true_pose().y))
-             for other, r in f.robots.items() if other != rid}
-    cells = [c for c in f.core.run.grid.free_cells() if tuple(c) not in taken]
+    others = [r.navigator.true_pose() for other, r in f.robots.items() if other != rid]
+    cells = [c for c in f.core.run.grid.free_cells()  # (a robot half in a cell stands in it too)
+             if all(math.hypot(c[0] - p.x, c[1] - p.y) >= TURTLEBOT2.safe_cells for p in others)]
     x, y = min(cells, key=lambda c: math.hypot(c[0] - at.x, c[1] - at.y))
     carry_to(f, rid, float(x), float(y))
 

@@ -18,6 +18,7 @@ noticed. Every session is judged by the robots' true poses as well as by the run
 """
 from __future__ import annotations
 
+from fleet_common.planning.problem import InvalidProblemError
 from fleet_manager import carried as carried_module
 from fleet_manager import core, operator
 from fleet_manager.robot import VICON, Robot
@@ -264,3 +265,20 @@ def _vicon_alone(robot: Robot, stale_after: float) -> list:
 def test_a_robot_carried_out_of_vicons_sight_and_judged_on_vicon_alone_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(carried_module, "_standing_poses", _vicon_alone)
     assert session(107, wide=True, vicon=True, carrying=True).problems
+
+
+def test_a_robot_put_on_a_cell_inside_the_walls_raised_around_it_is_replanned_from_there() -> None:
+    """Wide `--carrying` seed 673: a manager that took the run over walled off the cells around
+    robot 1, which stood between cells; staff then put it on one of them, and the replan, with
+    robot 1 starting on a walled cell, was refused as invalid. A robot's own cell stays its start."""
+    assert not session(673, wide=True, carrying=True).problems
+
+
+def test_a_replan_walling_a_robots_own_cell_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_walls_but", lambda self, current: set(self.run.walls))
+    try:
+        found = bool(session(673, wide=True, carrying=True).problems)
+    except InvalidProblemError:  # the in-memory fleet plans in the loop: the refused problem raises
+        found = True
+    assert found
+

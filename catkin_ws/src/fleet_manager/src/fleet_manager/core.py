@@ -209,9 +209,10 @@ class RunCore:
             # stopped: walls and cells are judged on the next one, taken after
             out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = stood_on(run.grid, self.fleet.robots, run.positions())
-            on = going_on(run.grid, self.fleet.robots, here, out, run.walls)
+            halfway = run.halfway_cells()  # (nobody finishes a move into one: wide carrying seed 673)
+            on = going_on(run.grid, self.fleet.robots, here, out, run.walls | halfway)
             current = [on.get(a, c) for a, c in enumerate(here)]
-            grid = _without(walled(run.grid, self.fleet.robots, here, set(on), run.halfway_cells()), run.walls)
+            grid = _without(walled(run.grid, self.fleet.robots, here, set(on), halfway), self._walls_but(current))
             shared = self._sharing(current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.replanner.resolved()
@@ -241,6 +242,13 @@ class RunCore:
         for line in self._refusals.counts(now):
             self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def _walls_but(self, current: Sequence[Coord]) -> Set[Coord]:
+        """The run's walls a replan keeps off, but the cells robots start on: a robot's own cell
+        stays its start, a wall around where it stood before or not (one put on a cell of the
+        walls a restart raised around it between cells: wide carrying seed 673, whose replan was
+        refused as invalid)."""
+        return self.run.walls - {tuple(c) for c in current}  # type: ignore[misc]
 
     def _carried_tick(self, now: float) -> None:
         """Robots moved by hand while the run is under way (`carried`), judged ten times a second:

@@ -618,7 +618,7 @@ class Run:
         """The robots taking part that stand between their cell (of `cells`) and a free one: the
         way to the starts has them finish that move first (`replanning.going_on`)."""
         out = {r.agent for r in self.fleet if self.engine.run.out[r.agent] is not None}
-        return going_on(self.fleet_map, self.fleet.robots, cells, out)
+        return going_on(self.fleet_map, self.fleet.robots, cells, out, self.halfway_cells())
 
     def plan_to_starts(self, cells: Sequence[Coord], now: float, reason: str) -> None:
         """Plan the way from `cells` (where the robots stand) to the target's starts, off the
