@@ -62,7 +62,7 @@ from fleet_common.execution.run import RunState
 from fleet_common.grid import Coord
 
 from .driver import AT_CELL
-from .replanning import placed, to_segment
+from .replanning import to_segment, towards
 from .resume import passes_near
 from .robot import VICON, Robot
 from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
@@ -130,9 +130,7 @@ def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], h
     """Whether a robot standing at `pose` stands where the run has it (`here`: its cell)."""
     if math.hypot(pose[0] - here[0], pose[1] - here[1]) <= AT_CELL:
         return True
-    dx, dy = pose[0] - here[0], pose[1] - here[1]
-    far = ((here[0] + (1 if dx > 0 else -1), here[1]) if abs(dx) >= abs(dy)
-           else (here[0], here[1] + (1 if dy > 0 else -1)))  # the neighbour it leans towards
+    far = towards(pose, here)
     if to_segment(pose, here, far) > AT_CELL:
         return False
     if math.hypot(pose[0] - far[0], pose[1] - far[1]) > AT_CELL:
@@ -173,17 +171,16 @@ def carried_words(run: "Run", found: List[Carried]) -> str:
     return "{}{}: {}".format("; ".join(parts), more, todo)
 
 
-def replan_refusal(run: "Run") -> Optional[str]:
-    """Why a replan cannot plan from where a moved robot stands: between cells, or on a cell the
-    run holds for another robot (None: it can, `replanning.stood_on`)."""
+def replan_refusal(run: "Run", found: List[Carried]) -> Optional[str]:
+    """Why a replan cannot plan from where a moved robot of `found` (`carried`) stands: between
+    cells (a robot between its own cell and a neighbour is not moved), or on a cell the run holds
+    for another robot (None: it can, `replanning.stood_on`)."""
     taken: Set[Coord] = {tuple(c) for c in run.positions()}  # type: ignore[misc]
-    for c in carried(run):
+    for c in found:
         cell = (int(round(c.pose[0])), int(round(c.pose[1])))
-        if math.hypot(c.pose[0] - cell[0], c.pose[1] - cell[1]) <= AT_CELL:
-            if run.grid.in_bounds(cell) and run.grid.is_free(cell) and cell not in taken:
-                taken.add(cell)
-                continue
-        elif placed(run.grid, c.robot, c.here):  # between its cell and a neighbour: walled, or finished
+        if (math.hypot(c.pose[0] - cell[0], c.pose[1] - cell[1]) <= AT_CELL and run.grid.in_bounds(cell)
+                and run.grid.is_free(cell) and cell not in taken):
+            taken.add(cell)
             continue
         return ("robot {} stands at {}, away from {} where the run has it and not on a free cell's centre: put "
                 "it on one (or back), then replan".format(c.robot.id, run.where(*c.pose), run.loaded.show(c.here)))

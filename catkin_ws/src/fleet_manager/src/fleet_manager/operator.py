@@ -127,9 +127,14 @@ def _why_not_step(run: Run) -> Optional[str]:
     return run.phase.refusal("step") or _busy(run) or _ready(run) or _moved(run)
 
 
+def _carried(run: Run) -> list:
+    """The robots moved by hand (`carried`), judged once for all the refusals of a State."""
+    return _once(run, "carried", lambda: carried(run))
+
+
 def _moved(run: Run) -> str:
-    """Why no robot may drive now ("" if they may): one was moved by hand (`carried`)."""
-    return _once(run, "carried", lambda: carried_words(run, carried(run)))
+    """Why no robot may drive now ("" if they may): one was moved by hand."""
+    return carried_words(run, _carried(run))
 
 
 def _ready(run: Run) -> str:
@@ -627,7 +632,7 @@ _WHY_NOT: Dict[str, Callable[[Run], Optional[str]]] = {
     "replan": lambda run: run.phase.refusal("replan") or (
         "a replan is already being made or awaits accept/reject" if run.replanner.open else None) or (
         "a reroute proposal awaits accept/reject; answer it first" if run.rerouting.proposal_id is not None
-        else None) or _between_cells(run) or behind_out(run) or replan_refusal(run),
+        else None) or _between_cells(run) or behind_out(run) or replan_refusal(run, _carried(run)),
     "to_starts": _why_not_to_starts, "reset": _why_not_reset,
 }
 if set(_WHY_NOT) != set(RUN_ACTIONS):

@@ -46,7 +46,7 @@ from .outbox import PlanJob
 from .robot import Robot
 
 __all__ = ["Replanner", "Pending", "IDLE", "SAFE_POINT", "PLANNING", "PROPOSED", "going_on", "placed",
-           "prefixed", "stood_on", "to_segment", "walled"]
+           "prefixed", "stood_on", "to_segment", "towards", "walled"]
 
 IDLE, SAFE_POINT, PLANNING, PROPOSED = "idle", "safe-point", "planning", "proposed"
 
@@ -153,7 +153,12 @@ def leans_into(robot: Robot, cell: Coord) -> Optional[Coord]:
     pose = robot.pose
     if pose is None or not robot.pose_settled() or math.hypot(pose.x - cell[0], pose.y - cell[1]) <= AT_CELL:
         return None
-    dx, dy = pose.x - cell[0], pose.y - cell[1]
+    return towards((pose.x, pose.y), cell)
+
+
+def towards(point: Tuple[float, float], cell: Coord) -> Coord:
+    """The neighbour of `cell` that `point` (off its centre) lies towards, along the larger offset."""
+    dx, dy = point[0] - cell[0], point[1] - cell[1]
     return ((cell[0] + (1 if dx > 0 else -1), cell[1]) if abs(dx) >= abs(dy)
             else (cell[0], cell[1] + (1 if dy > 0 else -1)))
 
