@@ -707,6 +707,35 @@ def test_a_robot_disabled_in_the_middle_of_a_drive_that_then_faults_drives_on_wh
     assert f.core.summary().collisions == 0
 
 
+def test_a_replan_right_after_a_halt_plans_the_halted_robots_from_where_they_stand():
+    """The operator halts the fleet in the middle of its moves and replans at once: the halted
+    robots take part, as Start would take them back, each from the cell it stands on or the one
+    it was halted on the way into (that move first). Before, they were planned around as if out:
+    "replanned 0 robots", each left away from its goal, and Start gave them ways home one by one
+    or, from between two cells, none (a second replan was needed)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: sum(r.flight is not None and r.flight.kind == "drive" for r in f.core.fleet) >= 2, 30)
+    f.advance(0.3)  # part way through those drives
+    assert f.ask(ops, "halt").ok
+    f.advance(0.3)
+    halted = [r for r in f.core.fleet if r.hold == "halted"]
+    between = [r for r in halted if f.core.run.engine.run.halfway[r.agent]]
+    assert len(halted) >= 2 and between, "robots halted between two cells"
+    replanned(f, ops)
+    said = [n.text for n in ops.notices() if n.kind == "plan" and n.text.startswith("replanned")]
+    assert said and not said[-1].startswith("replanned 0 "), said
+    assert not f.core.run.stranded and f.core.run.stranded_words() == ""
+    assert f.phase == "paused"  # halted: the run waits for Start
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    summary = f.core.summary()
+    assert summary.lines()[0] == "arrived: 5/5" and summary.collisions == 0
+    assert f.closest is not None and f.closest[0] >= TURTLEBOT2.safe_cells - 1e-6, f.closest  # the truth
+
+
 def test_a_robot_halted_at_the_very_end_of_its_last_move_is_replanned_from_its_goal():
     """The operator halts the fleet as robot 4 is a few centimetres short of its goal: its move
     is taken back, so by the engine's record it stands in the cell before, leaning into its goal,
@@ -725,10 +754,7 @@ def test_a_robot_halted_at_the_very_end_of_its_last_move_is_replanned_from_its_g
     f.advance(0.2)
     state = f.core.run.engine.run
     assert state.out[robot.agent] is not None and state.completed[robot.agent] < state.count(robot.agent)
-    replanned(f, ops)  # around the halted robots
-    for rid in f.robots:
-        f.ask(ops, "enable", robot=rid)
-    replanned(f, ops)  # every robot from where it stands
+    replanned(f, ops)  # every robot from where it stands, the halted ones too
     assert f.core.run.positions()[robot.agent] == tuple(goal) and not f.core.run.stranded
     assert f.ask(ops, "start").ok  # halted: the run was paused
     assert f.run_until(lambda: done(f), 60)

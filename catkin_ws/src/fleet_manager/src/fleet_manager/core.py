@@ -56,7 +56,7 @@ from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, going_on, leans_into, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
-from .robot import RESUMING, Fleet, Robot, Seen
+from .robot import HALTED, RESUMING, Fleet, Robot, Seen
 from .run import PLAN, Run
 from .run_phase import RUNNING
 from .settings import ManagerSettings
@@ -207,10 +207,9 @@ class RunCore:
                 r.pose_settled() for r in self.fleet.robots if r.link_up):
             # a pose taken before a robot's last reply (late) may show it short of where it
             # stopped: walls and cells are judged on the next one, taken after
-            out = {a for a, why in enumerate(run.engine.run.out) if why is not None}
             here = stood_on(run.grid, self.fleet.robots, run.positions())
             halfway = run.halfway_cells()  # (nobody finishes a move into one: wide carrying seed 673)
-            on = going_on(run.grid, self.fleet.robots, here, out, run.walls | halfway)
+            out, on = self._replanned_from(here, run.walls | halfway)
             current = [on.get(a, c) for a, c in enumerate(here)]
             grid = _without(walled(run.grid, self.fleet.robots, here, set(on), halfway), self._walls_but(current))
             shared = self._sharing(current)
@@ -242,6 +241,24 @@ class RunCore:
         for line in self._refusals.counts(now):
             self.out.say("[{:7.1f} s] {}".format(now, line))
         self.out.frames(self.desk.tick(now))
+
+    def _replanned_from(self, here: Sequence[Coord], walls: Set[Coord]) -> Tuple[Set[int], Dict[int, Coord]]:
+        """Who a replan at its safe point plans around (out), and who finishes the move it is
+        half through first (`going_on`: agent -> the cell it is planned from). A robot the
+        operator halted takes part, as Start would take it back: from the cell it stands on, or
+        from the one it was halted on the way into. Planned around instead, nobody halted moved
+        in the new plan ("replanned 0 robots") and each was left away from its goal. One halted
+        between two cells that cannot finish its move there (the cell is another's), or halted in
+        a move with no pose to say where, or whose link is down, stays out: planned from its cell,
+        it would drive across the corner."""
+        state = self.run.engine.run
+        robots = self.fleet.robots
+        halted = {r.agent for r in robots if r.hold == HALTED and state.out[r.agent] not in (None, "disabled")}
+        out = {a for a, why in enumerate(state.out) if why is not None} - halted
+        on = going_on(self.run.grid, robots, here, out, walls)
+        out |= {a for a in halted if a not in on and (not robots[a].link_up or leans_into(robots[a], here[a]) is not None
+                                                   or (robots[a].pose is None and state.halfway[a]))}
+        return out, on
 
     def _walls_but(self, current: Sequence[Coord]) -> Set[Coord]:
         """The run's walls a replan keeps off, but the cells robots start on: a robot's own cell
