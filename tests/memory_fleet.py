@@ -358,7 +358,8 @@ class MemoryFleet:
             if robot.up:
                 robot.seq += 1
                 self._poses.append((self.now, PoseFeedback(robot.id, robot.seq, robot.navigator.pose(),
-                                                           robot.executor.current, robot.navigator.faults())))
+                                                           robot.executor.current, robot.navigator.faults(),
+                                                           robot.executor.ended)))
         due = [p for t, p in self._poses if t <= self.now - self.pose_lag + 1e-9]
         self._poses = [(t, p) for t, p in self._poses if t > self.now - self.pose_lag + 1e-9]
         for pose in due:

@@ -351,6 +351,10 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     if sorted(summary.arrived) != sorted(rid for rid, at in home.items() if at):
         out.problems.append("the summary counts robots {} arrived; at their goals: {}".format(
             summary.arrived, [rid for rid, at in home.items() if at]))
+    if not carrying:  # nobody touched a robot: a robot "moved by hand" is a false alarm
+        alarms = [line for line in f.said if re.search(r"away from .{1,40}? where the run has it", line)]
+        if alarms:
+            out.problems.append("a robot nobody moved was found moved by hand: " + alarms[0])
     if summary.collisions and not carrying:  # (a robot carried across the floor is a drive through
         out.problems.append("{} pairs closer than the safe distance".format(summary.collisions))  # others there)
     # The truth as well as the run's own count, which sees only the poses the manager had (late

@@ -135,3 +135,55 @@ def test_robots_the_run_halted_between_cells_are_where_the_run_has_them() -> Non
     assert moved(f) is None
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done", 120) and f.at_goals()
+
+
+def pushed_off_its_goal() -> MemoryFleet:
+    """The lab plan; robot 3 is home early, and a visitor pushes it 0.45 cells off its goal towards
+    the cell robot 5 will drive through later."""
+    f = started_run(lab(), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    robot = f.core.fleet.by_id[3]
+    goal = f.core.run.loaded.goals[robot.agent]
+    navigator = f.robots[3].navigator
+    assert f.run_until(lambda: f.core.run.engine.run.finished_agent(robot.agent) and not navigator.moving
+                       and robot.flight is None, 60)
+    f.closest = None
+    carry(f, 3, goal[0], goal[1] - 0.45)
+    return f
+
+
+def test_a_robot_pushed_half_a_cell_towards_a_neighbour_others_pass_halts_the_run() -> None:
+    """Between its cell and a neighbour is where the run has a robot only when the run put it
+    there (a move it was sent, failed or halted in; one it is planned to finish first; a cell a
+    replan walled off around it): pushed there, robot 3 halts the run, the replan walls that cell
+    off, and robot 5 drives round it (before, robot 5 passed 0.55 cells from it, the safe distance
+    0.65)."""
+    f = pushed_off_its_goal()
+    ops = f.console()
+    assert f.run_until(lambda: f.phase == "paused", 2), "the run halts by itself"
+    assert "halted: robot 3 stands at" in f.core.run.phase.reason
+    assert not f.ask(ops, "start").ok
+    assert f.ask(ops, "replan").ok  # planned from where it stands: the cell it leans into walled off
+    answered(f, ops)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done", 120)
+    goals = f.core.run.loaded.goals
+    assert all(math.hypot(f.robots[rid].navigator.true_pose().x - goals[rid - 1][0],
+                          f.robots[rid].navigator.true_pose().y - goals[rid - 1][1]) < 0.3 for rid in (1, 2, 4, 5))
+    assert worst(f) >= SAFE - 1e-3, f.closest
+
+
+def test_a_robot_pushed_towards_a_neighbour_and_taken_as_stopped_in_a_move_is_driven_past(monkeypatch) -> None:
+    """The control: the rule before 2026-11-27, anywhere between a robot's cell and a neighbour is
+    where the run has it; the run goes on and robot 5 passes too close."""
+    where = carried_module._where_the_run_has_it
+
+    def between_is_fine(run, robot, pose, here, holding):
+        far = carried_module.towards(pose, here)
+        if (carried_module.to_segment(pose, here, far) <= carried_module.AT_CELL
+                and math.hypot(pose[0] - far[0], pose[1] - far[1]) > carried_module.AT_CELL):
+            return True
+        return where(run, robot, pose, here, holding)
+    monkeypatch.setattr(carried_module, "_where_the_run_has_it", between_is_fine)
+    f = pushed_off_its_goal()
+    f.run_until(lambda: f.phase == "done", 60)
+    assert worst(f) < SAFE - 1e-3

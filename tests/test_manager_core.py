@@ -610,7 +610,9 @@ def test_a_robot_left_half_off_its_goal_by_a_replan_has_not_arrived():
     disables it, then replans for the others. The plan gives robot 2 no move, leaving it "on" its
     goal: it has not arrived. Enabled after the others are home, it is told a replan takes it
     home, and one drives it back onto its goal (before, it counted as home half a cell away and
-    the run stayed done; wide operator sessions, seeds 1666 and 1716)."""
+    the run stayed done; wide operator sessions, seeds 1666 and 1716). Pushed off, it halts the
+    run (`carried`: nobody else is due in the cell it leans into), which the replan plans around
+    it; Start drives on."""
     f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
     ops = f.console()
     f.link_up()
@@ -623,8 +625,11 @@ def test_a_robot_left_half_off_its_goal_by_a_replan_has_not_arrived():
     nav = f.robots[2].navigator
     nav._rest = Pose(goal[0] + 0.5, float(goal[1]), nav.true_pose().theta)  # pushed by a visitor
     f.advance(0.3)
+    assert f.phase == "paused" and "robot 2 stands at (1.5, 8.0), away from (1, 8)" in f.core.run.phase.reason
+    assert not f.ask(ops, "start").ok
     replanned(f, ops)
     assert agent in f.core.run.stranded
+    assert f.ask(ops, "start").ok  # planned around where it stands
     assert f.run_until(lambda: done(f), 60)  # the others are home; robot 2 is out, not home
     assert f.core.summary().lines()[0] == "arrived: 4/4 (of 5 robots; 1 out)"
     answer = f.ask(ops, "enable", robot=2)

@@ -291,3 +291,34 @@ def test_a_replan_walling_a_robots_own_cell_is_caught(monkeypatch) -> None:
         found = True
     assert found
 
+
+
+def test_an_idle_pose_taken_before_a_quick_move_and_delivered_late_is_not_taken_as_where_it_stands() -> None:
+    """Wide session 1994: robot 2, halted half out of its cell, is replanned to finish that move
+    (0.25 s); a pose taken just before it began, delivered 0.3 s late, after the reply, named no
+    command and counted as taken since: robot 2 was found moved by hand, and the run halted for
+    nothing. Wide session 941: after a restart, the manager that took over judged robot 5 from
+    such a pose, a cell back, and replanned it from a cell it had left. Poses now name the last
+    motion ended (`PoseFeedback.ended`, `Robot.pose_settled`)."""
+    assert not session(1994, wide=True).problems
+    assert not session(941, wide=True).problems
+
+
+def test_an_idle_pose_taken_before_a_quick_move_is_caught(monkeypatch) -> None:
+    def before(robot: Robot) -> bool:  # before 2026-11-27: an idle pose counts, whenever taken
+        return robot.own is None or robot.own_current is None or (
+            robot.flight is not None and robot.own_current == robot.flight.id)
+    monkeypatch.setattr(Robot, "own_settled", before)
+    assert session(1994, wide=True).problems and session(941, wide=True).problems
+
+
+def test_the_way_to_the_starts_has_a_robot_left_leaning_into_a_cell_it_walled_off_where_it_stands() -> None:
+    """Wide dying session 143: robot 3, disabled between two cells, is left there by the way to the
+    starts, which walls off the cell it leans into; its reroutes keep off that cell too (`keep_to`),
+    and robot 3 stands where the run has it."""
+    assert not session(143, wide=True, dying=True).problems
+
+
+def test_a_way_to_the_starts_whose_walls_are_forgotten_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(Run, "to_starts_grid", property(lambda self: None, lambda self, grid: None), raising=False)
+    assert session(143, wide=True, dying=True).problems

@@ -194,3 +194,26 @@ def test_a_release_moves_the_running_drives_hold_point_and_is_done_at_once(nav: 
     assert ex.poll() == [("e", Completed(1))]
     assert replies(ex.handle("e", Release(4, 1, 2.0, 3.0))) == [Accepted(4), Completed(4)]  # too late: nothing
     assert len([c for c in nav.started if c[0] == "release"]) == 1
+
+
+def test_the_last_motion_ended_is_named_whatever_ended_it(nav: FakeNavigator) -> None:
+    """Pose feedback names it (`PoseFeedback.ended`): a manager tells an idle pose taken before a
+    motion began from one taken after it ended. Completed, stopped and refused motions end; a
+    stop, a release and a status question are not motions."""
+    ex = CommandExecutor(nav)
+    assert ex.ended is None
+    ex.handle("m", DriveToPosition(1, 1.0, 3.0, 2.0))  # (the robot stands at (1, 2))
+    ex.handle("m", Release(2, 1, 1.0, 3.0))
+    ex.handle("m", GetStatus(3))
+    assert ex.ended is None and ex.current == 1  # running
+    nav.outcome = MotionOutcome(True)
+    ex.poll()
+    assert ex.ended == 1 and ex.current is None
+    ex.handle("m", Turn(4, 1.0))
+    ex.handle("m", Stop(5))  # stops the turn
+    assert ex.ended == 4
+    ex.handle("m", Stop(6))  # nothing to stop
+    assert ex.ended == 4
+    nav.refuse = "blocked"
+    assert replies(ex.handle("m", DriveToPosition(7, 2.0, 2.0, 2.0)))[0] == Failed(7, "blocked")
+    assert ex.ended == 7

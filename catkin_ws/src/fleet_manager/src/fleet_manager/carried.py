@@ -8,14 +8,16 @@ the next cell of another robot's path, Start pressed, the two centres met).
 
 Theory of operation. A robot *stands where the run has it* when its pose is within `AT_CELL`
 of the cell the run holds for it (`Run.positions`); or between that cell and a neighbour (on
-the line between their centres, farther than `AT_CELL` from either): stopped in the middle of
-a move by a halt, a fault or Stop, a state the run itself makes, which a replan walls in or
-finishes (`replanning.walled`, `going_on`), whatever the engine recorded of the move since (a
-reroute, a hand-over); or on the neighbour's centre when the run knows it is entering it: the
-target of its next move, if it was sent that move (halted or stopped at its very end) or no
-other robot is due in that cell before it (a replan's first move, finishing one it was half
-through), or a cell the current plan keeps walled off around it, or a cell the run holds for
-another robot (nobody else enters that cell while that robot holds it). Only robots standing
+the line between their centres), or on the neighbour's centre, when the run put it there: the
+neighbour is the target of its next move and it was sent that move (halted, stopped by a fault
+or at its very end) or no other robot is due in that cell before it (a replan's first move,
+finishing one it was half through: `replanning.going_on`), or the plan keeps that cell walled
+off around it (`replanning.walled`: a robot a replan or the way to the starts left between
+cells; the walls a restart raised); and on the neighbour's centre also when the run holds that
+cell for another robot (nobody else enters it while that robot holds it). Anywhere else
+between two cells it was pushed: a robot standing half a cell towards a free neighbour that
+nobody is kept out of is 0.5 cells from whoever drives through it next (a visitor's push of
+0.45 cells let robot 5 pass robot 3 at 0.55 cells, the safe distance 0.65). Only robots standing
 still are judged (a link, no command in flight, a pose taken since their last reply,
 `Robot.pose_settled`, and received after it): a moving robot's pose is somewhere on its drive,
 and a pose taken before its last reply may show it short of where that reply left it (an idle
@@ -49,8 +51,9 @@ pose instead, and the operator is told to choose that pose to replan from it. A 
 link is down is found once the link is back: nothing tells the manager where it is meanwhile. A
 robot with no pose the run may use (Vicon has not seen it since the manager started, its own
 names a command) is not judged: Start and replans plan from the engine's record, which walls off the cell a robot out stopped half into
-(`Run.halfway_cells`). A robot pushed half a cell towards a neighbour stands as one stopped in a
-move does, and is judged so (walled in by a replan), as before this check.
+(`Run.halfway_cells`). A pose taken before the robot's last motion began, delivered late, names
+the motion ended before that one (`PoseFeedback.ended`) and does not count (`Robot.pose_settled`).
+While a manager taking the run over waits for its robots, it judges them itself (`off_plan`).
 """
 from __future__ import annotations
 
@@ -90,6 +93,8 @@ def carried(run: "Run") -> List[Carried]:
     """The robots standing still away from where the run has them (the module's docstring).
     Before a run's first move (waiting) only robots out are judged: the others must stand on
     their starts for Start (`Run.not_ready`), while one out stays where the run has it."""
+    if run.resuming is not None:
+        return []  # a manager taking the run over judges where every robot stands itself (`off_plan`)
     waiting = run.phase.phase == WAITING
     held = run.positions()
     state = run.engine.run
@@ -116,7 +121,8 @@ def _standing_poses(robot: Robot, stale_after: float) -> List[Tuple[Tuple[float,
     still seen where Vicon had last seen it)."""
     ended = robot.ended_at
     own, vicon = robot.own, robot.vicon
-    if (robot.source == VICON and own is not None and robot.own_current is None and (ended is None or own.at >= ended)
+    if (robot.source == VICON and own is not None and robot.own_current is None and robot.own_settled()
+            and (ended is None or own.at >= ended)
             and (vicon is None or own.at - vicon.at > stale_after)):
         return [((own.pose.x, own.pose.y), True)]
     seen = robot.seen()
@@ -133,14 +139,14 @@ def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], h
     far = towards(pose, here)
     if to_segment(pose, here, far) > AT_CELL:
         return False
-    if math.hypot(pose[0] - far[0], pose[1] - far[1]) > AT_CELL:
-        return True  # between its cell and a neighbour: stopped in a move (a replan walls it in)
+    # between its cell and that neighbour, or on the neighbour's centre: only where the run put it
     state, table, kept = run.engine.run, run.engine.table, run.rerouting.maps.grid
     a, nxt = robot.agent, state.next_incomplete(robot.agent)
     entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
         state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
         or _first_in(state, nxt))  # (a replan's first move, finishing one it was half through)
-    return entering or far in holding or not (kept.in_bounds(far) and kept.is_free(far))
+    on_far = math.hypot(pose[0] - far[0], pose[1] - far[1]) <= AT_CELL
+    return entering or (on_far and far in holding) or not (kept.in_bounds(far) and kept.is_free(far))
 
 
 def _first_in(state: RunState, action: int) -> bool:
@@ -173,10 +179,12 @@ def carried_words(run: "Run", found: List[Carried]) -> str:
 
 def replan_refusal(run: "Run", found: List[Carried]) -> Optional[str]:
     """Why a replan cannot plan from where a moved robot of `found` (`carried`) stands: between
-    cells (a robot between its own cell and a neighbour is not moved), or on a cell the run holds
-    for another robot (None: it can, `replanning.stood_on`)."""
+    two cells other than its own and a neighbour, or on a cell the run holds for another robot
+    (None: it can, `replanning.stood_on`, `replanning.placed`)."""
     taken: Set[Coord] = {tuple(c) for c in run.positions()}  # type: ignore[misc]
     for c in found:
+        if to_segment(c.pose, c.here, towards(c.pose, c.here)) <= AT_CELL:
+            continue  # pushed towards a neighbour: walled in or finishing that move (`replanning.placed`)
         cell = (int(round(c.pose[0])), int(round(c.pose[1])))
         if (math.hypot(c.pose[0] - cell[0], c.pose[1] - cell[1]) <= AT_CELL and run.grid.in_bounds(cell)
                 and run.grid.is_free(cell) and cell not in taken):

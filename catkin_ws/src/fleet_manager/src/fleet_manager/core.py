@@ -118,7 +118,8 @@ class RunCore:
         driver = self.run.driver
         if isinstance(event, PoseFeedback):
             robot.own = Seen(event.pose, now)
-            robot.own_current = event.current
+            robot.own_current, robot.own_ended = event.current, event.ended
+            robot.says_ended = robot.says_ended or event.ended is not None
             robot.facing = None
             if tuple(event.faults) != robot.faults:
                 driver.faults(robot, event.faults)
@@ -127,6 +128,7 @@ class RunCore:
             driver.reply(robot, event.reply, now)
         elif isinstance(event, LinkUp):
             robot.link, robot.link_reason = "up", ""
+            robot.says_ended = False  # (a robot process started again has ended nothing yet)
             driver.link_up(robot, event.restarted, now)
         elif isinstance(event, LinkDown):
             robot.link, robot.link_reason = ("failed" if event.fatal else "down"), event.reason

@@ -258,7 +258,7 @@ class Driver:
             if reply.id == robot.status_id:
                 robot.status_id = None
                 robot.own = Seen(reply.pose, now)
-                robot.own_current = reply.current
+                robot.own_current, robot.own_ended = reply.current, robot.answered  # (taken now)
                 robot.facing = None
                 if tuple(reply.faults) != robot.faults:
                     self.faults(robot, reply.faults)
@@ -268,6 +268,8 @@ class Driver:
         flight = robot.flight
         if flight is None or reply.id != flight.id:  # type: ignore[attr-defined]
             return  # an outcome of something we stopped caring about (a take-back)
+        if flight.kind in ("drive", "turn") and not (isinstance(reply, Failed) and OUTCOME_UNKNOWN in reply.reason):
+            robot.answered = flight.id  # its poses from now on name it (`Robot.pose_settled`)
         if isinstance(reply, Accepted):
             flight.accepted = True
             begun = reply.duplicate and self.engine.run.started[robot.agent] > (flight.index or 0)

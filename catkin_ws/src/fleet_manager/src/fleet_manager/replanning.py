@@ -173,7 +173,10 @@ def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set
     stands between cells (a follower at its hold point is in the middle of its drive). The
     cells of `halfway` too (`Run.halfway_cells`: robots out with no pose, by the engine's record)."""
     free = grid.free.copy()
-    taken = {tuple(c) for c in here}
+    # a robot's own cell stays its start; but not the cell one finishing its move leaves (wide
+    # carrying seed 673: robot 4, halted leaning into the cell robot 2 was halted leaving, was
+    # left there unwalled, a cell the others could be planned through half a cell from it)
+    taken = {tuple(here[r.agent]) for r in robots if r.agent not in skip}
     fars = [None if robot.agent in skip else leans_into(robot, here[robot.agent]) for robot in robots]
     for far in fars + [tuple(c) for c in halfway]:
         if far is not None and grid.in_bounds(far) and far not in taken:  # a robot's own cell stays its start

@@ -77,6 +77,8 @@ class Robot:
     # what it reported
     own: Optional[Seen] = None        # its own pose feedback (or a status reply)
     own_current: Optional[int] = None  # the command it was running when it took that pose
+    own_ended: Optional[int] = None   # the last motion that had ended when it took that pose
+    says_ended: bool = False          # its poses name the last motion ended (robots since 2026-11-27)
     vicon: Optional[Seen] = None      # Vicon's view of it
     source: str = ROBOT               # the pose the run uses
     disagreeing: bool = False         # its own pose and Vicon's differ (is it lost?)
@@ -94,6 +96,7 @@ class Robot:
     next_id: int = 1                  # its next command id (they increase per manager epoch)
     releases: Set[int] = field(default_factory=set)  # ids of releases not yet settled
     ended_at: Optional[float] = None  # when the reply that ended its last command arrived
+    answered: Optional[int] = None    # the last motion it answered (accepted, or refused)
 
     @property
     def link_up(self) -> bool:
@@ -118,15 +121,26 @@ class Robot:
         """Whether the pose the run uses was taken since the robot's last command ended, as far as
         its replies tell: its own pose names the command it was running when taken, and one taken
         during a command that has ended since (it came after the reply: late, or queued while no
-        manager listened) shows where the robot was, not where it is. Vicon's name none: one
+        manager listened) shows where the robot was, not where it is; one taken while idle names
+        the last motion that had ended, and one taken before the motion it last answered began
+        shows it where it was before (wide session 1994: a half-cell move made in 0.25 s, a pose
+        from before it delivered 0.3 s late, and the robot was judged moved by hand). Vicon's name none: one
         counts if it arrived `VICON_LATENCY` after that reply. The last pose of a robot Vicon
         has lost (occluded) may be from moves ago, and the run must not plan from it."""
         if self.source == VICON:
             seen = self.vicon
             return seen is None or self.ended_at is None or seen.at >= self.ended_at + VICON_LATENCY
+        return self.own_settled()
+
+    def own_settled(self) -> bool:
+        """`pose_settled` for its own pose, whatever the run uses."""
         if self.own is None:
             return True
-        return self.own_current is None or (self.flight is not None and self.own_current == self.flight.id)
+        if self.own_current is not None:
+            return self.flight is not None and self.own_current == self.flight.id
+        # idle when taken: after the last motion it answered, or before that motion began (a pose
+        # delivered late shows it a move back); a robot too old to say is taken at its word
+        return not self.says_ended or self.answered is None or self.own_ended == self.answered
 
     def age(self, now: float, source: Optional[str] = None) -> Optional[float]:
         seen = self.seen(source)

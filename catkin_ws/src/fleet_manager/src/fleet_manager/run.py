@@ -94,6 +94,7 @@ class Run:
         self.ended_at: Optional[float] = None     # the run was done (the clock stops)
         self.to_starts_job: Optional[int] = None  # the way to the starts being planned
         self.to_starts_first: Dict[int, Coord] = {}  # robots it has finish a move first (`prefixed`)
+        self.to_starts_grid: Optional[Grid] = None  # the map it is planned on, walls included
         self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
         #: a resumed run before its robots were checked (`resume.py`)
         self.resuming: Optional[Resuming] = None
@@ -629,6 +630,7 @@ class Run:
         on = self._going_on(cells)
         grid = walled(self.fleet_map, self.fleet.robots, cells, set(on), self.halfway_cells())
         self.to_starts_first = {a: tuple(cells[a]) for a in on}
+        self.to_starts_grid = grid
         job = PlanJob(next(self.job_ids), grid, [on.get(a, c) for a, c in enumerate(cells)],
                       list(self.target.starts), out, self.settings.to_starts_limit, "pp")
         self.to_starts_job = job.id
@@ -665,6 +667,8 @@ class Run:
         self._end("the robots drive to the starts first (a run of its own)")
         self.loaded, self.purpose = way, TO_STARTS
         self._new_run(plan, now)
+        if self.to_starts_grid is not None:  # its reroutes keep off the cells it was walled off from,
+            self.rerouting.keep_to(self.to_starts_grid)  # and a robot left leaning into one stands there
         self.begin_clock(now)
         self.move("start", "driving every robot to its start for {} ({} moves)".format(
             name, sum(action_counts(plan))))

@@ -160,7 +160,7 @@ class RobotEndpoint:
 
     def publish_pose(self) -> None:
         message = PoseFeedback(self.robot_id, self.seq, self.navigator.pose(),
-                               self.executor.current, tuple(self.navigator.faults()))
+                               self.executor.current, tuple(self.navigator.faults()), self.executor.ended)
         self.seq += 1
         try:
             self.feedback.send(encode(message), zmq.NOBLOCK)

@@ -63,6 +63,9 @@ class CommandExecutor:
         self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
         self._highest: Dict[str, int] = {}
         self._running: Optional[_Key] = None
+        #: id of the last motion (drive or turn) that ended: completed, failed, stopped or refused
+        #: (pose feedback names it: a manager tells a pose taken before a motion from one after it)
+        self.ended: Optional[int] = None
         self.executed = 0  # motions started and stops carried out, for tests and logs
 
     @property
@@ -85,6 +88,8 @@ class CommandExecutor:
             replies += [outcome] if outcome is not None else []
             return [(epoch, r) for r in replies]
         if command.id <= self._highest.get(epoch, -1):
+            if isinstance(command, (DriveToPosition, Turn)):
+                self.ended = command.id
             return [(epoch, Failed(command.id, "command id {} is older than the last {} "
                                    "remembered; it is not executed again".format(
                                        command.id, self.memory)))]
@@ -95,6 +100,7 @@ class CommandExecutor:
             return self._release(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
+            self.ended = command.id
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
         self._remember(key, True, None)
         self._running = key
@@ -111,6 +117,7 @@ class CommandExecutor:
         if outcome is None:
             return []
         key, self._running = self._running, None
+        self.ended = key[1]
         reply = Completed(key[1]) if outcome.ok else Failed(key[1], outcome.reason or "failed")
         return [self._settle(key, reply, accepted=True)]
 
@@ -145,6 +152,7 @@ class CommandExecutor:
         out: List[Routed] = []
         if self._running is not None:
             running, self._running = self._running, None
+            self.ended = running[1]
             out.append(self._settle(running, Failed(running[1], "stopped by command {}".format(
                 key[1])), accepted=True))
         self._remember(key, True, None)

@@ -170,7 +170,12 @@ class Status:
 
 @dataclass(frozen=True)
 class PoseFeedback:
-    """Published 10 times a second or more; `seq` counts up from 0 per robot process."""
+    """Published 10 times a second or more; `seq` counts up from 0 per robot process.
+    `current`: the motion running when the pose was taken (None: idle); `ended`: the last
+    motion (drive or turn) that had ended by then, completed, failed, stopped or refused
+    (None: none since the robot started, or a robot too old to say). With `ended` a manager
+    tells an idle robot's pose taken before its last motion began (and delivered late) from
+    one taken after it ended: both name no motion running."""
 
     TYPE: ClassVar[str] = "pose"
     robot_id: int
@@ -178,6 +183,7 @@ class PoseFeedback:
     pose: Pose
     current: Optional[int]
     faults: Tuple[str, ...] = ()
+    ended: Optional[int] = None
 
 
 Command = Union[DriveToPosition, Turn, Stop, Release, GetStatus]
