@@ -712,6 +712,44 @@ def test_a_robot_disabled_in_the_middle_of_a_drive_that_then_faults_drives_on_wh
     assert f.core.summary().collisions == 0
 
 
+def stepped_to_the_end(f: MemoryFleet, ops: MemoryConsole, most: int = 60) -> int:
+    """Step, wait for the robots to stand, again, until the run is done: the steps taken."""
+    for steps in range(1, most + 1):
+        assert f.ask(ops, "step").ok
+        assert f.run_until(lambda: not f.core.run.driver.moving, 10)
+        f.advance(0.3)
+        if done(f):
+            return steps
+    raise AssertionError("not done after {} steps: {}".format(most, f.core.run.phase.reason))
+
+
+def test_a_run_stepped_to_its_end_is_done_and_says_so():
+    """Before, the last step left every robot home and the run paused for ever: no "done", no
+    summary."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    stepped_to_the_end(f, ops)
+    assert f.at_goals() and f.core.summary().lines()[0] == "arrived: 5/5"
+    assert any(n.kind == "run" and n.text.startswith("run done: arrived: 5/5") for n in ops.notices())
+
+
+def test_step_after_a_halt_takes_the_halted_robots_back_as_start_does():
+    """Before, each Step after a Halt was accepted and released nothing: every robot halted in a
+    move was out until Start."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    f.ask(ops, "start")
+    assert f.run_until(lambda: sum(r.flight is not None and r.flight.kind == "drive" for r in f.core.fleet) >= 2, 30)
+    f.advance(0.3)
+    assert f.ask(ops, "halt").ok
+    f.advance(0.5)
+    assert [r for r in f.core.fleet if r.hold == "halted"]
+    stepped_to_the_end(f, ops)
+    assert f.at_goals() and f.core.summary().collisions == 0
+
+
 def test_a_replan_right_after_a_halt_plans_the_halted_robots_from_where_they_stand():
     """The operator halts the fleet in the middle of its moves and replans at once: the halted
     robots take part, as Start would take them back, each from the cell it stands on or the one

@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional, Set, Tuple
+from typing import TYPE_CHECKING, Dict, List, Optional, Set, Tuple
 
 from fleet_common.execution.run import RunState
 from fleet_common.grid import Coord
@@ -98,7 +98,7 @@ def carried(run: "Run") -> List[Carried]:
     waiting = run.phase.phase == WAITING
     held = run.positions()
     state = run.engine.run
-    holding = {tuple(c) for c in held}
+    holding = {tuple(c): a for a, c in enumerate(held)}
     found: List[Carried] = []
     for robot in run.fleet:
         if not robot.link_up or robot.flight is not None or (waiting and state.out[robot.agent] is None):
@@ -132,7 +132,7 @@ def _standing_poses(robot: Robot, stale_after: float) -> List[Tuple[Tuple[float,
 
 
 def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], here: Coord,
-                          holding: Set[Coord]) -> bool:
+                          holding: Dict[Coord, int]) -> bool:
     """Whether a robot standing at `pose` stands where the run has it (`here`: its cell)."""
     if math.hypot(pose[0] - here[0], pose[1] - here[1]) <= AT_CELL:
         return True
@@ -145,8 +145,13 @@ def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], h
     entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
         state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
         or _first_in(state, nxt))  # (a replan's first move, finishing one it was half through)
+    holder = holding.get(far)
+    # a cell the run holds for another robot: nobody else enters it while that one holds it; from
+    # between cells, only while it stays there (out, or home: session 226, a robot halted leaning
+    # into the cell of one a fault stopped on its way out); once it moves on, this one is judged again
+    stays = holder is not None and (state.out[holder] is not None or state.next_incomplete(holder) < 0)
     on_far = math.hypot(pose[0] - far[0], pose[1] - far[1]) <= AT_CELL
-    return entering or (on_far and far in holding) or not (kept.in_bounds(far) and kept.is_free(far))
+    return entering or (holder is not None and (on_far or stays)) or not (kept.in_bounds(far) and kept.is_free(far))
 
 
 def _first_in(state: RunState, action: int) -> bool:

@@ -230,7 +230,7 @@ class RunCore:
         self._ways_home_tick(now)
         if run.phase.phase == RUNNING:
             run.driver.tick(now)
-        if run.phase.phase == RUNNING and run.all_arrived() and not run.driver.moving:
+        if (run.phase.phase == RUNNING or run.phase.stepped) and run.all_arrived() and not run.driver.moving:
             if run.purpose == PLAN:
                 self.out.tell("run", None, "run done: {}".format("; ".join(self.summary().lines()[:2])))
             run.arrived(now)

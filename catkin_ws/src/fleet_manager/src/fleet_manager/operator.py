@@ -46,7 +46,7 @@ from .carried import carried, carried_words, replan_refusal
 from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .replanning import placed
-from .robot import HALTED, VICON, Robot
+from .robot import VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, RUNNING, WAITING
 
@@ -177,10 +177,7 @@ def ways_home(run: Run, now: float) -> str:
 
 def resume(run: Run, now: float, trigger: str = "start") -> None:
     """Drive on: halted robots are enabled again, the engine resumes."""
-    for robot in run.fleet:
-        if robot.hold == HALTED:
-            run.driver.enable(robot, now)
-            run.out.record("out", robot=robot.id, why=None, reason="resumed after halt")
+    run.take_back_halted(now, "resumed after halt")
     run.move(trigger, "" if run.purpose != TO_STARTS else "driving every robot to its start for {}".format(
         run.target.title))
     run.driver.handle(Resume(now), now)
@@ -211,6 +208,7 @@ def step(run: Run, args: Args, now: float) -> Answer:
         return False, refusal
     if run.phase.phase == WAITING:
         run.begin_clock(now)
+    run.take_back_halted(now, "stepped after halt")  # (else each step released nothing, for ever)
     run.move("step", "one round released (step)")
     run.driver.handle(StepRound(now), now)
     return True, ""

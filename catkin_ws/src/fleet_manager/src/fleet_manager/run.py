@@ -672,13 +672,17 @@ class Run:
         self.begin_clock(now)
         self.move("start", "driving every robot to its start for {} ({} moves)".format(
             name, sum(action_counts(plan))))
-        for robot in self.fleet:  # the way is driven at once, as Start would: halted robots go on
-            if robot.hold == HALTED:
-                self.driver.enable(robot, now)
-                self.out.record("out", robot=robot.id, why=None, reason="resumed after halt: the way to the starts")
+        self.take_back_halted(now, "resumed after halt: the way to the starts")  # driven at once, as Start would
         self.driver.handle(Resume(now), now)  # an engine starts paused
         self.out.broadcast(self.setup())
         self.out.tell("run", None, "robots driving to the starts of {}".format(name))
+
+    def take_back_halted(self, now: float, reason: str) -> None:
+        """The robots the operator halted take part again (Start, Step, the way to the starts)."""
+        for robot in self.fleet:
+            if robot.hold == HALTED:
+                self.driver.enable(robot, now)
+                self.out.record("out", robot=robot.id, why=None, reason=reason)
 
     def arrived(self, now: float) -> None:
         """Every robot taking part is at its goal: the run is done (the way to the starts: the

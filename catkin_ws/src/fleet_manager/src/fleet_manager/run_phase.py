@@ -41,6 +41,7 @@ TRANSITIONS: Dict[Tuple[str, str], str] = {
     (PAUSED, "halt"): PAUSED,
     (STOPPED, "halt"): PAUSED,
     (RUNNING, "arrived"): DONE,
+    (PAUSED, "arrived"): DONE,  # (stepped to the end: `RunPhase.stepped`)
     (WAITING, "load"): WAITING,
     (STOPPED, "load"): WAITING,
     (DONE, "load"): WAITING,
@@ -81,6 +82,7 @@ class RunPhase:
     def __init__(self) -> None:
         self.phase = WAITING
         self.reason = "waiting for Start"
+        self.trigger = ""  # what moved it last
 
     def refusal(self, trigger: str) -> Optional[str]:
         """Why `trigger` cannot move the run now (None: it can)."""
@@ -100,8 +102,13 @@ class RunPhase:
             raise ValueError("{}: {}".format(trigger, refusal))
         phase = TRANSITIONS[(self.phase, trigger)]
         changed = (phase, reason) != (self.phase, self.reason)
-        self.phase, self.reason = phase, reason
+        self.phase, self.reason, self.trigger = phase, reason, trigger
         return changed
+
+    @property
+    def stepped(self) -> bool:
+        """Paused by a step, and by nothing since: a run stepped to its end is done."""
+        return self.phase == PAUSED and self.trigger == "step"
 
 
     @property
