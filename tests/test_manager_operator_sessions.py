@@ -322,3 +322,35 @@ def test_the_way_to_the_starts_has_a_robot_left_leaning_into_a_cell_it_walled_of
 def test_a_way_to_the_starts_whose_walls_are_forgotten_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(Run, "to_starts_grid", property(lambda self: None, lambda self, grid: None), raising=False)
     assert session(143, wide=True, dying=True).problems
+
+
+def test_a_robot_enabled_after_a_run_stepped_to_its_end_drives_its_new_leg() -> None:
+    """Sessions 214 and 431: a run stepped to its end (done, now that stepping ends a run) stands
+    with its engine paused; a robot disabled on the way and enabled after the end was given a new
+    leg, the run running, and nothing was sent for ever. The leg resumes the engine."""
+    assert not session(214).problems and not session(431).problems
+
+
+def test_a_new_leg_on_a_paused_engine_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(Run, "new_leg", lambda self, robot, now: (
+        setattr(self, "ended_at", None), self.move("leg", "robot {} enabled again after the end: a new leg to "
+                                                         "its goal".format(robot.id))))
+    assert session(214).problems
+
+
+def test_a_manager_that_takes_over_walls_off_a_cell_a_robot_out_leans_into_that_its_holder_leaves() -> None:
+    """Session 594: robot 4, halted leaning into the cell robot 2 was halted leaving, stays out of
+    a replan that walls that cell off (robot 2 finishes its move out of it first). The manager dies;
+    the one that takes over walled off the cells robots out lean into, but not those robots hold,
+    and robot 2 held this one until its move: robot 4 was not where the run had it (the cell free
+    for the others once robot 2 left, 0.39 cells from robot 4's centre). Now it walls off a held
+    cell its robot has a move out of (`RunCore._out_leaning_into`)."""
+    assert not session(594).problems
+
+
+def test_a_takeover_forgetting_a_cell_its_holder_leaves_is_caught(monkeypatch) -> None:
+    def held_cells_free(self, keep):  # before 2026-11-27: a cell a robot holds is never walled
+        return {c for c in leaning(self, keep) if c not in keep}
+    leaning = core.RunCore._out_leaning_into
+    monkeypatch.setattr(core.RunCore, "_out_leaning_into", held_cells_free)
+    assert session(594).problems

@@ -402,11 +402,14 @@ class RunCore:
         run = self.run
         held = run.positions()
         state = run.engine.run
+        # (a robot's cell stays free for it, but one it has a move out of: a replan walled it off
+        # for the one leaning into it, which the robot leaves: `replanning.walled`, narrow session 594)
+        leaving = {tuple(held[a]) for a in range(state.num_agents) if not state.finished_agent(a)}
         leans: Set[Coord] = set()
         for robot in self.fleet:
             a = robot.agent
             far = leans_into(robot, held[a]) if state.out[a] is not None and state.finished_agent(a) else None
-            if far is not None and run.grid.in_bounds(far) and far not in keep:
+            if far is not None and run.grid.in_bounds(far) and (far not in keep or far in leaving):
                 leans.add(far)
         return leans
 

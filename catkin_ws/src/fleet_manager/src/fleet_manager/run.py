@@ -711,6 +711,8 @@ class Run:
         """A robot enabled again after the run was done drives on to its goal: a new leg."""
         self.ended_at = None
         self.move("leg", "robot {} enabled again after the end: a new leg to its goal".format(robot.id))
+        if self.engine.paused:  # a run stepped to its end stands paused
+            self.driver.handle(Resume(now), now)
         self.out.tell("run", robot.id, "robot {} enabled after the end: a new leg of the run".format(robot.id))
 
 
