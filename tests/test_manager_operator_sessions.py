@@ -354,3 +354,25 @@ def test_a_takeover_forgetting_a_cell_its_holder_leaves_is_caught(monkeypatch) -
     leaning = core.RunCore._out_leaning_into
     monkeypatch.setattr(core.RunCore, "_out_leaning_into", held_cells_free)
     assert session(594).problems
+
+
+def test_a_robot_disabled_on_the_way_to_the_starts_is_enabled_where_it_stands() -> None:
+    """Wide sessions 1021 and 1776: robot 2, disabled on the way back to the starts, stays off its
+    start, which the run says ("Go to starts drives it there"). Enabling it was refused as a robot
+    moved by hand ("put it back where it was"), and lab staff carried it to its start. Before the
+    first move, where a robot stands is for Start to judge (`Run.not_ready`): enabled, Go to
+    starts drives it there."""
+    assert not session(1021, wide=True).problems and not session(1776, wide=True).problems
+
+
+def test_enable_refused_for_a_robot_left_off_its_start_is_caught(monkeypatch) -> None:
+    enable = operator.ACTIONS["enable"]
+
+    def refused_as_moved(run, args, now):  # before 2026-11-27: judged moved by hand while waiting
+        robot = run.fleet.by_id.get(args["robot"])
+        moved = [c for c in carried_module.carried(run) if c.robot is robot]
+        if moved and run.engine.run.out[robot.agent] is not None:
+            return False, carried_module.carried_words(run, moved) + ", then enable it"
+        return enable(run, args, now)
+    monkeypatch.setitem(operator.ACTIONS, "enable", refused_as_moved)
+    assert session(1021, wide=True).problems

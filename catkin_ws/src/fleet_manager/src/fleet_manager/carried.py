@@ -178,7 +178,8 @@ def carried_words(run: "Run", found: List[Carried]) -> str:
     back = "put {} back where {} {}".format(them, "it" if one else "they", "was" if one else "were")
     todo = ("{}, or on a free cell and replan (planned from where {})".format(back, they)
             if phase in UNDER_WAY else "{}, or Reset (the way to the starts starts from where {})".format(
-                back, they) if phase == DONE else back)
+                back, they) if phase == DONE else "put {} on {} start{}, or enable {}: Go to starts drives {} there".format(
+                    them, "its" if one else "their", "" if one else "s", them, them))
     return "{}{}: {}".format("; ".join(parts), more, todo)
 
 

@@ -405,8 +405,11 @@ def enable(run: Run, args: Args, now: float) -> Answer:
         pose = robot.pose
         return False, ("robot {} stands at {}, between two cells away from {}, where the run has it: put it "
                        "on a cell, then enable it".format(robot.id, run.where(pose.x, pose.y), run.loaded.show(here)))
-    moved = [c for c in carried(run) if c.robot is robot]
-    if moved:  # carried onto another cell while it was out: its next drive would start from there
+    # carried onto another cell while it was out: its next drive would start from there (before
+    # the first move, where it stands is for Start to judge: on its start, or Go to starts;
+    # wide sessions 1021, 1776: disabled on the way to the starts, it stayed off its start)
+    moved = [c for c in carried(run) if c.robot is robot] if run.phase.phase != WAITING else []
+    if moved:
         return False, carried_words(run, moved) + ", then enable it"
     run.driver.enable(robot, now)
     run.out.record("out", robot=robot.id, why=None, reason="enabled by operator")
