@@ -329,8 +329,12 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         if vicon:
             own_poses_if_lost(out.log[-1][4])
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
-        if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck(), 90) or f.phase == "done":
+        if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck(), 90):
             break
+        if f.phase == "done":  # done with a robot still out (seed 1511 of `--carrying`: a replan made as told
+            if all(o is None for o in f.core.run.engine.run.out):  # ended the run before staff enabled it):
+                break
+            continue  # the next round enables it, a new leg
         if f.phase == "waiting":
             continue
         if press("replan"):
