@@ -324,8 +324,9 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             press("accept", proposal=f.core.run.rerouting.proposal_id)
         if not press("start") and "Go to starts drives" in out.log[-1][4]:
             press("to_starts")  # a robot disabled on the way back to the starts stayed off its start
-        if put_right(out.log[-1][4]):
-            press("start")
+        for _ in range(3):  # as told, until Start goes (--wide --vicon --carrying 1391: put on a cell, then
+            if not put_right(out.log[-1][4]) or press("start"):  # the refusal says replan)
+                break
         if vicon:
             own_poses_if_lost(out.log[-1][4])
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)

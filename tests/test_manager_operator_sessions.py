@@ -19,7 +19,11 @@ noticed. Every session is judged by the robots' true poses as well as by the run
 from __future__ import annotations
 
 from fleet_common.planning.problem import InvalidProblemError
+from fleet_common.execution.reroute import RerouteError
+from fleet_common.wire import Failed
 from fleet_manager import carried as carried_module
+from fleet_manager import driver as driver_module
+from fleet_manager import rerouting as rerouting_module
 from fleet_manager import core, operator
 from fleet_manager.robot import VICON, Robot
 from fleet_manager import run as run_module
@@ -376,3 +380,41 @@ def test_enable_refused_for_a_robot_left_off_its_start_is_caught(monkeypatch) ->
         return enable(run, args, now)
     monkeypatch.setitem(operator.ACTIONS, "enable", refused_as_moved)
     assert session(1021, wide=True).problems
+
+
+def test_a_motion_refused_while_another_runs_does_not_stop_poses_counting() -> None:
+    """Session 1541: after a lost link the manager sent robot 2 drive 4 while drive 3 still ran;
+    the robot refused it ("busy with command 3") and then ended drive 3. Counted as the last motion
+    answered, the refusal made every later idle pose (naming drive 3) look older than it, and a
+    replan waited for ever for a pose that counted. Only a motion it accepted counts."""
+    assert not session(1541).problems
+
+
+def test_counting_a_refused_motion_as_answered_is_caught(monkeypatch) -> None:
+    reply = driver_module.Driver.reply
+
+    def also_refusals(self, robot, message, now):  # the first version of 2026-11-27
+        flight = robot.flight
+        reply(self, robot, message, now)
+        if (isinstance(message, Failed) and flight is not None and flight.kind in ("drive", "turn")
+                and message.id == flight.id):
+            robot.answered = flight.id
+    monkeypatch.setattr(driver_module.Driver, "reply", also_refusals)
+    assert session(1541).problems
+
+
+def test_no_reroute_is_looked_for_while_a_robot_stands_on_a_wall_of_its_plan() -> None:
+    """Session 1779: a replan had robot 2 finish its move out of a cell first, walled off for a
+    robot leaning into it; a reroute looked for before robot 2 left started it on that wall and
+    was refused as invalid (`RerouteError`, the look raised). Looks wait until it has left
+    (`Rerouting.on_walls`)."""
+    assert not session(1779).problems
+
+
+def test_a_reroute_from_a_robot_on_a_wall_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(rerouting_module.Rerouting, "on_walls", lambda self, engine: False)
+    try:
+        found = bool(session(1779).problems)
+    except RerouteError:
+        found = True
+    assert found

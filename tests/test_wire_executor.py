@@ -198,8 +198,9 @@ def test_a_release_moves_the_running_drives_hold_point_and_is_done_at_once(nav: 
 
 def test_the_last_motion_ended_is_named_whatever_ended_it(nav: FakeNavigator) -> None:
     """Pose feedback names it (`PoseFeedback.ended`): a manager tells an idle pose taken before a
-    motion began from one taken after it ended. Completed, stopped and refused motions end; a
-    stop, a release and a status question are not motions."""
+    motion began from one taken after it ended. Completed and stopped motions end; a refused one
+    never began (refused while another runs, the running one ends after it); a stop, a release
+    and a status question are not motions."""
     ex = CommandExecutor(nav)
     assert ex.ended is None
     ex.handle("m", DriveToPosition(1, 1.0, 3.0, 2.0))  # (the robot stands at (1, 2))
@@ -214,6 +215,11 @@ def test_the_last_motion_ended_is_named_whatever_ended_it(nav: FakeNavigator) ->
     assert ex.ended == 4
     ex.handle("m", Stop(6))  # nothing to stop
     assert ex.ended == 4
+    ex.handle("m", DriveToPosition(7, 2.0, 2.0, 2.0))
+    assert replies(ex.handle("m", Turn(8, 0.5)))[0].reason.startswith("busy with command 7")
+    nav.outcome = MotionOutcome(True)
+    ex.poll()
+    assert ex.ended == 7  # the last to end, not the one refused meanwhile
     nav.refuse = "blocked"
-    assert replies(ex.handle("m", DriveToPosition(7, 2.0, 2.0, 2.0)))[0] == Failed(7, "blocked")
+    assert replies(ex.handle("m", DriveToPosition(9, 2.0, 2.0, 2.0)))[0] == Failed(9, "blocked")
     assert ex.ended == 7

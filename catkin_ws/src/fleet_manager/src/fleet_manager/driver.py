@@ -268,8 +268,8 @@ class Driver:
         flight = robot.flight
         if flight is None or reply.id != flight.id:  # type: ignore[attr-defined]
             return  # an outcome of something we stopped caring about (a take-back)
-        if flight.kind in ("drive", "turn") and not (isinstance(reply, Failed) and OUTCOME_UNKNOWN in reply.reason):
-            robot.answered = flight.id  # its poses from now on name it (`Robot.pose_settled`)
+        if flight.kind in ("drive", "turn") and isinstance(reply, Accepted):
+            robot.answered = flight.id  # its idle poses from its end on name it (`Robot.pose_settled`)
         if isinstance(reply, Accepted):
             flight.accepted = True
             begun = reply.duplicate and self.engine.run.started[robot.agent] > (flight.index or 0)

@@ -169,6 +169,9 @@ class Rerouting:
         if self.mode == "off" or self.job is not None or self.pending is not None or engine.paused:
             return False
         run = engine.run
+        if self.on_walls(engine):
+            return False  # looked for again once it has moved off
+
         steps = run.clock.steps(now)
         if self._next[0] is not run:
             self._next = (run, self.rule.pace)  # a new plan: look a while after its start
@@ -176,6 +179,19 @@ class Rerouting:
             return False
         self._next = (run, steps + self.rule.pace)
         return worth_a_look(engine, now, self.rule, self.expected(engine))
+
+    def on_walls(self, engine: Engine) -> bool:
+        """Whether a robot still stands on a cell this plan's map walls off: a replan has a robot
+        finish its move out of a cell first and walls that cell off for one leaning into it
+        (`replanning.walled`); a reroute from now would have it start on a wall, and be refused as
+        invalid (narrow session 1779). Its first move is made at once."""
+        run, table, grid = engine.run, engine.table, self.maps.grid
+        for r in range(run.num_agents):
+            done = run.completed[r]
+            cell = table.start(r) if done == 0 else table.coord(run.dst[run.first[r] + done - 1])
+            if not grid.is_free(tuple(cell)):
+                return True
+        return False
 
     def expected(self, engine: Engine) -> List[int]:
         """The engine's `expected_steps`, computed once per plan."""

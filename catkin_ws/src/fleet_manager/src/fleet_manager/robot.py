@@ -96,7 +96,7 @@ class Robot:
     next_id: int = 1                  # its next command id (they increase per manager epoch)
     releases: Set[int] = field(default_factory=set)  # ids of releases not yet settled
     ended_at: Optional[float] = None  # when the reply that ended its last command arrived
-    answered: Optional[int] = None    # the last motion it answered (accepted, or refused)
+    answered: Optional[int] = None    # the last motion it accepted
 
     @property
     def link_up(self) -> bool:
@@ -138,8 +138,10 @@ class Robot:
             return True
         if self.own_current is not None:
             return self.flight is not None and self.own_current == self.flight.id
-        # idle when taken: after the last motion it answered, or before that motion began (a pose
-        # delivered late shows it a move back); a robot too old to say is taken at its word
+        # idle when taken: after the last motion it accepted, or before that motion began (a pose
+        # delivered late shows it a move back); a robot too old to say is taken at its word. (A
+        # refused motion never began: session 1541, drive 4 refused while drive 3 ran, which then
+        # ended; counting the refusal, no pose ever counted again and a replan waited for ever.)
         return not self.says_ended or self.answered is None or self.own_ended == self.answered
 
     def age(self, now: float, source: Optional[str] = None) -> Optional[float]:

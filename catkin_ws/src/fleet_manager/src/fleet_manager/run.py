@@ -530,6 +530,8 @@ class Run:
 
         if not on_centre(robot):
             return "it does not stand on the centre of {}".format(self.loaded.show(cells[robot.agent]))
+        if self.rerouting.on_walls(self.engine):  # (a way from now would start a robot on a wall)
+            return NO_WAY_HOME  # tried again every plan step
         others = [r for r in self.fleet if r.agent in self.stranded and r is not robot
                   and self.engine.run.out[r.agent] is None and on_centre(r)]
         found = None

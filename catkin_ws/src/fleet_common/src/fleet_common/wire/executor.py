@@ -63,8 +63,9 @@ class CommandExecutor:
         self._seen: "OrderedDict[_Key, Tuple[bool, Optional[Reply]]]" = OrderedDict()
         self._highest: Dict[str, int] = {}
         self._running: Optional[_Key] = None
-        #: id of the last motion (drive or turn) that ended: completed, failed, stopped or refused
-        #: (pose feedback names it: a manager tells a pose taken before a motion from one after it)
+        #: id of the last motion (drive or turn) it accepted that has ended: completed, failed or
+        #: stopped (pose feedback names it: a manager tells a pose taken before a motion began from
+        #: one taken after it; a refused motion never began, and a running one ends after it)
         self.ended: Optional[int] = None
         self.executed = 0  # motions started and stops carried out, for tests and logs
 
@@ -88,8 +89,6 @@ class CommandExecutor:
             replies += [outcome] if outcome is not None else []
             return [(epoch, r) for r in replies]
         if command.id <= self._highest.get(epoch, -1):
-            if isinstance(command, (DriveToPosition, Turn)):
-                self.ended = command.id
             return [(epoch, Failed(command.id, "command id {} is older than the last {} "
                                    "remembered; it is not executed again".format(
                                        command.id, self.memory)))]
@@ -100,7 +99,6 @@ class CommandExecutor:
             return self._release(key, command)
         refusal = self._refusal(command)
         if refusal is not None:
-            self.ended = command.id
             return [self._settle(key, Failed(command.id, refusal), accepted=False)]
         self._remember(key, True, None)
         self._running = key

@@ -172,7 +172,7 @@ class Status:
 class PoseFeedback:
     """Published 10 times a second or more; `seq` counts up from 0 per robot process.
     `current`: the motion running when the pose was taken (None: idle); `ended`: the last
-    motion (drive or turn) that had ended by then, completed, failed, stopped or refused
+    motion (drive or turn) it accepted that had ended by then, completed, failed or stopped
     (None: none since the robot started, or a robot too old to say). With `ended` a manager
     tells an idle robot's pose taken before its last motion began (and delivered late) from
     one taken after it ended: both name no motion running."""
