@@ -55,6 +55,7 @@ from fleet_common.wire import (Accepted, Completed, DriveToPosition, Failed, Get
 
 from .following import Following
 from .outbox import Outbox
+from .rerouting import held_cell
 from .robot import FAULT, HALTED, RECOVER, InFlight, Robot, Seen
 
 __all__ = ["Driver", "TURN_TOLERANCE", "AT_CELL", "MADE_IT"]
@@ -421,8 +422,4 @@ class Driver:
 
     def position(self, robot: Robot) -> Coord:
         """The cell the robot holds for planning: its last completed action's target."""
-        run, agent = self.engine.run, robot.agent
-        done = run.completed[agent]
-        if done == 0:
-            return self.engine.table.start(agent)
-        return self.engine.table.coord(run.dst[run.first[agent] + done - 1])
+        return held_cell(self.engine, robot.agent)

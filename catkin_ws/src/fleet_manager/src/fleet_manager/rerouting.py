@@ -72,13 +72,13 @@ from fleet_common.execution.cut import moved_on
 from fleet_common.execution.reroute import (EVERY, FREEZE, MODES, Reroute, RerouteRule, decide, expected_steps,
                                             worth_a_look)
 from fleet_common.execution.reroute_plan import Maps
-from fleet_common.grid import Grid
+from fleet_common.grid import Coord, Grid
 from fleet_common.planning.deadline import Deadline
 
 #: Plan steps without a look after the operator rejected a reroute.
 REJECTED_PAUSE = 8.0
 
-__all__ = ["Rerouting", "RerouteJob", "look", "snapshot", "moved_since", "moved_words", "MODES"]
+__all__ = ["Rerouting", "RerouteJob", "look", "snapshot", "moved_since", "moved_words", "held_cell", "MODES"]
 
 
 class RerouteJob(NamedTuple):
@@ -169,13 +169,10 @@ class Rerouting:
         if self.mode == "off" or self.job is not None or self.pending is not None or engine.paused:
             return False
         run = engine.run
-        if self.on_walls(engine):
-            return False  # looked for again once it has moved off
-
         steps = run.clock.steps(now)
         if self._next[0] is not run:
             self._next = (run, self.rule.pace)  # a new plan: look a while after its start
-        if steps < self._next[1]:
+        if steps < self._next[1] or self.on_walls(engine):  # (then looked for once it has moved off)
             return False
         self._next = (run, steps + self.rule.pace)
         return worth_a_look(engine, now, self.rule, self.expected(engine))
@@ -185,13 +182,8 @@ class Rerouting:
         finish its move out of a cell first and walls that cell off for one leaning into it
         (`replanning.walled`); a reroute from now would have it start on a wall, and be refused as
         invalid (narrow session 1779). Its first move is made at once."""
-        run, table, grid = engine.run, engine.table, self.maps.grid
-        for r in range(run.num_agents):
-            done = run.completed[r]
-            cell = table.start(r) if done == 0 else table.coord(run.dst[run.first[r] + done - 1])
-            if not grid.is_free(tuple(cell)):
-                return True
-        return False
+        grid = self.maps.grid
+        return any(not grid.is_free(tuple(held_cell(engine, r))) for r in range(engine.run.num_agents))
 
     def expected(self, engine: Engine) -> List[int]:
         """The engine's `expected_steps`, computed once per plan."""
@@ -253,3 +245,11 @@ def moved_since(engine: Engine, found: Reroute) -> List[int]:
 def moved_words(moved: Sequence[int], ids: Sequence[int]) -> str:
     """"robots 3, 7 moved", by robot id."""
     return "robot{} {} moved".format("s" if len(moved) > 1 else "", ", ".join(str(ids[a]) for a in moved))
+
+def held_cell(engine: Engine, agent: int) -> Coord:
+    """The cell `agent` holds on `engine`: its last completed action's target (its start before)."""
+    run = engine.run
+    done = run.completed[agent]
+    if done == 0:
+        return engine.table.start(agent)
+    return engine.table.coord(run.dst[run.first[agent] + done - 1])
