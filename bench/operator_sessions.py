@@ -7,7 +7,7 @@ replan and its answer), then the clean-up lab staff would do; it checks that the
 robots came too close; a session that raises counts as one that found something. Prints each such
 session, with what the operator did, and the count; exits non-zero if any did.
 
-    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide] [--dying] [--vicon] [--carrying]  # seeds FIRST..LAST-1, default 0 200
+    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide] [--dying] [--vicon] [--carrying] [--big]  # seeds FIRST..LAST-1, default 0 200
 
 `--wide` varies the run as well (`session`'s `wide`): robots as large as a cell, any strategy from
 the start, rerouting every robot, poses that reach the manager late. `--dying` (with `--wide`):
@@ -16,6 +16,7 @@ the way over. `--vicon`: the manager reads a simulated Vicon stream, the run sta
 position source, the operator switches sources at random and robots are occluded from Vicon.
 `--carrying`: lab staff now and then pick up a robot standing still (most often one that is out)
 and put it down elsewhere, well away from the others, on a cell or between two, or back.
+`--big`: ten to sixteen robots on a random map 8-12 cells on a side instead of the lab's five.
 """
 from __future__ import annotations
 
@@ -38,6 +39,7 @@ def main() -> int:
                         help="with --wide: the manager often dies on the way back to the starts after a reset")
     parser.add_argument("--vicon", action="store_true",
                         help="Vicon's stream too: random position sources, switches and occlusions")
+    parser.add_argument("--big", action="store_true", help="ten to sixteen robots on a random map")
     parser.add_argument("--carrying", action="store_true",
                         help="lab staff now and then carry a robot standing still elsewhere, or back")
     args = parser.parse_args()
@@ -45,7 +47,7 @@ def main() -> int:
     bad = 0
     for seed in range(args.first, args.last):
         try:
-            found = session(seed, args.wide, args.dying, args.vicon, args.carrying)
+            found = session(seed, args.wide, args.dying, args.vicon, args.carrying, args.big)
         except Exception as err:  # the manager's worker turns such an error into "replanning failed"
             found = Session(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
         if found.problems:

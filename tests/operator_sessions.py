@@ -24,11 +24,16 @@ from __future__ import annotations
 import math
 import random
 import re
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from typing import List, Tuple
 
+import numpy as np
+
 from fleet_common.formats.instance import make_instance
-from fleet_common.plan_loading import LoadedPlan, from_instance
+from fleet_common.grid import Grid
+from fleet_common.plan_loading import LoadedPlan, PlanLoadError, from_instance
+from fleet_common.planning.components import component_labels
 from fleet_common.robot_size import TURTLEBOT2, cell_sized
 from fleet_common.wire import Pose
 from fleet_manager.driver import AT_CELL
@@ -70,6 +75,32 @@ def crowded_lab(rng: random.Random) -> LoadedPlan:
     return from_instance(inst, "eight robots on the lab map", solver="lacam", seed=rng.randint(0, 999))
 
 
+def big_floor(rng: random.Random) -> LoadedPlan:
+    """Ten to sixteen robots between random cells of a random map 8-12 cells on a side (up to a
+    fifth of it walls, the largest connected part used), planned by LaCAM or PIBT: more robots,
+    corridors and dead ends than the lab has, for `big` sessions."""
+    for _ in range(20):
+        w, h = rng.randint(8, 12), rng.randint(8, 12)
+        density = rng.choice([0.0, 0.1, 0.2])
+        grid = Grid(np.array([[rng.random() >= density for _ in range(w)] for _ in range(h)]))
+        labels = component_labels(grid, np.zeros((h, w), dtype=bool))
+        cells = list(grid.free_cells())
+        if not cells:
+            continue
+        biggest = Counter(labels[grid.index(c)] for c in cells).most_common(1)[0][0]
+        cells = [c for c in cells if labels[grid.index(c)] == biggest]
+        n = min(rng.randint(10, 16), len(cells) // 3)
+        if n < 10:
+            continue
+        inst = make_instance(grid, "random.map", rng.sample(cells, n), rng.sample(cells, n))
+        try:
+            return from_instance(inst, "{} robots on a random {}x{} map".format(n, w, h),
+                                 solver=rng.choice(["lacam", "pibt"]), seed=rng.randint(0, 999))
+        except PlanLoadError:  # no plan in time: draw again
+            continue
+    raise RuntimeError("no random map with a plan in 20 draws")
+
+
 @dataclass
 class Session:
     """What happened (time, action, arguments, accepted, answer) and what was found wrong."""
@@ -80,7 +111,7 @@ class Session:
 
 
 def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False,
-            carrying: bool = False) -> Session:
+            carrying: bool = False, big: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
@@ -96,7 +127,8 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     still (most often one that is out) and put it down on a free cell, or between two, well away
     from the others, and sometimes back where it was (draws of their own too); the run's own count
     of pairs too close then does not judge (it reads a robot carried across the floor as one
-    driving through the others' cells), the truth does."""
+    driving through the others' cells), the truth does. `big`: ten to sixteen robots on a random
+    map instead of the lab's (`big_floor`, draws of its own)."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -111,6 +143,9 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         lag = run.choice([0.0, 0.1, 0.3])
         if run.random() < 1 / 3:
             loaded, n = crowded_lab(run), 8
+    if big:
+        loaded = big_floor(random.Random(seed * 7919 + 5))
+        n = loaded.agents
     eye = random.Random(seed * 7919 + 2)  # `vicon`: its own draws, the presses stay the seed's
     camera = MemoryVicon(random.Random(seed * 7919 + 3), period=eye.choice([0.01, 0.02]),
                          drops=eye.choice([0.0, 0.02, 0.1])) if vicon else None

@@ -30,9 +30,12 @@ from fleet_common.execution.cut import behind_taken_back, cut_of
 from fleet_common.execution.motion import Feedback
 from fleet_common.execution.forecast import earliest_starts, ready_steps
 from fleet_common.execution.reroute import Reroute, RerouteError, RerouteRule, Rerouter, decide, held_up, later_by
+from fleet_common.execution import reroute_plan
 from fleet_common.execution.reroute_plan import Maps, Proposal, quarter_turns
 from fleet_common.execution.simulate import simulate
 from fleet_common.grid import Grid
+from fleet_common.planning.deadline import Deadline
+from fleet_common.validate import validate_plan
 from fleet_common.plan import Plan
 from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from random_runs import PLAN_SEEDS, operator_actions, operator_case, random_problem
@@ -444,6 +447,46 @@ def test_a_plan_that_puts_a_robot_into_a_cell_a_follower_is_in_already_is_refuse
     new = Engine(FOLLOW3, follow=True)  # the plan's own order fits
     new.adopt(old, progress, 1.0)
     assert new.run.completed == [0, 1, 0]
+
+
+# robots 0-2 a train along the top row, robot 3 below: it enters (0, 0) and (1, 0) after robot 2
+BEHIND_A_FAILED_TRAIN = Plan(np.array([
+    [[2, 0], [1, 0], [0, 0], [0, 1]],
+    [[3, 0], [2, 0], [1, 0], [0, 1]],
+    [[4, 0], [3, 0], [1, 1], [0, 0]],
+    [[4, 0], [3, 0], [1, 2], [1, 0]],
+    [[4, 0], [3, 0], [1, 2], [2, 0]],
+], dtype=np.int32))
+
+
+@pytest.mark.parametrize("guarded", [True, False])
+def test_a_robot_whose_move_sent_waits_for_a_failed_robot_is_not_given_a_new_path(monkeypatch, guarded):
+    """Big operator sessions, seed 73: robot 1 follows robot 0 into (2, 0), robot 2 follows robot 1
+    into (1, 0), and robot 0 fails halfway. Robot 2's move sent waits, through robot 1, for a robot
+    that is out: the forecast places it behind everybody else, at a step that only orders it. A new
+    path for robot 2 from there does not fit the others' schedule, which places robot 1's moves
+    elsewhere: it had robot 2 into (1, 0) while robot 1 was still there, and the look raised "a
+    reroute's plan is not valid". Such a robot is not planned. The control (the guard taken out)
+    builds that plan."""
+    engine = Engine(BEHIND_A_FAILED_TRAIN, follow=True)
+    engine.handle(Resume(0.0))
+    for r in range(3):
+        engine.handle(ActionStarted(r, 0, 0.1 * (r + 1)))
+    engine.handle(RobotFailed(0, 0.5))
+    run = engine.run
+    assert run.dispatched[:3] == [0, 1, 1] and run.halfway[0]
+    if not guarded:
+        monkeypatch.setattr(reroute_plan, "behind_out", lambda *args: False)
+    cut = cut_of(engine, 3.0)
+    ready = ready_steps(run, 3.0)
+    before = earliest_starts(run, ready, True, cut.base)
+    grid = Grid(np.ones((3, 5), dtype=bool))
+    proposal = reroute_plan.plan_around(run, grid, Maps(grid), before, ready, True, cut.base, [2], Deadline(None))
+    if guarded:
+        assert proposal is None
+    else:
+        assert proposal is not None
+        assert "vertex conflict at t=2: agents 1, 2 all at (1, 0)" in str(validate_plan(proposal.plan, grid).errors)
 
 
 # ---- the makespan's slack ---------------------------------------------------------------------------

@@ -135,6 +135,16 @@ def new_start(run: RunState, schedule: Schedule, base: Sequence[int], r: int) ->
     return schedule.start[run.first[r] + run.dispatched[r] - 1] + 1
 
 
+def behind_out(run: RunState, schedule: Schedule, base: Sequence[int], r: int) -> bool:
+    """Whether robot r's moves sent wait, in `schedule`, for a robot that is out: placed behind
+    everybody else (`forecast`), at steps that only order them. When r could start a new path is
+    then unknown, and a schedule of the others without r (`kept_schedule`) places those steps
+    elsewhere: a path from such a step would not fit the others' (big operator sessions, seed 73:
+    a robot following a robot that followed a failed one was planned into the cell of its leader,
+    which the others' schedule had leaving later)."""
+    return schedule.later > 0 and run.dispatched[r] > base[r] and new_start(run, schedule, base, r) > schedule.later
+
+
 def kept_schedule(run: RunState, schedule: Schedule, ready: Sequence[int], follow: bool,
                   base: Sequence[int], chosen: Sequence[int]) -> Schedule:
     """The schedule of the robots not `chosen`, with the chosen ones out of their way (step 1)."""
@@ -228,8 +238,11 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
                 deadline: Deadline, goals: Optional[Dict[int, Tuple[int, int]]] = None) -> Optional[Proposal]:
     """Plan `chosen` (in this order) around the others, from the cut whose moves to start from are
     `base` (`cut.Cut.base`), each to its plan's goal (or to the cell `goals` gives it); None when
-    one of them finds no path. Raises `st_astar.DeadlineReached` when `deadline` expires."""
+    one of them finds no path, or waits for a robot that is out (`behind_out`). Raises
+    `st_astar.DeadlineReached` when `deadline` expires."""
     table, n = run.table, run.num_agents
+    if any(behind_out(run, schedule, base, r) for r in chosen):
+        return None
     kept_s = kept_schedule(run, schedule, ready, follow, base, chosen)
     mine = set(chosen)
     kept = [r for r in range(n) if r not in mine]
