@@ -175,7 +175,7 @@ def test_a_robot_pushed_half_a_cell_towards_a_neighbour_others_pass_halts_the_ru
 def test_a_robot_pushed_towards_a_neighbour_and_taken_as_stopped_in_a_move_is_driven_past(monkeypatch) -> None:
     """The control: the rule before 2026-11-27, anywhere between a robot's cell and a neighbour is
     where the run has it; the run goes on and robot 5 passes too close."""
-    where = carried_module._where_the_run_has_it
+    where = carried_module.where_the_run_has_it
 
     def between_is_fine(run, robot, pose, here, holding):
         far = carried_module.towards(pose, here)
@@ -183,7 +183,7 @@ def test_a_robot_pushed_towards_a_neighbour_and_taken_as_stopped_in_a_move_is_dr
                 and math.hypot(pose[0] - far[0], pose[1] - far[1]) > carried_module.AT_CELL):
             return True
         return where(run, robot, pose, here, holding)
-    monkeypatch.setattr(carried_module, "_where_the_run_has_it", between_is_fine)
+    monkeypatch.setattr(carried_module, "where_the_run_has_it", between_is_fine)
     f = pushed_off_its_goal()
     f.run_until(lambda: f.phase == "done", 60)
     assert worst(f) < SAFE - 1e-3

@@ -418,3 +418,56 @@ def test_a_reroute_from_a_robot_on_a_wall_is_caught(monkeypatch) -> None:
     except RerouteError:
         found = True
     assert found
+
+
+# ---- big sessions: ten to sixteen robots on a random map (`session`'s `big`) ----------------------
+
+BIG_SEEDS = range(6)
+
+
+def test_big_sessions_end_and_the_run_tells_the_truth() -> None:
+    bad = [(s.seed, s.problems) for s in (session(seed, big=True) for seed in BIG_SEEDS) if s.problems]
+    assert not bad, bad
+
+
+def test_a_robot_behind_a_train_stopped_by_a_failed_robot_is_not_rerouted() -> None:
+    """Big session 73: robot 9 followed robot 6 into its cell, robot 6 followed robot 8, and robot
+    8 failed halfway. A reroute look planned robot 9 from when its move sent would end, a step the
+    forecast gives only to order robots behind one that is out, and put it into robot 6's cell
+    while robot 6 was still there: the look raised "a reroute's plan is not valid". Such a robot is
+    not given a new path (`reroute_plan.behind_out`)."""
+    assert not session(73, big=True).problems
+
+
+def test_a_reroute_from_behind_a_failed_robot_is_caught(monkeypatch) -> None:
+    from fleet_common.execution import reroute_plan
+    monkeypatch.setattr(reroute_plan, "behind_out", lambda *args: False)
+    try:
+        found = bool(session(73, big=True).problems)
+    except RerouteError:
+        found = True
+    assert found
+
+
+def test_a_manager_taking_over_finds_a_robot_halted_in_its_move_where_the_run_has_it() -> None:
+    """Big session 12: robot 12, halted four fifths into its move and taken back by Start, waited
+    for the robot ahead when the manager died. The manager taking over judged it off the plan, "on"
+    the cell it was entering (a fifth of a cell from its centre), and kept that cell as its place
+    when the replan from there was given up: the run drove on, and at its goal robot 12 was found
+    "moved by hand". It now judges robots by the live check's rule (`carried.where_the_run_has_it`):
+    on the move it was halted in, robot 12 is where the run has it. (Since `Run.drop_replan` the
+    run would also have gone on without the false alarm; the takeover would still have named robot
+    12 off the plan and proposed a replan that could not be made.)"""
+    found = session(12, big=True)
+    assert not found.problems
+    assert [reason for _, action, _, _, reason in found.log if action == "restart"] == [
+        "resumed from memory-run: every robot where the run left it; Start drives on"]
+
+
+def test_a_takeover_judging_a_halted_robot_off_the_plan_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core, "where_the_run_has_it", lambda *args: False)
+    found = session(12, big=True)
+    assert [reason for _, action, _, _, reason in found.log if action == "restart"] != [
+        "resumed from memory-run: every robot where the run left it; Start drives on"]
+    monkeypatch.setattr(Run, "drop_replan", lambda self: self.replanner.resolved())  # and before that
+    assert session(12, big=True).problems

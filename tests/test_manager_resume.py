@@ -27,6 +27,7 @@ from fleet_common.runlog.reader import RunFolder
 from fleet_common.runlog.summary import SummaryBuilder
 from fleet_common.wire import Pose
 from fleet_manager.resume import read_resume
+from fleet_manager.run import Run
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, lab_fleet
 from test_manager_core import answered, closest_truth, replanned, run_recording, train
@@ -573,3 +574,38 @@ def test_ways_to_the_starts_cut_by_a_dying_manager_end_on_the_starts_at_the_safe
         home, closest = way_cut_by_a_dying_manager(seed)
         assert home, "seed {}: the robots did not reach their starts, then their goals".format(seed)
         assert closest >= TURTLEBOT2.safe_cells - 0.01, "seed {}: {:.3f} cells".format(seed, closest)
+
+
+@pytest.mark.parametrize("dropped", [True, False])
+def test_a_replan_rejected_after_a_resume_leaves_a_robot_carried_off_the_plan_found_moved(monkeypatch, dropped):
+    """A robot carried to a far cell while no manager ran; the new manager proposes a replan from
+    there, and the operator rejects it. The run has the robot on its old cell again: Start is refused,
+    naming it, until it is put back (then the old plan drives on to the end). The control keeps the
+    cell it was found on as its place after the rejection, as before 2026-11-27: Start was accepted,
+    and the robot was sent a drive to its plan's next cell from where it stood, 9 cells away."""
+    if not dropped:
+        monkeypatch.setattr(Run, "drop_replan", lambda self: self.replanner.resolved())
+    f = started_run(lab())
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 10)
+    f.kill_manager()
+    f.advance(3.0)
+    rid = idle_robot(f)
+    back = f.robots[rid].navigator.true_pose()
+    carry(f, rid, *far_cell(f))
+    f.resume_manager()
+    ops = f.console()
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 5)
+    f.advance(0.1)  # the console sees the State that names the proposal
+    assert f.ask(ops, "reject", proposal=f.core.run.replanner.proposal_id).ok
+    started = f.ask(ops, "start")
+    if not dropped:  # driven from the wrong place: only the robot's own check of a drive's length stops it
+        assert started.ok
+        assert f.run_until(lambda: any("robot {} held: target".format(rid) in line and "cells from the robot" in line
+                                       for line in f.said), 10)
+        return
+    assert not started.ok and "robot {} stands at".format(rid) in started.reason and "put it back" in started.reason
+    carry(f, rid, back.x, back.y)  # put back where it was
+    f.advance(0.5)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()
+    assert f.core.summary().collisions == 0

@@ -53,7 +53,9 @@ robot with no pose the run may use (Vicon has not seen it since the manager star
 names a command) is not judged: Start and replans plan from the engine's record, which walls off the cell a robot out stopped half into
 (`Run.halfway_cells`). A pose taken before the robot's last motion began, delivered late, names
 the motion ended before that one (`PoseFeedback.ended`) and does not count (`Robot.pose_settled`).
-While a manager taking the run over waits for its robots, it judges them itself (`off_plan`).
+While a manager taking the run over waits for its robots, it judges them itself (`off_plan`), by
+the same rule once they have answered (big session 12: a robot halted a fifth of a cell short of
+its next cell was judged off the plan by the manager taking over, "replanned from" that cell).
 """
 from __future__ import annotations
 
@@ -73,7 +75,7 @@ from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
 if TYPE_CHECKING:
     from .run import Run
 
-__all__ = ["Carried", "carried", "carried_words", "halt_near", "replan_refusal", "UNDER_WAY"]
+__all__ = ["Carried", "carried", "carried_words", "halt_near", "replan_refusal", "where_the_run_has_it", "UNDER_WAY"]
 
 #: the phases of a run under way, whose engine has every robot on a cell of its plan
 UNDER_WAY = (RUNNING, PAUSED, STOPPED)
@@ -105,7 +107,7 @@ def carried(run: "Run") -> List[Carried]:
             continue
         here = tuple(held[robot.agent])
         for (x, y), own in _standing_poses(robot, run.fleet.stale_after):
-            if not _where_the_run_has_it(run, robot, (x, y), here, holding):  # type: ignore[arg-type]
+            if not where_the_run_has_it(run, robot, (x, y), here, holding):  # type: ignore[arg-type]
                 found.append(Carried(robot, (x, y), here, own))  # type: ignore[arg-type]
                 break
     return found
@@ -131,9 +133,10 @@ def _standing_poses(robot: Robot, stale_after: float) -> List[Tuple[Tuple[float,
     return []
 
 
-def _where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], here: Coord,
+def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], here: Coord,
                           holding: Dict[Coord, int]) -> bool:
-    """Whether a robot standing at `pose` stands where the run has it (`here`: its cell)."""
+    """Whether a robot standing at `pose` stands where the run has it (`here`: its cell; `holding`:
+    cell -> the agent the run has on it)."""
     if math.hypot(pose[0] - here[0], pose[1] - here[1]) <= AT_CELL:
         return True
     far = towards(pose, here)

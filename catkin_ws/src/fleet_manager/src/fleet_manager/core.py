@@ -49,7 +49,7 @@ from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
-from .carried import UNDER_WAY, carried, carried_words, halt_near
+from .carried import UNDER_WAY, carried, carried_words, halt_near, where_the_run_has_it
 from .outbox import Effect, Outbox, REROUTE
 from .driver import AT_CELL
 from .refusals import RefusedRequests
@@ -202,7 +202,7 @@ class RunCore:
         if run.replanner.state == SAFE_POINT and run.driver.moving:
             blocked = operator.behind_out(run)
             if blocked:  # a leader went out while the robots finished their moves: no safe point comes
-                run.replanner.resolved()
+                run.drop_replan()
                 run.say("replan given up: " + blocked)
                 self.out.tell("plan", None, "replan given up: " + blocked)
         if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
@@ -216,7 +216,7 @@ class RunCore:
             grid = _without(walled(run.grid, self.fleet.robots, here, set(on), halfway), self._walls_but(current))
             shared = self._sharing(current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
-                run.replanner.resolved()
+                run.drop_replan()
                 run.say("replan given up: " + shared)
                 self.out.tell("plan", None, "replan given up: " + shared)
             else:
@@ -338,7 +338,14 @@ class RunCore:
         folder = run.resuming.point.folder.name if run.resuming is not None else "?"
         run.resuming = None
         run.driver.releasing = True
-        off = off_plan(self.fleet, run.positions(), run.engine.run.out, run.grid)
+        held = run.positions()
+        holding = {tuple(c): a for a, c in enumerate(held)}
+        # off the plan by the live check's rule too: a robot halted in a move, taken back (Start after
+        # Halt) and not sent it again stands on that move, as it would for the dead manager (big
+        # session 12: one a fifth of a cell short of its next cell was "replanned from" that cell, the
+        # replan given up, and the run went on with the cell it never stood on as its place)
+        off = [o for o in off_plan(self.fleet, held, run.engine.run.out, run.grid)
+               if not where_the_run_has_it(run, o.robot, o.pose, o.expected, holding)]
         for robot in self.fleet:
             if robot.hold == RESUMING:
                 robot.hold = None
@@ -426,6 +433,8 @@ class RunCore:
         message = replanner.finished(job_id, result, error)
         if message is None:
             return
+        if replanner.pending is None:  # failed, or found no plan
+            self.run.drop_replan()
         self.out.tell("plan", None, message)
         self.out.desk.bump(message if replanner.pending is None else
                            "replan {} proposed".format(replanner.pending.id))

@@ -575,7 +575,7 @@ def reject(run: Run, args: Args, now: float) -> Answer:
         return _answer_reroute(run, args, now, False)
     if run.replanner.proposal_id is None or run.replanner.proposal_id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
-    run.replanner.resolved()
+    run.drop_replan()
     run.out.desk.bump("replan rejected")
     _resume_after_replan(run, now)
     return True, "kept plan {}".format(run.plan_id)

@@ -98,7 +98,8 @@ class Run:
         self.loading: Optional[Tuple[int, str]] = None  # (job, name): an instance being solved to load
         #: a resumed run before its robots were checked (`resume.py`)
         self.resuming: Optional[Resuming] = None
-        #: agent -> the cell a robot found off the plan stands on (replanned from there)
+        #: agent -> the cell a robot a restart found off the plan stands on, while the replan from
+        #: there is open (`drop_replan`)
         self.standing: Dict[int, Coord] = {}
         #: cells walled off for replanning around robots standing between cells
         self.walls: Set[Coord] = set()
@@ -271,6 +272,15 @@ class Run:
                 "for this fleet's map?".format(outside, "s" if outside == 1 else "", self._map_words(self.grid))
         return text + ("; Go to starts drives them there, or continue their last run (fleetctl manager "
                        "--resume)")
+
+    def drop_replan(self) -> None:
+        """The open replan ends without a new plan (rejected, given up, or it found none): the robots
+        a restart found off the plan are judged again against the engine's record (`carried`), no
+        longer held where they stood for it. (Kept, they hid a robot carried elsewhere while no
+        manager ran: the restart's replan rejected, Start drove the old plan around the cell the
+        engine had it on, and a drive from where it stood was sent to it.)"""
+        self.replanner.resolved()
+        self.standing.clear()
 
     def positions(self) -> List[Coord]:
         """The cell each robot holds for planning (a robot found off the plan: where it stands)."""
