@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Dict, List
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from fleet_common.formats.solution import format_solution, make_solution
@@ -344,6 +344,10 @@ RUN_REQUESTS = ["start", "pause", "stop", "step", "halt", "reset", "to_starts"]
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.tuples(st.sampled_from(RUN_REQUESTS), st.floats(0.0, 2.0)), min_size=1, max_size=10),
        st.booleans())
+# the way back to the starts arrives in the last 10 ms of a wait: Start on the State before it is
+# refused as asked on a State the console has not seen (it comes with the next, 20 ms on)
+@example(steps=[("start", 0.0), ("pause", 1.0), ("start", 0.46875), ("halt", 1.0), ("reset", 0.9375),
+                ("start", 0.609375), ("start", 0.0)], from_goals=False)
 def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goals):
     """The console greys a button when the State does not list its action, and says why: that
     must be the manager's own answer, whatever happened before (and every run stays safe)."""
@@ -352,7 +356,11 @@ def test_what_a_state_allows_is_exactly_what_the_manager_accepts(steps, from_goa
     f.link_up()
     for action, wait in steps:
         allowed, refused = operator.allowed(f.core.run, f.now), operator.refusals(f.core.run, f.now)
+        behind = ops.version < f.core.desk.version  # a change within the last State's interval (20 ms)
         answer = f.ask(ops, action)
+        if behind and not answer.ok and "the state changed since you looked" in answer.reason:
+            f.advance(wait)  # (a request on a State the console has not seen yet: look again, as it says)
+            continue
         assert answer.ok == (action in allowed), (action, allowed, answer.reason)
         assert answer.ok or answer.reason == refused[action]
         f.advance(wait)

@@ -131,3 +131,22 @@ def test_keeping_the_cell_a_robot_finishing_its_move_leaves_free_is_caught() -> 
     except AssertionError:
         return
     raise AssertionError("the check did not catch a cell left free half a cell from a robot")
+
+
+def test_robots_halted_in_a_row_finish_their_moves_one_behind_the_other() -> None:
+    """Big session 142: robot 1 halted half out of its cell towards a free one, robot 2 half out
+    of its cell into robot 1's, robot 3 half into robot 2's. Each is planned from the cell it leans
+    into, the moves into them first and in one step, a train; nobody's cell is left half under a
+    robot planned from elsewhere (before, robot 3 was planned from its own cell, leaning into
+    robot 2's, which the others could be planned through once robot 2 left)."""
+    grid = lab().grid
+    x, y = next((x, y) for x, y in grid.free_cells()
+                if all(grid.in_bounds(c) and grid.is_free(c) for c in ((x + 1, y), (x - 1, y), (x - 2, y))))
+    robots = [Robot(1, 0, own=Seen(Pose(x + 0.5, y, 0.0), 0.0)),
+              Robot(2, 1, own=Seen(Pose(x - 1 + 0.45, y, 0.0), 0.0)),
+              Robot(3, 2, own=Seen(Pose(x - 2 + 0.51, y, 0.0), 0.0))]
+    here = [(x, y), (x - 1, y), (x - 2, y)]
+    on = going_on(grid, robots, here, set())
+    assert on == {0: (x + 1, y), 1: (x, y), 2: (x - 1, y)}
+    _check(robots, here, on)
+    assert going_on(grid, robots, here, {0}) == {}, "behind a robot out, nobody goes on"

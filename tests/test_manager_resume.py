@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fleet_common.execution import ActionCompleted, ActionStarted, Engine, EventError, Resume
+from fleet_common.execution import ActionCompleted, ActionStarted, Engine, EventError, Resume, RobotFailed
 from fleet_common.grid import Grid
 from fleet_common.lab import lab_instance_path
 from fleet_common.plan_loading import LoadedPlan, load_plan
@@ -470,6 +470,31 @@ def test_restore_counts_the_leader_of_a_follower_that_set_off_first_as_dispatche
     assert {(d.agent, d.index) for d in pending} == {(0, 0), (1, 0)}
     follower = next(d for d in pending if d.agent == 1)
     assert follower.follows == (0, 0) and list(again.run.dispatched) == [1, 1, 0]
+
+
+@pytest.mark.parametrize("told", [True, False])
+def test_restore_takes_a_follower_in_behind_a_leader_whose_move_was_taken_back(told):
+    """Robot 1 followed robot 0 and completed its move into the cell robot 0 was leaving; then a
+    fault took robot 0's move back (it stands between the two cells). The live engine has robot 0
+    not sent that move and robot 1 in (big operator session 293): a manager taking over, told the
+    move was taken back, restores that; not told (the control: before 2026-11-27), it refused the
+    run log ("completed action 0 before agent 0 began action 0") and could not take over."""
+    live = Engine(train().plan, "adg", follow=True)
+    live.handle(Resume(0.0))
+    live.handle(ActionStarted(0, 0, 0.1))
+    live.handle(ActionStarted(1, 0, 0.2))
+    live.handle(ActionCompleted(1, 0, 0.4))  # in, its leader still leaving
+    live.handle(RobotFailed(0, 0.5))
+    sent = list(live.run.dispatched)  # (robot 2 follows robot 1 in turn)
+    assert list(live.run.completed) == [0, 1, 0] and sent[:2] == [0, 1]
+    again = Engine(train().plan, "adg", follow=True)
+    if not told:
+        with pytest.raises(EventError, match="agent 1 completed action 0 before agent 0 began action 0"):
+            again.restore([0, 1, 0], [0, 1, 0], sent, 1.0)
+        return
+    again.restore([0, 1, 0], [0, 1, 0], sent, 1.0, [True, False, False])
+    assert list(again.run.completed) == list(live.run.completed)
+    assert list(again.run.dispatched) == list(live.run.dispatched)
 
 
 def test_restore_refuses_progress_the_dependencies_do_not_allow():

@@ -8,10 +8,13 @@ the next cell of another robot's path, Start pressed, the two centres met).
 
 Theory of operation. A robot *stands where the run has it* when its pose is within `AT_CELL`
 of the cell the run holds for it (`Run.positions`); or between that cell and a neighbour (on
-the line between their centres), or on the neighbour's centre, when the run put it there: the
+the line between their centres) no nearer the neighbour's centre than the safe distance (nobody
+in that cell comes nearer: a follower halted at its hold point behind a robot on that centre, big
+session 338); or nearer, or on the neighbour's centre, when the run put it there: the
 neighbour is the target of its next move and it was sent that move (halted, stopped by a fault
 or at its very end) or no other robot is due in that cell before it (a replan's first move,
-finishing one it was half through: `replanning.going_on`), or the plan keeps that cell walled
+finishing one it was half through: `replanning.going_on`; behind the robot in that cell, which
+leaves it next), or the plan keeps that cell walled
 off around it (`replanning.walled`: a robot a replan or the way to the starts left between
 cells; the walls a restart raised); and on the neighbour's centre also when the run holds that
 cell for another robot (nobody else enters it while that robot holds it). Anywhere else
@@ -142,6 +145,8 @@ def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], he
     far = towards(pose, here)
     if to_segment(pose, here, far) > AT_CELL:
         return False
+    if _clear_of(pose, far, run.settings.size.safe_cells):
+        return True
     # between its cell and that neighbour, or on the neighbour's centre: only where the run put it
     state, table, kept = run.engine.run, run.engine.table, run.rerouting.maps.grid
     a, nxt = robot.agent, state.next_incomplete(robot.agent)
@@ -157,11 +162,21 @@ def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], he
     return entering or (holder is not None and (on_far or stays)) or not (kept.in_bounds(far) and kept.is_free(far))
 
 
+def _clear_of(pose: Tuple[float, float], far: Coord, safe: float) -> bool:
+    """Whether a robot at `pose`, on the line from its cell towards the neighbour `far`, is the
+    safe distance `safe` (cells) or more from that neighbour's centre: whoever is in it, on its
+    centre or driving through it, is no nearer."""
+    return math.hypot(pose[0] - far[0], pose[1] - far[1]) >= safe
+
+
 def _first_in(state: RunState, action: int) -> bool:
     """No other robot is due in the cell `action` enters before it: the previous visitor's move
-    out of it (`RunState.dep`) is made, or there is none."""
+    out of it (`RunState.dep`) is made, or there is none, or that visitor is in the cell now and
+    leaves it next (a replan has robots halted in a row finish their moves one behind the other:
+    `replanning.going_on`)."""
     d = state.dep[action]
-    return d < 0 or bool(state.done[d]) or state.agent[d] == state.agent[action]
+    return (d < 0 or bool(state.done[d]) or state.agent[d] == state.agent[action]
+            or state.next_incomplete(state.agent[d]) == d)
 
 
 def carried_words(run: "Run", found: List[Carried]) -> str:

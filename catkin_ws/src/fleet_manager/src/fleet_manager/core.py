@@ -336,6 +336,7 @@ class RunCore:
         held and planned around), and drives that would pass close to them stop short."""
         run = self.run
         folder = run.resuming.point.folder.name if run.resuming is not None else "?"
+        recorded = run.resuming is not None and run.resuming.point.walls is not None
         run.resuming = None
         run.driver.releasing = True
         held = run.positions()
@@ -353,7 +354,9 @@ class RunCore:
             if o.cell is not None:
                 run.standing[o.robot.agent] = o.cell
         keep = set(run.positions())
-        leans = self._out_leaning_into(keep)
+        # the plan's walls are in its record (`Run._resume` keeps to them); a folder from before
+        # they were recorded: inferred from where robots out stand
+        leans = set() if recorded else self._out_leaning_into(keep)
         if leans:
             run.rerouting.keep_to(_without(run.grid, run.walls | leans))
         if not off:
@@ -377,7 +380,7 @@ class RunCore:
                                     "around; put it on a cell and enable it", now)
                 told.append("{}: between cells, held and planned around".format(where))
         if run.walls:  # reroutes keep off them too, whether the replan is accepted or not
-            run.rerouting.keep_to(_without(run.grid, run.walls | leans))
+            run.rerouting.keep_to(_without(run.rerouting.maps.grid, run.walls | leans))
         near = [r for r in self.fleet if r.flight is not None and r.flight.kind == "drive"
                 and r.pose is not None and r not in [o.robot for o in off]
                 and any(passes_near((r.pose.x, r.pose.y), (r.flight.target[0], r.flight.target[1]), o.pose, reach)
@@ -396,7 +399,11 @@ class RunCore:
             folder, "; ".join(told)))
 
     def _out_leaning_into(self, keep: Set[Coord]) -> Set[Coord]:
-        """For a resumed run: the cells that robots out, standing between two cells with no move
+        """For a run resumed from a folder whose records do not name the plan's walls (written before
+        `Run.kept_walls`; since, they are read from the records, and a robot out standing in another
+        cell was moved there: carrying session 1860, a robot carried off its goal while disabled,
+        taken by this inference for one left leaning into that cell, and counted arrived once
+        enabled): the cells that robots out, standing between two cells with no move
         left in the plan (a bumper stopped them in a move, a replan planned around them and left
         them there), lean into, but cells robots stand on (`keep`). The plan holds the cell each
         has, not that one, which the manager that made the plan walled off (`replanning.walled`)

@@ -187,12 +187,16 @@ def walled(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], skip: Set
 def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Set[int],
              walls: Iterable[Coord] = ()) -> Dict[int, Coord]:
     """The robots taking part that stand between their cell and a free cell nobody else
-    stands in, leans into or keeps walled (`walls`): agent -> that cell. A replan plans each
-    from that cell and gives it first the move into it (`prefixed`), so it finishes the move it
-    is half through. Walled in, a robot halted half into its goal and then enabled could never
-    be planned home; planned from the far cell with no move, the run would count it arrived
-    while it stands between the two."""
-    taken = {tuple(c) for c in here}
+    leans into or keeps walled (`walls`), and that nobody holds but a robot going on out of it:
+    agent -> that cell. A replan plans each from that cell and gives it first the move into it
+    (`prefixed`), so it finishes the move it is half through; behind a robot going on, in the
+    same step, as a follower (big session 142: robots halted in a row, each half into the cell of
+    the one ahead, that one half out of it; planned from its own cell, the last one stood half
+    into a cell the others could be planned through once its holder left, found "moved by hand").
+    Walled in, a robot halted half into its goal and then enabled could never be planned home;
+    planned from the far cell with no move, the run would count it arrived while it stands
+    between the two."""
+    holder = {tuple(c): a for a, c in enumerate(here)}
     walls = set(walls)
     leaning = {robot.agent: leans_into(robot, here[robot.agent]) for robot in robots}
     wanted: Dict[Coord, List[int]] = {}  # every robot's, as `walled` walls them
@@ -203,9 +207,18 @@ def going_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], out: Se
         far, pose = leaning[robot.agent], robot.pose
         if far is not None and pose is not None and to_segment((pose.x, pose.y), here[robot.agent], far) > AT_CELL:
             leaning[robot.agent] = None
-    return {agent: far for agent, far in leaning.items()
-            if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
-            and far not in taken and far not in walls and len(wanted[far]) == 1}
+    could = {agent: far for agent, far in leaning.items()
+             if far is not None and agent not in out and grid.in_bounds(far) and grid.is_free(far)
+             and far not in walls and len(wanted[far]) == 1}
+    going: Dict[int, Coord] = {}
+    grew = True
+    while grew:  # into a free cell first, then behind those going on out of theirs (no cycle: none starts)
+        grew = False
+        for agent, far in could.items():
+            if agent not in going and (far not in holder or holder[far] in going):
+                going[agent] = far
+                grew = True
+    return going
 
 
 def placed(grid: Grid, robot: Robot, here: Coord) -> bool:

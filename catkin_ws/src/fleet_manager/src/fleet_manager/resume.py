@@ -111,6 +111,8 @@ class ResumePoint:
     earlier_plans: float = 0.0
     #: robot ids the plan leaves away from their goals (`Run.stranded`)
     stranded: List[int] = field(default_factory=list)
+    #: the cells the plan keeps off (`Run.kept_walls`), None in folders from before they were recorded
+    walls: Optional[List[Coord]] = None
     #: robot ids whose move begun was taken back by a fault (or a halt) and not begun again: they
     #: stand between two cells, that move not under way (`RunState.halfway`)
     taken_back: Set[int] = field(default_factory=set)
@@ -147,6 +149,14 @@ class ResumePoint:
         return max(sent + [self.started.get(robot, 0), self.completed.get(robot, 0)])
 
 
+def _cells(value: Any) -> Optional[List[Coord]]:
+    """A record's list of [x, y] cells (None: not there, or not such a list)."""
+    if not isinstance(value, list) or not all(isinstance(c, list) and len(c) == 2 and all(
+            isinstance(v, int) and not isinstance(v, bool) for v in c) for c in value):
+        return None
+    return [(c[0], c[1]) for c in value]
+
+
 def read_resume(run: RunFolder) -> ResumePoint:
     """Where the run of `run` (a folder read back) stood at its last record."""
     point = ResumePoint(run.folder, run.run, run.records, torn=run.torn)
@@ -171,6 +181,8 @@ def read_resume(run: RunFolder) -> ResumePoint:
             point.plan_since = t
         if kind == "plan":
             point.stranded = [x for x in r.get("stranded") or [] if isinstance(x, int)]
+        if kind == "plan" or r is run.run:
+            point.walls = _cells(r.get("walls"))
         if kind == "plan" and r.get("reason") == "reroute":
             handed_over(point, r, pending)
         elif kind == "plan" and r.get("reason") != "loaded":

@@ -372,8 +372,17 @@ class Run:
                         size=size_fields(self.settings.size), purpose=self.purpose,
                         # each robot's next command id: a manager resuming this folder speaks in
                         # the same epoch, and the robots remember the ids of the folders before
-                        next_ids=[r.next_id for r in self.fleet],
+                        next_ids=[r.next_id for r in self.fleet], walls=self.kept_walls(),
                         **({"for_plan": self.target.name} if self.purpose == TO_STARTS else {}))
+
+    def kept_walls(self) -> List[List[int]]:
+        """The cells of the map the plan being run keeps off (`Rerouting.keep_to`: robots a replan or
+        the way to the starts left between cells), for its record: a manager taking the run over
+        keeps off them too, and knows that a robot standing in another cell was moved there."""
+        kept = self.rerouting.maps.grid
+        if kept is self.grid:
+            return []
+        return [[x, y] for x, y in self.grid.free_cells() if not kept.is_free((x, y))]
 
     def _resume(self, point: ResumePoint, plan: Plan, now: float) -> None:
         """Go on with the run of `point`'s folder (its manager died): the progress from its
@@ -383,6 +392,12 @@ class Run:
         if point.for_plan is not None:  # a way to the starts: the target (loaded) waits for Start after it
             self.loaded, self.purpose = self._way(plan, "resumed from {}".format(point.folder)), TO_STARTS
         self.stranded = {self.fleet.by_id[rid].agent for rid in point.stranded if rid in self.fleet.by_id}
+        if point.walls:  # (None: a folder from before walls were recorded, `RunCore.resumed` infers them)
+            free = self.grid.free.copy()
+            for x, y in point.walls:
+                if self.grid.in_bounds((x, y)):
+                    free[y, x] = False
+            self.rerouting.keep_to(Grid(free, name=self.grid.name))
         self.out.add(ResumeRunFolder(point.folder))
         self.engine = self._engine(plan)
         self.driver = self._driver(self.engine)
@@ -394,7 +409,7 @@ class Run:
         sent = [d if b else min(point.dispatched(r.id), run.count(r.agent)) for r, d, b in zip(fleet, done, back)]
         try:  # the cells' order as the passes of a re-ordering strategy left it, then the progress
             replay_passes(run, [(agents.get(a, -1), k, agents.get(b, -1), j) for a, k, b, j in point.passes])
-            dispatches = self.engine.restore(done, began, sent, now)
+            dispatches = self.engine.restore(done, began, sent, now, back)
         except (ValueError, EventError) as err:
             raise FleetError("cannot resume {}: its records do not fit {}: {}".format(
                 point.folder, point.plan, err)) from None
@@ -486,7 +501,8 @@ class Run:
         if self.stranded:  # the summary does not count them arrived (`stranded`)
             fields["stranded"] = sorted(self.fleet[a].id for a in self.stranded)
         self.out.record("plan", file=name, robots=self.fleet.ids, reason=reason, at=None,
-                        actions=action_counts(plan), starts=[list(c) for c in starts], **fields)
+                        actions=action_counts(plan), starts=[list(c) for c in starts],
+                        walls=self.kept_walls(), **fields)
         self.out.desk.bump("plan {} ({})".format(self.plan_id, reason), robots=concerns)
         self.out.broadcast(self.setup())
 
@@ -678,9 +694,9 @@ class Run:
         way = self._way(plan, result.message, round(result.comp_time_ms))
         self._end("the robots drive to the starts first (a run of its own)")
         self.loaded, self.purpose = way, TO_STARTS
-        self._new_run(plan, now)
         if self.to_starts_grid is not None:  # its reroutes keep off the cells it was walled off from,
             self.rerouting.keep_to(self.to_starts_grid)  # and a robot left leaning into one stands there
+        self._new_run(plan, now)
         self.begin_clock(now)
         self.move("start", "driving every robot to its start for {} ({} moves)".format(
             name, sum(action_counts(plan))))

@@ -195,12 +195,16 @@ class Engine:
         return blocked_by(self.waiting() + self.following(), self.out_agents())
 
     def restore(self, completed: Sequence[int], started: Sequence[int], dispatched: Sequence[int],
-                time: float) -> List[Dispatch]:
+                time: float, taken_back: Optional[Sequence[bool]] = None) -> List[Dispatch]:
         """Progress known from elsewhere, before any event: a manager started again on a run
         folder reads it from the run log. Agent r completed its first `completed[r]` actions,
-        began those up to `started[r]` and was sent those up to `dispatched[r]`. Followers sent
-        before their leader completed need the leader's move dispatched: it is counted so. The
-        progress must be one the dependency rule allows (EventError otherwise, changing
+        began those up to `started[r]` and was sent those up to `dispatched[r]`; `taken_back[r]`:
+        it began its next one and a fault or a halt took it back (it stands between two cells,
+        `RunState.halfway`). Followers sent before their leader completed need the leader's move
+        dispatched: it is counted so. A follower that completed its move into the cell such a
+        leader was leaving needs nothing more: the leader's move was dispatched when it followed,
+        as the live engine had it (big operator session 293: a manager could not take over).
+        The progress must be one the dependency rule allows (EventError otherwise, changing
         nothing). The run stays paused; the actions dispatched and not completed are returned
         (their robots are carrying them out, or are to)."""
         run = self.run
@@ -232,9 +236,12 @@ class Engine:
                     if index(d) >= disp[agent[d]]:
                         disp[agent[d]] = index(d) + 1
                         grown = True
+        back = list(taken_back) if taken_back is not None else [False] * n
         for r in range(n):
             for a in range(first[r], first[r] + done[r]):
                 d = dep[a]
+                if self.follow and d >= 0 and back[agent[d]] and index(d) == done[agent[d]]:
+                    continue  # behind a leader's move taken back: sent when it followed
                 if d >= 0 and agent[d] != r and index(d) >= (disp if self.follow else done)[agent[d]]:
                     raise EventError("agent {} completed action {} before agent {} began action {}".format(
                         r, a - first[r], agent[d], index(d)), r)

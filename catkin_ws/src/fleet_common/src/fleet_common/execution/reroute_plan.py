@@ -251,6 +251,7 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
     v = grid.num_cells
     res = Reservations(v)
     reserve(res, kept_ids, np.array([kept_s.arrival[r] for r in kept], dtype=np.int64))
+    _park_behind_out(run, grid, kept_s, base, kept, kept_ids, res)
     _hold_targets(run, grid, kept_s, schedule, base, chosen, res)
     starts = {r: new_start(run, schedule, base, r) for r in chosen}
     longest = max(starts.values(), default=0)
@@ -278,6 +279,9 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
         res.add_path(full)
         paths[r] = full
     arrival = list(kept_s.arrival)
+    for r in kept:  # waiting for a robot out, in either schedule: as late as before (placed behind
+        if schedule.later and schedule.arrival[r] >= schedule.later:  # the rest at other steps in each)
+            arrival[r] = schedule.arrival[r]
     more: Dict[int, int] = {}
     turns: Dict[int, int] = {}
     for r, p in paths.items():
@@ -321,6 +325,29 @@ def _came_from(run: RunState, grid: Grid, r: int, k: int) -> Optional[int]:
     if k == 0 or a >= run.first[r + 1]:
         return None
     return grid.index(run.table.coord(run.src[a]))
+
+
+def _park_behind_out(run: RunState, grid: Grid, kept_s: Schedule, base: Sequence[int], kept: Sequence[int],
+                     kept_ids: np.ndarray, res: Reservations) -> None:
+    """Keep the robots planned anew out of the way of the robots waiting for a robot that is out,
+    and of that robot, for good: each stands where it is when its wait begins (`Schedule.later`)
+    until the robot out is back, and every cell it then enters is taken from the step the
+    schedule places that behind the rest. A path into one of those cells after that step would
+    wait for the robot out (big session 257 of the wide operator sessions: robot 11 was rerouted
+    round a failed robot through a cell the failed robot was to enter, waited there for it, was
+    found held up and rerouted again, every 2.2 s, for ever); a path through it before that step
+    goes first, as a robot out cannot."""
+    later = kept_s.later
+    if not later:
+        return
+    first, table = run.first, run.table
+    for j, r in enumerate(kept):
+        waits = [a for a in range(first[r] + base[r], first[r + 1]) if kept_s.start.get(a, 0) >= later]
+        if not waits:
+            continue
+        res.park(int(kept_ids[min(later, kept_ids.shape[0] - 1), j]), later)
+        for a in waits:
+            res.park(grid.index(table.coord(run.dst[a])), kept_s.start[a] + 1)
 
 
 def _hold_targets(run: RunState, grid: Grid, kept_s: Schedule, schedule: Schedule, base: Sequence[int],
