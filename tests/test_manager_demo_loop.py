@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Dict, List
 
+import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -430,3 +431,32 @@ def test_start_at_the_end_of_the_way_waits_for_the_poses_taken_there_and_says_so
     assert f.run_until(lambda: not f.core.run.not_ready(), 1.0)
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()
+
+
+@pytest.mark.parametrize("allowed", [True, False])
+def test_a_replan_on_the_way_to_the_starts_takes_the_robots_on(monkeypatch, allowed):
+    """On the way back to the starts the operator replans (a robot there may stand where the way
+    cannot take it on: wide dying operator session 143, two robots left between cells on a way a
+    new manager took over, and nothing else could take them on). The replan is made and accepted,
+    and the way goes on to the starts. The control refuses a replan on the way, as before
+    2026-11-26 (the sessions that found it take other turns since 2026-11-27)."""
+    if not allowed:
+        refusal = operator._WHY_NOT["replan"]
+        monkeypatch.setitem(operator._WHY_NOT, "replan", lambda run: (
+            "the run is on its way to the starts" if run.purpose == "to-starts" else refusal(run)))
+    f, ops, goal = robot_2_half_off_its_goal()
+    assert f.ask(ops, "to_starts").ok
+    f.finish_plans()
+    f.hold_plans = False
+    assert f.run_until(lambda: f.core.run.engine.run.completed[1] >= 1, 10)  # robot 2 is in, the way under way
+    assert f.core.run.purpose == "to-starts"
+    answer = f.ask(ops, "replan")
+    if not allowed:
+        assert not answer.ok and "way to the starts" in answer.reason
+        return
+    assert answer.ok, answer.reason
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
+    f.advance(0.1)  # the console sees the State that names the proposal
+    assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
+    assert f.run_until(lambda: ready(f), 60) and on_their_starts(f)
+    assert f.core.summary().collisions == 0

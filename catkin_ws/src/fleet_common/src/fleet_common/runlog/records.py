@@ -16,7 +16,8 @@ ignore what they do not know), so later versions can add detail.
                size {diameter_m, margin_m, cell_m, safe_m} (the robots' size;
                absent in older folders: robots as large as a cell), epoch (the
                manager's command epoch, so that a manager started again on the
-               folder speaks to the robots as the same manager)
+               folder speaks to the robots as the same manager), walls (optional,
+               as in plan: a way to the starts' own)
     resume     started (ISO 8601, UTC, at this record's `t`), plan (the file being run), completed
                [actions of it completed, by agent], sent [commands sent again:
                [robot, id, type]], dropped (bytes of a torn last line cut off),
@@ -27,7 +28,11 @@ ignore what they do not know), so later versions can add detail.
                at (plan step of the old plan the new one starts from, or null),
                actions [by agent], starts [[x, y] by agent]; a reroute's also base (by agent:
                the old plan's move the new plan starts with) and done (moves of the new plan
-               done already, by agent: a follower's move made before its leader left)
+               done already, by agent: a follower's move made before its leader left);
+               walls (optional; [[x, y], ...]: the map's cells the plan keeps its reroutes
+               off, around robots left between cells; a manager taking the run over keeps
+               to them instead of inferring them from where robots out stand, which took a
+               robot carried into a cell for one left leaning into it)
     reroute    robots [ids rerouted], around (the late robot's id), late (steps, null:
                out), gain (steps sooner, predicted), text (the operator's line), plan (its
                file), base [by agent: the old plan's move the new plan starts with], look
