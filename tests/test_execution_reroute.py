@@ -354,8 +354,18 @@ def test_no_reroute_is_looked_for_while_a_robot_is_in_behind_a_move_taken_back(m
     product = run()
     assert product.safety.violations == () and product.finished and product.refused == 0
     monkeypatch.setattr(reroute_module, "behind_taken_back", lambda engine, cut, sent=False: [])
+    _without_the_guards_for_robots_out(monkeypatch)
     looked = run()
     assert looked.safety.violations == () and looked.finished and looked.refused >= 1
+
+
+def _without_the_guards_for_robots_out(monkeypatch) -> None:
+    """Take out the later guards that also keep a reroute off robots waiting for a robot out
+    (`reroute_plan.behind_out`, `_park_behind_out`, `_as_late_as_before`, 2026-11-27): the
+    controls below show the earlier guards' own work."""
+    monkeypatch.setattr(reroute_plan, "behind_out", lambda *args: False)
+    monkeypatch.setattr(reroute_plan, "_park_behind_out", lambda *args: None)
+    monkeypatch.setattr(reroute_plan, "_as_late_as_before", lambda kept_s, schedule, kept: list(kept_s.arrival))
 
 
 def _forgets_halfway(failed):
@@ -389,6 +399,7 @@ def test_a_robot_halfway_into_a_cell_after_a_fault_keeps_that_move_and_the_cell(
     product = run()
     assert_safe_and_complete(plan, grid, size, product)
     monkeypatch.setattr(engine_module.Engine, "_failed", _forgets_halfway(engine_module.Engine._failed))
+    _without_the_guards_for_robots_out(monkeypatch)
     wrong = run()
     assert frozenset(pair) in {frozenset(v.agents) for v in wrong.safety.violations}, wrong.safety.violations
 
@@ -408,6 +419,7 @@ def test_a_robot_sent_behind_a_move_taken_back_keeps_its_path(monkeypatch):
 
     assert_safe_and_complete(*run())
     monkeypatch.setattr(reroute_module, "behind_taken_back", lambda engine, cut, sent=False: [])
+    _without_the_guards_for_robots_out(monkeypatch)
     with pytest.raises(RerouteError, match="vertex conflict .* agents 0, 4"):
         run()
 

@@ -309,6 +309,7 @@ def killed_after_the_reroute_and_resumed(size: RobotSize) -> Tuple[MemoryFleet, 
     assert {rid: flight.index for rid, flight in driving.items()} == {1: 0, 2: 0, 3: 0} and base == [0, 1, 1]
     # robot 3 was sent its second move before the reroute: now its first
     assert [c["action"] for c in f.kinds("command") if c["robot"] == 3 and c["id"] == driving[3].id] == [1]
+    sent = list(f.core.run.engine.run.dispatched)  # in the new plan's numbers
     f.kill_manager()
     seen = []
     for _ in range(20):  # a second without a manager: the robots drive on
@@ -318,6 +319,7 @@ def killed_after_the_reroute_and_resumed(size: RobotSize) -> Tuple[MemoryFleet, 
     (resume,) = f.kinds("resume")
     assert resume["plan"] == "plan-2.txt"
     assert {robot for robot, _, kind in resume["sent"] if kind == "drive"} == set(driving)
+    assert list(f.core.run.engine.run.dispatched) == sent, "the moves sent, as the dead manager had them"
     f.advance(0.2)
     assert f.phase == "paused" and "every robot where the run left it" in f.core.run.phase.reason
     assert f.ask(f.console(), "start").ok
@@ -340,7 +342,8 @@ def test_a_manager_killed_right_after_a_reroute_is_resumed_on_the_new_plan_and_e
 
 def test_a_resume_that_keeps_the_old_numbers_of_moves_in_flight_fails_the_run(monkeypatch):
     """The negative control of the test above: the records read back without renumbering (robot 3's
-    move in flight keeps number 1); the resume refuses, or the run does not end as it should."""
+    move in flight keeps number 1); the resume refuses, restores other moves sent than the dead
+    manager had, or the run does not end as it should."""
     monkeypatch.setattr(resume_module, "renumber", keeps_old_numbers)
     with pytest.raises((AssertionError, FleetError)):
         f, seen, ran = killed_after_the_reroute_and_resumed(cell_sized())

@@ -278,10 +278,7 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
         full = before[:s, j].tolist() + path
         res.add_path(full)
         paths[r] = full
-    arrival = list(kept_s.arrival)
-    for r in kept:  # waiting for a robot out, in either schedule: as late as before (placed behind
-        if schedule.later and schedule.arrival[r] >= schedule.later:  # the rest at other steps in each)
-            arrival[r] = schedule.arrival[r]
+    arrival = _as_late_as_before(kept_s, schedule, kept)
     more: Dict[int, int] = {}
     turns: Dict[int, int] = {}
     for r, p in paths.items():
@@ -325,6 +322,18 @@ def _came_from(run: RunState, grid: Grid, r: int, k: int) -> Optional[int]:
     if k == 0 or a >= run.first[r + 1]:
         return None
     return grid.index(run.table.coord(run.src[a]))
+
+
+def _as_late_as_before(kept_s: Schedule, schedule: Schedule, kept: Sequence[int]) -> List[int]:
+    """The kept robots' predicted arrivals, but those waiting for a robot out as `schedule` had
+    them: each schedule places such moves behind its own last move, so the two differ by
+    where each schedule ends, not by anything a reroute changes (a gain of that kind made the
+    rule reroute a robot again and again: `_park_behind_out`)."""
+    arrival = list(kept_s.arrival)
+    for r in kept:
+        if schedule.later and schedule.arrival[r] >= schedule.later:
+            arrival[r] = schedule.arrival[r]
+    return arrival
 
 
 def _park_behind_out(run: RunState, grid: Grid, kept_s: Schedule, base: Sequence[int], kept: Sequence[int],
