@@ -579,3 +579,36 @@ def test_a_reroute_into_the_cells_of_a_robot_out_is_caught(monkeypatch) -> None:
     from fleet_common.execution import reroute_plan
     monkeypatch.setattr(reroute_plan, "_park_behind_out", lambda *args: None)
     assert session(257, wide=True, big=True).problems
+
+
+def test_a_follower_keeps_its_distance_from_a_leader_turning_off_its_cells_centre() -> None:
+    """Big session 716: robot 11 stood 0.06 cells off its cell's centre towards robot 14 and turned
+    in place to leave the other way; its last pose, taken before the turn, no longer counted as
+    settled once the turn was accepted, so robot 14's hold point was reckoned from the cell's centre,
+    and robot 14 stopped 0.62 cells from robot 11 (the safe distance 0.65). A hold point now keeps
+    away from where the leader was last seen too (`following`)."""
+    assert not session(716, big=True).problems
+
+
+def test_a_hold_point_reckoned_from_the_cells_centre_alone_is_caught(monkeypatch) -> None:
+    from fleet_manager import following as following_module
+    monkeypatch.setattr(following_module, "_last_seen", lambda robot: None)
+    assert session(716, big=True).problems
+
+
+def test_a_replan_that_would_start_two_robots_on_one_cell_is_given_up_saying_why() -> None:
+    """Big session 840: robot 3 had completed its move into the cell robot 2, halted, was leaving.
+    A replan had robot 2 finish that move first, from that cell, with robot 3 on it too: accepted,
+    the plan raised building its engine (in the manager: a request that failed, the run half
+    switched). The replan is given up saying why, and what to do ("let it finish its move")."""
+    assert not session(840, big=True).problems
+
+
+def test_a_replan_starting_two_robots_on_one_cell_is_caught(monkeypatch) -> None:
+    """The control: the check of the first step taken out. Accepting the plan is refused (its engine
+    refuses it, and the run stays as it was: `Run.switch_plan` builds the engine first), where
+    before the request failed half way through."""
+    monkeypatch.setattr(core.RunCore, "_sharing_first", lambda self, here, on, current: "")
+    found = session(840, big=True)
+    refused = [reason for _, action, _, ok, reason in found.log if action == "accept" and not ok]
+    assert any("its plan does not fit the run (vertex conflict at t=0" in r for r in refused), found.log

@@ -214,7 +214,7 @@ class RunCore:
             out, on = self._replanned_from(here, run.walls | halfway)
             current = [on.get(a, c) for a, c in enumerate(here)]
             grid = _without(walled(run.grid, self.fleet.robots, here, set(on), halfway), self._walls_but(current))
-            shared = self._sharing(current)
+            shared = self._sharing(current) or self._sharing_first(here, on, current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.drop_replan()
                 run.say("replan given up: " + shared)
@@ -329,6 +329,13 @@ class RunCore:
                     "on a free cell").format(other.id, robot.id, run.loaded.show(cell), between.id,
                                              "" if pose is None else " at {}".format(run.where(pose.x, pose.y)))
         return ""
+
+    def _sharing_first(self, here: Sequence[Coord], on: Dict[int, Coord], current: List[Coord]) -> str:
+        """`_sharing` for the plan's first step, where the robots going on (`on`) still stand in
+        their own cells (big session 840: a follower had completed its move into the cell its
+        leader, halted, was leaving; both started there, and the plan, accepted, raised building
+        its engine)."""
+        return self._sharing([here[a] if a in on else c for a, c in enumerate(current)]) if on else ""
 
     def resumed(self, now: float) -> None:
         """A resumed run's robots have all answered: those standing where the run left them go

@@ -25,8 +25,14 @@ follower. A pose counts only when the robot took it while running the drive
 of the very move the engine says it is making (the pose's `current`
 command): a pose taken earlier, even one that arrives after the move's
 predecessor completed, may lie anywhere on the robot's way here, also ahead
-on a line it now drives back along. Otherwise, and without a pose, the
-leader is taken to stand at the start of its move, which is behind it. A
+on a line it now drives back along. Otherwise, the leader is taken to stand
+at the start of its move, and also where it was last seen, whatever it was
+doing then: a point more on the leader's path only holds the follower
+shorter, and the start alone is not always behind it (big operator session
+716: a leader stopped 0.06 cells short of its cell's centre, towards its
+follower, was turning in place; its last pose, taken before the turn, no
+longer counted as settled, and the follower, held from the centre, stopped
+0.62 cells from it, the safe distance 0.65). Without any pose, the start. A
 late pose, a lost pose or a lost link only keeps the hold point where it
 was; the follower then stops short and waits, and so does the robot behind
 it. A follower's own stop at the hold point is its own controller's (the
@@ -44,7 +50,7 @@ from typing import Dict, Optional, Set, Tuple
 from fleet_common.execution import Dispatch, Engine
 from fleet_common.execution.following import hold_fraction, point_at
 
-from .robot import Fleet
+from .robot import Fleet, Robot
 
 __all__ = ["Following", "STEP"]
 
@@ -138,8 +144,17 @@ class Following:
             here = (pose.pose.x, pose.pose.y)
         elif (flight is None or flight.kind == "turn") and robot.pose is not None and robot.pose_settled():
             here = (robot.pose.x, robot.pose.y)
+        else:
+            here = _last_seen(robot)
         start = point_at(src, dst, f)
         ahead = [table.coord(run.dst[a]) for a in range(a0, lead + 1)]
         if here is None or math.hypot(here[0] - start[0], here[1] - start[1]) < 1e-6:
             return [start] + ahead
         return [start, here] + ahead
+
+
+def _last_seen(robot: Robot) -> Optional[Point]:
+    """Where `robot` was last seen, whatever it was doing then (None: never): a point more on a
+    leader's path to keep away from only holds its follower shorter."""
+    pose = robot.pose
+    return None if pose is None else (pose.x, pose.y)

@@ -36,7 +36,7 @@ from typing import Any, Callable, Dict, Optional, Tuple
 from fleet_common.control import ACTIONS as CONSOLE_ACTIONS
 from fleet_common.control import RUN_ACTIONS
 from fleet_common.errors import FleetError
-from fleet_common.execution import STRATEGIES, Disabled, Pause, Resume, StepRound, SwitchStrategy, make_strategy
+from fleet_common.execution import STRATEGIES, Disabled, Pause, PlanError, Resume, StepRound, SwitchStrategy, make_strategy
 from fleet_common.execution.reroute import MODES as REROUTE_MODES, SCOPES as REROUTE_SCOPES
 from fleet_common.grid import Grid
 from fleet_common.limits import one_line
@@ -560,7 +560,11 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     plan = pending.result.plan
     moving = [run.fleet[a].id for a in range(plan.num_agents)
               if (plan.positions[1:, a] != plan.positions[:-1, a]).any()]
-    run.switch_plan(plan, "replan", now, pending.grid)
+    try:
+        run.switch_plan(plan, "replan", now, pending.grid)
+    except PlanError as err:  # (never, by the checks at the safe point; the run stays as it was)
+        run.drop_replan()
+        return False, "replan {} dropped: its plan does not fit the run ({}); replan again".format(pending.id, err)
     run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
         len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
     if run.stranded_words():

@@ -471,8 +471,10 @@ class Run:
 
     def switch_plan(self, plan: Plan, reason: str, now: float, grid: Optional[Grid] = None) -> None:
         """Run `plan` from now on (a safe point: nobody mid-move), keeping who is out; `grid`: the
-        map it was planned on, walls included (default: the run's), which its reroutes keep to."""
+        map it was planned on, walls included (default: the run's), which its reroutes keep to. A
+        plan the engine refuses (`PlanError`) changes nothing."""
         old = self.engine
+        engine = self._engine(plan)  # first: a plan it refuses leaves the run as it was
         self.rerouting.keep_to(self.grid if grid is None else grid)
         goals = self.loaded.goals
         self.stranded = {a for a in range(plan.num_agents)
@@ -481,7 +483,6 @@ class Run:
         self.walls.clear()
         self.plan_id += 1
         self.plan = plan
-        engine = self._engine(plan)
         for agent, why in enumerate(old.run.out):
             if why is not None:
                 engine.handle((Disabled if why == "disabled" else RobotFailed)(agent, now))
