@@ -56,11 +56,23 @@ def carry_to(f: MemoryFleet, rid: int, x: float, y: float) -> None:
     navigator._rest = Pose(x, y, navigator.true_pose().theta)
 
 
+def open_cells(grid: Grid) -> List[Tuple[int, int]]:
+    """The free cells of the map's largest connected part: lab staff do not put a robot down in a
+    pocket walled off from the rest, from where no plan takes it home (the lab's map has none; a
+    random map of `big` sessions may: big carrying session 91 put robot 9 in one)."""
+    labels = component_labels(grid, np.zeros(grid.free.shape, dtype=bool))
+    cells = list(grid.free_cells())
+    if not cells:
+        return cells
+    biggest = Counter(labels[grid.index(c)] for c in cells).most_common(1)[0][0]
+    return [c for c in cells if labels[grid.index(c)] == biggest]
+
+
 def carry_to_a_cell(f: MemoryFleet, rid: int) -> None:
     """Lab staff put robot `rid` (standing still) on the nearest free cell nobody stands on."""
     at = f.robots[rid].navigator.true_pose()
     others = [r.navigator.true_pose() for other, r in f.robots.items() if other != rid]
-    cells = [c for c in f.core.run.grid.free_cells()  # (a robot half in a cell stands in it too)
+    cells = [c for c in open_cells(f.core.run.grid)  # (a robot half in a cell stands in it too)
              if all(math.hypot(c[0] - p.x, c[1] - p.y) >= TURTLEBOT2.safe_cells for p in others)]
     x, y = min(cells, key=lambda c: math.hypot(c[0] - at.x, c[1] - at.y))
     carry_to(f, rid, float(x), float(y))
@@ -240,7 +252,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         rid = hand.choice(out_ if out_ and hand.random() < 0.7 else still)
         others = [(r.navigator.true_pose(), 2.5 if r.navigator.moving else 1.5)
                   for o, r in f.robots.items() if o != rid]
-        cells = [c for c in f.core.run.grid.free_cells()
+        cells = [c for c in open_cells(f.core.run.grid)
                  if all(math.hypot(c[0] - p.x, c[1] - p.y) >= away for p, away in others)]
         if not cells:
             return
