@@ -9,7 +9,8 @@ and another take the run over from its records. Then the operator cleans up as l
 staff would: enable every robot, answer a proposal, start, and replan while the run
 is stuck, a few times. With Vicon (`vicon`), the manager reads a simulated Vicon stream
 (`MemoryVicon`), the run starts on either position source, the operator switches the
-source at random (every robot or one), and robots are occluded from Vicon for a while.
+source at random (every robot or one), and robots are occluded from Vicon for a while. With
+`big`, ten to sixteen robots on a random map instead of the lab's five (`big_floor`).
 
 What is checked is what a visitor and the run's report would say against where the
 robots really are: the run ends; "done" means every robot is at its goal; the
