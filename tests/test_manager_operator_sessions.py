@@ -612,3 +612,31 @@ def test_a_replan_starting_two_robots_on_one_cell_is_caught(monkeypatch) -> None
     found = session(840, big=True)
     refused = [reason for _, action, _, ok, reason in found.log if action == "accept" and not ok]
     assert any("its plan does not fit the run (vertex conflict at t=0" in r for r in refused), found.log
+
+
+def test_a_reroute_of_every_robot_waits_while_a_stranded_robot_stands_between_cells() -> None:
+    """Wide big session 1421: robots 2 and 7, left by a replan between two cells (robot 2 half
+    into the cell robot 7 stood half out of), were enabled; a reroute of every robot gave both
+    paths from their cells, robot 7 moves out of the cell robot 2 leaned into, and robot 2 was
+    found moved by hand (its cell free to the others once robot 7 left). Rerouting every robot
+    waits while a robot the plan stranded stands between cells (`Run.stranded_between`)."""
+    assert not session(1421, big=True, wide=True).problems
+
+
+def test_a_reroute_of_every_robot_from_between_cells_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_reroute_all_held_back", lambda self: False)
+    assert session(1421, big=True, wide=True).problems
+
+
+def test_a_replan_is_not_left_waiting_for_a_follower_behind_a_move_taken_back() -> None:
+    """Big carrying session 408: robot 1 was carried while its move was sent, the run halted and
+    took the move back; robot 4 stayed at its hold point behind it. Robot 1 enabled, the run paused,
+    a replan waited for robot 4 to stand, robot 4 for robot 1's move, that move for Start, and
+    Start for the replan. A replan is now refused, saying so ("start ..., or halt first"), and
+    given up if it comes to that while it waits (`Run.held_behind_taken_back`)."""
+    assert not session(408, big=True, carrying=True).problems
+
+
+def test_a_replan_waiting_for_a_follower_behind_a_move_taken_back_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(Run, "held_behind_taken_back", lambda self: {})
+    assert session(408, big=True, carrying=True).problems

@@ -613,6 +613,14 @@ def behind_out(run: Run) -> Optional[str]:
     once every robot stands (no command in flight); this one stands only when its leader moves
     on, so the replan would wait for ever, and Start with it (found by random operator sessions)."""
     following, out = run.driver.following, run.engine.run.out
+    if run.engine.paused:  # (running, the engine sends it again at once)
+        back = [(run.fleet[a].id, run.fleet[lead].id) for a, lead in sorted(run.held_behind_taken_back().items())
+                if run.fleet[a].flight is not None]
+        if back:
+            waits = "; ".join("robot {} waits behind robot {}, whose move was taken back".format(f, lead)
+                              for f, lead in back)
+            return "{}: a replan needs every robot standing; start (both finish their moves), or halt first".format(
+                waits)
     held = [a for a in run.held_behind_out() if run.fleet[a].flight is not None]
     # named: each that waits right behind a robot that is out (a train behind it waits with it)
     pairs = sorted((run.fleet[a].id, run.fleet[following.leader_of(a)].id) for a in held

@@ -214,6 +214,22 @@ class Run:
                 return held
             held |= more
 
+    def held_behind_taken_back(self) -> Dict[int, int]:
+        """Followers at their hold points whose leader, taking part, has not been sent again the
+        move they follow (a halt took it back, or it was out): follower agent -> leader agent. It
+        is sent at Start; while the run is paused they wait (big carrying session 408: a replan asked
+        for then waited for them to stand, and Start waited for the replan)."""
+        following, run = self.driver.following, self.engine.run
+        found: Dict[int, int] = {}
+        for agent in following.holds:
+            leader = following.leader_of(agent)
+            queue = self.fleet[agent].queue
+            d = queue[0] if queue else None
+            if (leader is not None and run.out[leader] is None and d is not None and d.follows is not None
+                    and d.follows[0] == leader and run.dispatched[leader] <= d.follows[1]):
+                found[agent] = leader
+        return found
+
     # ---- where the robots are, in words -------------------------------------------------------
 
     def where(self, x: float, y: float) -> str:
@@ -542,6 +558,23 @@ class Run:
         self.engine = new
         return None
 
+    @staticmethod
+    def _on_centre(robot: Robot, here: Coord) -> bool:
+        """Whether `robot` stands on the centre of `here` (`ON_CENTRE`), by a pose taken since its
+        last reply."""
+        pose = robot.pose
+        return pose is not None and robot.pose_settled() and math.hypot(pose.x - here[0], pose.y - here[1]) <= ON_CENTRE
+
+    def stranded_between(self) -> List[int]:
+        """The ids of robots taking part that the plan leaves away from their goals and that stand
+        off their cells' centres (between two cells): a reroute of every robot would plan them from
+        those cells (wide big session 1421: robots 2 and 7, stranded leaning into each other's
+        cells, were both given paths; robot 7 then had moves out of the cell robot 2 leaned half
+        into, and robot 2 was found moved by hand). A replan plans them from where they stand."""
+        cells = self.positions()
+        return [r.id for r in self.fleet if r.agent in self.stranded and self.engine.run.out[r.agent] is None
+                and not self._on_centre(r, cells[r.agent])]
+
     def take_home(self, robot: Robot, now: float) -> Optional[str]:
         """Robot `robot`, enabled again where the plan had left it away from its goal (`stranded`),
         given a way to its goal around the others while the run goes on (`reroute.way_home`, handed
@@ -553,8 +586,7 @@ class Run:
         cells = self.positions()
 
         def on_centre(r: Robot) -> bool:
-            here, pose = cells[r.agent], r.pose
-            return pose is not None and r.pose_settled() and math.hypot(pose.x - here[0], pose.y - here[1]) <= ON_CENTRE
+            return self._on_centre(r, cells[r.agent])
 
         if not on_centre(robot):
             return "it does not stand on the centre of {}".format(self.loaded.show(cells[robot.agent]))
