@@ -165,6 +165,10 @@ def test_ways_home_from_halfway_through_a_move_are_caught(monkeypatch) -> None:
     # (a replan now plans halted robots itself, from where they stand: the session's replan leaves
     # them where they are, and away from their goals, only as it did then)
     monkeypatch.setattr(core.RunCore, "_replanned_from", _halted_out)
+    # (and the hold point from the cell's centre alone: since it keeps away from where the leader
+    # was last seen too, that alone holds robot 8 back from robot 1, `following._last_seen`)
+    from fleet_manager import following as following_module
+    monkeypatch.setattr(following_module, "_last_seen", lambda robot: None)
     assert session(2283, wide=True, vicon=True).problems
 
 
@@ -640,3 +644,21 @@ def test_a_replan_is_not_left_waiting_for_a_follower_behind_a_move_taken_back() 
 def test_a_replan_waiting_for_a_follower_behind_a_move_taken_back_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(Run, "held_behind_taken_back", lambda self: {})
     assert session(408, big=True, carrying=True).problems
+
+
+def test_a_robot_put_down_on_a_wall_a_takeover_raised_is_found_moved() -> None:
+    """Big carrying session 673: robot 1 was carried between two cells; a manager taking over held
+    it and walled the cells round it for the replan it asked for, which was given up; staff put
+    robot 1 on one of those cells and enabled it. The check took it for where the run had it
+    (walled in), counted it home on the cell next to it, and robot 5's plan, made before any of
+    those walls, drove into it. Only walls the plan being run keeps off count, and only for a robot
+    that makes no move (`carried._walled_in`)."""
+    assert not session(673, big=True, carrying=True).problems
+
+
+def test_a_robot_on_a_takeovers_wall_taken_for_walled_in_is_caught(monkeypatch) -> None:
+    def any_wall(run, agent, far):  # before 2026-11-27: any wall of the reroutes' map
+        kept = run.rerouting.maps.grid
+        return not (kept.in_bounds(far) and kept.is_free(far))
+    monkeypatch.setattr(carried_module, "_walled_in", any_wall)
+    assert session(673, big=True, carrying=True).problems

@@ -15,8 +15,9 @@ neighbour is the target of its next move and it was sent that move (halted, stop
 or at its very end) or no other robot is due in that cell before it (a replan's first move,
 finishing one it was half through: `replanning.going_on`; behind the robot in that cell, which
 leaves it next), or the plan keeps that cell walled
-off around it (`replanning.walled`: a robot a replan or the way to the starts left between
-cells; the walls a restart raised); and on the neighbour's centre also when the run holds that
+off around it while it makes no move, out or with none left (`replanning.walled`: a robot a
+replan or the way to the starts left between cells; not the walls a takeover raises for its
+replan, which the plan being run does not keep off); and on the neighbour's centre also when the run holds that
 cell for another robot (nobody else enters it while that robot holds it). Anywhere else
 between two cells it was pushed: a robot standing half a cell towards a free neighbour that
 nobody is kept out of is 0.5 cells from whoever drives through it next (a visitor's push of
@@ -148,7 +149,7 @@ def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], he
     if _clear_of(pose, far, run.settings.size.safe_cells):
         return True
     # between its cell and that neighbour, or on the neighbour's centre: only where the run put it
-    state, table, kept = run.engine.run, run.engine.table, run.rerouting.maps.grid
+    state, table = run.engine.run, run.engine.table
     a, nxt = robot.agent, state.next_incomplete(robot.agent)
     entering = nxt >= 0 and tuple(table.coord(state.dst[nxt])) == far and (
         state.dispatched[a] > state.completed[a] or bool(state.halfway[a])  # a move it was sent
@@ -159,7 +160,18 @@ def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], he
     # into the cell of one a fault stopped on its way out); once it moves on, this one is judged again
     stays = holder is not None and (state.out[holder] is not None or state.next_incomplete(holder) < 0)
     on_far = math.hypot(pose[0] - far[0], pose[1] - far[1]) <= AT_CELL
-    return entering or (holder is not None and (on_far or stays)) or not (kept.in_bounds(far) and kept.is_free(far))
+    return entering or (holder is not None and (on_far or stays)) or _walled_in(run, a, far)
+
+
+def _walled_in(run: "Run", agent: int, far: Coord) -> bool:
+    """Whether the plan being run keeps everyone off `far`, next to the cell of the robot of
+    `agent`, while that robot makes no move (out, or with none left). Not the walls a takeover
+    raises for the replan it asks for (`Run.walls`): the plan being run goes through them (big
+    carrying session 673: a robot put down on a cell walled round it, enabled, was taken for home
+    on the cell next to it, and another robot's plan drove through it)."""
+    kept, state = run.rerouting.maps.grid, run.engine.run
+    return (far not in run.walls and not (kept.in_bounds(far) and kept.is_free(far))
+            and (state.out[agent] is not None or state.next_incomplete(agent) < 0))
 
 
 def _clear_of(pose: Tuple[float, float], far: Coord, safe: float) -> bool:
