@@ -628,7 +628,7 @@ def test_a_reroute_of_every_robot_waits_while_a_stranded_robot_stands_between_ce
 
 
 def test_a_reroute_of_every_robot_from_between_cells_is_caught(monkeypatch) -> None:
-    monkeypatch.setattr(core.RunCore, "_reroute_all_held_back", lambda self: False)
+    monkeypatch.setattr(core.RunCore, "_reroute_held_back", lambda self: False)
     assert session(1421, big=True, wide=True).problems
 
 
@@ -662,3 +662,22 @@ def test_a_robot_on_a_takeovers_wall_taken_for_walled_in_is_caught(monkeypatch) 
         return not (kept.in_bounds(far) and kept.is_free(far))
     monkeypatch.setattr(carried_module, "_walled_in", any_wall)
     assert session(673, big=True, carrying=True).problems
+
+
+def test_no_reroute_is_looked_for_while_the_plan_goes_through_a_takeovers_walls() -> None:
+    """Big carrying session 786: a manager taking over walled off the cells round a robot between
+    cells for the replan it asked for; the replan given up, the run went on with its plan, which
+    goes through them, and a reroute look kept robot 10 on that path: "a reroute's plan is not
+    valid: agent 10 at t=16 is on blocked cell (0, 2)" (said and dropped in the manager). Reroutes
+    and ways home wait until a replan has the plan keep off those walls (`RunCore._reroute_held_back`)."""
+    assert not session(786, big=True, carrying=True).problems
+
+
+def test_a_reroute_through_a_takeovers_walls_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_reroute_held_back", lambda self: (
+        self.run.rerouting.rule.scope == "all" and bool(self.run.stranded_between())))
+    try:
+        found = bool(session(786, big=True, carrying=True).problems)
+    except RerouteError:
+        found = True
+    assert found

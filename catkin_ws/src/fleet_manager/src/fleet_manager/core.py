@@ -489,16 +489,19 @@ class RunCore:
                 self._drop_proposal("reroute {} dropped: {} since it was proposed".format(
                     pending[0], moved_words(moved, self.fleet.ids)))
         if (run.phase.phase == RUNNING and run.purpose == PLAN and not run.replanner.open
-                and run.resuming is None and not self._reroute_all_held_back()
+                and run.resuming is None and not self._reroute_held_back()
                 and rerouting.due(run.engine, now)):
             self.out.add(rerouting.ask(run.engine, now))
             if rerouting.freezes(run.engine, now):
                 run.driver.handle(Freeze(now), now)
 
-    def _reroute_all_held_back(self) -> bool:
-        """Rerouting every robot waits while a robot the plan left stranded stands between two cells
-        (`Run.stranded_between`): it would plan that robot from its cell."""
-        return self.run.rerouting.rule.scope == "all" and bool(self.run.stranded_between())
+    def _reroute_held_back(self) -> bool:
+        """Rerouting waits while the plan being run goes through walls a takeover raised for the
+        replan it asked for (`Run.walls`: a look would keep robots on those paths and be refused,
+        big carrying session 786); rerouting every robot also while a robot the plan left stranded
+        stands between two cells (`Run.stranded_between`): it would plan that robot from its cell."""
+        run = self.run
+        return bool(run.walls) or (run.rerouting.rule.scope == "all" and bool(run.stranded_between()))
 
     def _thaw(self, now: float) -> None:
         if self.run.engine.frozen:

@@ -590,8 +590,8 @@ class Run:
 
         if not on_centre(robot):
             return "it does not stand on the centre of {}".format(self.loaded.show(cells[robot.agent]))
-        if self.rerouting.on_walls(self.engine):  # (a way from now would start a robot on a wall)
-            return NO_WAY_HOME  # tried again every plan step
+        if self.rerouting.on_walls(self.engine) or self.walls:  # (a way from now would start a robot on a
+            return NO_WAY_HOME  # wall, or keep one on a path through a wall a takeover raised; tried again every step)
         others = [r for r in self.fleet if r.agent in self.stranded and r is not robot
                   and self.engine.run.out[r.agent] is None and on_centre(r)]
         found = None
