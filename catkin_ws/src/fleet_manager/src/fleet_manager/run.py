@@ -571,6 +571,8 @@ class Run:
         those cells (wide big session 1421: robots 2 and 7, stranded leaning into each other's
         cells, were both given paths; robot 7 then had moves out of the cell robot 2 leaned half
         into, and robot 2 was found moved by hand). A replan plans them from where they stand."""
+        if not self.stranded:  # (asked every loop turn while rerouting every robot)
+            return []
         cells = self.positions()
         return [r.id for r in self.fleet if r.agent in self.stranded and self.engine.run.out[r.agent] is None
                 and not self._on_centre(r, cells[r.agent])]
