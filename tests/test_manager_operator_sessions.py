@@ -681,3 +681,17 @@ def test_a_reroute_through_a_takeovers_walls_is_caught(monkeypatch) -> None:
     except RerouteError:
         found = True
     assert found
+
+
+def test_a_follower_off_its_cells_centre_keeps_its_distance_on_its_own_line() -> None:
+    """Big session 2330: robot 9 stood 0.24 cells off its cell's centre and followed robot 13 out of
+    the next cell; its hold point, reckoned on the move's line, was projected onto its own line by
+    its controller, and it stopped 0.63 cells from robot 13, which drove away to that side (the
+    safe distance 0.65). The hold keeps that much more distance (`following._off_line`)."""
+    assert not session(2330, big=True).problems
+
+
+def test_a_hold_point_reckoned_on_the_moves_line_alone_is_caught(monkeypatch) -> None:
+    from fleet_manager import following as following_module
+    monkeypatch.setattr(following_module, "_off_line", lambda robot, src, dst: 0.0)
+    assert session(2330, big=True).problems

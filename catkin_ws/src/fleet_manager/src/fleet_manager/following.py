@@ -41,6 +41,10 @@ little: the distance the hold point keeps (`safe`, given by the run) is the
 safe distance plus that overshoot (`robot_size.STOP_OVERSHOOT_M`). The hold point is
 computed from the follower's move start: a follower already closer than
 that (it cannot be, but for localization error) is held where it stands.
+A follower drives from where it stands, which may be off its cell's centre
+(within `AT_CELL`), and its own controller stops at the hold point's
+projection on that line: the distance kept grows by how far it stands off
+the move's line (`_off_line`), so its own stop keeps the safe distance.
 """
 from __future__ import annotations
 
@@ -85,7 +89,7 @@ class Following:
         if run.done[lead]:
             return None
         path = self._leader_path(leader, lead)
-        f = hold_fraction(d.src, d.dst, path, self.safe)
+        f = hold_fraction(d.src, d.dst, path, self.safe + _off_line(self.fleet[d.agent], d.src, d.dst))
         return None if f >= 1.0 else point_at(d.src, d.dst, f)
 
     def sent(self, d: Dispatch, hold: Optional[Point]) -> None:
@@ -158,3 +162,19 @@ def _last_seen(robot: Robot) -> Optional[Point]:
     leader's path to keep away from only holds its follower shorter."""
     pose = robot.pose
     return None if pose is None else (pose.x, pose.y)
+
+
+def _off_line(robot: Robot, src: Point, dst: Point) -> float:
+    """How far `robot`'s pose (0: none) stands off the line of its move src -> dst. It drives from
+    where it stands, so every point of its drive ahead is at most that far from the point of the
+    move the hold is reckoned on, and a hold point kept that much farther off is safe on its own
+    line (big session 2330: a follower 0.24 cells off its cell's centre, held on the move's line,
+    stopped on its own 0.63 cells from its leader, the safe distance 0.65)."""
+    pose = robot.pose
+    if pose is None:
+        return 0.0
+    dx, dy = dst[0] - src[0], dst[1] - src[1]
+    length = math.hypot(dx, dy)
+    if length < 1e-9:
+        return 0.0
+    return abs((pose.x - src[0]) * dy - (pose.y - src[1]) * dx) / length
