@@ -695,3 +695,26 @@ def test_a_hold_point_reckoned_on_the_moves_line_alone_is_caught(monkeypatch) ->
     from fleet_manager import following as following_module
     monkeypatch.setattr(following_module, "_off_line", lambda robot, src, dst: 0.0)
     assert session(2330, big=True).problems
+
+
+def test_a_bumper_stops_a_virtual_robot_when_it_is_pressed_polled_or_not() -> None:
+    """Big session 2378 (the simulator, not the manager): robot 3's bumper was due halfway through
+    a drive while its link was down, and the memory fleet polls a robot only while its link is up;
+    the robot drove on to its target, and when polled jumped back half a cell, 0.5 cells from robot
+    2 following it. A real robot stops when its bumper is pressed; so does the virtual one now,
+    whenever it is polled (`VirtualNavigator._pose_at`)."""
+    assert not session(2378, big=True).problems
+
+
+def test_a_virtual_robot_that_drives_past_its_bumper_is_caught(monkeypatch) -> None:
+    from virtual_fleet.kinematics import VirtualNavigator
+    pose_at = VirtualNavigator._pose_at
+
+    def past_the_bumper(self, t):  # before 2026-11-27
+        bump, self._bump_at = self._bump_at, None
+        try:
+            return pose_at(self, t)
+        finally:
+            self._bump_at = bump
+    monkeypatch.setattr(VirtualNavigator, "_pose_at", past_the_bumper)
+    assert session(2378, big=True).problems

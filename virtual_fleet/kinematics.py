@@ -244,6 +244,10 @@ class VirtualNavigator:
             return self._rest
         if self._held_at is not None:
             t = min(t, self._held_at)  # it stands at its hold point
+        if self._bump_at is not None:
+            t = min(t, self._bump_at)  # the bumper stopped it there, whenever `poll` comes to say so
+            # (a robot whose link is down is polled once it is back: until then it drove on, and
+            # then jumped back half a cell, towards a robot following it; big session 2378)
         for seg in self._segments:
             if t < seg.end:
                 return self._pose_on(seg, t)
