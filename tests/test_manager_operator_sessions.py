@@ -169,6 +169,7 @@ def test_ways_home_from_halfway_through_a_move_are_caught(monkeypatch) -> None:
     # was last seen too, that alone holds robot 8 back from robot 1, `following._last_seen`)
     from fleet_manager import following as following_module
     monkeypatch.setattr(following_module, "_last_seen", lambda robot: None)
+    monkeypatch.setattr(following_module, "_off_line", lambda robot, src, dst: 0.0)  # (likewise)
     assert session(2283, wide=True, vicon=True).problems
 
 
