@@ -54,6 +54,21 @@ def test_poses_received_too_far_apart_are_not_compared() -> None:
     assert run(d, [2.0], skew=0.2)[0] is not None
 
 
+def test_a_gap_in_the_comparisons_does_not_restart_the_hold() -> None:
+    """The robot's own poses come late now and then (a loaded PC, a jittery link): the samples
+    that can be compared are all far apart, and the robot is reported after the hold."""
+    d = DisagreementDetector(threshold=0.5, hold=0.2, max_skew=0.25)
+    fired = []
+    for i in range(12):  # one sample every 0.05 s; every third one's own pose is 0.3 s old
+        now = i * 0.05
+        own_time = now - (0.3 if i % 3 == 2 else 0.0)
+        fired.append(d.update(7, HOME, own_time, Pose(HOME.x + 2.0, HOME.y, 0.0), now, now))
+    assert [i for i, e in enumerate(fired) if e is not None] == [4]  # 0.2 s after the first, as without gaps
+    # a sample back under the threshold does restart it
+    d = DisagreementDetector(threshold=0.5, hold=0.2)
+    assert all(e is None for e in run(d, [2.0, 2.0, 2.0, 0.0, 2.0, 2.0, 2.0, 2.0]))
+
+
 def test_forget_starts_afresh() -> None:
     d = DisagreementDetector(threshold=0.5, hold=0.0)
     run(d, [1.0])

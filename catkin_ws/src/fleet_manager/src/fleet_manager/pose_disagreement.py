@@ -11,7 +11,11 @@ make a stream of events: a robot starts disagreeing when the distance stays
 above `threshold` for `hold` seconds, and agrees again when it stays below
 `clear_below` for `hold` seconds. Two poses are compared only when they were
 received within `max_skew` of each other (a moving robot's old pose is
-somewhere else); a comparison that cannot be made restarts the hold.
+somewhere else). A comparison that cannot be made says nothing either way and
+leaves the hold as it is: on a loaded PC or a jittery link, the robot's own
+poses come late often enough that restarting the hold at every gap would
+never let a lost robot be reported. Only a comparison on the other side of
+the threshold restarts it.
 """
 from __future__ import annotations
 
@@ -72,8 +76,7 @@ class DisagreementDetector:
         state = self._robots.setdefault(robot_id, _State())
         distance = math.hypot(own.x - vicon.x, own.y - vicon.y)
         if not (abs(own_time - vicon_time) <= self.max_skew and math.isfinite(distance)):
-            state.since = None
-            return None
+            return None  # no evidence either way: the hold goes on
         switching = (distance < self.clear_below) if state.disagree else (
             distance > self.threshold)
         if not switching:
