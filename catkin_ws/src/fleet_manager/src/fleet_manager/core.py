@@ -203,6 +203,7 @@ class RunCore:
             blocked = operator.behind_out(run)
             if blocked:  # a leader went out while the robots finished their moves: no safe point comes
                 run.drop_replan()
+                run.replan_ended("replan given up: " + blocked)
                 run.say("replan given up: " + blocked)
                 self.out.tell("plan", None, "replan given up: " + blocked)
         if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
@@ -217,6 +218,7 @@ class RunCore:
             shared = self._sharing(current) or self._sharing_first(here, on, current)
             if shared:  # no plan has two robots on a cell: say what would let the replan plan them
                 run.drop_replan()
+                run.replan_ended("replan given up: " + shared)
                 run.say("replan given up: " + shared)
                 self.out.tell("plan", None, "replan given up: " + shared)
             else:
@@ -400,7 +402,7 @@ class RunCore:
             run.driver.release_followers(robot)
             run.driver.pump(robot, now)
         run.replanner.request(False, None, None)
-        run.move("replan", "resumed from {}: replanning robots off the plan".format(folder))
+        run.ask_replan("resumed from {}: replanning robots off the plan".format(folder))
         self.out.desk.bump("replan requested")
         self.out.tell("plan", None, "resumed from {}: {}; a replan from where they stand follows".format(
             folder, "; ".join(told)))
@@ -449,6 +451,7 @@ class RunCore:
             return
         if replanner.pending is None:  # failed, or found no plan
             self.run.drop_replan()
+            self.run.replan_ended(message)
         self.out.tell("plan", None, message)
         self.out.desk.bump(message if replanner.pending is None else
                            "replan {} proposed".format(replanner.pending.id))

@@ -48,7 +48,7 @@ from .plan_requests import SOLVE_LIMIT, Requested, read_requested
 from .replanning import placed
 from .robot import VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
-from .run_phase import DONE, RUNNING, WAITING
+from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
 
 __all__ = ["apply", "resume", "solved", "allowed", "refusals", "why_not", "behind_out", "ways_home", "way_after",
            "ACTIONS"]
@@ -526,8 +526,7 @@ def replan(run: Run, args: Args, now: float) -> Answer:
     was_running = run.phase.phase == RUNNING
     if was_running:
         run.driver.handle(Pause(now), now)
-    run.move("replan", "replanning: waiting for every robot to finish its move"
-             if was_running else run.phase.reason)
+    run.ask_replan("replanning: waiting for every robot to finish its move" if was_running else run.phase.reason)
     run.replanner.request(was_running, args["time_limit"], args["method"])
     run.out.desk.bump("replan requested")
     return True, "replanning; the proposal follows"
@@ -563,13 +562,16 @@ def accept(run: Run, args: Args, now: float) -> Answer:
     try:
         run.switch_plan(plan, "replan", now, pending.grid)
     except PlanError as err:  # (never, by the checks at the safe point; the run stays as it was)
+        why = "replan {} dropped: its plan does not fit the run ({}); replan again".format(pending.id, err)
         run.drop_replan()
-        return False, "replan {} dropped: its plan does not fit the run ({}); replan again".format(pending.id, err)
+        run.replan_ended(why)
+        return False, why
     run.out.tell("plan", None, "replanned {} robot{}: plan {} ({})".format(
         len(moving), "" if len(moving) == 1 else "s", run.plan_id, pending.result.message))
     if run.stranded_words():
         run.out.tell("plan", None, run.stranded_words())
     run.replanner.resolved()
+    run.replan_ended("switched to plan {}: {}".format(run.plan_id, _drive_on(run)))
     _resume_after_replan(run, now)  # a new plan's engine starts paused: otherwise it stays so
     return True, "switched to plan {}".format(run.plan_id)
 
@@ -580,9 +582,17 @@ def reject(run: Run, args: Args, now: float) -> Answer:
     if run.replanner.proposal_id is None or run.replanner.proposal_id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
     run.drop_replan()
+    run.replan_ended("replan {} rejected, plan {} kept: {}".format(args["proposal"], run.plan_id, _drive_on(run)))
     run.out.desk.bump("replan rejected")
     _resume_after_replan(run, now)
     return True, "kept plan {}".format(run.plan_id)
+
+
+def _drive_on(run: Run) -> str:
+    """What lets the run drive on after a replan's answer, for the phase line (Start's own refusal
+    says the same when it is refused)."""
+    moved = carried_words(run, carried(run))
+    return moved or ("Start drives on" if run.phase.phase in (PAUSED, STOPPED) else "driving on")
 
 
 def _resume_after_replan(run: Run, now: float) -> None:

@@ -101,6 +101,9 @@ class Run:
         #: agent -> the cell a robot a restart found off the plan stands on, while the replan from
         #: there is open (`drop_replan`)
         self.standing: Dict[int, Coord] = {}
+        #: the phase's reason an open replan put up ("replanning: ..."), to be replaced when the
+        #: replan ends unless something else has said why since (`replan_ended`)
+        self.replan_said: Optional[str] = None
         #: cells walled off for replanning around robots standing between cells
         self.walls: Set[Coord] = set()
         #: agents the current plan leaves away from their goals (out when a replan was made, they
@@ -289,12 +292,26 @@ class Run:
         return text + ("; Go to starts drives them there, or continue their last run (fleetctl manager "
                        "--resume)")
 
+    def ask_replan(self, reason: str) -> None:
+        """The phase for a replan asked for (the caller checked the refusal and requested it)."""
+        self.move("replan", reason)
+        self.replan_said = self.phase.reason
+
+    def replan_ended(self, why: str) -> None:
+        """The open replan is answered, given up or failed: `why` becomes the phase's reason if it
+        still reads what the replan put up (after a takeover, "replanning robots off the plan"
+        stayed under a rejected replan while Start refused to drive)."""
+        if self.replan_said is not None and self.phase.reason == self.replan_said:
+            self.say(why)
+        self.replan_said = None
+
     def drop_replan(self) -> None:
-        """The open replan ends without a new plan (rejected, given up, or it found none): the robots
-        a restart found off the plan are judged again against the engine's record (`carried`), no
-        longer held where they stood for it. (Kept, they hid a robot carried elsewhere while no
-        manager ran: the restart's replan rejected, Start drove the old plan around the cell the
-        engine had it on, and a drive from where it stood was sent to it.)"""
+        """The open replan ends without a new plan (rejected, given up, or it found none; the
+        caller then says which, `replan_ended`): the robots a restart found off the plan are judged
+        again against the engine's record (`carried`), no longer held where they stood for it.
+        (Kept, they hid a robot carried elsewhere while no manager ran: the restart's replan
+        rejected, Start drove the old plan around the cell the engine had it on, and a drive from
+        where it stood was sent to it.)"""
         self.replanner.resolved()
         self.standing.clear()
 
