@@ -414,6 +414,9 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert f.core.summary().lines()[0] == "arrived: 4/5"
     assert f.core.run.stuck() and f.core.cannot_go_on(f.now) is None  # an unattended run gives up later
     assert "robot 2 has no way home in plan 2" in (f.core.cannot_go_on(f.now + 60.0) or "")
+    # and the console's line says it, as the unattended run does, once it has lasted
+    assert f.run_until(lambda: ops.state.run.reason.startswith("the run cannot go on without an operator: "), 10)
+    assert "robot 2 has no way home in plan 2: replan" in ops.state.run.reason
     answer = f.ask(ops, "enable", robot=2)
     assert answer.ok and answer.reason == ("plan 2 has no way to its goal for robot 2: it does not stand on the "
                                            "centre of (11, 8); replan to take it home"), answer.reason

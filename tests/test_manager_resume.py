@@ -638,3 +638,41 @@ def test_a_replan_rejected_after_a_resume_leaves_a_robot_carried_off_the_plan_fo
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()
     assert f.core.summary().collisions == 0
+
+
+def test_robots_a_replan_left_between_cells_and_enabled_after_a_takeover_are_named_when_the_run_cannot_go_on():
+    """Found by a live session (tests/live_sessions.py, seed 3): bumpers stop robots 1 and 2 halfway
+    through a drive, and a replan leaves them where they stand. The manager dies; the new one
+    takes the run over paused. Enabled, each is promised "a way home around the others once the
+    run goes on, or replan": at Start none can come (a robot between two cells is replanned from
+    where it stands, never given a way home), and the run ran on with nobody moving and nothing
+    said. Now its line says, once that has lasted, that it cannot go on without an operator, and
+    what to do; a replan takes them home and the line clears."""
+    f = MemoryFleet(lab(), lab_fleet(5), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    for rid in (1, 2):
+        f.robots[rid].navigator.bumps = {2}
+        f.robots[rid].navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    out = lambda rid: f.core.run.engine.run.out[f.core.fleet.by_id[rid].agent]  # noqa: E731
+    assert f.run_until(lambda: out(1) and out(2), 30)
+    f.advance(1.0)
+    replanned(f, ops)
+    assert f.core.run.stranded == {0, 1}
+    f.advance(2.0)
+    f.kill_manager()
+    f.advance(1.0)
+    f.resume_manager()
+    ops = f.console()
+    f.advance(0.5)
+    for rid in (1, 2):
+        answer = f.ask(ops, "enable", robot=rid)
+        assert answer.ok and "once the run goes on, or replan" in answer.reason, answer.reason
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: ops.state.run.reason.startswith("the run cannot go on without an operator"), 10), \
+        ops.state.run.reason
+    assert "robots 1, 2 have no way home in plan {}: replan".format(f.core.run.plan_id) in ops.state.run.reason
+    replanned(f, ops)
+    assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()
+    assert f.core.summary().collisions == 0

@@ -65,7 +65,8 @@ from .vicon_watch import ViconWatch
 
 __all__ = ["RunCore"]
 
-_STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up
+_STALL_GRACE = 3.0  # s a run must stay stuck before an unattended run gives up, or the run's line says so
+_CANNOT_GO_ON = "the run cannot go on without an operator: "
 _SETUP_EVERY = 1.0  # s: a console saying hello again sooner is not sent the whole setup again
 #: Seconds the run actions a State allows may lag the robots' poses (the key's changes count at once).
 ALLOWED_EVERY = 0.25
@@ -98,6 +99,8 @@ class RunCore:
         #: (key, when, allowed, why not the others): `_allowed_now`
         self._allowed: Optional[Tuple[tuple, float, Tuple[str, ...], Dict[str, str]]] = None
         self._home_due = 0.0  # when robots left away from their goals are next given ways home
+        self._stuck_due = 0.0  # when the run is next judged for whether it can go on (`_say_if_stuck`)
+        self._said_before = ""  # the run's line before it said it cannot go on
         self._carried_due = 0.0  # when robots are next judged for standing where the run has them
         self._carried_told: Set[int] = set()  # the robots found moved by hand, told already
 
@@ -230,6 +233,7 @@ class RunCore:
         self._carried_tick(now)
         self._reroute_tick(now)
         self._ways_home_tick(now)
+        self._say_if_stuck(now)
         if run.phase.phase == RUNNING:
             run.driver.tick(now)
         if (run.phase.phase == RUNNING or run.phase.stepped) and run.all_arrived() and not run.driver.moving:
@@ -638,6 +642,25 @@ class RunCore:
     def collisions(self) -> int:
         return self.out.summary.collisions
 
+    def _say_if_stuck(self, now: float) -> None:
+        """A running run that nothing can move on without an operator says so, and what to do, in
+        its line (`cannot_go_on`), twice a second; the line clears once something moves again. (It
+        said nothing: a live session, robots a replan left between two cells, enabled after a
+        restart and promised a way home at Start that could not come, the run "running" with
+        nobody moving; only an unattended run gave up and said why.)"""
+        if now < self._stuck_due:
+            return
+        self._stuck_due = now + 0.5
+        run = self.run
+        reason = run.phase.reason
+        why = self.cannot_go_on(now)
+        if why is not None:  # (only while running: `Run.stuck`)
+            if not reason.startswith(_CANNOT_GO_ON):
+                self._said_before = reason  # ("" or the way to the starts' line): back once it moves
+            run.say(why)
+        elif reason.startswith(_CANNOT_GO_ON) and run.phase.phase == RUNNING:
+            run.say(self._said_before)
+
     def cannot_go_on(self, now: float) -> Optional[str]:
         """Why an unattended run (--until-done) cannot finish, once that has lasted a while."""
         run = self.run
@@ -658,7 +681,7 @@ class RunCore:
                 "; {} for it".format(_robots_wait([self.fleet[a].id for a in waiting])) if waiting else ""))
         if run.stranded_words():
             parts.append(run.stranded_words())
-        return "the run cannot go on without an operator: " + ("; ".join(parts) or "nothing can move")
+        return _CANNOT_GO_ON + ("; ".join(parts) or "nothing can move")
 
     def stop_all(self, now: float) -> None:
         """Tell every connected robot to stop now."""

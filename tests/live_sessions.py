@@ -1,0 +1,234 @@
+"""Random operator sessions through the real chain: does the run tell the truth over the wire?
+
+`operator_sessions` presses an operator's buttons at random on the in-memory manager, with
+a virtual clock. This does the same through the processes a lab runs: `fleetctl
+virtual-fleet` and `fleetctl manager` on 127.0.0.1, a scripted console on the real socket
+(`live.ScriptedConsole`), wall-clock time (the fleet at four times speed). What only the
+chain has is exercised with it: requests and answers racing the States, poses that come when
+the sockets deliver them, a manager killed outright (SIGKILL) and started again with
+`--resume` on its run folder, bumpers pressed in the virtual robots.
+
+A session: the lab plan under a random strategy, rerouting on or off, bumpers pressed in
+some drives; 3-10 random presses (pause, start, step, halt, stop, disable, enable, a
+strategy, a replan accepted or rejected, reroute mode, a restart of the manager) at random
+moments; then the clean-up lab staff would do (enable every robot out, answer a proposal,
+start, replan if nothing moves). Judged by the virtual fleet's ground truth and the
+manager's own words: the run ends done with every robot on its goal, the summary says so
+and counts no collision, no two robots really came closer than the safe distance
+(continuous time, `approach.judge`), no command ran twice, no robot nobody moved was found
+"moved by hand", every request was answered, and neither process printed a traceback.
+"""
+from __future__ import annotations
+
+import math
+import random
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import List, Tuple
+
+from fleet_common.execution.approach import judge
+from fleet_common.lab import lab_instance_path
+from fleet_common.robot_size import TURTLEBOT2
+from fleet_common.runlog import read_run
+from live import Proc, ScriptedConsole, fleet_definitions, start_fleet, start_manager
+from test_manager_run import truth_poses
+from virtual_fleet.truth import exec_lines, truth_paths
+
+__all__ = ["LiveSession", "live_session", "PRESSES"]
+
+#: the operator's buttons, and waiting (the run goes on)
+PRESSES = ("pause", "start", "step", "halt", "stop", "disable", "enable", "strategy", "replan", "reroute",
+           "restart", "wait", "wait")
+SCALE = 4.0  # the fleet's time scale: a drive of one cell in about half a second
+ANSWER = 15.0  # seconds a request may wait for its answer (a manager answers within a loop turn)
+AT_GOAL = 0.05  # cells
+
+
+@dataclass
+class LiveSession:
+    """What happened (wall seconds since the start, action, arguments, accepted, answer) and
+    what was found wrong."""
+
+    seed: int
+    log: List[Tuple[float, str, dict, bool, str]] = field(default_factory=list)
+    problems: List[str] = field(default_factory=list)
+
+
+def live_session(seed: int, folder: Path) -> LiveSession:
+    """One random session in `folder` (its processes' logs, the truth and the run folders stay
+    there). Every process it starts is stopped before it returns."""
+    rng = random.Random(seed)
+    out = LiveSession(seed)
+    began = time.monotonic()
+    definitions, feedback, port = fleet_definitions(folder, 5)
+    truth, runs = folder / "truth.jsonl", folder / "runs"
+    bumps = [a for rid in range(1, 6) if rng.random() < 0.3 for a in ("--bump", "{}@{}".format(rid, rng.randint(1, 5)))]
+    strategy, reroute = rng.choice(["adg", "adg", "step", "reorder"]), rng.choice(["off", "auto"])
+    plan = lab_instance_path()
+    manager_args = ("--log", runs, "--step-time", str(round(2.5 / SCALE, 3)), "--strategy", strategy,
+                    "--reroute", reroute)
+    out.log.append((0.0, "setup", {"strategy": strategy, "reroute": reroute, "bumps": bumps[1::2]}, True, ""))
+    fleet = start_fleet(folder, definitions, feedback, "--time-scale", SCALE, "--truth", truth, *bumps)
+    managers: List[Proc] = [start_manager(folder, plan, definitions, port, *manager_args)]
+    consoles: List[ScriptedConsole] = []
+    try:
+        consoles.append(ScriptedConsole(port, "ops"))
+        console = consoles[-1]
+        console.wait_for(lambda c: c.state and all(r.link == "up" and r.age is not None for r in c.state.robots),
+                         timeout=30, why="every robot connected and seen")
+
+        def press(action: str, **args: object) -> bool:
+            try:
+                answer = consoles[-1].ask(action, timeout=ANSWER, **args)
+            except AssertionError:
+                out.problems.append("no answer to {} {} within {:g} s".format(action, args, ANSWER))
+                out.log.append((round(time.monotonic() - began, 1), action, dict(args), False, "no answer"))
+                return False
+            out.log.append((round(time.monotonic() - began, 1), action, dict(args), answer.ok, answer.reason))
+            return answer.ok
+
+        def run_info():
+            with consoles[-1].lock:
+                state = consoles[-1].state
+            return None if state is None else state.run
+
+        def answer_proposal(choice: str) -> None:
+            try:
+                consoles[-1].wait_for(lambda c: c.state.run.proposal is not None or not c.state.run.replanning,
+                                      timeout=30, why="a proposal")
+            except AssertionError:
+                out.problems.append("a replan neither proposed nor ended within 30 s")
+                return
+            info = run_info()
+            if info is not None and info.proposal is not None:
+                press(choice, proposal=info.proposal)
+
+        def restart() -> None:
+            managers[-1].kill()  # SIGKILL: a power cut, no goodbye
+            consoles[-1].close()
+            time.sleep(rng.uniform(0.2, 2.0))
+            folders = sorted(p for p in runs.iterdir() if p.is_dir()) if runs.exists() else []
+            args = ("--resume", folders[-1]) if folders else ()
+            managers.append(start_manager(folder, plan, definitions, port, *manager_args, *args,
+                                          name="manager-{}".format(len(managers))))
+            consoles.append(ScriptedConsole(port, "ops"))
+            try:
+                consoles[-1].wait_for(lambda c: c.state is not None and c.state.run.reason and
+                                      "checking where the robots are" not in c.state.run.reason,
+                                      timeout=30, why="the new manager's first State")
+            except AssertionError:
+                out.problems.append("the manager started again sent no State within 30 s")
+                return
+            info = run_info()
+            out.log.append((round(time.monotonic() - began, 1), "restart", {}, True, info.reason if info else ""))
+            if info is not None and (info.replanning or info.proposal is not None):
+                answer_proposal("accept")
+
+        press("start")
+        for _ in range(rng.randint(3, 10)):
+            time.sleep(rng.uniform(0.2, 3.0))
+            action = rng.choice(PRESSES)
+            if action == "wait":
+                continue
+            if action == "restart":
+                restart()
+                continue
+            args: dict = {}
+            if action in ("disable", "enable"):
+                args["robot"] = rng.randint(1, 5)
+            elif action == "strategy":
+                args["name"] = rng.choice(["adg", "step", "reorder"])
+            elif action == "reroute":
+                args.update(mode=rng.choice(["off", "propose", "auto"]), scope=rng.choice(["held", "all"]))
+            if press(action, **args) and action == "replan":
+                answer_proposal(rng.choice(["accept", "accept", "reject"]))
+        _clean_up(out, press, run_info, answer_proposal)
+        info = run_info()
+        if info is None or info.state != "done":
+            out.problems.append("not done: {} ({})".format(info and info.state, info and info.reason))
+    except AssertionError as err:  # a wait of the harness that was not met: the session says what
+        out.problems.append(str(err).splitlines()[0])
+    finally:
+        for console in consoles:
+            console.close()
+        for proc in managers:
+            proc.stop()
+        fleet.stop()
+    _judge(out, folder, managers, fleet, truth, runs)
+    return out
+
+
+def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
+    """What lab staff do to finish: every robot out enabled, a proposal answered, Start; a
+    replan when nothing moves; a way to the starts when Start says so."""
+    for _ in range(8):
+        time.sleep(1.0)  # a bumper is released after 1 s
+        info = run_info()
+        if info is None:
+            return
+        if info.state == "done" and info.arrived == info.robots:
+            return
+        for rid in range(1, 6):
+            press("enable", robot=rid)  # (refused for a robot taking part: harmless)
+        if run_info().proposal is not None:
+            press("accept", proposal=run_info().proposal)
+        if not press("start") and "Go to starts" in out.log[-1][4]:
+            press("to_starts")
+        deadline = time.monotonic() + 60
+        moved_at, done = time.monotonic(), None
+        while time.monotonic() < deadline:
+            info = run_info()
+            if info.state in ("done", "waiting"):
+                break
+            if info.proposal is not None:
+                press("accept", proposal=info.proposal)
+            if done != info.arrived:
+                done, moved_at = info.arrived, time.monotonic()
+            if time.monotonic() - moved_at > 20:  # nothing arrived for 20 s: stuck
+                break
+            time.sleep(0.2)
+        info = run_info()
+        if info.state == "done" and info.arrived == info.robots:
+            return
+        if info.state in ("running", "paused", "stopped") and press("replan"):
+            answer_proposal("accept")
+
+
+def _judge(out: LiveSession, folder: Path, managers: List[Proc], fleet: Proc, truth: Path, runs: Path) -> None:
+    for proc in managers + [fleet]:
+        if "Traceback" in proc.text():
+            out.problems.append("{} printed a traceback".format(proc.log.name))
+    said = "".join(proc.text() for proc in managers)
+    if re.search(r"away from .{1,40}? where the run has it", said):
+        out.problems.append("a robot nobody moved was found moved by hand")
+    last = managers[-1].text()
+    arrived = re.findall(r"^arrived: (\d+)/(\d+)", last, re.M)
+    collisions = re.findall(r"^collisions: (\d+)", last, re.M)
+    if not arrived:
+        out.problems.append("the last manager printed no summary")
+    elif arrived[-1][0] != arrived[-1][1] or arrived[-1][1] != "5":
+        out.problems.append("the summary says arrived {}/{}".format(*arrived[-1]))
+    if collisions and collisions[-1] != "0":
+        out.problems.append("the summary counts {} collisions".format(collisions[-1]))
+    if not truth.exists():
+        out.problems.append("no ground truth")
+        return
+    paths = truth_paths(truth)
+    verdict = judge([paths[r] for r in sorted(paths)], TURTLEBOT2.safe_cells)
+    if not verdict.safe_run:
+        out.problems.append("robots closer than the safe distance: {}".format(verdict.violations[:2]))
+    poses = truth_poses(truth)
+    folders = sorted(p for p in runs.iterdir() if p.is_dir()) if runs.exists() else []
+    if poses and folders:
+        run = read_run(folders[-1])
+        goals = {r: tuple(g) for r, g in zip(run.robots, run.run["goals"])}
+        final = poses[-1]
+        away = [r for r, g in goals.items() if math.hypot(final[r][0] - g[0], final[r][1] - g[1]) > AT_GOAL]
+        if away:
+            out.problems.append("robots {} are not on their goals".format(away))
+    ran = [(e["robot"], e["epoch"], e["id"]) for e in exec_lines(truth)]
+    twice = sorted({r for r in ran if ran.count(r) > 1})
+    if twice:
+        out.problems.append("commands started twice: {}".format(twice[:3]))
