@@ -7,7 +7,7 @@ manager's summary. Prints each session that found something, with what the opera
 the count; exits non-zero if any did. A session takes 20-60 s; its folder is kept only if it
 found something (under --keep, default a temporary folder).
 
-    .venv/bin/python bench/live_sessions.py [FIRST LAST] [--keep DIR]
+    .venv/bin/python bench/live_sessions.py [FIRST LAST] [--vicon] [--keep DIR]
 """
 from __future__ import annotations
 
@@ -27,6 +27,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("first", type=int, nargs="?", default=0)
     parser.add_argument("last", type=int, nargs="?", default=20)
+    parser.add_argument("--vicon", action="store_true",
+                        help="Vicon's stream too (fleetctl vicon simulate): random sources, switches, occlusions")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR",
                         help="keep the folders of sessions that found something in DIR")
     args = parser.parse_args()
@@ -38,7 +40,7 @@ def main() -> int:
         shutil.rmtree(folder, ignore_errors=True)
         folder.mkdir(parents=True)
         try:
-            found = live_session(seed, folder)
+            found = live_session(seed, folder, args.vicon)
         except Exception as err:  # the harness itself could not go on: say so, go on
             found = LiveSession(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
         if found.problems:

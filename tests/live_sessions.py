@@ -32,7 +32,8 @@ from fleet_common.execution.approach import judge
 from fleet_common.lab import lab_instance_path
 from fleet_common.robot_size import TURTLEBOT2
 from fleet_common.runlog import read_run
-from live import Proc, ScriptedConsole, fleet_definitions, start_fleet, start_manager
+from helpers import free_port_block
+from live import Proc, ScriptedConsole, fleet_definitions, fleetctl_args, start_fleet, start_manager
 from test_manager_run import truth_poses
 from virtual_fleet.truth import exec_lines, truth_paths
 
@@ -40,7 +41,7 @@ __all__ = ["LiveSession", "live_session", "PRESSES"]
 
 #: the operator's buttons, and waiting (the run goes on)
 PRESSES = ("pause", "start", "step", "halt", "stop", "disable", "enable", "strategy", "replan", "reroute",
-           "restart", "wait", "wait")
+           "restart", "reset", "wait", "wait")
 SCALE = 4.0  # the fleet's time scale: a drive of one cell in about half a second
 ANSWER = 15.0  # seconds a request may wait for its answer (a manager answers within a loop turn)
 AT_GOAL = 0.05  # cells
@@ -56,10 +57,14 @@ class LiveSession:
     problems: List[str] = field(default_factory=list)
 
 
-def live_session(seed: int, folder: Path) -> LiveSession:
+def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
     """One random session in `folder` (its processes' logs, the truth and the run folders stay
-    there). Every process it starts is stopped before it returns."""
+    there). Every process it starts is stopped before it returns. `vicon`: `fleetctl vicon
+    simulate` streams what the fleet's truth says (a few packets lost, one or two robots occluded
+    for a while), the manager reads it, the run starts on either source and the operator switches
+    sources among the presses (draws of their own: the presses stay the seed's)."""
     rng = random.Random(seed)
+    eye = random.Random(seed * 7919 + 2)
     out = LiveSession(seed)
     began = time.monotonic()
     definitions, feedback, port = fleet_definitions(folder, 5)
@@ -69,8 +74,21 @@ def live_session(seed: int, folder: Path) -> LiveSession:
     plan = lab_instance_path()
     manager_args = ("--log", runs, "--step-time", str(round(2.5 / SCALE, 3)), "--strategy", strategy,
                     "--reroute", reroute)
-    out.log.append((0.0, "setup", {"strategy": strategy, "reroute": reroute, "bumps": bumps[1::2]}, True, ""))
-    fleet = start_fleet(folder, definitions, feedback, "--time-scale", SCALE, "--truth", truth, *bumps)
+    setup = {"strategy": strategy, "reroute": reroute, "bumps": bumps[1::2]}
+    truth_port = free_port_block(2) if vicon else 0
+    udp = truth_port + 1
+    fleet = start_fleet(folder, definitions, feedback, "--time-scale", SCALE, "--truth", truth, *bumps,
+                        *(("--truth-port", truth_port) if vicon else ()))
+    others: List[Proc] = []
+    if vicon:
+        hidden = [a for rid in eye.sample(range(1, 6), eye.randint(0, 2)) for a in (
+            "--occlude", "{}:{:.1f}-{:.1f}".format(rid, *sorted(eye.uniform(0, 40) for _ in range(2))))]
+        setup["occluded"] = hidden[1::2]
+        others.append(Proc(fleetctl_args("vicon", "simulate", "--truth-port", truth_port, "--port", udp,
+                                         "--loss", eye.choice([0.0, 0.02, 0.1]), "--definitions", definitions,
+                                         "--seed", seed, *hidden), folder / "vicon.log"))
+        manager_args += ("--vicon", udp, "--vicon-bind", "127.0.0.1")
+    out.log.append((0.0, "setup", setup, True, ""))
     managers: List[Proc] = [start_manager(folder, plan, definitions, port, *manager_args)]
     consoles: List[ScriptedConsole] = []
     try:
@@ -126,9 +144,16 @@ def live_session(seed: int, folder: Path) -> LiveSession:
             if info is not None and (info.replanning or info.proposal is not None):
                 answer_proposal("accept")
 
+        def switch_source() -> None:
+            press("source", source=eye.choice(["robot", "vicon"]), robot=eye.choice([None, eye.randint(1, 5)]))
+
+        if vicon:
+            switch_source()
         press("start")
         for _ in range(rng.randint(3, 10)):
             time.sleep(rng.uniform(0.2, 3.0))
+            if vicon and eye.random() < 0.3:
+                switch_source()
             action = rng.choice(PRESSES)
             if action == "wait":
                 continue
@@ -153,10 +178,10 @@ def live_session(seed: int, folder: Path) -> LiveSession:
     finally:
         for console in consoles:
             console.close()
-        for proc in managers:
+        for proc in managers + others:
             proc.stop()
         fleet.stop()
-    _judge(out, folder, managers, fleet, truth, runs)
+    _judge(out, managers, others + [fleet], truth, runs)
     return out
 
 
@@ -174,8 +199,14 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
             press("enable", robot=rid)  # (refused for a robot taking part: harmless)
         if run_info().proposal is not None:
             press("accept", proposal=run_info().proposal)
-        if not press("start") and "Go to starts" in out.log[-1][4]:
-            press("to_starts")
+        if not press("start"):
+            reason = out.log[-1][4]
+            if "Go to starts" in reason:
+                press("to_starts")
+            told = re.findall(r"robot (\d+) has not reported a pose", reason)
+            lost = re.search(r"Vicon has not seen robots? ([\d, ]+) since", reason)
+            for rid in sorted({int(r) for r in told + (lost.group(1).split(", ") if lost else [])}):
+                press("source", source="robot", robot=rid)  # Vicon does not see it: its own pose, as told
         deadline = time.monotonic() + 60
         moved_at, done = time.monotonic(), None
         while time.monotonic() < deadline:
@@ -186,8 +217,8 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
                 press("accept", proposal=info.proposal)
             if done != info.arrived:
                 done, moved_at = info.arrived, time.monotonic()
-            if time.monotonic() - moved_at > 20:  # nothing arrived for 20 s: stuck
-                break
+            if info.reason.startswith("the run cannot go on") or time.monotonic() - moved_at > 30:
+                break  # it says it is stuck, or nothing arrived for 30 s
             time.sleep(0.2)
         info = run_info()
         if info.state == "done" and info.arrived == info.robots:
@@ -196,8 +227,8 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
             answer_proposal("accept")
 
 
-def _judge(out: LiveSession, folder: Path, managers: List[Proc], fleet: Proc, truth: Path, runs: Path) -> None:
-    for proc in managers + [fleet]:
+def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truth: Path, runs: Path) -> None:
+    for proc in managers + others:
         if "Traceback" in proc.text():
             out.problems.append("{} printed a traceback".format(proc.log.name))
     said = "".join(proc.text() for proc in managers)

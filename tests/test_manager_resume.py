@@ -643,11 +643,12 @@ def test_a_replan_rejected_after_a_resume_leaves_a_robot_carried_off_the_plan_fo
 def test_robots_a_replan_left_between_cells_and_enabled_after_a_takeover_are_named_when_the_run_cannot_go_on():
     """Found by a live session (tests/live_sessions.py, seed 3): bumpers stop robots 1 and 2 halfway
     through a drive, and a replan leaves them where they stand. The manager dies; the new one
-    takes the run over paused. Enabled, each is promised "a way home around the others once the
-    run goes on, or replan": at Start none can come (a robot between two cells is replanned from
+    takes the run over paused. Enabled, each was promised "a way home around the others once the
+    run goes on, or replan": at Start none could come (a robot between two cells is replanned from
     where it stands, never given a way home), and the run ran on with nobody moving and nothing
-    said. Now its line says, once that has lasted, that it cannot go on without an operator, and
-    what to do; a replan takes them home and the line clears."""
+    said. Now enabling says there is no way home for it, as it does while the run runs, and the
+    run's line says, once nothing has moved for a while, that it cannot go on without an operator,
+    and what to do; a replan takes them home."""
     f = MemoryFleet(lab(), lab_fleet(5), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
     for rid in (1, 2):
         f.robots[rid].navigator.bumps = {2}
@@ -668,7 +669,9 @@ def test_robots_a_replan_left_between_cells_and_enabled_after_a_takeover_are_nam
     f.advance(0.5)
     for rid in (1, 2):
         answer = f.ask(ops, "enable", robot=rid)
-        assert answer.ok and "once the run goes on, or replan" in answer.reason, answer.reason
+        assert answer.ok and answer.reason.startswith("plan {} has no way to its goal for robot {}: it does not "
+                                                      "stand on the centre of".format(f.core.run.plan_id, rid)) \
+            and answer.reason.endswith("; replan to take it home"), answer.reason
     assert f.ask(ops, "start").ok
     assert f.run_until(lambda: ops.state.run.reason.startswith("the run cannot go on without an operator"), 10), \
         ops.state.run.reason

@@ -421,9 +421,12 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     was = "the run was done: " if leg else ""
     if not stranded:
         return True, was + ("robot {} drives on to its goal (a new leg)".format(robot.id) if leg else "")
-    if run.phase.phase != RUNNING or run.replanner.open or run.rerouting.proposal_id is not None:
-        return True, was + ("plan {} leaves robot {} away from its goal: it is given a way home around the others "
-                            "once the run goes on, or replan to take it home".format(run.plan_id, robot.id))
+    never = run.never_home(robot)  # (a promise of a way home it cannot keep: live session 3)
+    if never or run.phase.phase != RUNNING or run.replanner.open or run.rerouting.proposal_id is not None:
+        return True, was + (("plan {} has no way to its goal for robot {}: {}; replan to take it home".format(
+            run.plan_id, robot.id, never)) if never else (
+            "plan {} leaves robot {} away from its goal: it is given a way home around the others once the run "
+            "goes on, or replan to take it home".format(run.plan_id, robot.id)))
     why = run.take_home(robot, now)
     if why is None:  # a way home around the others, the run going on
         return True, was + "robot {} drives to its goal: plan {} takes it there around the others".format(

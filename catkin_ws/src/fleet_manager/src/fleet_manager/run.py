@@ -594,6 +594,15 @@ class Run:
         return [r.id for r in self.fleet if r.agent in self.stranded and self.engine.run.out[r.agent] is None
                 and not self._on_centre(r, cells[r.agent])]
 
+    def never_home(self, robot: Robot) -> str:
+        """Why `robot`, stranded, can be given no way home however long the run goes on ("" if
+        it may be): a pose taken since its last reply has it off the centre of the cell the run has
+        it on, so only a replan, from where it stands, takes it home (`take_home`)."""
+        here = self.positions()[robot.agent]
+        if robot.pose is None or not robot.pose_settled() or self._on_centre(robot, here):
+            return ""
+        return "it does not stand on the centre of {}".format(self.loaded.show(here))
+
     def take_home(self, robot: Robot, now: float) -> Optional[str]:
         """Robot `robot`, enabled again where the plan had left it away from its goal (`stranded`),
         given a way to its goal around the others while the run goes on (`reroute.way_home`, handed
