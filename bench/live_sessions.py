@@ -7,7 +7,7 @@ manager's summary. Prints each session that found something, with what the opera
 the count; exits non-zero if any did. A session takes 20-60 s; its folder is kept only if it
 found something (under --keep, default a temporary folder).
 
-    .venv/bin/python bench/live_sessions.py [FIRST LAST] [--vicon] [--keep DIR]
+    .venv/bin/python bench/live_sessions.py [FIRST LAST] [--vicon] [-v] [--keep DIR]
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ def main() -> int:
     parser.add_argument("last", type=int, nargs="?", default=20)
     parser.add_argument("--vicon", action="store_true",
                         help="Vicon's stream too (fleetctl vicon simulate): random sources, switches, occlusions")
+    parser.add_argument("-v", "--verbose", action="store_true", help="print what every session did, not only those that found something")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR",
                         help="keep the folders of sessions that found something in DIR")
     args = parser.parse_args()
@@ -43,13 +44,13 @@ def main() -> int:
             found = live_session(seed, folder, args.vicon)
         except Exception as err:  # the harness itself could not go on: say so, go on
             found = LiveSession(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
-        if found.problems:
-            bad += 1
-            print("seed {}: {} (folder {})".format(seed, "; ".join(found.problems), folder))
+        if found.problems or args.verbose:
+            bad += bool(found.problems)
+            print("seed {}: {} (folder {})".format(seed, "; ".join(found.problems) or "nothing found", folder))
             for t, action, given, ok, reason in found.log:
                 print("    {:6.1f} s  {} {} -> {}{}".format(t, action, given or "", "done" if ok else "refused",
                                                            ": " + reason if reason else ""))
-        else:
+        if not found.problems:
             shutil.rmtree(folder, ignore_errors=True)
         sys.stdout.flush()
     print("{} sessions in {:.0f} s: {} found something".format(args.last - args.first,

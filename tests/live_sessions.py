@@ -10,8 +10,9 @@ the sockets deliver them, a manager killed outright (SIGKILL) and started again 
 
 A session: the lab plan under a random strategy, rerouting on or off, bumpers pressed in
 some drives; 3-10 random presses (pause, start, step, halt, stop, disable, enable, a
-strategy, a replan accepted or rejected, reroute mode, a restart of the manager) at random
-moments; then the clean-up lab staff would do (enable every robot out, answer a proposal,
+strategy, a replan accepted or rejected, reroute mode, a restart of the manager, Reset, a
+power cut of the whole fleet: every robot starts again where it stood, as from `--state`) at
+random moments; then the clean-up lab staff would do (enable every robot out, answer a proposal,
 start, replan if nothing moves). Judged by the virtual fleet's ground truth and the
 manager's own words: the run ends done with every robot on its goal, the summary says so
 and counts no collision, no two robots really came closer than the safe distance
@@ -41,7 +42,7 @@ __all__ = ["LiveSession", "live_session", "PRESSES"]
 
 #: the operator's buttons, and waiting (the run goes on)
 PRESSES = ("pause", "start", "step", "halt", "stop", "disable", "enable", "strategy", "replan", "reroute",
-           "restart", "reset", "wait", "wait")
+           "restart", "reset", "reboot", "wait", "wait")
 SCALE = 4.0  # the fleet's time scale: a drive of one cell in about half a second
 ANSWER = 15.0  # seconds a request may wait for its answer (a manager answers within a loop turn)
 AT_GOAL = 0.05  # cells
@@ -68,7 +69,7 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
     out = LiveSession(seed)
     began = time.monotonic()
     definitions, feedback, port = fleet_definitions(folder, 5)
-    truth, runs = folder / "truth.jsonl", folder / "runs"
+    truths, runs, state = [folder / "truth.jsonl"], folder / "runs", folder / "fleet-state.json"
     bumps = [a for rid in range(1, 6) if rng.random() < 0.3 for a in ("--bump", "{}@{}".format(rid, rng.randint(1, 5)))]
     strategy, reroute = rng.choice(["adg", "adg", "step", "reorder"]), rng.choice(["off", "auto"])
     plan = lab_instance_path()
@@ -77,8 +78,8 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
     setup = {"strategy": strategy, "reroute": reroute, "bumps": bumps[1::2]}
     truth_port = free_port_block(2) if vicon else 0
     udp = truth_port + 1
-    fleet = start_fleet(folder, definitions, feedback, "--time-scale", SCALE, "--truth", truth, *bumps,
-                        *(("--truth-port", truth_port) if vicon else ()))
+    fleet_args = ("--time-scale", SCALE, "--state", state, *bumps, *(("--truth-port", truth_port) if vicon else ()))
+    fleets = [start_fleet(folder, definitions, feedback, "--truth", truths[0], *fleet_args)]
     others: List[Proc] = []
     if vicon:
         hidden = [a for rid in eye.sample(range(1, 6), eye.randint(0, 2)) for a in (
@@ -160,6 +161,14 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
             if action == "restart":
                 restart()
                 continue
+            if action == "reboot":  # every robot loses power at once and starts again where it stood
+                fleets[-1].kill()
+                time.sleep(rng.uniform(0.2, 3.0))
+                truths.append(folder / "truth-{}.jsonl".format(len(truths)))
+                fleets.append(start_fleet(folder, definitions, feedback, "--truth", truths[-1], *fleet_args,
+                                          name="fleet-{}".format(len(fleets))))
+                out.log.append((round(time.monotonic() - began, 1), "reboot", {}, True, ""))
+                continue
             args: dict = {}
             if action in ("disable", "enable"):
                 args["robot"] = rng.randint(1, 5)
@@ -180,8 +189,9 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
             console.close()
         for proc in managers + others:
             proc.stop()
-        fleet.stop()
-    _judge(out, managers, others + [fleet], truth, runs)
+        for proc in fleets:
+            proc.stop()
+    _judge(out, managers, others + fleets, truths, runs)
     return out
 
 
@@ -227,7 +237,7 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
             answer_proposal("accept")
 
 
-def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truth: Path, runs: Path) -> None:
+def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truths: List[Path], runs: Path) -> None:
     for proc in managers + others:
         if "Traceback" in proc.text():
             out.problems.append("{} printed a traceback".format(proc.log.name))
@@ -243,14 +253,19 @@ def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truth: Pa
         out.problems.append("the summary says arrived {}/{}".format(*arrived[-1]))
     if collisions and collisions[-1] != "0":
         out.problems.append("the summary counts {} collisions".format(collisions[-1]))
-    if not truth.exists():
+    if not all(truth.exists() for truth in truths):
         out.problems.append("no ground truth")
         return
-    paths = truth_paths(truth)
-    verdict = judge([paths[r] for r in sorted(paths)], TURTLEBOT2.safe_cells)
-    if not verdict.safe_run:
-        out.problems.append("robots closer than the safe distance: {}".format(verdict.violations[:2]))
-    poses = truth_poses(truth)
+    for truth in truths:  # (a fleet started again: robots stood still while it was down)
+        paths = truth_paths(truth)
+        verdict = judge([paths[r] for r in sorted(paths)], TURTLEBOT2.safe_cells)
+        if not verdict.safe_run:
+            out.problems.append("robots closer than the safe distance: {}".format(verdict.violations[:2]))
+        ran = [(e["robot"], e["epoch"], e["id"]) for e in exec_lines(truth)]
+        twice = sorted({r for r in ran if ran.count(r) > 1})
+        if twice:  # (a command sent again to a robot started afresh runs again: it forgot it)
+            out.problems.append("commands started twice: {}".format(twice[:3]))
+    poses = truth_poses(truths[-1])
     folders = sorted(p for p in runs.iterdir() if p.is_dir()) if runs.exists() else []
     if poses and folders:
         run = read_run(folders[-1])
@@ -259,7 +274,3 @@ def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truth: Pa
         away = [r for r, g in goals.items() if math.hypot(final[r][0] - g[0], final[r][1] - g[1]) > AT_GOAL]
         if away:
             out.problems.append("robots {} are not on their goals".format(away))
-    ran = [(e["robot"], e["epoch"], e["id"]) for e in exec_lines(truth)]
-    twice = sorted({r for r in ran if ran.count(r) > 1})
-    if twice:
-        out.problems.append("commands started twice: {}".format(twice[:3]))
