@@ -425,6 +425,22 @@ def test_a_robot_a_replan_leaves_where_it_stopped_has_not_arrived_until_a_replan
     assert f.core.summary().lines()[0] == "arrived: 5/5" and f.core.summary().collisions == 0
 
 
+def test_a_run_held_up_by_a_fault_says_so_in_its_line_and_what_to_do_then_clears_it():
+    """Robot 2's bumper holds it; the others wait for it until nothing moves. The line a console
+    shows the run by says so once that has lasted (before, "run running" with nobody moving;
+    only a run with no console gave up and said why), names who waits and what the operator can
+    do; enabled, robot 2 drives on and the line is empty again."""
+    f, ops = bumped(drive=2)
+    assert f.run_until(lambda: ops.state.run.reason.startswith("the run cannot go on without an operator: "), 30)
+    reason = ops.state.run.reason
+    assert "robot 2 is held by a fault (bumper pressed); robots" in reason and " wait for it" in reason, reason
+    assert reason.endswith("; enable it once clear, or replan around it"), reason
+    assert f.ask(ops, "enable", robot=2).ok
+    assert f.run_until(lambda: ops.state.run.reason == "" and f.core.fleet.by_id[2].flight is not None, 10), \
+        ops.state.run.reason
+    assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
 def left_away_by_a_replan() -> Tuple[MemoryFleet, MemoryConsole, int]:
     """The lab at the TurtleBot's size, started; robot 2 disabled after two moves (it finishes the
     move it is making, on a cell) and a replan accepted that takes the others home around it and

@@ -672,13 +672,18 @@ class RunCore:
         if now - self._stuck_since < _STALL_GRACE:
             return None
         parts = []
-        for agent, waiting in sorted(run.engine.blocked_by().items()):
+        blocking = sorted(run.engine.blocked_by().items())
+        for agent, waiting in blocking:
             robot = self.fleet[agent]
             why = run.engine.run.out[agent]
             parts.append("robot {} is {}{}{}".format(
                 robot.id, "held by a fault" if why == "failed" else "disabled",
                 " ({})".format(robot.hold_reason) if robot.hold_reason else "",
                 "; {} for it".format(_robots_wait([self.fleet[a].id for a in waiting])) if waiting else ""))
+        if blocking:  # what the operator can do about them
+            them = "it" if len(blocking) == 1 else "them"
+            fault = any(run.engine.run.out[agent] == "failed" for agent, _ in blocking)
+            parts.append("enable {0}{1}, or replan around {0}".format(them, " once clear" if fault else ""))
         if run.stranded_words():
             parts.append(run.stranded_words())
         return _CANNOT_GO_ON + ("; ".join(parts) or "nothing can move")
