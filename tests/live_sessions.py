@@ -114,6 +114,11 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
             return None if state is None else state.run
 
         def answer_proposal(choice: str) -> None:
+            try:  # the State after the request says it is replanning (or already has a proposal)
+                consoles[-1].wait_for(lambda c: c.state.run.proposal is not None or c.state.run.replanning,
+                                      timeout=5, why="the replan under way")
+            except AssertionError:
+                pass  # (given up at once: the next wait returns at once)
             try:
                 consoles[-1].wait_for(lambda c: c.state.run.proposal is not None or not c.state.run.replanning,
                                       timeout=30, why="a proposal")

@@ -12,7 +12,7 @@ from live_sessions import live_session
 pytestmark = pytest.mark.slow
 
 
-@pytest.mark.parametrize("seed", [3, 7])
+@pytest.mark.parametrize("seed", [3, 307])  # 3: a manager restart; 307: a fleet power cut, then one
 def test_a_random_live_session_ends_done_every_robot_home_and_safe(tmp_path: Path, seed: int) -> None:
     found = live_session(seed, tmp_path)
     assert not found.problems, "{}\n{}".format("; ".join(found.problems), "\n".join(map(str, found.log)))

@@ -297,6 +297,17 @@ def test_the_scope_is_switched_from_a_console_checked_recorded_shown_and_kept_at
     assert_arrived_safely(f, seen, cell_sized())
 
 
+def test_a_scope_switched_while_rerouting_is_off_is_told_as_such():
+    """(A live session's log read "reroute switched: off -> off".)"""
+    f = started("off")
+    assert f.ask(f.ops, "reroute", scope="all").ok
+    f.advance(0.1)
+    assert any(n.text == "reroute switched: off -> off (every robot when on)" for n in f.ops.notices())
+    assert f.ask(f.ops, "reroute", mode="auto").ok  # the scope stays
+    f.advance(0.1)
+    assert any(n.text == "reroute switched: off (every robot when on) -> auto (every robot)" for n in f.ops.notices())
+
+
 def killed_after_the_reroute_and_resumed(size: RobotSize) -> Tuple[MemoryFleet, List[float], List[Tuple[int, int]]]:
     """Robots 1 and 3 drive moves renumbered by the reroute when the manager dies (SIGKILL) right after
     it; a new manager takes the run over from its records and Start drives on. The run, the closest

@@ -381,8 +381,11 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
 
 
 def _mode_words(mode: str, scope: str) -> str:
-    """"auto", or "auto (every robot)" for scope all: how a reroute mode is told."""
-    return mode if scope == "held" or mode == "off" else "{} (every robot)".format(mode)
+    """"auto", or "auto (every robot)" for scope all: how a reroute mode is told (off with scope
+    all: "off (every robot when on)", so a change of scope alone is not told as "off -> off")."""
+    if scope == "held":
+        return mode
+    return "{} (every robot{})".format(mode, " when on" if mode == "off" else "")
 
 
 def _robot(run: Run, robot_id: int) -> Optional[Robot]:
