@@ -23,7 +23,7 @@ from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.planning.problem import InvalidProblemError
 from fleet_common.execution import reroute
-from fleet_manager import core
+from fleet_manager import core, operator
 from fleet_manager import run as run_module
 from fleet_manager.run_phase import TRANSITIONS
 from fleet_manager.settings import ManagerSettings
@@ -439,6 +439,51 @@ def test_a_run_held_up_by_a_fault_says_so_in_its_line_and_what_to_do_then_clears
     assert f.run_until(lambda: ops.state.run.reason == "" and f.core.fleet.by_id[2].flight is not None, 10), \
         ops.state.run.reason
     assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
+@pytest.mark.parametrize("guarded", [True, False])
+def test_robots_halted_in_their_moves_cannot_be_enabled_while_a_replan_from_where_they_stand_waits(
+        monkeypatch, guarded):
+    """Found by a live session (tests/live_sessions.py, `--vicon` 405): robots halted in their
+    moves, a replan asked for, and the robots enabled while its proposal waited. Enabled, each was
+    sent its halted move again at once, the run paused or not; accepted, the new plan had them where
+    they had stood (here: its commands refused as busy, the run stuck; there: robot 3 "moved by
+    hand"). Now enabling is refused until the proposal is answered. The control takes that refusal
+    out: the robots drive, and the accept is refused in turn (the plan no longer fits); a replan
+    from where they stopped finishes the run."""
+    if not guarded:
+        monkeypatch.setattr(operator, "planned_as_they_stand", lambda run: False)
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 3, 20)
+    assert f.ask(ops, "halt").ok
+    f.advance(0.5)
+    halted = [r.id for r in f.core.fleet if f.core.run.engine.run.out[r.agent] is not None]
+    assert len(halted) >= 2
+    assert f.ask(ops, "replan").ok
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
+    f.advance(0.1)
+    answers = [f.ask(ops, "enable", robot=rid) for rid in halted]
+    f.advance(0.3)
+    proposal = f.core.run.replanner.proposal_id
+    if guarded:
+        assert not any(a.ok for a in answers) and answers[0].reason.startswith(
+            "a replan is being made or awaits accept/reject, planned with robot {} stopped in its move: answer it "
+            "first".format(halted[0])), answers[0].reason
+        assert not f.core.run.driver.moving
+        assert f.ask(ops, "accept", proposal=proposal).ok
+    else:
+        assert all(a.ok for a in answers) and f.core.run.driver.moving  # sent their halted moves
+        refused = f.ask(ops, "accept", proposal=proposal)
+        assert not refused.ok and "moved since it was made; replan again" in refused.reason, refused.reason
+        assert f.run_until(lambda: not f.core.run.driver.moving, 10)
+        f.advance(0.5)
+        replanned(f, ops)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: done(f), 60) and f.at_goals()
+    assert f.core.summary().collisions == 0
 
 
 def left_away_by_a_replan() -> Tuple[MemoryFleet, MemoryConsole, int]:

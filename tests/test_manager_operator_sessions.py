@@ -393,8 +393,11 @@ def test_a_motion_refused_while_another_runs_does_not_stop_poses_counting() -> N
     """Session 1541: after a lost link the manager sent robot 2 drive 4 while drive 3 still ran;
     the robot refused it ("busy with command 3") and then ended drive 3. Counted as the last motion
     answered, the refusal made every later idle pose (naming drive 3) look older than it, and a
-    replan waited for ever for a pose that counted. Only a motion it accepted counts."""
+    replan waited for ever for a pose that counted. Only a motion it accepted counts. (Since a
+    replan's accept is refused when a robot moved after it was made, 2026-11-27, later, session
+    1541 no longer reaches that wait with the control's counting; session 1422 does.)"""
     assert not session(1541).problems
+    assert not session(1422).problems
 
 
 def test_counting_a_refused_motion_as_answered_is_caught(monkeypatch) -> None:
@@ -407,7 +410,7 @@ def test_counting_a_refused_motion_as_answered_is_caught(monkeypatch) -> None:
                 and message.id == flight.id):
             robot.answered = flight.id
     monkeypatch.setattr(driver_module.Driver, "reply", also_refusals)
-    assert session(1541).problems
+    assert session(1422).problems
 
 
 def test_no_reroute_is_looked_for_while_a_robot_stands_on_a_wall_of_its_plan() -> None:

@@ -226,7 +226,7 @@ class RunCore:
                 self.out.tell("plan", None, "replan given up: " + shared)
             else:
                 self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
-                                               {a: here[a] for a in on}))
+                                               {a: here[a] for a in on}, run.progress()))
         said = operator.way_after(run, now)
         if said:
             self.out.tell("run", None, said)

@@ -45,7 +45,7 @@ from fleet_common.plan_loading import LoadedPlan
 from .carried import carried, carried_words, replan_refusal
 from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
-from .replanning import placed
+from .replanning import PLANNING, PROPOSED, placed
 from .robot import VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
@@ -403,6 +403,9 @@ def enable(run: Run, args: Args, now: float) -> Answer:
         return _not_in_run(run, args["robot"])
     if run.engine.run.out[robot.agent] is None and robot.hold is None:
         return False, "robot {} is already enabled".format(robot.id)
+    if planned_as_they_stand(run) and run.engine.run.halfway[robot.agent]:  # (enabled, it finishes that move)
+        return False, ("a replan is being made or awaits accept/reject, planned with robot {} stopped in its move: "
+                       "answer it first, then enable the robot".format(robot.id))
     here = run.positions()[robot.agent]
     if not placed(run.grid, robot, here):  # carried off between two cells while it was out
         pose = robot.pose
@@ -556,12 +559,31 @@ def _answer_reroute(run: Run, args: Args, now: float, take: bool) -> Answer:
     return True, "switched to plan {}".format(run.plan_id)
 
 
+def planned_as_they_stand(run: Run) -> bool:
+    """The open replan has taken where the robots stand (it is being made, or awaits an answer):
+    none may move until it is answered. (A live session: robots halted in their moves, enabled
+    while the proposal waited, were sent those moves again at once; accepted, the new plan had
+    them where they had stood: commands refused as busy, one "moved by hand". Enabling such a
+    robot is refused now; a robot that moved all the same drops the proposal at its accept.)"""
+    return run.replanner.state in (PLANNING, PROPOSED)
+
+
 def accept(run: Run, args: Args, now: float) -> Answer:
     if run.rerouting.proposal_id is not None and run.rerouting.proposal_id == args["proposal"]:
         return _answer_reroute(run, args, now, True)
     pending = run.replanner.pending
     if run.replanner.proposal_id is None or pending is None or pending.id != args["proposal"]:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
+    started, completed = run.progress()
+    was_started, was_completed = pending.progress or (started, completed)
+    moved = [r.id for r in run.fleet if r.flight is not None or started[r.agent] != was_started[r.agent]
+             or completed[r.agent] != was_completed[r.agent]]
+    if moved:  # (a plan from where they stood would not fit; enabling a robot stopped in its move is refused)
+        why = "replan {} dropped: robot{} {} moved since it was made; replan again".format(
+            pending.id, "s" if len(moved) > 1 else "", ", ".join(map(str, moved)))
+        run.drop_replan()
+        run.replan_ended(why)
+        return False, why
     plan = pending.result.plan
     moving = [run.fleet[a].id for a in range(plan.num_agents)
               if (plan.positions[1:, a] != plan.positions[:-1, a]).any()]

@@ -60,11 +60,15 @@ class Pending:
     current: List[Coord]
     out: Set[int]
     grid: Grid  # the map it was planned on: walls included (`walled`, `Run.walls`)
+    #: the engine's progress when it was planned (`Run.progress`): a robot that moved since has
+    #: left the cell the plan starts it on
+    progress: Tuple[Tuple[int, ...], ...] = ()
 
 
 class Replanner:
     def __init__(self, time_limit: float = 5.0, ids: Optional[Iterator[int]] = None) -> None:
         self.state = IDLE
+        self._progress: Tuple[Tuple[int, ...], ...] = ()
         self.default_limit = time_limit
         self.time_limit = time_limit
         self.method = "pp"
@@ -94,11 +98,13 @@ class Replanner:
         self.method = method or "pp"
 
     def job(self, grid: Grid, current: List[Coord], goals: List[Coord], out: Set[int],
-            first: Optional[Dict[int, Coord]] = None) -> PlanJob:
+            first: Optional[Dict[int, Coord]] = None, progress: Tuple[Tuple[int, ...], ...] = ()) -> PlanJob:
         """At the safe point: the planning to run (and the replanner waits for its result);
-        `first`: agents planned from a cell next to theirs, with the move into it first (`prefixed`)."""
+        `first`: agents planned from a cell next to theirs, with the move into it first (`prefixed`);
+        `progress`: the run's progress now (`Pending.progress`)."""
         self._job = PlanJob(next(self._ids), grid, current, goals, out, self.time_limit, self.method)
         self._first = dict(first or {})
+        self._progress = progress
         self.state = PLANNING
         return self._job
 
@@ -117,7 +123,7 @@ class Replanner:
         if self._first:
             result = dataclasses.replace(result, plan=prefixed(result.plan, self._first))
         current = [self._first.get(a, c) for a, c in enumerate(job.current)]
-        self.pending = Pending(job.id, result, current, job.out, job.grid)
+        self.pending = Pending(job.id, result, current, job.out, job.grid, self._progress)
         self.state = PROPOSED
         return "replan {} proposed: {}".format(job.id, result.message)
 

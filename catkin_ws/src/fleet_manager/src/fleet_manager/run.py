@@ -315,6 +315,11 @@ class Run:
         self.replanner.resolved()
         self.standing.clear()
 
+    def progress(self) -> Tuple[Tuple[int, ...], ...]:
+        """How far each robot has got in the plan: actions started, and completed."""
+        run = self.engine.run
+        return tuple(run.started), tuple(run.completed)
+
     def positions(self) -> List[Coord]:
         """The cell each robot holds for planning (a robot found off the plan: where it stands)."""
         return [self.standing.get(r.agent) or self.driver.position(r) for r in self.fleet]
