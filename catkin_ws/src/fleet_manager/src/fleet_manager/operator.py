@@ -576,8 +576,8 @@ def accept(run: Run, args: Args, now: float) -> Answer:
         return False, "no proposal {} awaits an answer".format(args["proposal"])
     started, completed = run.progress()
     was_started, was_completed = pending.progress or (started, completed)
-    moved = [r.id for r in run.fleet if r.flight is not None or started[r.agent] != was_started[r.agent]
-             or completed[r.agent] != was_completed[r.agent]]
+    moved = [r.id for r in run.fleet if (r.flight is not None and r.flight.kind == "drive")
+             or started[r.agent] != was_started[r.agent] or completed[r.agent] != was_completed[r.agent]]
     if moved:  # (a plan from where they stood would not fit; enabling a robot stopped in its move is refused)
         why = "replan {} dropped: robot{} {} moved since it was made; replan again".format(
             pending.id, "s" if len(moved) > 1 else "", ", ".join(map(str, moved)))
