@@ -248,6 +248,28 @@ def test_the_way_to_the_starts_keeps_off_both_cells_of_a_disabled_robot_between_
     assert not job.grid.free[other[1], other[0]]
 
 
+def test_the_way_to_the_starts_with_a_robot_disabled_writes_a_plan_file_that_validates(tmp_path):
+    """Robot 2, disabled at its goal, stays there on the way to the starts. The way's plan file
+    (its folder's plan-1.txt) named its start as its goal, so it did not validate, and a manager
+    taking the way over could not read it (a live session, tests/live_sessions.py: `fleetctl manager
+    --resume` said "invalid plan ... agent 1 ends at (6, 8) but its goal is (11, 8)"). It names where
+    the way leaves each robot now; the run's record still names the starts it drives them to."""
+    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
+    ops = f.console()
+    f.link_up()
+    f.advance(0.1)
+    assert f.ask(ops, "disable", robot=2).ok
+    assert f.ask(ops, "to_starts").ok
+    assert f.run_until(lambda: f.core.run.purpose == "to-starts", 10)
+    way = f.core.run.loaded
+    path = tmp_path / "plan-1.txt"
+    path.write_text(way.text())
+    again = load_plan(path, 5, "the lab fleet", [lab_instance_path().parent])  # InvalidPlan before
+    assert [tuple(c) for c in again.goals] == [tuple(c) for c in way.plan.positions[-1]]
+    assert tuple(again.goals[1]) == tuple(lab().goals[1]) and tuple(way.goals[1]) == tuple(lab().starts[1])
+    assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan", 60)
+
+
 def test_robots_already_on_their_starts_need_no_way_there():
     f = MemoryFleet(lab(), lab_fleet())
     ops = f.console()

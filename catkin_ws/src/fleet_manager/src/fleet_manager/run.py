@@ -733,10 +733,15 @@ class Run:
         self.move("to_starts" if self.phase.refusal("to_starts") is None else "reset", reason)
 
     def _way(self, plan: Plan, note: str, comp_time_ms: int = 0) -> LoadedPlan:
-        """`plan`, the way from where the robots stand to the target's starts, as a loaded plan."""
+        """`plan`, the way from where the robots stand to the target's starts, as a loaded plan. Its
+        file (the way's plan-1.txt) names as each robot's goal where the way leaves it: a robot
+        disabled when it was planned stays where it stands, and a file naming its start would not
+        validate, nor could a manager taking the way over read it (a live session: `--resume` said
+        "invalid plan ... agent 1 ends at (6, 8) but its goal is (11, 8)")."""
         starts = [tuple(int(v) for v in c) for c in plan.positions[0]]
+        ends = [tuple(int(v) for v in c) for c in plan.positions[-1]]
         sol = make_solution(self.fleet_map, self.target.solution.map_file or "", plan, starts,
-                            list(self.target.starts), "fleetcontrol-to-starts", True, comp_time_ms)
+                            ends, "fleetcontrol-to-starts", True, comp_time_ms)
         sol.orientation = self.target.solution.orientation
         return LoadedPlan(plan, self.fleet_map, starts, list(self.target.starts),
                           "to the starts of {}".format(self.target.title), sol, self.target.show, note)
