@@ -29,7 +29,7 @@ from fleet_common.wire import Pose
 from fleet_manager.resume import read_resume
 from fleet_manager.run import Run
 from fleet_manager.settings import ManagerSettings
-from memory_fleet import MemoryFleet, lab_fleet
+from memory_fleet import MemoryFleet, MemoryVicon, lab_fleet
 from test_manager_core import answered, closest_truth, replanned, run_recording, train
 
 _LAB: List[LoadedPlan] = []
@@ -679,3 +679,54 @@ def test_robots_a_replan_left_between_cells_and_enabled_after_a_takeover_are_nam
     replanned(f, ops)
     assert f.run_until(lambda: f.phase == "done", 60) and f.at_goals()
     assert f.core.summary().collisions == 0
+
+
+def _halfway_cells_before(run: Run) -> set:
+    """`Run.halfway_cells` as it was before 2026-11-27 (later): the engine's record only."""
+    state, table = run.engine.run, run.engine.table
+    return {tuple(table.coord(state.dst[state.next_incomplete(a)])) for a in range(state.num_agents)
+            if state.out[a] is not None and state.halfway[a] and state.next_incomplete(a) >= 0
+            and run.fleet[a].pose is None}
+
+
+@pytest.mark.parametrize("kept", [True, False])
+def test_a_robot_vicon_never_saw_stays_walled_in_across_replans(monkeypatch, kept):
+    """Found by a live session (`--vicon` 580): robot 2's bumper stops it halfway out of its cell;
+    the manager dies, and the new one runs on Vicon, which has not seen robot 2 since (occluded).
+    The first replan walls off the cell robot 2 leans into by the engine's record that it stopped
+    halfway; planned around, it is no longer halfway, and with no pose the second replan walled
+    nothing: robot 2 was "moved by hand", its own pose between two cells. The plan's kept walls next
+    to such a robot now stand for the record. The control puts the old rule back."""
+    if not kept:
+        monkeypatch.setattr(Run, "halfway_cells", _halfway_cells_before)
+    camera = MemoryVicon(random.Random(3))
+    f = MemoryFleet(lab(), lab_fleet(5), vicon=camera,
+                    settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2, reroute="auto", reroute_timed=False))
+    f.robots[2].navigator.bumps = {1}
+    f.robots[2].navigator.bump_seconds = 0.5
+    ops = f.console()
+    f.link_up()
+    f.advance(0.1)
+    assert f.ask(ops, "source", source="robot").ok and f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.core.run.engine.run.out[f.core.fleet.by_id[2].agent] is not None, 30)
+    camera.occlude(2, f.now + 60)
+    f.advance(3.0)
+    f.kill_manager()
+    f.advance(1.0)
+    f.resume_manager()
+    ops = f.console()
+    f.advance(0.5)
+    assert f.ask(ops, "source", source="vicon").ok
+    f.advance(0.5)
+    assert f.ask(ops, "disable", robot=4).ok
+    replanned(f, ops)
+    walls = f.core.run.kept_walls()
+    assert walls and f.core.fleet.by_id[2].pose is None
+    f.advance(0.5)
+    replanned(f, ops)
+    f.advance(2.0)
+    alarms = [line for line in f.said if "where the run has it" in line]
+    if kept:
+        assert f.core.run.kept_walls() == walls and not alarms, alarms
+    else:
+        assert f.core.run.kept_walls() == [] and alarms

@@ -699,13 +699,23 @@ class Run:
         cell a robot leans into by its pose (`replanning.walled`); a robot with no pose from the
         chosen source (Vicon has not seen it since this manager started) leans into nothing, and
         one was planned through the cell another stood half in (Vicon session 2839): these are
-        walled off by the engine's record."""
+        walled off by the engine's record. Once a replan has planned around such a robot, the
+        engine no longer has it halfway: the cells next to its cell that the plan keeps off
+        (`kept_walls`) stand for that record, so the next replan walls them off again (a live
+        Vicon session, 580: a second replan planned without them, and the robot was "moved by
+        hand")."""
         state, table = self.engine.run, self.engine.table
         cells: Set[Coord] = set()
+        kept = {(x, y) for x, y in self.kept_walls()}
         for a in range(state.num_agents):
+            if state.out[a] is None or self.fleet[a].pose is not None:
+                continue
             nxt = state.next_incomplete(a)
-            if state.out[a] is not None and state.halfway[a] and nxt >= 0 and self.fleet[a].pose is None:
+            if state.halfway[a] and nxt >= 0:
                 cells.add(tuple(table.coord(state.dst[nxt])))  # type: ignore[arg-type]
+            elif kept:
+                x, y = self.driver.position(self.fleet[a])
+                cells |= kept & {(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)}
         return cells
 
     # ---- the way to the starts --------------------------------------------------------------
