@@ -21,9 +21,13 @@ and counts no collision, no two robots really came closer than the safe distance
 """
 from __future__ import annotations
 
+import json
 import math
+import os
 import random
 import re
+import signal
+import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -167,7 +171,12 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
                 restart()
                 continue
             if action == "reboot":  # every robot loses power at once and starts again where it stood
-                fleets[-1].kill()
+                os.kill(fleets[-1].popen.pid, signal.SIGUSR1)  # (a SIGKILL would leave --state 0.2 s old)
+                try:
+                    fleets[-1].popen.wait(10)
+                except subprocess.TimeoutExpired:
+                    out.problems.append("the fleet did not lose power within 10 s of SIGUSR1")
+                    fleets[-1].kill()
                 time.sleep(rng.uniform(0.2, 3.0))
                 truths.append(folder / "truth-{}.jsonl".format(len(truths)))
                 fleets.append(start_fleet(folder, definitions, feedback, "--truth", truths[-1], *fleet_args,
@@ -270,6 +279,13 @@ def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truths: L
         twice = sorted({r for r in ran if ran.count(r) > 1})
         if twice:  # (a command sent again to a robot started afresh runs again: it forgot it)
             out.problems.append("commands started twice: {}".format(twice[:3]))
+    for before, after in zip(truths, truths[1:]):  # a power cut moves no robot
+        last = truth_poses(before)[-1] if truth_poses(before) else {}
+        start = next((json.loads(line) for line in after.open() if '"k":"start"' in line), {})
+        moved = sorted(r for r, (x, y, *_) in start.get("robots", {}).items()
+                       if int(r) in last and math.hypot(x - last[int(r)][0], y - last[int(r)][1]) > 1e-3)
+        if moved:
+            out.problems.append("robots {} started again away from where the power cut left them".format(moved))
     poses = truth_poses(truths[-1])
     folders = sorted(p for p in runs.iterdir() if p.is_dir()) if runs.exists() else []
     if poses and folders:

@@ -270,6 +270,27 @@ def test_the_way_to_the_starts_with_a_robot_disabled_writes_a_plan_file_that_val
     assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan", 60)
 
 
+def test_a_robot_left_off_its_start_by_the_way_is_not_called_moved():
+    """Robot 2, disabled, stays at its goal on the way to the starts; then Step is refused. It said
+    "robot 2 stands at ..., away from (11, 8) where the run has it", the words for a robot carried
+    off by hand (a live session, 704, counted it as one); nobody moved it. Before the first move the
+    run has each robot on its start, and the refusal says so."""
+    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
+    ops = f.console()
+    f.link_up()
+    f.advance(0.1)
+    assert f.ask(ops, "disable", robot=2).ok
+    assert f.ask(ops, "to_starts").ok
+    assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan", 60)
+    f.advance(0.5)
+    answer = f.ask(ops, "step")
+    loaded = f.core.run.loaded
+    assert not answer.ok and "where the run has it" not in answer.reason, answer.reason
+    assert answer.reason.startswith("robot 2 stands at ") and ", off its start {}: ".format(
+        loaded.show(loaded.starts[1])) in answer.reason, answer.reason
+    assert answer.reason.endswith("put it on its start, or enable it: Go to starts drives it there"), answer.reason
+
+
 def test_robots_already_on_their_starts_need_no_way_there():
     f = MemoryFleet(lab(), lab_fleet())
     ops = f.console()

@@ -195,10 +195,15 @@ class VirtualFleet:
                 out[r] = [(wall - (now - t) / n.time_scale, x, y) for t, x, y in knots]
         return out
 
-    def close(self) -> None:
+    def close(self, power_cut: bool = False) -> None:
+        """Stop every robot and close; `power_cut`: as when the fleet loses power (SIGUSR1 to
+        `fleetctl virtual-fleet`): each robot halts where it is and its sockets close without a
+        goodbye, and the state file (`--state`) holds exactly where (a SIGKILL leaves it up to
+        `STATE_PERIOD` of driving old: a robot started again from it jumps back along its path,
+        towards a robot following it, which no real robot does)."""
         for endpoint in self.endpoints.values():
             self.loop.remove(endpoint)
-            endpoint.close()
+            endpoint.close(send_bye=not power_cut)
         self.endpoints.clear()
         self.recorder.close(self.true_poses())
         if self.publisher is not None:

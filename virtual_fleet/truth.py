@@ -115,6 +115,9 @@ class TruthRecorder:
     def close(self, poses: Optional[Dict[int, Pose]] = None) -> None:
         if poses is not None and self.state is not None:
             self._save(poses)
+        if poses is not None and self._file is not None:  # where the robots really stopped: the last
+            self._write({"k": "poses", "p": [[r, round(p.x, 4), round(p.y, 4), round(p.theta, 4)]  # line
+                                             for r, p in sorted(poses.items())]})  # may be 0.05 s old
         if self._file is not None:
             self._file.close()
             self._file = None

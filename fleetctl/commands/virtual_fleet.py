@@ -27,7 +27,8 @@ NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
 DESCRIPTION = (HELP + ". --robots serves a part of the definitions (their ports as in the whole file), so "
                "that several processes or hosts serve one fleet; --on-hosts puts each robot on its own "
-               "line's address instead. Stops on Ctrl-C or SIGTERM.")
+               "line's address instead. Stops on Ctrl-C or SIGTERM; SIGUSR1 cuts its power (every robot "
+               "stops where it stands, no goodbye, the --state file exact).")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -173,9 +174,10 @@ def run(args: argparse.Namespace) -> int:
                          truth=args.truth, state=args.state, truth_port=args.truth_port,
                          drift=dict(args.drift), bumps=args.bump, stalls=args.stall,
                          serve=serve, on_hosts=args.on_hosts)
-    stopping = []
+    stopping: List[str] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stopping.append(True))
+        signal.signal(sig, lambda *_: stopping.append("stop"))
+    signal.signal(signal.SIGUSR1, lambda *_: stopping.append("power cut"))  # (tests: a fleet losing power)
     first, last = fleet.robots[0], fleet.robots[-1]
     hosts = sorted({r.host for r in fleet.robots})
     print("virtual fleet: {} robots{} on {}, command ports {}..{}, feedback ports {}..{}, "
@@ -190,8 +192,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         fleet.run(lambda: bool(stopping))
     finally:
-        fleet.close()
-    print("virtual fleet stopped ({} dropouts)".format(fleet.dropouts), flush=True)
+        fleet.close(power_cut="power cut" in stopping)
+    print("virtual fleet {} ({} dropouts)".format(
+        "lost power: every robot stopped where it stood, silent" if "power cut" in stopping else "stopped",
+        fleet.dropouts), flush=True)
     return 0
 
 

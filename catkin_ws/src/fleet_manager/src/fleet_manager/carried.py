@@ -197,14 +197,17 @@ def carried_words(run: "Run", found: List[Carried]) -> str:
     run has them on their starts."""
     if not found:
         return ""
-    parts = ["robot {} stands at {}{}, away from {} where the run has it".format(
+    phase = run.phase.phase
+    # before the first move the run has each robot on its start: one off it need not have been
+    # moved by anyone (disabled on the way to the starts, it stayed where it was: live session 704)
+    where = "off its start {}" if phase == WAITING else "away from {} where the run has it"
+    parts = ["robot {} stands at {}{}, {}".format(
         c.robot.id, run.where(*c.pose), " by its own pose (Vicon has not seen robot {} since: choose its own "
         "pose, position source, to replan from there)".format(c.robot.id) if c.own else "",
-        run.loaded.show(c.here)) for c in found[:3]]
+        where.format(run.loaded.show(c.here))) for c in found[:3]]
     more = "; and {} more".format(len(found) - 3) if len(found) > 3 else ""
     one = len(found) == 1
     them, they = ("it", "it stands") if one else ("them", "they stand")
-    phase = run.phase.phase
     back = "put {} back where {} {}".format(them, "it" if one else "they", "was" if one else "were")
     todo = ("{}, or on a free cell and replan (planned from where {})".format(back, they)
             if phase in UNDER_WAY else "{}, or Reset (the way to the starts starts from where {})".format(
