@@ -105,7 +105,22 @@ def test_a_train_behind_a_robot_out_counted_moving_is_caught(monkeypatch) -> Non
         leaders = {agent: following.leader_of(agent) for agent in following.holds}
         return {agent for agent, leader in leaders.items() if leader is not None and out[leader] is not None}
     monkeypatch.setattr(Run, "held_behind_out", direct_only)
+    monkeypatch.setattr(Run, "held_behind_standing", lambda self, held: held)  # (it reaches trains too)
     assert _found([384], wide=True)
+
+
+def test_a_follower_behind_a_leader_standing_for_a_robot_out_makes_the_run_stuck() -> None:
+    """Big session 3334: under the time step, robot 8 held at its hold point behind robot 9, which
+    stood waiting for the round of robot 12, out with a fault. The run counted robot 8 as moving:
+    it ran on with nobody moving, said nothing, and lab staff saw no "cannot go on" (an unattended
+    run would never have given up). A follower behind a leader standing still with nothing sent
+    counts as held now (`Run.held_behind_standing`)."""
+    assert not session(3334, big=True).problems
+
+
+def test_a_follower_behind_a_standing_leader_counted_moving_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(Run, "held_behind_standing", lambda self, held: held)  # before 2026-11-27, later
+    assert session(3334, big=True).problems
 
 
 def test_sessions_whose_manager_dies_on_the_way_to_the_starts_end_truly() -> None:

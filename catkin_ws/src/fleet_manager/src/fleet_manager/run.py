@@ -176,13 +176,28 @@ class Run:
 
     def stuck(self) -> bool:
         """Running, not everyone arrived, and nothing can happen without an operator (robots
-        standing at their hold point behind a robot that is out count as not moving)."""
+        standing at their hold point behind a robot that is out count as not moving, and so do
+        those behind a leader standing still with nothing sent: big session 3334, under the time
+        step a follower held behind a robot that waited for the round of one that was out; the
+        run ran on with nobody moving, and said nothing)."""
         if self.phase.phase != RUNNING or self.engine.paused or self.all_arrived() or self.replanner.busy:
             return False
-        held = self.held_behind_out()
+        held = self.held_behind_standing(set(self.held_behind_out()))
         run = self.engine.run
         return not any(r.hold == "recover" or not r.link_up or (r.agent not in held and (
             r.flight is not None or run.dispatched[r.agent] > run.completed[r.agent])) for r in self.fleet)
+
+    def held_behind_standing(self, held: Set[int]) -> Set[int]:
+        """`held` (followers that cannot go on) and the followers behind a leader of them, or behind
+        a leader standing still with nothing sent to it (`stuck`)."""
+        run, following = self.engine.run, self.driver.following
+        leaders = {agent: following.leader_of(agent) for agent in following.holds}
+        while True:
+            more = {agent for agent, leader in leaders.items() if agent not in held and leader is not None and (
+                leader in held or (self.fleet[leader].flight is None and run.dispatched[leader] <= run.completed[leader]))}
+            if not more:
+                return held
+            held |= more
 
     def _left_between(self, agent: int, plan: Plan) -> bool:
         """`plan` gives the robot of `agent` no move and it stands between two cells, off the
