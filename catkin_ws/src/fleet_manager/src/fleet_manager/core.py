@@ -56,8 +56,8 @@ from .refusals import RefusedRequests
 from .replanning import SAFE_POINT, going_on, leans_into, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
-from .robot import HALTED, RESUMING, Fleet, Robot, Seen
-from .run import PLAN, Run
+from .robot import HALTED, RESUMING, VICON, Fleet, Robot, Seen
+from .run import PLAN, Run, lost_words
 from .run_phase import RUNNING
 from .settings import ManagerSettings
 from .state_view import build_state, proposal, reroute_proposal, robot_waits
@@ -101,6 +101,7 @@ class RunCore:
         self._home_due = 0.0  # when robots left away from their goals are next given ways home
         self._stuck_due = 0.0  # when the run is next judged for whether it can go on (`_say_if_stuck`)
         self._said_before = ""  # the run's line before it said it cannot go on
+        self._replan_line: Optional[str] = None  # a waiting replan's line before it named robots Vicon lost
         self._carried_due = 0.0  # when robots are next judged for standing where the run has them
         self._carried_told: Set[int] = set()  # the robots found moved by hand, told already
 
@@ -209,8 +210,13 @@ class RunCore:
                 run.replan_ended("replan given up: " + blocked)
                 run.say("replan given up: " + blocked)
                 self.out.tell("plan", None, "replan given up: " + blocked)
+        if run.replanner.state != SAFE_POINT:
+            self._replan_line = None
+        elif not run.driver.moving:
+            self._say_replan_waits()
         if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
                 r.pose_settled() for r in self.fleet.robots if r.link_up):
+            self._say_replan_waits(done=True)
             # a pose taken before a robot's last reply (late) may show it short of where it
             # stopped: walls and cells are judged on the next one, taken after
             here = stood_on(run.grid, self.fleet.robots, run.positions())
@@ -267,6 +273,25 @@ class RunCore:
         out |= {a for a in halted if a not in on and (not robots[a].link_up or leans_into(robots[a], here[a]) is not None
                                                    or (robots[a].pose is None and state.halfway[a]))}
         return out, on
+
+    def _say_replan_waits(self, done: bool = False) -> None:
+        """The line of a replan waiting at its safe point for Vicon to see a robot again (the pose
+        the run uses is older than the robot's last move) says so, and what the operator can do;
+        back to what it said once it waits no longer (`done`: it plans now). (A live Vicon session,
+        1023: 33 s of "waiting for every robot to finish its move", the robots long standing.)"""
+        run = self.run
+        if run.replan_said is None or run.phase.reason != run.replan_said:
+            return  # the replan's line is no longer up: somebody said something else since
+        lost = [] if done else [r.id for r in self.fleet.robots
+                                if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()]
+        if lost:
+            if self._replan_line is None:
+                self._replan_line = run.phase.reason
+            run.say("replanning: " + lost_words(lost))
+        elif self._replan_line is not None:
+            run.say(self._replan_line)
+            self._replan_line = None
+        run.replan_said = run.phase.reason
 
     def _walls_but(self, current: Sequence[Coord]) -> Set[Coord]:
         """The run's walls a replan keeps off, but the cells robots start on: a robot's own cell
