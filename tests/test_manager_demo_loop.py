@@ -10,7 +10,7 @@ terminal lines.
 """
 from __future__ import annotations
 
-from typing import Dict, List
+from typing import Dict, List, Tuple
 
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -26,7 +26,7 @@ from fleet_common.execution.following import point_at
 from fleet_manager import operator
 from fleet_manager.following import Following
 from fleet_manager.settings import ManagerSettings
-from memory_fleet import MemoryFleet, lab_fleet
+from memory_fleet import MemoryConsole, MemoryFleet, lab_fleet
 
 _LAB: List[LoadedPlan] = []
 
@@ -248,18 +248,24 @@ def test_the_way_to_the_starts_keeps_off_both_cells_of_a_disabled_robot_between_
     assert not job.grid.free[other[1], other[0]]
 
 
-def test_the_way_to_the_starts_with_a_robot_disabled_writes_a_plan_file_that_validates(tmp_path):
-    """Robot 2, disabled at its goal, stays there on the way to the starts. The way's plan file
-    (its folder's plan-1.txt) named its start as its goal, so it did not validate, and a manager
-    taking the way over could not read it (a live session, tests/live_sessions.py: `fleetctl manager
-    --resume` said "invalid plan ... agent 1 ends at (6, 8) but its goal is (11, 8)"). It names where
-    the way leaves each robot now; the run's record still names the starts it drives them to."""
+def robot_2_disabled_and_the_way_to_the_starts_asked() -> Tuple[MemoryFleet, MemoryConsole]:
+    """Every robot on its goal, robot 2 disabled, Go to starts pressed."""
     f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
     ops = f.console()
     f.link_up()
     f.advance(0.1)
     assert f.ask(ops, "disable", robot=2).ok
     assert f.ask(ops, "to_starts").ok
+    return f, ops
+
+
+def test_the_way_to_the_starts_with_a_robot_disabled_writes_a_plan_file_that_validates(tmp_path):
+    """Robot 2, disabled at its goal, stays there on the way to the starts. The way's plan file
+    (its folder's plan-1.txt) named its start as its goal, so it did not validate, and a manager
+    taking the way over could not read it (a live session, tests/live_sessions.py: `fleetctl manager
+    --resume` said "invalid plan ... agent 1 ends at (6, 8) but its goal is (11, 8)"). It names where
+    the way leaves each robot now; the run's record still names the starts it drives them to."""
+    f, ops = robot_2_disabled_and_the_way_to_the_starts_asked()
     assert f.run_until(lambda: f.core.run.purpose == "to-starts", 10)
     way = f.core.run.loaded
     path = tmp_path / "plan-1.txt"
@@ -275,12 +281,7 @@ def test_a_robot_left_off_its_start_by_the_way_is_not_called_moved():
     "robot 2 stands at ..., away from (11, 8) where the run has it", the words for a robot carried
     off by hand (a live session, 704, counted it as one); nobody moved it. Before the first move the
     run has each robot on its start, and the refusal says so."""
-    f = MemoryFleet(lab(), lab_fleet(), poses=at_goals_poses())
-    ops = f.console()
-    f.link_up()
-    f.advance(0.1)
-    assert f.ask(ops, "disable", robot=2).ok
-    assert f.ask(ops, "to_starts").ok
+    f, ops = robot_2_disabled_and_the_way_to_the_starts_asked()
     assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan", 60)
     f.advance(0.5)
     answer = f.ask(ops, "step")

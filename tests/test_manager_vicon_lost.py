@@ -90,12 +90,9 @@ def test_start_waits_for_vicon_to_see_a_robot_it_lost_and_says_so():
     assert f.closest[0] >= TURTLEBOT2.safe_cells - 0.01, f.closest
 
 
-def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None:
-    """Robot 3 is occluded while a replan waits for the robots to stop. The robots stand, and the
-    replan waits for a pose of robot 3 taken since its last move. Its line said "waiting for every
-    robot to finish its move" all along (a live Vicon session, 1023: 33 s). It names the robot
-    now, and what to do; choosing robot 3's own pose lets the replan go on, and the line is
-    back. The control keeps the old line."""
+def replan_waiting_for_robot_3():
+    """The run on Vicon; robot 3 occluded for 8 s and a replan asked for, 3 s ago (the robots
+    stand, the replan waits for a pose of robot 3 taken since its last move)."""
     camera = MemoryVicon(random.Random(3))
     f = MemoryFleet(lab(), lab_fleet(5), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2), vicon=camera)
     ops = f.console()
@@ -106,6 +103,16 @@ def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None
     camera.occlude(3, f.now + 8.0)
     assert f.ask(ops, "replan").ok
     f.advance(3.0)
+    return f, ops
+
+
+def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None:
+    """Robot 3 is occluded while a replan waits for the robots to stop. The robots stand, and the
+    replan waits for a pose of robot 3 taken since its last move. Its line said "waiting for every
+    robot to finish its move" all along (a live Vicon session, 1023: 33 s). It names the robot
+    now, and what to do; choosing robot 3's own pose lets the replan go on, and the line is
+    back. The control keeps the old line."""
+    f, ops = replan_waiting_for_robot_3()
     assert ops.state.run.reason == ("replanning: Vicon has not seen robot 3 since its last move: wait until it "
                                     "does, or choose the robot's own pose (position source)"), ops.state.run.reason
     assert f.ask(ops, "source", source="robot", robot=3).ok
@@ -117,14 +124,5 @@ def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None
 def test_a_replan_line_that_does_not_name_the_robot_vicon_lost_is_caught(monkeypatch) -> None:
     from fleet_manager import core
     monkeypatch.setattr(core.RunCore, "_say_replan_waits", lambda self, done=False: None)
-    camera = MemoryVicon(random.Random(3))
-    f = MemoryFleet(lab(), lab_fleet(5), settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2), vicon=camera)
-    ops = f.console()
-    f.link_up()
-    f.advance(0.1)
-    assert f.ask(ops, "source", source="vicon").ok and f.ask(ops, "start").ok
-    assert f.run_until(lambda: sum(f.core.run.engine.run.completed) >= 4, 20)
-    camera.occlude(3, f.now + 8.0)
-    assert f.ask(ops, "replan").ok
-    f.advance(3.0)
+    f, ops = replan_waiting_for_robot_3()
     assert "Vicon has not seen robot 3" not in ops.state.run.reason
