@@ -123,6 +123,6 @@ def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None
 
 def test_a_replan_line_that_does_not_name_the_robot_vicon_lost_is_caught(monkeypatch) -> None:
     from fleet_manager import core
-    monkeypatch.setattr(core.RunCore, "_say_replan_waits", lambda self, done=False: None)
+    monkeypatch.setattr(core.RunCore, "_say_replan_waits", lambda self: None)
     f, ops = replan_waiting_for_robot_3()
     assert "Vicon has not seen robot 3" not in ops.state.run.reason

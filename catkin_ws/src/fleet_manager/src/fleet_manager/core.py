@@ -216,7 +216,6 @@ class RunCore:
             self._say_replan_waits()
         if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
                 r.pose_settled() for r in self.fleet.robots if r.link_up):
-            self._say_replan_waits(done=True)
             # a pose taken before a robot's last reply (late) may show it short of where it
             # stopped: walls and cells are judged on the next one, taken after
             here = stood_on(run.grid, self.fleet.robots, run.positions())
@@ -274,16 +273,16 @@ class RunCore:
                                                    or (robots[a].pose is None and state.halfway[a]))}
         return out, on
 
-    def _say_replan_waits(self, done: bool = False) -> None:
+    def _say_replan_waits(self) -> None:
         """The line of a replan waiting at its safe point for Vicon to see a robot again (the pose
         the run uses is older than the robot's last move) says so, and what the operator can do;
-        back to what it said once it waits no longer (`done`: it plans now). (A live Vicon session,
+        back to what it said once it waits for none (a robot settled is not lost). (A live Vicon session,
         1023: 33 s of "waiting for every robot to finish its move", the robots long standing.)"""
         run = self.run
         if run.replan_said is None or run.phase.reason != run.replan_said:
             return  # the replan's line is no longer up: somebody said something else since
-        lost = [] if done else [r.id for r in self.fleet.robots
-                                if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()]
+        lost = [r.id for r in self.fleet.robots
+                if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()]
         if lost:
             if self._replan_line is None:
                 self._replan_line = run.phase.reason
