@@ -132,16 +132,17 @@ class Replanner:
         self.pending = None
 
 
-def stood_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord]) -> List[Coord]:
+def stood_on(grid: Grid, robots: Sequence[Robot], here: Sequence[Coord], keep: Set[int] = frozenset()) -> List[Coord]:
     """`here` (each robot's cell by the engine's record), with a robot whose pose is on another
     free cell, nobody's, in that cell: one halted or stopped by a fault at the very end of a
     move the engine took back stands in its target, and is planned from there (walled in at
-    its old cell, it could never be planned into the target, were that its goal)."""
+    its old cell, it could never be planned into the target, were that its goal). But the
+    agents `keep`: short of that cell's centre, they finish their move into it (`going_on`)."""
     out = list(here)
     taken = {tuple(c) for c in here}
     for robot in robots:
         pose = robot.pose
-        if pose is None:
+        if pose is None or robot.agent in keep:
             continue
         cell = (int(round(pose.x)), int(round(pose.y)))
         if (cell != tuple(here[robot.agent]) and cell not in taken and grid.in_bounds(cell) and grid.is_free(cell)
