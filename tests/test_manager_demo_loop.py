@@ -27,6 +27,7 @@ from fleet_manager import operator
 from fleet_manager.following import Following
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryConsole, MemoryFleet, lab_fleet
+from operator_sessions import carry_to
 
 _LAB: List[LoadedPlan] = []
 
@@ -290,6 +291,20 @@ def test_a_robot_left_off_its_start_by_the_way_is_not_called_moved():
     assert answer.reason.startswith("robot 2 stands at ") and ", off its start {}: ".format(
         loaded.show(loaded.starts[1])) in answer.reason, answer.reason
     assert answer.reason.endswith("put it on its start, or enable it: Go to starts drives it there"), answer.reason
+
+
+def test_a_robot_left_between_two_cells_off_its_start_is_not_called_moved():
+    """Likewise Enable, for a robot that stands between two cells off its start once the way there is
+    driven (wide dying Vicon session 1091: robot 6, stopped there by its bumper and disabled)."""
+    f, ops = robot_2_disabled_and_the_way_to_the_starts_asked()
+    assert f.run_until(lambda: f.phase == "waiting" and f.core.run.purpose == "plan", 60)
+    goal, start = f.loaded.goals[1], f.core.run.loaded.starts[1]
+    carry_to(f, 2, goal[0] + 0.5, goal[1] + 0.5)  # (as the bumper left robot 6: off the line between two cells)
+    f.advance(0.5)
+    answer = f.ask(ops, "enable", robot=2)
+    assert not answer.ok and "where the run has it" not in answer.reason, answer.reason
+    assert ", between two cells off its start {}: put it on a cell, then enable it".format(
+        f.core.run.loaded.show(start)) in answer.reason, answer.reason
 
 
 def test_robots_already_on_their_starts_need_no_way_there():

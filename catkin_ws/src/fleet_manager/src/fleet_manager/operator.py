@@ -409,8 +409,11 @@ def enable(run: Run, args: Args, now: float) -> Answer:
     here = run.positions()[robot.agent]
     if not placed(run.grid, robot, here):  # carried off between two cells while it was out
         pose = robot.pose
-        return False, ("robot {} stands at {}, between two cells away from {}, where the run has it: put it "
-                       "on a cell, then enable it".format(robot.id, run.where(pose.x, pose.y), run.loaded.show(here)))
+        # before the first move the run has it on its start: left off it by the way there, it need
+        # not have been moved by anyone (wide dying Vicon session 1091: stopped by its bumper)
+        where = "off its start {}" if run.phase.phase == WAITING else "away from {}, where the run has it"
+        return False, "robot {} stands at {}, between two cells {}: put it on a cell, then enable it".format(
+            robot.id, run.where(pose.x, pose.y), where.format(run.loaded.show(here)))
     # carried onto another cell while it was out: its next drive would start from there (before
     # the first move, where it stands is for Start to judge: on its start, or Go to starts;
     # wide sessions 1021, 1776: disabled on the way to the starts, it stayed off its start)
