@@ -530,6 +530,9 @@ def test_a_replan_leaving_a_robot_half_into_a_cell_its_holder_leaves_is_caught(m
     from fleet_manager.replanning import going_on
     monkeypatch.setattr(core, "going_on", no_train)
     monkeypatch.setattr(run_module, "going_on", no_train)
+    # (and robots between two cells that cannot finish their moves stay out only when halted, as
+    # before big session 3071: robot 9, planned around instead, is no longer found moved)
+    monkeypatch.setattr(core.RunCore, "_replanned_from", _only_halted_out)
     assert session(142, big=True).problems
 
 
@@ -741,3 +744,29 @@ def test_a_virtual_robot_that_drives_past_its_bumper_is_caught(monkeypatch) -> N
             self._bump_at = bump
     monkeypatch.setattr(VirtualNavigator, "_pose_at", past_the_bumper)
     assert session(2378, big=True).problems
+
+
+def test_a_replan_plans_around_a_robot_between_two_cells_it_cannot_leave_whoever_halted_it() -> None:
+    """Big session 3071: robot 2, halted in its move (out of the cell robot 10 leans into, into one a
+    robot out holds), was taken back by Start into a plan with no move for it, so it was no longer
+    halted. The next replan planned it from its own cell, walled in nowhere, and took it out of that
+    cell: robot 10, left half into it by an earlier replan, was found "moved by hand" at Accept. Any
+    robot between two cells that cannot finish its move now stays out, as a halted one does."""
+    assert not session(3071, big=True).problems
+
+
+def _only_halted_out(self, here, walls):
+    """A replan's safe point before big session 3071: only robots the operator halted stayed out
+    for standing between two cells."""
+    state, robots = self.run.engine.run, self.fleet.robots
+    halted = {r.agent for r in robots if r.hold == "halted" and state.out[r.agent] not in (None, "disabled")}
+    out = {a for a, why in enumerate(state.out) if why is not None} - halted
+    on = core.going_on(self.run.grid, robots, here, out, walls)
+    out |= {a for a in halted if a not in on and (not robots[a].link_up or core.leans_into(robots[a], here[a]) is not None
+                                               or (robots[a].pose is None and state.halfway[a]))}
+    return out, on
+
+
+def test_a_robot_between_two_cells_planned_from_its_cell_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core.RunCore, "_replanned_from", _only_halted_out)
+    assert session(3071, big=True).problems

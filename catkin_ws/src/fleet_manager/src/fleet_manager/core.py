@@ -274,7 +274,10 @@ class RunCore:
         in the new plan ("replanned 0 robots") and each was left away from its goal. One halted
         between two cells that cannot finish its move there (the cell is another's), or halted in
         a move with no pose to say where, or whose link is down, stays out: planned from its cell,
-        it would drive across the corner."""
+        it would drive across the corner. So does any other robot standing between two cells that
+        cannot finish its move (big session 3071: robot 2, halted in its move and taken back by
+        Start into a plan with no move for it, was planned from its cell; robot 10, half into that
+        cell, was found "moved by hand" as soon as the plan took robot 2 away)."""
         state = self.run.engine.run
         robots = self.fleet.robots
         halted = {r.agent for r in robots if r.hold == HALTED and state.out[r.agent] not in (None, "disabled")}
@@ -282,6 +285,7 @@ class RunCore:
         on = going_on(self.run.grid, robots, here, out, walls)
         out |= {a for a in halted if a not in on and (not robots[a].link_up or leans_into(robots[a], here[a]) is not None
                                                    or (robots[a].pose is None and state.halfway[a]))}
+        out |= {r.agent for r in robots if r.agent not in on and leans_into(r, here[r.agent]) is not None}
         return out, on
 
     def _say_replan_waits(self) -> None:
