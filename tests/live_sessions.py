@@ -39,6 +39,7 @@ from fleet_common.robot_size import TURTLEBOT2
 from fleet_common.runlog import read_run
 from helpers import free_port_block
 from live import Proc, ScriptedConsole, fleet_definitions, fleetctl_args, start_fleet, start_manager
+from operator_sessions import lost_in
 from test_manager_run import truth_poses
 from virtual_fleet.truth import exec_lines, truth_paths
 
@@ -123,12 +124,19 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
                                       timeout=5, why="the replan under way")
             except AssertionError:
                 pass  # (given up at once: the next wait returns at once)
-            try:
-                consoles[-1].wait_for(lambda c: c.state.run.proposal is not None or not c.state.run.replanning,
-                                      timeout=30, why="a proposal")
-            except AssertionError:
-                out.problems.append("a replan neither proposed nor ended within 30 s")
-                return
+            chosen: set = set()
+            ends = time.monotonic() + 30
+            while True:  # a replan waiting for Vicon to see a robot again: its own pose, as told
+                info = run_info()
+                if info is not None and (info.proposal is not None or not info.replanning):
+                    break
+                if time.monotonic() > ends:
+                    out.problems.append("a replan neither proposed nor ended within 30 s")
+                    return
+                for rid in sorted(set(lost_in(info.reason if info else "")) - chosen):
+                    chosen.add(rid)
+                    press("source", source="robot", robot=rid)
+                time.sleep(0.2)
             info = run_info()
             if info is not None and info.proposal is not None:
                 press(choice, proposal=info.proposal)
@@ -227,9 +235,7 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
             reason = out.log[-1][4]
             if "Go to starts" in reason:
                 press("to_starts")
-            told = re.findall(r"robot (\d+) has not reported a pose", reason)
-            lost = re.search(r"Vicon has not seen robots? ([\d, ]+) since", reason)
-            for rid in sorted({int(r) for r in told + (lost.group(1).split(", ") if lost else [])}):
+            for rid in lost_in(reason):
                 press("source", source="robot", robot=rid)  # Vicon does not see it: its own pose, as told
         deadline = time.monotonic() + 60
         moved_at, done = time.monotonic(), None

@@ -123,6 +123,14 @@ class Session:
     problems: List[str] = field(default_factory=list)
 
 
+def lost_in(reason: str) -> List[int]:
+    """The robots a refusal or the run's line says Vicon does not see (or that never reported a
+    pose since the manager started): staff choose their own poses for them, as told."""
+    told = re.findall(r"robot (\d+) has not reported a pose", reason)
+    lost = re.search(r"Vicon has not seen robots? ([\d, ]+) since", reason)
+    return sorted({int(r) for r in told + (lost.group(1).split(", ") if lost else [])})
+
+
 def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False,
             carrying: bool = False, big: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
@@ -196,9 +204,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     def own_poses_if_lost(reason: str) -> None:
         """Robots a refusal says Vicon does not see (or never saw since the manager started): staff
         choose their own poses for them, as told."""
-        told = re.findall(r"robot (\d+) has not reported a pose", reason)
-        lost = re.search(r"Vicon has not seen robots? ([\d, ]+) since", reason)
-        for rid in sorted({int(r) for r in told + (lost.group(1).split(", ") if lost else [])}):
+        for rid in lost_in(reason):
             press("source", source="robot", robot=rid)
 
     def links_up() -> None:
