@@ -283,8 +283,7 @@ class RunCore:
         halted = {r.agent for r in robots if r.hold == HALTED and state.out[r.agent] not in (None, "disabled")}
         out = {a for a, why in enumerate(state.out) if why is not None} - halted
         on = going_on(self.run.grid, robots, here, out, walls)
-        out |= {a for a in halted if a not in on and (not robots[a].link_up or leans_into(robots[a], here[a]) is not None
-                                                   or (robots[a].pose is None and state.halfway[a]))}
+        out |= {a for a in halted if a not in on and (not robots[a].link_up or (robots[a].pose is None and state.halfway[a]))}
         out |= {r.agent for r in robots if r.agent not in on and leans_into(r, here[r.agent]) is not None}
         return out, on
 
