@@ -587,7 +587,7 @@ def test_a_follower_halted_at_its_hold_point_stands_where_the_run_has_it() -> No
 
 
 def test_a_robot_at_its_hold_point_judged_moved_is_caught(monkeypatch) -> None:
-    monkeypatch.setattr(carried_module, "_clear_of", lambda pose, far, safe: False)  # as before
+    monkeypatch.setattr(carried_module, "clear_of", lambda pose, far, safe: False)  # as before
     assert session(338, big=True).problems
 
 
@@ -770,3 +770,18 @@ def _only_halted_out(self, here, walls):
 def test_a_robot_between_two_cells_planned_from_its_cell_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(core.RunCore, "_replanned_from", _only_halted_out)
     assert session(3071, big=True).problems
+
+
+def test_a_follower_at_its_hold_point_takes_part_in_a_replan() -> None:
+    """Big carrying session 1430: robot 2 stood at its hold point, 0.32 cells out of its cell towards
+    robot 3's, which could not reach its goal and stayed. Planned around for standing between two
+    cells (the rule of big session 3071), it could never finish that move, and every replan left it
+    out: the run never ended. A robot the safe distance or more from the cell it leans into stands
+    where nobody in that cell comes nearer (as the live check judges it, `carried.clear_of`): it
+    takes part, planned from its cell."""
+    assert not session(1430, big=True, carrying=True).problems
+
+
+def test_a_follower_at_its_hold_point_planned_around_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(core, "clear_of", lambda pose, far, safe: False)
+    assert session(1430, big=True, carrying=True).problems

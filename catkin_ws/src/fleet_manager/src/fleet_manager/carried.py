@@ -79,7 +79,7 @@ from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
 if TYPE_CHECKING:
     from .run import Run
 
-__all__ = ["Carried", "carried", "carried_words", "halt_near", "replan_refusal", "where_the_run_has_it", "UNDER_WAY"]
+__all__ = ["Carried", "carried", "carried_words", "clear_of", "halt_near", "replan_refusal", "where_the_run_has_it", "UNDER_WAY"]
 
 #: the phases of a run under way, whose engine has every robot on a cell of its plan
 UNDER_WAY = (RUNNING, PAUSED, STOPPED)
@@ -146,7 +146,7 @@ def where_the_run_has_it(run: "Run", robot: Robot, pose: Tuple[float, float], he
     far = towards(pose, here)
     if to_segment(pose, here, far) > AT_CELL:
         return False
-    if _clear_of(pose, far, run.settings.size.safe_cells):
+    if clear_of(pose, far, run.settings.size.safe_cells):
         return True
     # between its cell and that neighbour, or on the neighbour's centre: only where the run put it
     state, table = run.engine.run, run.engine.table
@@ -174,7 +174,7 @@ def _walled_in(run: "Run", agent: int, far: Coord) -> bool:
             and (state.out[agent] is not None or state.next_incomplete(agent) < 0))
 
 
-def _clear_of(pose: Tuple[float, float], far: Coord, safe: float) -> bool:
+def clear_of(pose: Tuple[float, float], far: Coord, safe: float) -> bool:
     """Whether a robot at `pose`, on the line from its cell towards the neighbour `far`, is the
     safe distance `safe` (cells) or more from that neighbour's centre: whoever is in it, on its
     centre or driving through it, is no nearer."""

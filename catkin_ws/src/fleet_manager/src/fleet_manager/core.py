@@ -49,7 +49,7 @@ from fleet_common.vicon.base_grid import ViconFix
 from fleet_common.wire import PoseFeedback, Stop
 
 from . import operator
-from .carried import UNDER_WAY, carried, carried_words, halt_near, where_the_run_has_it
+from .carried import UNDER_WAY, carried, carried_words, clear_of, halt_near, where_the_run_has_it
 from .outbox import Effect, Outbox, REROUTE
 from .driver import AT_CELL, MADE_IT
 from .refusals import RefusedRequests
@@ -275,7 +275,7 @@ class RunCore:
         between two cells that cannot finish its move there (the cell is another's), or halted in
         a move with no pose to say where, or whose link is down, stays out: planned from its cell,
         it would drive across the corner. So does any other robot standing between two cells that
-        cannot finish its move (big session 3071: robot 2, halted in its move and taken back by
+        cannot finish its move, nearer the cell it leans into than the safe distance (big session 3071: robot 2, halted in its move and taken back by
         Start into a plan with no move for it, was planned from its cell; robot 10, half into that
         cell, was found "moved by hand" as soon as the plan took robot 2 away)."""
         state = self.run.engine.run
@@ -283,8 +283,14 @@ class RunCore:
         halted = {r.agent for r in robots if r.hold == HALTED and state.out[r.agent] not in (None, "disabled")}
         out = {a for a, why in enumerate(state.out) if why is not None} - halted
         on = going_on(self.run.grid, robots, here, out, walls)
-        out |= {a for a in halted if a not in on and (not robots[a].link_up or (robots[a].pose is None and state.halfway[a]))}
-        out |= {r.agent for r in robots if r.agent not in on and leans_into(r, here[r.agent]) is not None}
+        out |= {a for a in halted if a not in on and (not robots[a].link_up or leans_into(robots[a], here[a]) is not None
+                                                   or (robots[a].pose is None and state.halfway[a]))}
+        safe = self.run.settings.size.safe_cells
+        for robot in robots:  # (not one the safe distance or more from the cell it leans into: a
+            # follower stopped at its hold point, whom nobody in that cell comes nearer, big carrying 1430)
+            far = leans_into(robot, here[robot.agent]) if robot.agent not in on else None
+            if far is not None and not clear_of((robot.pose.x, robot.pose.y), far, safe):
+                out.add(robot.agent)
         return out, on
 
     def _say_replan_waits(self) -> None:
