@@ -1173,7 +1173,6 @@ def test_an_unattended_run_whose_follower_waits_behind_a_disabled_robot_says_why
     assert "robot 1 is disabled; robots 2, 3 wait for it" in reason, reason
 
 
-
 def test_a_robot_halted_short_of_its_goal_finishes_the_move_after_a_replan() -> None:
     """Live session 900: robot 2, halted 0.27 cells short of its goal in the move into it, was
     taken by the next replan for standing on its goal (within `AT_CELL`). It had no move left, was
