@@ -275,9 +275,10 @@ class RunCore:
         between two cells that cannot finish its move there (the cell is another's), or halted in
         a move with no pose to say where, or whose link is down, stays out: planned from its cell,
         it would drive across the corner. So does any other robot standing between two cells that
-        cannot finish its move, nearer the cell it leans into than the safe distance (big session 3071: robot 2, halted in its move and taken back by
-        Start into a plan with no move for it, was planned from its cell; robot 10, half into that
-        cell, was found "moved by hand" as soon as the plan took robot 2 away)."""
+        cannot finish its move, nearer the cell it leans into than the safe distance (big session
+        3071: robot 2, halted in its move and taken back by Start into a plan with no move for it,
+        was planned from its cell; robot 10, half into that cell, was found "moved by hand" as soon
+        as the plan took robot 2 away)."""
         state = self.run.engine.run
         robots = self.fleet.robots
         halted = {r.agent for r in robots if r.hold == HALTED and state.out[r.agent] not in (None, "disabled")}
