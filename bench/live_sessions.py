@@ -2,7 +2,7 @@
 
 Each session (tests/live_sessions.py) runs the lab plan on `fleetctl virtual-fleet` and
 `fleetctl manager` on 127.0.0.1 with random presses from a scripted console, restarts of the
-manager among them, then the clean-up; it is judged by the fleet's ground truth and the
+manager and power cuts of the fleet or of one robot among them, then the clean-up; it is judged by the fleet's ground truth and the
 manager's summary. Prints each session that found something, with what the operator did, and
 the count; exits non-zero if any did. A session takes 20-60 s; its folder is kept only if it
 found something (under --keep, default a temporary folder).

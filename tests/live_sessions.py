@@ -6,13 +6,15 @@ virtual-fleet` and `fleetctl manager` on 127.0.0.1, a scripted console on the re
 (`live.ScriptedConsole`), wall-clock time (the fleet at four times speed). What only the
 chain has is exercised with it: requests and answers racing the States, poses that come when
 the sockets deliver them, a manager killed outright (SIGKILL) and started again with
-`--resume` on its run folder, bumpers pressed in the virtual robots.
+`--resume` on its run folder, bumpers pressed in the virtual robots, one robot losing its
+power alone (its own virtual-fleet process: a TurtleBot's laptop that died) and coming
+back where it stood.
 
 A session: the lab plan under a random strategy, rerouting on or off, bumpers pressed in
 some drives; 3-10 random presses (pause, start, step, halt, stop, disable, enable, a
 strategy, a replan accepted or rejected, reroute mode, a restart of the manager, Reset, a
 power cut of the whole fleet: every robot starts again where it stood, as from `--state`) at
-random moments; then the clean-up lab staff would do (enable every robot out, answer a proposal,
+random moments, and among them, by draws of their own, power cuts of one robot; then the clean-up lab staff would do (enable every robot out, answer a proposal,
 start, replan if nothing moves). Judged by the virtual fleet's ground truth and the
 manager's own words: the run ends done with every robot on its goal, the summary says so
 and counts no collision, no two robots really came closer than the safe distance
@@ -31,7 +33,7 @@ import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Tuple
+from typing import Dict, List, Optional, Tuple
 
 from fleet_common.execution.approach import judge
 from fleet_common.lab import lab_instance_path
@@ -73,24 +75,27 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
     eye = random.Random(seed * 7919 + 2)
     out = LiveSession(seed)
     began = time.monotonic()
+    cut = random.Random(seed * 6007 + 3)  # the lone robot's power cuts: draws of their own
     definitions, feedback, port = fleet_definitions(folder, 5)
-    truths, runs, state = [folder / "truth.jsonl"], folder / "runs", folder / "fleet-state.json"
-    bumps = [a for rid in range(1, 6) if rng.random() < 0.3 for a in ("--bump", "{}@{}".format(rid, rng.randint(1, 5)))]
+    runs = folder / "runs"
+    bumps = {rid: rng.randint(1, 5) for rid in range(1, 6) if rng.random() < 0.3}
     strategy, reroute = rng.choice(["adg", "adg", "step", "reorder"]), rng.choice(["off", "auto"])
     plan = lab_instance_path()
     manager_args = ("--log", runs, "--step-time", str(round(2.5 / SCALE, 3)), "--strategy", strategy,
                     "--reroute", reroute)
-    setup = {"strategy": strategy, "reroute": reroute, "bumps": bumps[1::2]}
-    truth_port = free_port_block(2) if vicon else 0
-    udp = truth_port + 1
-    fleet_args = ("--time-scale", SCALE, "--state", state, *bumps, *(("--truth-port", truth_port) if vicon else ()))
-    fleets = [start_fleet(folder, definitions, feedback, "--truth", truths[0], *fleet_args)]
+    lone = cut.randint(1, 5)
+    setup = {"strategy": strategy, "reroute": reroute, "bumps": sorted(bumps), "alone": lone}
+    truth_port = free_port_block(3) if vicon else 0
+    udp = truth_port + 2
+    fleet = SplitFleet(folder, definitions, feedback, ([r for r in range(1, 6) if r != lone], [lone]), bumps,
+                       truth_port)
     others: List[Proc] = []
     if vicon:
         hidden = [a for rid in eye.sample(range(1, 6), eye.randint(0, 2)) for a in (
             "--occlude", "{}:{:.1f}-{:.1f}".format(rid, *sorted(eye.uniform(0, 40) for _ in range(2))))]
         setup["occluded"] = hidden[1::2]
-        others.append(Proc(fleetctl_args("vicon", "simulate", "--truth-port", truth_port, "--port", udp,
+        others.append(Proc(fleetctl_args("vicon", "simulate", "--truth-port", truth_port,
+                                         "--truth-port", truth_port + 1, "--port", udp,
                                          "--loss", eye.choice([0.0, 0.02, 0.1]), "--definitions", definitions,
                                          "--seed", seed, *hidden), folder / "vicon.log"))
         manager_args += ("--vicon", udp, "--vicon-bind", "127.0.0.1")
@@ -178,17 +183,11 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
             if action == "restart":
                 restart()
                 continue
+            if cut.random() < 0.15:  # robot `lone` alone loses power, for a moment or past the link's patience
+                fleet.power_cut(out, 1, cut.uniform(0.2, 6.0))
+                out.log.append((round(time.monotonic() - began, 1), "power cut", {"robot": lone}, True, ""))
             if action == "reboot":  # every robot loses power at once and starts again where it stood
-                os.kill(fleets[-1].popen.pid, signal.SIGUSR1)  # (a SIGKILL would leave --state 0.2 s old)
-                try:
-                    fleets[-1].popen.wait(10)
-                except subprocess.TimeoutExpired:
-                    out.problems.append("the fleet did not lose power within 10 s of SIGUSR1")
-                    fleets[-1].kill()
-                time.sleep(rng.uniform(0.2, 3.0))
-                truths.append(folder / "truth-{}.jsonl".format(len(truths)))
-                fleets.append(start_fleet(folder, definitions, feedback, "--truth", truths[-1], *fleet_args,
-                                          name="fleet-{}".format(len(fleets))))
+                fleet.power_cut(out, None, rng.uniform(0.2, 3.0))
                 out.log.append((round(time.monotonic() - began, 1), "reboot", {}, True, ""))
                 continue
             args: dict = {}
@@ -211,10 +210,62 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
             console.close()
         for proc in managers + others:
             proc.stop()
-        for proc in fleets:
-            proc.stop()
-    _judge(out, managers, others + fleets, truths, runs)
+        fleet.stop()
+    _judge(out, managers, others + fleet.procs, fleet.truths, runs)
     return out
+
+
+class SplitFleet:
+    """Five virtual robots served by two `fleetctl virtual-fleet` processes (`--robots`), so that
+    one part can lose its power alone. Each part keeps its own state file; each start of a part
+    writes a truth file of its own (`truths`: part, path; the parts' clocks are both wall time)."""
+
+    def __init__(self, folder: Path, definitions: Path, feedback: int, parts: Tuple[List[int], ...],
+                 bumps: Dict[int, int], truth_port: int) -> None:
+        self.folder, self.definitions, self.feedback = folder, definitions, feedback
+        self.parts, self.bumps, self.truth_port = parts, bumps, truth_port
+        self.procs: List[Proc] = []
+        self.truths: List[Tuple[int, Path]] = []
+        self.running: Dict[int, Proc] = {}
+        try:
+            for part in range(len(parts)):
+                self._start(part)
+        except BaseException:
+            self.stop()
+            raise
+
+    def _start(self, part: int) -> None:
+        truth = self.folder / "truth-{}.jsonl".format(len(self.truths))
+        ids = self.parts[part]
+        args: List[object] = ["--robots", ",".join(map(str, ids)), "--truth", truth, "--time-scale", SCALE,
+                              "--state", self.folder / "fleet-state-{}.json".format(part)]
+        args += [a for rid in ids if rid in self.bumps for a in ("--bump", "{}@{}".format(rid, self.bumps[rid]))]
+        if self.truth_port:
+            args += ["--truth-port", self.truth_port + part]
+        self.running[part] = start_fleet(self.folder, self.definitions, self.feedback, *args,
+                                         name="fleet-{}".format(len(self.procs)))
+        self.procs.append(self.running[part])
+        self.truths.append((part, truth))
+
+    def power_cut(self, out: LiveSession, part: Optional[int], seconds: float) -> None:
+        """Part `part` (None: both) loses power (SIGUSR1: every robot stops where it stands, the
+        state file exact; a SIGKILL would leave it 0.2 s old) and starts again `seconds` later."""
+        chosen = list(self.running) if part is None else [part]
+        for p in chosen:
+            os.kill(self.running[p].popen.pid, signal.SIGUSR1)
+        for p in chosen:
+            try:
+                self.running[p].popen.wait(10)
+            except subprocess.TimeoutExpired:
+                out.problems.append("fleet part {} did not lose power within 10 s of SIGUSR1".format(p))
+                self.running[p].kill()
+        time.sleep(seconds)
+        for p in chosen:
+            self._start(p)
+
+    def stop(self) -> None:
+        for proc in self.procs:
+            proc.stop()
 
 
 def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
@@ -257,7 +308,8 @@ def _clean_up(out: LiveSession, press, run_info, answer_proposal) -> None:
             answer_proposal("accept")
 
 
-def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truths: List[Path], runs: Path) -> None:
+def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truths: List[Tuple[int, Path]],
+           runs: Path) -> None:
     for proc in managers + others:
         if "Traceback" in proc.text():
             out.problems.append("{} printed a traceback".format(proc.log.name))
@@ -273,31 +325,36 @@ def _judge(out: LiveSession, managers: List[Proc], others: List[Proc], truths: L
         out.problems.append("the summary says arrived {}/{}".format(*arrived[-1]))
     if collisions and collisions[-1] != "0":
         out.problems.append("the summary counts {} collisions".format(collisions[-1]))
-    if not all(truth.exists() for truth in truths):
+    if not all(truth.exists() for _, truth in truths):
         out.problems.append("no ground truth")
         return
-    for truth in truths:  # (a fleet started again: robots stood still while it was down)
-        paths = truth_paths(truth)
-        verdict = judge([paths[r] for r in sorted(paths)], TURTLEBOT2.safe_cells)
-        if not verdict.safe_run:
-            out.problems.append("robots closer than the safe distance: {}".format(verdict.violations[:2]))
+    knots: Dict[int, list] = {}  # each robot's whole path: its parts' starts one after another
+    for _, truth in truths:
+        for rid, path in truth_paths(truth).items():
+            knots.setdefault(rid, []).extend(path)  # (while a part was down its robots stood still)
         ran = [(e["robot"], e["epoch"], e["id"]) for e in exec_lines(truth)]
         twice = sorted({r for r in ran if ran.count(r) > 1})
         if twice:  # (a command sent again to a robot started afresh runs again: it forgot it)
             out.problems.append("commands started twice: {}".format(twice[:3]))
-    for before, after in zip(truths, truths[1:]):  # a power cut moves no robot
-        last = truth_poses(before)[-1] if truth_poses(before) else {}
-        start = next((json.loads(line) for line in after.open() if '"k":"start"' in line), {})
-        moved = sorted(r for r, (x, y, *_) in start.get("robots", {}).items()
-                       if int(r) in last and math.hypot(x - last[int(r)][0], y - last[int(r)][1]) > 1e-3)
-        if moved:
-            out.problems.append("robots {} started again away from where the power cut left them".format(moved))
-    poses = truth_poses(truths[-1])
+    verdict = judge([sorted(knots[r]) for r in sorted(knots)], TURTLEBOT2.safe_cells)
+    if not verdict.safe_run:
+        out.problems.append("robots closer than the safe distance: {}".format(verdict.violations[:2]))
+    final: Dict[int, Tuple[float, float]] = {}
+    for part in sorted({p for p, _ in truths}):
+        starts = [truth for p, truth in truths if p == part]
+        for before, after in zip(starts, starts[1:]):  # a power cut moves no robot
+            last = truth_poses(before)[-1] if truth_poses(before) else {}
+            start = next((json.loads(line) for line in after.open() if '"k":"start"' in line), {})
+            moved = sorted(r for r, (x, y, *_) in start.get("robots", {}).items()
+                           if int(r) in last and math.hypot(x - last[int(r)][0], y - last[int(r)][1]) > 1e-3)
+            if moved:
+                out.problems.append("robots {} started again away from where the power cut left them".format(moved))
+        poses = truth_poses(starts[-1])
+        final.update(poses[-1] if poses else {})
     folders = sorted(p for p in runs.iterdir() if p.is_dir()) if runs.exists() else []
-    if poses and folders:
+    if len(final) == 5 and folders:
         run = read_run(folders[-1])
         goals = {r: tuple(g) for r, g in zip(run.robots, run.run["goals"])}
-        final = poses[-1]
         away = [r for r, g in goals.items() if math.hypot(final[r][0] - g[0], final[r][1] - g[1]) > AT_GOAL]
         if away:
             out.problems.append("robots {} are not on their goals".format(away))

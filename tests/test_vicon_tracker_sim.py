@@ -147,3 +147,26 @@ def test_truth_subscriber_reads_the_fleet_s_truth_by_vicon_name() -> None:
         sub.close()
         pub.close()
         context.term()
+
+
+def test_truth_subscriber_reads_a_fleet_served_by_two_processes() -> None:
+    """`virtual-fleet --robots` splits a fleet over processes, each publishing its own truth: one
+    simulated Tracker (`vicon simulate --truth-port A --truth-port B`) sees every robot."""
+    ports = free_port(), free_port()
+    context = zmq.Context()
+    pubs = [TruthPublisher(context, port) for port in ports]
+    sub = TruthSubscriber(context, ports, {1: "turtlebot1", 2: "turtlebot2"}, max_age=1.0)
+    try:
+        poses: Dict[str, Pose] = {}
+        deadline = time.monotonic() + 5.0
+        while len(poses) < 2 and time.monotonic() < deadline:  # (each publisher its slow joiner)
+            pubs[0].publish(1, time.time(), 1.0, 2.0, 0.0)
+            pubs[1].publish(2, time.time(), 3.0, 4.0, 0.5)
+            time.sleep(0.02)
+            poses = sub.poses(now=10.0)
+        assert poses == {"turtlebot1": Pose(1.0, 2.0, 0.0), "turtlebot2": Pose(3.0, 4.0, 0.5)}
+    finally:
+        sub.close()
+        for pub in pubs:
+            pub.close()
+        context.term()

@@ -110,9 +110,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                    "packets, in Vicon millimetres through the inverse of the "
                                    "frames file's vicon_to_base.")
     truth = p.add_mutually_exclusive_group(required=True)
-    truth.add_argument("--truth-port", type=port, metavar="PORT",
+    truth.add_argument("--truth-port", type=port, action="append", metavar="PORT",
                        help="the virtual fleet's ground-truth port (fleetctl virtual-fleet "
-                            "--truth-port PORT)")
+                            "--truth-port PORT); repeatable, for a fleet served by several "
+                            "processes (virtual-fleet --robots)")
     truth.add_argument("--demo", choices=["circle", "still"],
                        help="no fleet: robots go round a circle, or stand on the lab "
                             "instance's starts")

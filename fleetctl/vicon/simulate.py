@@ -32,7 +32,8 @@ def simulate(args: argparse.Namespace) -> int:
     if args.truth_port is not None:
         source = TruthSubscriber(zmq.Context.instance(), args.truth_port,
                                  {r.id: r.vicon_name for r in robots})
-        truth = "the virtual fleet's truth on tcp://127.0.0.1:{}".format(args.truth_port)
+        truth = "the virtual fleet's truth on {}".format(
+            ", ".join("tcp://127.0.0.1:{}".format(p) for p in args.truth_port))
     elif args.demo == "circle":
         source = CircleTruth([r.vicon_name for r in robots])
         truth = "robots going round a circle"

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import zmq
 
@@ -82,13 +82,18 @@ def decode_truth(data: bytes) -> Optional[Dict[str, Any]]:
 
 
 class TruthSubscriber:
-    """The truth stream by Vicon name (`names`: robot id -> vicon_name); see the docstring."""
+    """The truth stream by Vicon name (`names`: robot id -> vicon_name); see the docstring.
+    `port` may name several ports: a fleet served by several processes (`virtual-fleet
+    --robots`) publishes one stream each, and one SUB socket reads them all."""
 
-    def __init__(self, context: zmq.Context, port: int, names: Mapping[int, str],
+    def __init__(self, context: zmq.Context, port: Union[int, Sequence[int]], names: Mapping[int, str],
                  host: str = "127.0.0.1", max_age: float = 1.0) -> None:
         self.names = dict(names)
         self.max_age = max_age
-        self.socket = subscribe_truth(context, "tcp://{}:{}".format(host, port))
+        ports = [port] if isinstance(port, int) else list(port)
+        self.socket = subscribe_truth(context, "tcp://{}:{}".format(host, ports[0]))
+        for more in ports[1:]:
+            self.socket.connect("tcp://{}:{}".format(host, more))
         self.last: Dict[int, Tuple[float, Pose]] = {}  # robot id -> (received, pose)
         self.frames = 0
         self.bad: Dict[str, int] = {}  # "frame" (not a truth frame), "robot" (not defined)
