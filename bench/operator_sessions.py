@@ -7,7 +7,7 @@ replan and its answer), then the clean-up lab staff would do; it checks that the
 robots came too close; a session that raises counts as one that found something. Prints each such
 session, with what the operator did, and the count; exits non-zero if any did.
 
-    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide] [--dying] [--vicon] [--carrying] [--big]  # seeds FIRST..LAST-1, default 0 200
+    .venv/bin/python bench/operator_sessions.py [FIRST LAST] [--wide] [--dying] [--vicon] [--carrying] [--big] [--faults]  # seeds FIRST..LAST-1, default 0 200
 
 `--wide` varies the run as well (`session`'s `wide`): robots as large as a cell, any strategy from
 the start, rerouting every robot, poses that reach the manager late. `--dying` (with `--wide`):
@@ -17,6 +17,8 @@ position source, the operator switches sources at random and robots are occluded
 `--carrying`: lab staff now and then pick up a robot standing still (most often one that is out)
 and put it down elsewhere, well away from the others, on a cell or between two, or back.
 `--big`: ten to sixteen robots on a random map 8-12 cells on a side instead of the lab's five.
+`--faults`: the robots meet a delay model (late starts, slow drives, stalls anywhere in a move), and
+now and then one robot loses its power alone and comes back a new process.
 """
 from __future__ import annotations
 
@@ -42,12 +44,14 @@ def main() -> int:
     parser.add_argument("--big", action="store_true", help="ten to sixteen robots on a random map")
     parser.add_argument("--carrying", action="store_true",
                         help="lab staff now and then carry a robot standing still elsewhere, or back")
+    parser.add_argument("--faults", action="store_true",
+                        help="delays and stalls in the robots' moves; one robot's power cut now and then")
     args = parser.parse_args()
     began = time.perf_counter()
     bad = 0
     for seed in range(args.first, args.last):
         try:
-            found = session(seed, args.wide, args.dying, args.vicon, args.carrying, args.big)
+            found = session(seed, args.wide, args.dying, args.vicon, args.carrying, args.big, args.faults)
         except Exception as err:  # the manager's worker turns such an error into "replanning failed"
             found = Session(seed, problems=["raised {}: {}".format(type(err).__name__, err)])
         if found.problems:

@@ -30,8 +30,8 @@ from fleet_common.plan import Plan
 from fleet_common.planning.replan import replan
 from fleet_common.robots import RobotDefinition
 from fleet_common.vicon.base_grid import ViconFix
-from fleet_common.wire import CommandExecutor, Pose, PoseFeedback
-from fleet_common.wire.link_events import LinkDown, LinkUp, RobotReply
+from fleet_common.wire import CommandExecutor, Completed, Failed, Pose, PoseFeedback, Status
+from fleet_common.wire.link_events import OUTCOME_UNKNOWN, LinkDown, LinkUp, RobotReply
 from pathlib import Path
 
 from fleet_common.runlog.reader import RunFolder
@@ -72,11 +72,18 @@ class MemoryRobot:
         self.sent_ids: Set[int] = set()
         #: sent while its link was down: they go out when it is up again (as a robot link's do)
         self.queued: List[object] = []
+        #: ids delivered and not settled (no Completed, Failed or Status yet) -> the session they
+        #: reached: a robot restarted since never answers them (its link says so, `link_up`)
+        self.unsettled: Dict[int, str] = {}
 
     def restart(self) -> None:
         """A new process where the robot stands: an empty command memory, a new session."""
         self.executor = CommandExecutor(self.navigator)
         self.session = "s{}".format(int(self.session[1:]) + 1)
+
+    def settled(self, reply: object) -> None:
+        if isinstance(reply, (Completed, Failed, Status)):
+            self.unsettled.pop(reply.id, None)
 
 
 class MemoryVicon:
@@ -245,6 +252,7 @@ class MemoryFleet:
                             "session-2", self.now, vicon=self.vicon is not None, resume=(point, plan))
         for robot in self.robots.values():  # new links come up; the commands sent again reach them
             robot.sent_ids.clear()
+            robot.unsettled.clear()  # (the dead manager's link was waiting for those)
             robot.queued.clear()  # the dead manager's
             if up is None or robot.id in up:
                 robot.up = True
@@ -313,7 +321,9 @@ class MemoryFleet:
     def _deliver(self, robot: MemoryRobot, command: object) -> None:
         robot.commands.append(command)
         robot.sent_ids.add(command.id)  # type: ignore[attr-defined]
+        robot.unsettled[command.id] = robot.session  # type: ignore[attr-defined]
         for _, reply in robot.executor.handle(EPOCH, command):  # type: ignore[arg-type]
+            robot.settled(reply)
             self._replies.append(RobotReply(robot.id, reply))
 
     def finish_plans(self) -> None:
@@ -338,14 +348,30 @@ class MemoryFleet:
             self.core.load_ready(job.id, loaded, error, self.now)
 
     def link_up(self, robot_id: Optional[int] = None, restarted: bool = False) -> None:
+        """The link comes (back) up; `restarted`: to a robot that restarted (`power_cut`) since,
+        whose link then fails what the old process never answered, as the robot link does."""
         for robot in self._chosen(robot_id):
             robot.up = True
             queued, robot.queued = robot.queued, []
             for command in queued:
                 self._deliver(robot, command)
             self.core.link_event(LinkUp(robot.id, robot.session, restarted), self.now)
+            for cid, session in list(robot.unsettled.items()):
+                if session != robot.session:  # (replies are handed to the core after the LinkUp)
+                    del robot.unsettled[cid]
+                    self._replies.append(RobotReply(robot.id, Failed(cid, "robot {} restarted while command {} "
+                                                                          "was in flight; {}".format(
+                                                                              robot.id, cid, OUTCOME_UNKNOWN))))
         self.feedback()
         self.pump()
+
+    def power_cut(self, robot_id: int) -> None:
+        """Robot `robot_id` alone loses power: it stops where it stands, its link drops, and it
+        comes back (`link_up(robot_id, restarted=True)`) a new process that remembers nothing."""
+        robot = self.robots[robot_id]
+        robot.navigator.halt()
+        robot.restart()
+        self.link_down(robot_id, "silent for 3.5 s")
 
     def link_down(self, robot_id: int, reason: str = "silent for 3.5 s") -> None:
         self.robots[robot_id].up = False
@@ -395,6 +421,7 @@ class MemoryFleet:
             if robot.up:
                 for _, reply in robot.executor.poll():
                     if reply.id in robot.sent_ids:
+                        robot.settled(reply)
                         self._replies.append(RobotReply(robot.id, reply))
         truth = [(rid, r.navigator.true_pose()) for rid, r in self.robots.items()]
         for i, (a, p) in enumerate(truth):

@@ -31,6 +31,7 @@ from typing import List, Tuple
 
 import numpy as np
 
+from fleet_common.delays import parse_delay_model
 from fleet_common.formats.instance import make_instance
 from fleet_common.grid import Grid
 from fleet_common.plan_loading import LoadedPlan, PlanLoadError, from_instance
@@ -41,6 +42,7 @@ from fleet_manager.driver import AT_CELL
 from fleet_manager.settings import ManagerSettings
 from memory_fleet import MemoryFleet, MemoryVicon, lab_fleet
 from test_manager_core import lab
+from virtual_fleet.delays import FleetDelays
 
 #: what the operator may press; "wait" lets the run go on; "link" drops a robot's link, "restart"
 #: kills the manager and starts another on its records
@@ -48,6 +50,10 @@ PRESSES = ("pause", "start", "step", "disable", "enable", "replan", "halt", "str
            "wait", "wait", "wait")
 #: and in a wide session: stop, the reroute mode and scope, reset (back to the starts, run again)
 WIDE_PRESSES = ("stop", "reroute", "reset")
+#: `faults` sessions' delay models (`fleetctl simulate --delay-model`), one drawn a session: the
+#: League of Robot Runners' delays, stalls anywhere in a move, slow drives
+FAULT_MODELS = ("events=bernoulli:0.1:1-5", "events=bernoulli:0.3:1-5", "stall=0.1:3", "slow=0.2:2,stall=0.05:2",
+                "delay=0.3,stall=0.1:2")
 
 
 def carry_to(f: MemoryFleet, rid: int, x: float, y: float) -> None:
@@ -132,7 +138,7 @@ def lost_in(reason: str) -> List[int]:
 
 
 def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = False,
-            carrying: bool = False, big: bool = False) -> Session:
+            carrying: bool = False, big: bool = False, faults: bool = False) -> Session:
     """One random session (see the module docstring). `wide`: the run varies too, drawn from a
     second generator (the operator's presses stay those of the narrow session's seed): robots as
     large as a cell, the run started under any strategy, rerouting every robot (scope all), and
@@ -149,7 +155,10 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
     from the others, and sometimes back where it was (draws of their own too); the run's own count
     of pairs too close then does not judge (it reads a robot carried across the floor as one
     driving through the others' cells), the truth does. `big`: ten to sixteen robots on a random
-    map instead of the lab's (`big_floor`, draws of its own)."""
+    map instead of the lab's (`big_floor`, draws of its own). `faults`: the robots meet a delay
+    model (late starts, slow drives, stalls anywhere in a move: `FAULT_MODELS`), and between the
+    presses a robot now and then loses its power alone: it stops where it stands and comes back a
+    new process that remembers no command (draws of their own too)."""
     rng = random.Random(seed)
     out = Session(seed)
     reroute = rng.choice(["off", "auto"])
@@ -175,6 +184,15 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         if rng.random() < 0.3:
             robot.navigator.bumps = {rng.randint(1, 4)}
             robot.navigator.bump_seconds = 0.5
+    fate = random.Random(seed * 7919 + 6)  # `faults`: its own draws, the presses stay the seed's
+    if faults:
+        spec = fate.choice(FAULT_MODELS)
+        model = parse_delay_model(spec)
+        for i, robot in enumerate(f.robots.values()):  # a nominal move: one cell at the fleet's speed
+            robot.navigator.model = FleetDelays(model, nominal_s=0.5, seed=seed, num_robots=n, index=i)
+            robot.navigator.rng = random.Random(fate.random())
+        out.log.append((0.0, "delays", {"model": spec}, True, ""))
+    unpowered: set = set()  # `faults`: robots that lost their power, not back yet
     consoles = [f.console()]  # the operator's console; a new one after a restart
     f.link_up()
 
@@ -211,6 +229,9 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         for rid in sorted(down):
             f.link_up(rid)
         down.clear()
+        for rid in sorted(unpowered):
+            f.link_up(rid, restarted=True)
+        unpowered.clear()
 
     def answer_proposal(choice: str) -> None:
         if f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20):
@@ -245,7 +266,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         when the run has seen the robot put down and stopped it)."""
         if f.phase not in ("running", "paused", "stopped"):
             return
-        still = [rid for rid, r in f.robots.items() if not r.navigator.moving and rid not in down]
+        still = [rid for rid, r in f.robots.items() if not r.navigator.moving and rid not in down | unpowered]
         # (not one whose link is down: nothing tells the manager where it is until it is back up)
         back = [rid for rid in still if rid in taken_from and clear(rid, *taken_from[rid])]
         if back and hand.random() < 0.3:
@@ -321,6 +342,17 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             if rng.random() < 0.5:
                 f.link_up(rid)
                 down.discard(rid)
+        for rid in sorted(unpowered):  # back, a new process
+            if fate.random() < 0.6:
+                f.link_up(rid, restarted=True)
+                unpowered.discard(rid)
+                out.log.append((round(f.now, 1), "back", {"robot": rid}, True, ""))
+        if faults and fate.random() < 0.2:
+            rid = fate.randint(1, n)
+            if rid not in down | unpowered:
+                f.power_cut(rid)
+                unpowered.add(rid)
+                out.log.append((round(f.now, 1), "power cut", {"robot": rid}, True, ""))
         if vicon and eye.random() < 0.3:
             occlude()
         if vicon and eye.random() < 0.3:
@@ -337,7 +369,7 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
             continue
         if action == "link":
             rid = rng.randint(1, n)
-            if rid not in down:
+            if rid not in down | unpowered:
                 f.link_down(rid)
                 down.add(rid)
                 out.log.append((round(f.now, 1), "link down", {"robot": rid}, True, ""))
