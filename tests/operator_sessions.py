@@ -416,8 +416,11 @@ def session(seed: int, wide: bool = False, dying: bool = False, vicon: bool = Fa
         if vicon:
             own_poses_if_lost(out.log[-1][4])
         # (a way back to the starts, after a reset, ends waiting for Start: pressed next round)
-        if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck(), 90):
+        if not f.run_until(lambda: f.phase in ("done", "waiting") or f.core.run.stuck() or
+                           f.core.run.replanner.proposal_id is not None, 90):
             break
+        if f.core.run.replanner.proposal_id is not None:  # made once a robot back from a power cut
+            continue  # finished its move (`faults` 155): answered next round
         if f.phase == "done":  # done with a robot still out (seed 1511 of `--carrying`: a replan made as told
             if all(o is None for o in f.core.run.engine.run.out):  # ended the run before staff enabled it):
                 break

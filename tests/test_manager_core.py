@@ -260,6 +260,46 @@ def test_a_robot_restarted_mid_move_is_asked_where_it_is_and_nothing_runs_twice(
     assert len(moves) == len(set(moves)) == f.core.run.engine.table.count(0)
 
 
+@pytest.mark.parametrize("said", [True, False])
+def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monkeypatch, said):
+    """Found by the in-memory `--faults` sessions (155): robot 5 lost its power in the middle of a
+    move and a replan was asked for. The replan waits for every robot to finish its move, and
+    robot 5 cannot until it is back, but the line said only "waiting for every robot to finish its
+    move" (20 s there) and went on saying it beside the proposal. Now it names the robot and what
+    to do; back, the robot is sent its move again, finishes it, and the line says the proposal. The
+    control keeps the old words."""
+    if not said:
+        monkeypatch.setattr(core.RunCore, "_say_replan_waits", lambda self: None)
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    flight = lambda: f.core.fleet.by_id[2].flight  # noqa: E731
+    assert f.run_until(lambda: flight() is not None and flight().kind == "drive" and f.robots[2].navigator.moving, 10)
+    f.advance(0.1)
+    f.power_cut(2)
+    stopped = f.robots[2].navigator.true_pose()
+    assert f.ask(ops, "replan").ok
+    f.advance(3.0)
+    waits = "replanning: waiting for every robot to finish its move"
+    if not said:
+        assert ops.state.run.reason == waits
+        return
+    assert ops.state.run.reason == ("replanning: robot 2 lost its link in the middle of a move: waiting until it is "
+                                    "back and has finished it (power it on, check its network)"), ops.state.run.reason
+    assert f.core.run.replanner.proposal_id is None and f.robots[2].navigator.true_pose() == stopped
+    f.link_up(2, restarted=True)
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
+    f.advance(0.1)
+    assert any("robot 2 restarted before reaching" in line and "sending the move again" in line for line in f.said)
+    pose = f.robots[2].navigator.true_pose()
+    assert (pose.x, pose.y) != (stopped.x, stopped.y) and abs(pose.x - round(pose.x)) + abs(pose.y - round(pose.y)) < 1e-6
+    assert ops.state.run.reason == "replan {} proposed (planned by pp): accept or reject it".format(
+        f.core.run.replanner.proposal_id)
+    assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok  # (the run goes on)
+    assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
+
+
 def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
     f = fleet()
     f.robots[2].navigator.bumps = {1}

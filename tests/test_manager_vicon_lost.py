@@ -110,15 +110,16 @@ def test_a_replan_waiting_for_vicon_says_so_in_its_line_and_what_to_do() -> None
     """Robot 3 is occluded while a replan waits for the robots to stop. The robots stand, and the
     replan waits for a pose of robot 3 taken since its last move. Its line said "waiting for every
     robot to finish its move" all along (a live Vicon session, 1023: 33 s). It names the robot
-    now, and what to do; choosing robot 3's own pose lets the replan go on, and the line is
-    back. The control keeps the old line."""
+    now, and what to do; choosing robot 3's own pose lets the replan go on, and the line says
+    what comes of it: the proposal. The control keeps the old line."""
     f, ops = replan_waiting_for_robot_3()
     assert ops.state.run.reason == ("replanning: Vicon has not seen robot 3 since its last move: wait until it "
                                     "does, or choose the robot's own pose (position source)"), ops.state.run.reason
     assert f.ask(ops, "source", source="robot", robot=3).ok
     assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
     f.advance(0.1)
-    assert ops.state.run.reason == "replanning: waiting for every robot to finish its move"
+    assert ops.state.run.reason.startswith("replan {} proposed (".format(f.core.run.replanner.proposal_id))
+    assert ops.state.run.reason.endswith("): accept or reject it")
 
 
 def test_a_replan_line_that_does_not_name_the_robot_vicon_lost_is_caught(monkeypatch) -> None:

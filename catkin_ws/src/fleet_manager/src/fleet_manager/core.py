@@ -57,7 +57,7 @@ from .replanning import SAFE_POINT, going_on, leans_into, stood_on, walled
 from .rerouting import moved_since, moved_words
 from .resume import ResumePoint, off_plan, passes_near, walls_around
 from .robot import HALTED, RESUMING, VICON, Fleet, Robot, Seen
-from .run import PLAN, Run, lost_words
+from .run import PLAN, Run, cut_off_words, lost_words
 from .run_phase import RUNNING
 from .settings import ManagerSettings
 from .state_view import build_state, proposal, reroute_proposal, robot_waits
@@ -212,7 +212,7 @@ class RunCore:
                 self.out.tell("plan", None, "replan given up: " + blocked)
         if run.replanner.state != SAFE_POINT:
             self._replan_line = None
-        elif not run.driver.moving:
+        else:
             self._say_replan_waits()
         if run.replanner.state == SAFE_POINT and not run.driver.moving and all(
                 r.pose_settled() for r in self.fleet.robots if r.link_up):
@@ -232,6 +232,8 @@ class RunCore:
             else:
                 self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
                                                {a: here[a] for a in on}, run.progress()))
+                self._replan_line = None
+                run.replan_says("replanning: planning from where the robots stand")
         said = operator.way_after(run, now)
         if said:
             self.out.tell("run", None, said)
@@ -295,19 +297,25 @@ class RunCore:
         return out, on
 
     def _say_replan_waits(self) -> None:
-        """The line of a replan waiting at its safe point for Vicon to see a robot again (the pose
-        the run uses is older than the robot's last move) says so, and what the operator can do;
-        back to what it said once it waits for none (a robot settled is not lost). (A live Vicon session,
-        1023: 33 s of "waiting for every robot to finish its move", the robots long standing.)"""
+        """The line of a replan waiting at its safe point for a robot whose link is down in the
+        middle of a move (it may be driving on, or have lost its power: it finishes that move
+        once it is back), or for Vicon to see a robot again (the pose the run uses is older than
+        the robot's last move), says so, and what the operator can do; back to what it said once
+        it waits for none (a robot settled is not lost). (A live Vicon session, 1023: 33 s of
+        "waiting for every robot to finish its move", the robots long standing; a robot's power
+        cut, in-memory `--faults` 155: the same for 20 s, robot 5's link down.)"""
         run = self.run
         if run.replan_said is None or run.phase.reason != run.replan_said:
             return  # the replan's line is no longer up: somebody said something else since
-        lost = [r.id for r in self.fleet.robots
-                if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()]
-        if lost:
+        robots = self.fleet.robots
+        cut = [r.id for r in robots if not r.link_up and r.flight is not None]
+        lost = [r.id for r in robots if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()
+                ] if not any(r.link_up and r.flight is not None for r in robots) else []
+        if cut or lost:
             if self._replan_line is None:
                 self._replan_line = run.phase.reason
-            run.say("replanning: " + lost_words(lost))
+            run.say("replanning: " + "; ".join(([cut_off_words(cut)] if cut else []) +
+                                               ([lost_words(lost)] if lost else [])))
         elif self._replan_line is not None:
             run.say(self._replan_line)
             self._replan_line = None
@@ -505,6 +513,8 @@ class RunCore:
         self.out.desk.bump(message if replanner.pending is None else
                            "replan {} proposed".format(replanner.pending.id))
         if replanner.pending is not None:
+            self.run.replan_says("replan {} proposed ({}): accept or reject it".format(replanner.pending.id,
+                                                                                      replanner.pending.result.message))
             self.out.broadcast(proposal(replanner.pending, self.fleet, self.run.loaded.name))
             if self.settings.accept:  # scripts: --accept takes every proposal
                 ok, reason = operator.apply(self.run, "accept", {"proposal": replanner.pending.id}, now)

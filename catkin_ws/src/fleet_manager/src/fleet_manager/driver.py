@@ -371,8 +371,9 @@ class Driver:
                     self._progress(robot, ActionStarted(robot.agent, d.index, now), now)
                 self._completed(robot, InFlight(-1, "drive", d.index, now, d.dst), now)
                 return
-            self.out.tell("link", robot.id, "robot {} restarted before reaching {}: sending the "
-                          "move again".format(robot.id, self.show(d.dst)))
+            self.out.tell("link", robot.id, "robot {} restarted before reaching {}: {}".format(
+                robot.id, self.show(d.dst), "sending the move again" if self.engine.run.out[robot.agent] is None
+                else "it is out; the move goes again once it is enabled"))
         self.pump(robot, now)
 
     # ---- operator actions that need commands ---------------------------------------------

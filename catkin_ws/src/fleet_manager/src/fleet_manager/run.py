@@ -312,6 +312,13 @@ class Run:
         self.move("replan", reason)
         self.replan_said = self.phase.reason
 
+    def replan_says(self, line: str) -> None:
+        """The open replan's line moves on (planning, proposed), if it is still the one the replan
+        put up: the line said "waiting for every robot to finish its move" beside the proposal."""
+        if self.replan_said is not None and self.phase.reason == self.replan_said:
+            self.say(line)
+            self.replan_said = self.phase.reason
+
     def replan_ended(self, why: str) -> None:
         """The open replan is answered, given up or failed: `why` becomes the phase's reason if it
         still reads what the replan put up (after a takeover, "replanning robots off the plan"
@@ -848,6 +855,16 @@ def lost_words(ids: List[int]) -> str:
     return ("Vicon has not seen robot{} {} since {} last move: wait until it does, or choose {} own "
             "pose{} (position source)".format("" if one else "s", _ids(ids), "its" if one else "their",
                                               "the robot's" if one else "the robots'", "" if one else "s"))
+
+
+def cut_off_words(ids: List[int]) -> str:
+    """What a replan waits for from robots whose link went down in the middle of a move: they
+    finish it once they are back (a robot that lost its power is sent it again)."""
+    one = len(ids) == 1
+    return ("robot{} {} lost {} link in the middle of a move: waiting until {} back and {} finished "
+            "it (power {} on, check {} network)".format(
+                "" if one else "s", _ids(ids), "its" if one else "their", "it is" if one else "they are",
+                "has" if one else "have", "it" if one else "them", "its" if one else "their"))
 
 
 def _ids(ids: List[int]) -> str:
