@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+from collections import deque
 import sys
 from typing import List, Optional, Tuple
 
@@ -298,6 +299,52 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
         f.core.run.replanner.proposal_id)
     assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok  # (the run goes on)
     assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
+
+
+def _old_drop_pending(self, robot) -> None:  # before in-memory `--faults` 544: a drive in flight only
+    flight = robot.flight
+    robot.queue = deque(d for d in robot.queue if flight is not None and flight.kind == "drive" and
+                        d.index == flight.index)
+
+
+@pytest.mark.parametrize("kept", [True, False])
+def test_a_robot_disabled_while_powered_off_makes_its_move_once_enabled_under_a_manager_resumed(
+        monkeypatch, kept):
+    """Found by the in-memory `--faults` sessions (387, 544): robot 2 lost its power in the middle
+    of a move and was disabled; back, a new process, it was told its move goes again once it is
+    enabled. The manager then died, and the one resumed from its records dropped that move, as it
+    drops the moves a disabled robot has not begun; the engine still had it under way. Enabled,
+    robot 2 was sent nothing, and the run stood still between cells with no word. Now a move
+    begun stays with its robot. The control drops it as before."""
+    from fleet_manager.driver import Driver
+    if not kept:
+        monkeypatch.setattr(Driver, "drop_pending", _old_drop_pending)
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    flight = lambda: f.core.fleet.by_id[2].flight  # noqa: E731
+    assert f.run_until(lambda: flight() is not None and flight().kind == "drive" and f.robots[2].navigator.moving, 10)
+    f.advance(0.1)
+    f.power_cut(2)
+    f.advance(0.2)  # (the console sees robot 2's link down)
+    assert f.ask(ops, "disable", robot=2).ok
+    f.advance(1.0)
+    f.link_up(2, restarted=True)
+    f.advance(0.5)
+    assert any("robot 2 restarted before reaching" in line and "once it is enabled" in line for line in f.said)
+    f.kill_manager()
+    f.advance(1.0)
+    f.resume_manager()
+    ops = f.console()
+    f.advance(0.5)
+    assert f.ask(ops, "enable", robot=2).ok and f.ask(ops, "start").ok
+    home = f.run_until(lambda: done(f), 60)
+    assert home == kept, f.core.run.phase.reason
+    if kept:
+        assert f.at_goals() and f.core.summary().collisions == 0
+    else:  # stuck, and nobody says why
+        assert not f.core.run.driver.moving and f.core.run.phase.reason == ""
 
 
 def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():

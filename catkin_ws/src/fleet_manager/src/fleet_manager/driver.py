@@ -411,11 +411,15 @@ class Driver:
         return True
 
     def drop_pending(self, robot: Robot) -> None:
-        """The engine took `robot`'s unsent actions back (disabled): forget them here too."""
+        """The engine took `robot`'s unsent actions back (disabled): forget them here too. A move
+        the robot began stays: a drive in flight finishes, and a move whose outcome the robot lost
+        (it restarted: `_recovered`) goes again once it is enabled, since the engine still has it
+        under way (in-memory `--faults` 544: disabled while powered off, or by a manager resumed
+        after, the robot was enabled to nothing, and the run stood still with no word)."""
         flight = robot.flight
-        keep = [d for d in robot.queue if d.index == flight.index] if (
-            flight is not None and flight.kind == "drive") else []
-        robot.queue = deque(keep)
+        drive = flight.index if flight is not None and flight.kind == "drive" else None
+        begun = self.engine.run.started[robot.agent]
+        robot.queue = deque(d for d in robot.queue if d.index == drive or d.index < begun)
 
     @property
     def moving(self) -> bool:
