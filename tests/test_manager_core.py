@@ -301,7 +301,7 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
     assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
 
 
-def _old_drop_pending(self, robot) -> None:  # before in-memory `--faults` 544: a drive in flight only
+def drop_pending_before_544(self, robot) -> None:  # before in-memory `--faults` 544: a drive in flight only
     flight = robot.flight
     robot.queue = deque(d for d in robot.queue if flight is not None and flight.kind == "drive" and
                         d.index == flight.index)
@@ -318,7 +318,7 @@ def test_a_robot_disabled_while_powered_off_makes_its_move_once_enabled_under_a_
     begun stays with its robot. The control drops it as before."""
     from fleet_manager.driver import Driver
     if not kept:
-        monkeypatch.setattr(Driver, "drop_pending", _old_drop_pending)
+        monkeypatch.setattr(Driver, "drop_pending", drop_pending_before_544)
     f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
     ops = f.console()
     f.link_up()

@@ -14,7 +14,9 @@ tests/test_manager_core.py.) Each makes sessions fail, so the checks can fail. T
 Vicon (`session`'s `vicon`) have a control of their own: a pose Vicon lost taken for where a
 robot is; and Vicon seed 2839 one: a replan through the cell a robot with no pose stands half in.
 The sessions where lab staff carry robots (`carrying`) have theirs: a robot moved by hand not
-noticed. Every session is judged by the robots' true poses as well as by the run's own count.
+noticed. The sessions with delays, stalls and one robot's power cuts (`faults`) have theirs: a
+disabled robot's begun move dropped. Every session is judged by the robots' true poses as well as
+by the run's own count.
 """
 from __future__ import annotations
 
@@ -31,6 +33,7 @@ from fleet_manager.robot import VICON, Robot
 from fleet_manager import run as run_module
 from fleet_manager.run import Run
 from operator_sessions import session
+from test_manager_core import drop_pending_before_544
 
 SEEDS = range(40)
 #: wide sessions on Vicon (bench/operator_sessions.py --wide --vicon runs more)
@@ -785,3 +788,18 @@ def test_a_follower_at_its_hold_point_takes_part_in_a_replan() -> None:
 def test_a_follower_at_its_hold_point_planned_around_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(core, "clear_of", lambda pose, far, safe: False)
     assert session(1430, big=True, carrying=True).problems
+
+
+def test_sessions_with_delays_stalls_and_power_cuts_end_and_tell_the_truth() -> None:
+    """`faults` sessions: the robots meet a delay model (late starts, slow drives, stalls anywhere in
+    a move), and now and then one loses its power alone and comes back a new process; narrow and
+    wide. Seed 544 (narrow) is the one that found a disabled robot's begun move dropped."""
+    bad = [(s.seed, s.problems) for s in (session(seed, faults=True) for seed in [*range(20), 544]) if s.problems]
+    bad += [(s.seed, s.problems) for s in (session(seed, wide=True, faults=True) for seed in range(20))
+            if s.problems]
+    assert not bad, bad
+
+
+def test_a_begun_move_dropped_from_a_disabled_robot_is_caught(monkeypatch) -> None:
+    monkeypatch.setattr(driver_module.Driver, "drop_pending", drop_pending_before_544)
+    assert session(544, faults=True).problems
