@@ -8,7 +8,7 @@ chain has is exercised with it: requests and answers racing the States, poses th
 the sockets deliver them, a manager killed outright (SIGKILL) and started again with
 `--resume` on its run folder, bumpers pressed in the virtual robots, one robot losing its
 power alone (its own virtual-fleet process: a TurtleBot's laptop that died) and coming
-back where it stood.
+back where it stood; and the fleet may meet a delay model (late starts, stalls, slow drives).
 
 A session: the lab plan under a random strategy, rerouting on or off, bumpers pressed in
 some drives; 3-10 random presses (pause, start, step, halt, stop, disable, enable, a
@@ -50,6 +50,9 @@ __all__ = ["LiveSession", "live_session", "PRESSES"]
 #: the operator's buttons, and waiting (the run goes on)
 PRESSES = ("pause", "start", "step", "halt", "stop", "disable", "enable", "strategy", "replan", "reroute",
            "restart", "reset", "reboot", "wait", "wait")
+#: the fleet's delay model, one drawn a session (`fleetctl virtual-fleet --delay-model`): none, the
+#: League of Robot Runners' delays, stalls anywhere in a move with slow drives
+DELAY_MODELS = ("none", "none", "events=bernoulli:0.1:1-5", "stall=0.1:2,slow=0.1:2")
 SCALE = 4.0  # the fleet's time scale: a drive of one cell in about half a second
 ANSWER = 15.0  # seconds a request may wait for its answer (a manager answers within a loop turn)
 AT_GOAL = 0.05  # cells
@@ -84,11 +87,12 @@ def live_session(seed: int, folder: Path, vicon: bool = False) -> LiveSession:
     manager_args = ("--log", runs, "--step-time", str(round(2.5 / SCALE, 3)), "--strategy", strategy,
                     "--reroute", reroute)
     lone = cut.randint(1, 5)
-    setup = {"strategy": strategy, "reroute": reroute, "bumps": sorted(bumps), "alone": lone}
+    delays = cut.choice(DELAY_MODELS)
+    setup = {"strategy": strategy, "reroute": reroute, "bumps": sorted(bumps), "alone": lone, "delays": delays}
     truth_port = free_port_block(3) if vicon else 0
     udp = truth_port + 2
     fleet = SplitFleet(folder, definitions, feedback, ([r for r in range(1, 6) if r != lone], [lone]), bumps,
-                       truth_port)
+                       truth_port, ("--delay-model", delays, "--seed", seed))
     others: List[Proc] = []
     if vicon:
         hidden = [a for rid in eye.sample(range(1, 6), eye.randint(0, 2)) for a in (
@@ -221,9 +225,9 @@ class SplitFleet:
     writes a truth file of its own (`truths`: part, path; the parts' clocks are both wall time)."""
 
     def __init__(self, folder: Path, definitions: Path, feedback: int, parts: Tuple[List[int], ...],
-                 bumps: Dict[int, int], truth_port: int) -> None:
+                 bumps: Dict[int, int], truth_port: int, extra: Tuple[object, ...] = ()) -> None:
         self.folder, self.definitions, self.feedback = folder, definitions, feedback
-        self.parts, self.bumps, self.truth_port = parts, bumps, truth_port
+        self.parts, self.bumps, self.truth_port, self.extra = parts, bumps, truth_port, extra
         self.procs: List[Proc] = []
         self.truths: List[Tuple[int, Path]] = []
         self.running: Dict[int, Proc] = {}
@@ -238,7 +242,7 @@ class SplitFleet:
         truth = self.folder / "truth-{}.jsonl".format(len(self.truths))
         ids = self.parts[part]
         args: List[object] = ["--robots", ",".join(map(str, ids)), "--truth", truth, "--time-scale", SCALE,
-                              "--state", self.folder / "fleet-state-{}.json".format(part)]
+                              "--state", self.folder / "fleet-state-{}.json".format(part), *self.extra]
         args += [a for rid in ids if rid in self.bumps for a in ("--bump", "{}@{}".format(rid, self.bumps[rid]))]
         if self.truth_port:
             args += ["--truth-port", self.truth_port + part]
