@@ -229,6 +229,10 @@ class MemoryFleet:
         self.pump()
         self.core = None  # type: ignore[assignment]
         self._replies.clear()
+        # the poses on their way reach no socket either: a new manager hears only what the robots
+        # send once it is there (wide Vicon `faults` 256: a pose from before the death, heard late,
+        # had a robot that drove on while no manager ran back where it had been)
+        self._poses.clear()
         if self.vicon is not None:  # its datagrams reach no socket
             self.vicon.in_flight.clear()
         for robot in self.robots.values():

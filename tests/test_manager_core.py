@@ -347,6 +347,48 @@ def test_a_robot_disabled_while_powered_off_makes_its_move_once_enabled_under_a_
         assert not f.core.run.driver.moving and f.core.run.phase.reason == ""
 
 
+@pytest.mark.parametrize("forgot", [True, False])
+def test_a_robot_restarted_standing_is_not_taken_for_moving_by_a_late_pose_of_its_old_process(
+        monkeypatch, forgot):
+    """Found by the in-memory `--wide --dying --faults` sessions (45): robot 4 lost its power and came
+    back a new process, and a pose its old process had sent, heard late (poses 0.3 s late here),
+    named the last motion the manager had seen it accept. The new process's poses name none, so
+    none of them ever counted as taken since that motion ended, and a replan waited for ever for
+    the robot to finish its move. A robot that restarted has accepted nothing yet: the manager now
+    forgets what its old process accepted. The control keeps it."""
+    from fleet_manager.driver import Driver
+    if not forgot:
+        link_up = Driver.link_up
+
+        def remembering(self, robot, restarted, now):  # the link up before: `answered` kept
+            answered = robot.answered
+            link_up(self, robot, restarted, now)
+            robot.answered = answered
+        monkeypatch.setattr(Driver, "link_up", remembering)
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2), pose_lag=0.3)
+    ops = f.console()
+    f.link_up()
+    f.advance(0.5)  # (the first poses come in)
+    assert f.ask(ops, "start").ok
+    assert f.run_until(lambda: f.core.run.engine.run.completed[1] >= 2, 20)
+    assert f.ask(ops, "disable", robot=2).ok
+    assert f.run_until(lambda: not f.robots[2].navigator.moving and f.core.fleet.by_id[2].flight is None, 10)
+    f.advance(0.5)
+    assert f.core.fleet.by_id[2].answered is not None
+    f.power_cut(2)
+    f.link_up(2, restarted=True)  # back at once: its old process's last poses are still on their way
+    f.advance(1.0)
+    assert f.ask(ops, "replan").ok
+    proposed = f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 20)
+    assert proposed == forgot, ops.state.run.reason
+    if not forgot:  # robot 2, standing, is waited for: no pose of it counts
+        assert not f.core.fleet.by_id[2].pose_settled() and not f.robots[2].navigator.moving
+    else:
+        assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok
+        assert f.ask(ops, "enable", robot=2).ok
+        assert f.run_until(lambda: done(f)) and f.at_goals()
+
+
 def test_a_bumper_fault_holds_the_robot_until_an_operator_enables_it():
     f = fleet()
     f.robots[2].navigator.bumps = {1}

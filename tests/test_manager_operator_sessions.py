@@ -797,6 +797,10 @@ def test_sessions_with_delays_stalls_and_power_cuts_end_and_tell_the_truth() -> 
     bad = [(s.seed, s.problems) for s in (session(seed, faults=True) for seed in [*range(20), 544]) if s.problems]
     bad += [(s.seed, s.problems) for s in (session(seed, wide=True, faults=True) for seed in range(20))
             if s.problems]
+    # a restarted robot's old process's late pose (wide dying 45), and a robot that came back and drove
+    # on while no manager ran (wide Vicon 256)
+    bad += [(s.seed, s.problems) for s in (session(45, wide=True, dying=True, faults=True),
+                                           session(256, wide=True, vicon=True, faults=True)) if s.problems]
     assert not bad, bad
 
 

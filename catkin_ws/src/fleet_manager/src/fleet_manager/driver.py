@@ -217,6 +217,8 @@ class Driver:
         self.out.record("link", robot=robot.id, state="up", reason="", restarted=restarted)
         self.out.tell("link", robot.id, "robot {} {}".format(
             robot.id, "is back (restarted)" if restarted else "link up"))
+        if restarted:  # a new process has accepted nothing: its idle poses name no motion of the old
+            robot.answered = None  # one (wide dying `faults` 45: a replan waited for ever for a pose that did)
         if robot.hold == RECOVER or restarted:
             self._ask_where(robot)
         self.pump(robot, now)
