@@ -356,6 +356,8 @@ class MemoryFleet:
         whose link then fails what the old process never answered, as the robot link does."""
         for robot in self._chosen(robot_id):
             robot.up = True
+            if restarted:  # the link subscribes afresh: the old process's poses on their way are lost
+                self._poses = [(t, p) for t, p in self._poses if p.robot_id != robot.id]
             queued, robot.queued = robot.queued, []
             for command in queued:
                 self._deliver(robot, command)

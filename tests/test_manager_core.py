@@ -354,8 +354,10 @@ def test_a_robot_restarted_standing_is_not_taken_for_moving_by_a_late_pose_of_it
     back a new process, and a pose its old process had sent, heard late (poses 0.3 s late here),
     named the last motion the manager had seen it accept. The new process's poses name none, so
     none of them ever counted as taken since that motion ended, and a replan waited for ever for
-    the robot to finish its move. A robot that restarted has accepted nothing yet: the manager now
-    forgets what its old process accepted. The control keeps it."""
+    the robot to finish its move. Now a restarted robot's link subscribes to its poses afresh (the
+    old process's on their way are dropped), and the manager forgets what the old process
+    accepted: a new process has accepted nothing yet. The control keeps what it accepted: the new
+    process's poses, naming no motion, never count."""
     from fleet_manager.driver import Driver
     if not forgot:
         link_up = Driver.link_up

@@ -338,7 +338,9 @@ def test_an_idle_pose_taken_before_a_quick_move_is_caught(monkeypatch) -> None:
         return robot.own is None or robot.own_current is None or (
             robot.flight is not None and robot.own_current == robot.flight.id)
     monkeypatch.setattr(Robot, "own_settled", before)
-    assert session(1994, wide=True).problems and session(941, wide=True).problems
+    # (941 no longer meets it: its late pose had been taken before the manager died, and since
+    # in-memory `faults` 256 the poses on their way die with the manager, as on the wire)
+    assert session(1994, wide=True).problems
 
 
 def test_the_way_to_the_starts_has_a_robot_left_leaning_into_a_cell_it_walled_off_where_it_stands() -> None:

@@ -132,7 +132,6 @@ class RunCore:
             driver.reply(robot, event.reply, now)
         elif isinstance(event, LinkUp):
             robot.link, robot.link_reason = "up", ""
-            robot.says_ended = False  # (a robot process started again has ended nothing yet)
             driver.link_up(robot, event.restarted, now)
         elif isinstance(event, LinkDown):
             robot.link, robot.link_reason = ("failed" if event.fatal else "down"), event.reason

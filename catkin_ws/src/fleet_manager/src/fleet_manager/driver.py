@@ -217,8 +217,12 @@ class Driver:
         self.out.record("link", robot=robot.id, state="up", reason="", restarted=restarted)
         self.out.tell("link", robot.id, "robot {} {}".format(
             robot.id, "is back (restarted)" if restarted else "link up"))
-        if restarted:  # a new process has accepted nothing: its idle poses name no motion of the old
-            robot.answered = None  # one (wide dying `faults` 45: a replan waited for ever for a pose that did)
+        if restarted:  # a new process has accepted nothing, and its idle poses name no motion until it
+            # has ended one: neither those nor its status are older than a motion of the old process
+            # (wide dying `faults` 45: a replan waited for ever for a pose that named one; until then
+            # a restarted robot's poses all counted, and big wide Vicon `faults` 174 planned from a
+            # status taken before the drive it was sent next)
+            robot.answered = None
         if robot.hold == RECOVER or restarted:
             self._ask_where(robot)
         self.pump(robot, now)

@@ -330,8 +330,8 @@ class RobotLink:
         restarted = self.session is not None and welcome.session != self.session
         self.session = welcome.session
         self.state = "up"
-        if welcome.feedback_port != self.feedback_port:
-            self._subscribe(welcome.feedback_port)
+        if restarted or welcome.feedback_port != self.feedback_port:  # (restarted: the old process's
+            self._subscribe(welcome.feedback_port)  # poses still on their way are not the new one's)
         events: List[LinkEvent] = [LinkUp(self.robot_id, welcome.session, restarted)]
         for cid, (command, sent_to) in list(self._unsettled.items()):
             if sent_to is not None and sent_to != welcome.session:
