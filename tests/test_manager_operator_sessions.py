@@ -806,6 +806,24 @@ def test_sessions_with_delays_stalls_and_power_cuts_end_and_tell_the_truth() -> 
     assert not bad, bad
 
 
+def test_a_restarted_robot_is_not_planned_from_a_status_taken_before_its_next_drive() -> None:
+    """Big wide Vicon `faults` session 174: robot 8 came back from a power cut, answered where it stood,
+    was sent its move again and stopped halfway by its bumper. Its poses counted whatever motion
+    they named until the new process had ended one, and a replan planned it from that status, on
+    the cell it had left: the plan's first check found it "moved by hand"."""
+    assert not session(174, big=True, wide=True, vicon=True, faults=True).problems
+
+
+def test_a_restarted_robot_s_poses_all_counted_is_caught(monkeypatch) -> None:
+    link_up = driver_module.Driver.link_up
+
+    def before(self, robot, restarted, now):  # before: a link up forgot that the robot's poses name motions
+        robot.says_ended = False
+        link_up(self, robot, restarted, now)
+    monkeypatch.setattr(driver_module.Driver, "link_up", before)
+    assert session(174, big=True, wide=True, vicon=True, faults=True).problems
+
+
 def test_a_begun_move_dropped_from_a_disabled_robot_is_caught(monkeypatch) -> None:
     monkeypatch.setattr(driver_module.Driver, "drop_pending", drop_pending_before_544)
     assert session(544, faults=True).problems
