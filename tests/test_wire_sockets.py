@@ -119,11 +119,13 @@ def test_the_link_comes_back_by_itself_after_the_robot_restarts(fleet, robot, ke
     links = LinkSet([RobotLink(context, robot, "epoch", keys=load_manager_keys(keys))])
     long_drive = links[7].drive_to_position(1.0, 0.0, 30.0)
     collect(links, lambda ev: Accepted(long_drive) in replies(ev))
-    old_session = links[7].session
+    old_session, old_stream = links[7].session, links[7].feedback
     fleet.call_soon(lambda: fleet.drop_out(7, 0.5))  # a power cut, back 0.5 s later
     events = collect(links, lambda ev: any(isinstance(e, LinkUp) for e in ev))
     up = [e for e in events if isinstance(e, LinkUp)][0]
     assert up.restarted and up.session != old_session
+    # its poses are read afresh: none the old process left on the way is taken for the new one's
+    assert links[7].feedback is not None and links[7].feedback is not old_stream
     # the drive's fate is unknown: reported failed, not silently lost or resent
     [failed] = [r for r in replies(events) if isinstance(r, Failed)]
     assert failed.id == long_drive and "restarted" in failed.reason
