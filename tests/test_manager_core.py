@@ -261,6 +261,20 @@ def test_a_robot_restarted_mid_move_is_asked_where_it_is_and_nothing_runs_twice(
     assert len(moves) == len(set(moves)) == f.core.run.engine.table.count(0)
 
 
+def powered_off_in_a_drive() -> Tuple[MemoryFleet, MemoryConsole]:
+    """The lab run at the TurtleBot's size, started; robot 2 loses its power in a drive (its link
+    down, the robot standing where it stopped, a new process once it is back)."""
+    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
+    ops = f.console()
+    f.link_up()
+    assert f.ask(ops, "start").ok
+    flight = lambda: f.core.fleet.by_id[2].flight  # noqa: E731
+    assert f.run_until(lambda: flight() is not None and flight().kind == "drive" and f.robots[2].navigator.moving, 10)
+    f.advance(0.1)
+    f.power_cut(2)
+    return f, ops
+
+
 @pytest.mark.parametrize("said", [True, False])
 def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monkeypatch, said):
     """Found by the in-memory `--faults` sessions (155): robot 5 lost its power in the middle of a
@@ -271,14 +285,7 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
     control keeps the old words."""
     if not said:
         monkeypatch.setattr(core.RunCore, "_say_replan_waits", lambda self: None)
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    ops = f.console()
-    f.link_up()
-    assert f.ask(ops, "start").ok
-    flight = lambda: f.core.fleet.by_id[2].flight  # noqa: E731
-    assert f.run_until(lambda: flight() is not None and flight().kind == "drive" and f.robots[2].navigator.moving, 10)
-    f.advance(0.1)
-    f.power_cut(2)
+    f, ops = powered_off_in_a_drive()
     stopped = f.robots[2].navigator.true_pose()
     assert f.ask(ops, "replan").ok
     f.advance(3.0)
@@ -319,14 +326,7 @@ def test_a_robot_disabled_while_powered_off_makes_its_move_once_enabled_under_a_
     from fleet_manager.driver import Driver
     if not kept:
         monkeypatch.setattr(Driver, "drop_pending", drop_pending_before_544)
-    f = fleet(settings=ManagerSettings(step_time=0.5, size=TURTLEBOT2))
-    ops = f.console()
-    f.link_up()
-    assert f.ask(ops, "start").ok
-    flight = lambda: f.core.fleet.by_id[2].flight  # noqa: E731
-    assert f.run_until(lambda: flight() is not None and flight().kind == "drive" and f.robots[2].navigator.moving, 10)
-    f.advance(0.1)
-    f.power_cut(2)
+    f, ops = powered_off_in_a_drive()
     f.advance(0.2)  # (the console sees robot 2's link down)
     assert f.ask(ops, "disable", robot=2).ok
     f.advance(1.0)
