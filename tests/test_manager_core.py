@@ -23,7 +23,7 @@ from fleet_common.wire import Pose
 from fleet_common.wire.link_events import OUTCOME_UNKNOWN
 from fleet_common.plan_loading import LoadedPlan, load_plan
 from fleet_common.planning.problem import InvalidProblemError
-from fleet_common.execution import reroute
+from fleet_common.execution import Pause, reroute
 from fleet_manager import core, operator
 from fleet_manager import run as run_module
 from fleet_manager.driver import MADE_IT
@@ -306,6 +306,38 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
         f.core.run.replanner.proposal_id)
     assert f.ask(ops, "accept", proposal=f.core.run.replanner.proposal_id).ok  # (the run goes on)
     assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
+
+
+@pytest.mark.parametrize("kept", [True, False])
+def test_a_halt_while_a_replan_waits_does_not_promise_that_start_drives_on(monkeypatch, kept):
+    """A replan waits for robot 2, powered off in a move; the operator halts. The line said "halted by
+    operator: Start drives on", and Start was refused ("a replan is being made"). Now the halt
+    says the replan goes on, and the replan's line comes back naming robot 2; once robot 2 is back,
+    the proposal comes. The control keeps the old line."""
+    if not kept:
+        def old_halt(run, args, now):
+            if not run.engine.paused:
+                run.driver.handle(Pause(now), now)
+            run.driver.halt()
+            run.move("halt", "halted by operator: Start drives on")
+            return True, ""
+        monkeypatch.setitem(operator.ACTIONS, "halt", old_halt)
+    f, ops = powered_off_in_a_drive()
+    assert f.ask(ops, "replan").ok
+    f.advance(2.0)
+    assert f.ask(ops, "halt").ok
+    f.advance(1.0)
+    refused = f.ask(ops, "start")
+    assert not refused.ok and "a replan is being made" in refused.reason
+    if not kept:
+        assert ops.state.run.reason == "halted by operator: Start drives on"
+        return
+    assert ops.state.run.reason.startswith("replanning: robot 2 lost its link in the middle of a move"), \
+        ops.state.run.reason
+    f.link_up(2, restarted=True)
+    assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
+    f.advance(0.1)
+    assert ops.state.run.reason.startswith("replan {} proposed".format(f.core.run.replanner.proposal_id))
 
 
 def drop_pending_before_544(self, robot) -> None:  # before in-memory `--faults` 544: a drive in flight only

@@ -221,7 +221,15 @@ def halt(run: Run, args: Args, now: float) -> Answer:
     if not run.engine.paused:
         run.driver.handle(Pause(now), now)
     run.driver.halt()
-    run.move("halt", "halted by operator: Start drives on")
+    if not run.replanner.open:
+        run.move("halt", "halted by operator: Start drives on")
+        return True, ""
+    # a replan asked for goes on, and Start waits for it: the line says so and stays the replan's
+    # (it said "Start drives on" while a replan waited for a robot powered off in a move, `--faults`)
+    pid = run.replanner.proposal_id
+    run.move("halt", "halted by operator: " + ("replan {} awaits accept or reject".format(pid) if pid is not None
+                                               else "the replan goes on once every robot stands"))
+    run.replan_said = run.phase.reason
     return True, ""
 
 
