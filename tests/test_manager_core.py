@@ -294,7 +294,8 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
         assert ops.state.run.reason == waits
         return
     assert ops.state.run.reason == ("replanning: robot 2 lost its link in the middle of a move: waiting until it is "
-                                    "back and has finished it (power it on, check its network)"), ops.state.run.reason
+                                    "back and has finished it (power it on, check its network), or Stop to give "
+                                    "the replan up"), ops.state.run.reason
     assert f.core.run.replanner.proposal_id is None and f.robots[2].navigator.true_pose() == stopped
     f.link_up(2, restarted=True)
     assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
@@ -338,6 +339,42 @@ def test_a_halt_while_a_replan_waits_does_not_promise_that_start_drives_on(monke
     assert f.run_until(lambda: f.core.run.replanner.proposal_id is not None, 10)
     f.advance(0.1)
     assert ops.state.run.reason.startswith("replan {} proposed".format(f.core.run.replanner.proposal_id))
+
+
+@pytest.mark.parametrize("given_up", [True, False])
+def test_stop_gives_up_a_replan_waiting_for_a_robot_powered_off_and_the_others_drive_on(monkeypatch, given_up):
+    """A replan asked for while robot 2 is powered off in a move waits until it is back; with a
+    battery that died, that is until somebody powers it on. Neither Reject (no proposal yet) nor
+    Start (it waits for the proposal) let the operator go on. Stop now gives that replan up, as its
+    line says; Start drives the others on while robot 2's cells stay its own, and once robot 2 is
+    back it finishes its move and the run ends home. The control keeps Stop as it was: Start
+    stays refused."""
+    if not given_up:
+        def old_stop(run, args, now):
+            if not run.engine.paused:
+                run.driver.handle(Pause(now), now)
+            run.move("stop", "stopped by operator: robots finish their move")
+            return True, ""
+        monkeypatch.setitem(operator.ACTIONS, "stop", old_stop)
+    f, ops = powered_off_in_a_drive()
+    assert f.ask(ops, "replan").ok
+    f.advance(2.0)
+    assert f.ask(ops, "stop").ok
+    f.advance(0.5)
+    line = ops.state.run.reason
+    started = f.ask(ops, "start")
+    if not given_up:
+        assert not started.ok and "a replan is being made" in started.reason
+        return
+    assert started.ok, started.reason
+    assert f.core.run.replanner.state == "idle"
+    assert line.startswith("stopped by operator: replan given up, robot 2 not back; Start drives the others on"), line
+    others = {rid: f.robots[rid].navigator.true_pose() for rid in (1, 3, 4, 5)}
+    f.advance(3.0)
+    assert any(f.robots[rid].navigator.true_pose() != pose for rid, pose in others.items())  # they drive on
+    f.link_up(2, restarted=True)
+    assert f.run_until(lambda: done(f), 120) and f.at_goals() and f.core.summary().collisions == 0
+    assert f.closest is not None and f.closest[0] >= TURTLEBOT2.safe_cells - 1e-6
 
 
 def drop_pending_before_544(self, robot) -> None:  # before in-memory `--faults` 544: a drive in flight only

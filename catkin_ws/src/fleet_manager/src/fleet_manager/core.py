@@ -307,7 +307,7 @@ class RunCore:
         if run.replan_said is None or run.phase.reason != run.replan_said:
             return  # the replan's line is no longer up: somebody said something else since
         robots = self.fleet.robots
-        cut = [r.id for r in robots if not r.link_up and r.flight is not None]
+        cut = run.cut_off()
         lost = [r.id for r in robots if r.link_up and r.source == VICON and r.vicon_lost and not r.pose_settled()
                 ] if not any(r.link_up and r.flight is not None for r in robots) else []
         if cut or lost:

@@ -45,7 +45,7 @@ from fleet_common.plan_loading import LoadedPlan
 from .carried import carried, carried_words, replan_refusal
 from .outbox import REROUTE, LoadJob
 from .plan_requests import SOLVE_LIMIT, Requested, read_requested
-from .replanning import PLANNING, PROPOSED, placed
+from .replanning import PLANNING, PROPOSED, SAFE_POINT, placed
 from .robot import VICON, Robot
 from .run import NO_WAY_HOME, TO_STARTS, Run
 from .run_phase import DONE, PAUSED, RUNNING, STOPPED, WAITING
@@ -198,6 +198,17 @@ def stop(run: Run, args: Args, now: float) -> Answer:
         return False, refusal
     if not run.engine.paused:
         run.driver.handle(Pause(now), now)
+    cut = run.cut_off()
+    if run.replanner.state == SAFE_POINT and cut:
+        # a replan waiting for a robot whose link is down in a move waits until it is back: Stop gives
+        # it up (its line says so), and the others may drive on meanwhile (a battery that died)
+        run.drop_replan()
+        run.replan_said = None
+        run.move("stop", "stopped by operator: replan given up, robot{} {} not back; Start drives the others "
+                         "on, and a replan may be asked for again once {} back".format(
+                             "s" if len(cut) > 1 else "", ", ".join(map(str, cut)),
+                             "it is" if len(cut) == 1 else "they are"))
+        return True, "replan given up"
     run.move("stop", "stopped by operator: robots finish their move")
     return True, ""
 

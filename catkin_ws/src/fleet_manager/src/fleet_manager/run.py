@@ -312,6 +312,11 @@ class Run:
         self.move("replan", reason)
         self.replan_said = self.phase.reason
 
+    def cut_off(self) -> List[int]:
+        """The robots whose link is down in the middle of a move (it may drive on, or have lost its
+        power): nobody knows where they stop until they are back."""
+        return [r.id for r in self.fleet if not r.link_up and r.flight is not None]
+
     def replan_says(self, line: str) -> None:
         """The open replan's line moves on (planning, proposed), if it is still the one the replan
         put up: the line said "waiting for every robot to finish its move" beside the proposal."""
@@ -862,7 +867,7 @@ def cut_off_words(ids: List[int]) -> str:
     finish it once they are back (a robot that lost its power is sent it again)."""
     one = len(ids) == 1
     return ("robot{} {} lost {} link in the middle of a move: waiting until {} back and {} finished "
-            "it (power {} on, check {} network)".format(
+            "it (power {} on, check {} network), or Stop to give the replan up".format(
                 "" if one else "s", _ids(ids), "its" if one else "their", "it is" if one else "they are",
                 "has" if one else "have", "it" if one else "them", "its" if one else "their"))
 
