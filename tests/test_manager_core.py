@@ -309,6 +309,30 @@ def test_a_replan_waiting_for_a_robot_that_lost_its_power_in_a_move_says_so(monk
     assert f.run_until(lambda: done(f)) and f.at_goals() and f.core.summary().collisions == 0
 
 
+def pressed_while_a_replan_waits(action: str) -> Tuple[MemoryFleet, MemoryConsole, str, object]:
+    """Robot 2 powered off in a drive, a replan asked for, `action` pressed while it waits: the
+    fleet, the console, the run's line after it, and the answer to Start then."""
+    f, ops = powered_off_in_a_drive()
+    assert f.ask(ops, "replan").ok
+    f.advance(2.0)
+    assert f.ask(ops, action).ok
+    f.advance(1.0)
+    return f, ops, ops.state.run.reason, f.ask(ops, "start")
+
+
+def action_before(kind: str, line: str):
+    """The operator's halt or stop (`kind`) as it was before a replan waiting for a robot powered
+    off was considered: the run paused (halted), the phase line `line`, whatever replan was open."""
+    def before(run, args, now):
+        if not run.engine.paused:
+            run.driver.handle(Pause(now), now)
+        if kind == "halt":
+            run.driver.halt()
+        run.move(kind, line)
+        return True, ""
+    return before
+
+
 @pytest.mark.parametrize("kept", [True, False])
 def test_a_halt_while_a_replan_waits_does_not_promise_that_start_drives_on(monkeypatch, kept):
     """A replan waits for robot 2, powered off in a move; the operator halts. The line said "halted by
@@ -316,19 +340,8 @@ def test_a_halt_while_a_replan_waits_does_not_promise_that_start_drives_on(monke
     says the replan goes on, and the replan's line comes back naming robot 2; once robot 2 is back,
     the proposal comes. The control keeps the old line."""
     if not kept:
-        def old_halt(run, args, now):
-            if not run.engine.paused:
-                run.driver.handle(Pause(now), now)
-            run.driver.halt()
-            run.move("halt", "halted by operator: Start drives on")
-            return True, ""
-        monkeypatch.setitem(operator.ACTIONS, "halt", old_halt)
-    f, ops = powered_off_in_a_drive()
-    assert f.ask(ops, "replan").ok
-    f.advance(2.0)
-    assert f.ask(ops, "halt").ok
-    f.advance(1.0)
-    refused = f.ask(ops, "start")
+        monkeypatch.setitem(operator.ACTIONS, "halt", action_before("halt", "halted by operator: Start drives on"))
+    f, ops, _, refused = pressed_while_a_replan_waits("halt")
     assert not refused.ok and "a replan is being made" in refused.reason
     if not kept:
         assert ops.state.run.reason == "halted by operator: Start drives on"
@@ -350,19 +363,8 @@ def test_stop_gives_up_a_replan_waiting_for_a_robot_powered_off_and_the_others_d
     back it finishes its move and the run ends home. The control keeps Stop as it was: Start
     stays refused."""
     if not given_up:
-        def old_stop(run, args, now):
-            if not run.engine.paused:
-                run.driver.handle(Pause(now), now)
-            run.move("stop", "stopped by operator: robots finish their move")
-            return True, ""
-        monkeypatch.setitem(operator.ACTIONS, "stop", old_stop)
-    f, ops = powered_off_in_a_drive()
-    assert f.ask(ops, "replan").ok
-    f.advance(2.0)
-    assert f.ask(ops, "stop").ok
-    f.advance(0.5)
-    line = ops.state.run.reason
-    started = f.ask(ops, "start")
+        monkeypatch.setitem(operator.ACTIONS, "stop", action_before("stop", "stopped by operator: robots finish their move"))
+    f, ops, line, started = pressed_while_a_replan_waits("stop")
     if not given_up:
         assert not started.ok and "a replan is being made" in started.reason
         return
