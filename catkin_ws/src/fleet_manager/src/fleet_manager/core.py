@@ -231,7 +231,6 @@ class RunCore:
             else:
                 self.out.add(run.replanner.job(grid, current, list(run.loaded.goals), out,
                                                {a: here[a] for a in on}, run.progress()))
-                self._replan_line = None
                 run.replan_says("replanning: planning from where the robots stand")
         said = operator.way_after(run, now)
         if said:
