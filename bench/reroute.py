@@ -17,6 +17,7 @@ makespan, and the number of reroutes (none).
 
     .venv/bin/python bench/reroute.py [SEEDS [FIRST]]     # default 10 seeds from 10
         [--plans random70,arena300] [--configs adg,adg+reroute,reorder,reorder+reroute]
+                                                           # +trim after any: the plan and every reroute trimmed
                                                            # +reroute-all: RerouteRule(scope="all")
         [--rule KEY=VALUE ...]                             # a RerouteRule's settings, e.g. slack=none
         [--baseline KEY=VALUE ...]                         # also adg + reroute by this rule, compared
@@ -57,11 +58,15 @@ PLANS = {"random70": ("random-32-32-20_70agents_1.txt", "lacam", 70),
 
 
 def parse_config(text: str) -> tuple:
-    strategy, _, reroute = text.partition("+")
+    """(strategy, reroute key, trim) of e.g. "adg", "adg+reroute", "reorder+reroute-all+trim"."""
+    strategy, *rest = text.split("+")
+    trim = rest[-1:] == ["trim"]
+    reroute = "+".join(rest[:-1] if trim else rest)
     if strategy not in ("adg", "reorder") or reroute not in ("", "reroute", "reroute-all"):
         raise argparse.ArgumentTypeError("a configuration is adg or reorder, alone or +reroute (held scope) "
-                                         "or +reroute-all (scope all)")
-    return (strategy, {"": "none", "reroute": "auto", "reroute-all": "all"}[reroute])
+                                         "or +reroute-all (scope all), then +trim to trim the plan and "
+                                         "every reroute's (planning.trim)")
+    return (strategy, {"": "none", "reroute": "auto", "reroute-all": "all"}[reroute], trim)
 
 
 def rule_of(settings: List[str]) -> RerouteRule:
@@ -75,6 +80,11 @@ def rule_of(settings: List[str]) -> RerouteRule:
                 key, ", ".join(types)))
         values[key] = None if value == "none" else (int(value) if types[key] == "int" else float(value))
     return RerouteRule(**values)  # type: ignore[arg-type]
+
+
+def trimmed_rule(rule, trim: bool):
+    """`rule` (a RerouteRule, or "none") with its trim set to `trim`."""
+    return dataclasses.replace(rule, trim=True) if trim and isinstance(rule, RerouteRule) else rule
 
 
 def shortest_bound(plan: Plan, grid: Grid, result) -> float:
@@ -112,7 +122,7 @@ def main() -> None:
     rules = {"auto": rule_of(args.rule), "all": RerouteRule(scope="all")}
     if args.baseline is not None:
         rules["baseline"] = rule_of(args.baseline)
-        configs += (("adg", "baseline"),)
+        configs += (("adg", "baseline", False),)
     labels = {"none": "", "auto": " + reroute", "baseline": " + reroute, baseline", "all": " + reroute (all)"}
     model = parse_delay_model("events=bernoulli:0.1:1-5")
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
@@ -137,10 +147,10 @@ def main() -> None:
         found_s, hand_s = dict(look_s), dict(look_s)
         for seed in range(first, first + seeds):
             for config in configs:
-                strategy, reroute = config
+                strategy, reroute, trim = config
                 began = time.perf_counter()
                 result = simulate(plan, strategy, model, seed=seed, size=TURTLEBOT2, grid=grid,
-                                  reroute=rules.get(reroute, reroute))
+                                  reroute=trimmed_rule(rules.get(reroute, reroute), trim), trim=trim)
                 wall[config] += time.perf_counter() - began
                 assert result.finished and not result.collisions and result.refused == 0, (name, config, seed)
                 ratio[config].append(result.metrics.makespan / plan.makespan)
@@ -165,10 +175,11 @@ def main() -> None:
         for config in configs:
             change = [100.0 * (x - b) / b for x, b in zip(ratio[config], base)]
             print("  {:<26} {:>16} {:>18}% {:>9.1f} {:>12.1f} {:>8.1f}".format(
-                config[0] + labels[config[1]], interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
+                config[0] + labels[config[1]] + (" + trim" if config[2] else ""), interval(ratio[config]), interval(change), float(np.mean(reroutes[config])),
                 float(np.mean(moved[config])), wall[config] / seeds))
-        if ("adg", "baseline") in ratio and ("adg", "auto") in ratio:
-            change = [100.0 * (x - b) / b for x, b in zip(ratio[("adg", "auto")], ratio[("adg", "baseline")])]
+        if ("adg", "baseline", False) in ratio and ("adg", "auto", False) in ratio:
+            change = [100.0 * (x - b) / b for x, b in zip(ratio[("adg", "auto", False)],
+                                                          ratio[("adg", "baseline", False)])]
             print("  adg + reroute paired vs adg + reroute, baseline: {}%".format(interval(change)))
         for key in looks:
             if not looks[key]:
@@ -180,10 +191,10 @@ def main() -> None:
                       1e3 * hand_s[key] / max(found[key], 1)))
         zero = parse_delay_model("none")
         flat = []
-        for strategy, reroute in configs:
+        for strategy, reroute, trim in configs:
             result = simulate(plan, strategy, zero, seed=0, size=TURTLEBOT2, grid=grid,
-                              reroute=rules.get(reroute, reroute))
-            flat.append("{}{} {:.3f} ({} reroutes)".format(strategy, labels[reroute],
+                              reroute=trimmed_rule(rules.get(reroute, reroute), trim), trim=trim)
+            flat.append("{}{}{} {:.3f} ({} reroutes)".format(strategy, labels[reroute], " + trim" if trim else "",
                                                           result.metrics.makespan / plan.makespan,
                                                           len(result.reroutes)))
         print("  p = 0: " + "; ".join(flat))

@@ -114,9 +114,14 @@ def test_control_without_the_freeze_robots_are_sent_moves_and_plans_are_dropped(
 def test_control_taking_a_plan_a_robot_was_sent_a_move_away_from_is_caught(monkeypatch):
     """The wrong tolerance: any progress since the cut counts as the plan's. Without the freeze
     robots are sent their old plan's moves during the look, and the new plan has them elsewhere:
-    the simulator's trace refuses a move from a cell the robot is not in."""
+    the hand-over's fit check refuses such a plan (the moves sent are not the plan's); with only
+    the order checked, as before 2026-11-27, the simulator's trace refuses a move from a cell the
+    robot is not in."""
     monkeypatch.setattr(cut_module, "moved_on", lambda cut, r, done, sent, began: done < cut.completed[r])
     monkeypatch.setattr(engine_module.Engine, "_freeze", lambda self, e: ((), None))
+    refused = sum(run(plan_seed, seed, TURTLEBOT2, 0.2, "all", 0.3)[2].refused for plan_seed, seed in CONTROL_RUNS)
+    assert refused > 0
+    monkeypatch.setattr(engine_module.Engine, "_moved_otherwise", lambda self, progress, old: None)
     caught = 0
     for plan_seed, seed in CONTROL_RUNS:
         try:

@@ -422,8 +422,9 @@ class Engine:
         `take_back` and the metrics (one object for the whole run) carry over; the plan's clock
         starts at `time`. The decisions now; a wait one ends is charged to `released_by[robot]`.
 
-        Raises `EventError`, changing neither engine, when a move made or sent would wait in this
-        plan for a move that is not (the plan does not fit the run: the rule's one condition), unless `old`
+        Raises `EventError`, changing neither engine, when a move made or sent is not, cell for
+        cell, the one `old`'s robot made or was sent, or would wait in this plan for a move that is
+        not (the plan does not fit the run: the rule's one condition), unless `old`
         sent it following that very move (its leader went out since and took the move back): the
         pair keeps its order and the follower its hold behind the leader's real pose."""
         run = self.run
@@ -477,13 +478,17 @@ class Engine:
 
     def _misfit(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
         """Why this plan does not fit `old`'s run with `progress` (see `adopt`), or None: a move
-        done or sent that waits in this plan for a move not completed (robots of real size: not
-        sent), and that `old` did not send following the same move. (A move done behind one not
-        made: the plan puts another robot into a cell before a robot that is in it already.)"""
+        done or sent that is not the same move (cells) in `old`'s run, or that waits in this plan
+        for a move not completed (robots of real size: not sent), and that `old` did not send
+        following the same move. (A move done behind one not made: the plan puts another robot
+        into a cell before a robot that is in it already.)"""
         run = self.run
         first, agent, dep = run.first, run.agent, run.dep
         # robot r's move k here is its move k + base[r] in `old`'s plan
         base = [old.run.completed[r] - done for r, (done, _, _) in enumerate(progress)]
+        otherwise = self._moved_otherwise(progress, old)
+        if otherwise is not None:
+            return otherwise
         for r, (done, sent, _) in enumerate(progress):
             for a in range(first[r], first[r] + done + sent):
                 d = dep[a]
@@ -499,6 +504,21 @@ class Engine:
                 return ("adopt: robot {}'s move {} was {}, but in the new plan it waits for robot {}'s "
                         "move {}, which was not".format(r, a - first[r], "made" if a < first[r] + done else "sent",
                                                         q, k))
+        return None
+
+    def _moved_otherwise(self, progress: Sequence[Tuple[int, int, bool]], old: "Engine") -> Optional[str]:
+        """Why this plan's moves done or sent are not the moves `old`'s robots made or were sent (the
+        same cells: a robot drives the move it was sent, whatever plan it now belongs to), or None."""
+        run, was = self.run, old.run
+        for r, (done, sent, _) in enumerate(progress):
+            base = was.completed[r] - done  # robot r's move k here is its move k + base in `old`'s plan
+            for k in range(done + sent):
+                a, b = run.first[r] + k, was.first[r] + base + k
+                here = (self.table.coord(run.src[a]), self.table.coord(run.dst[a]))
+                there = (old.table.coord(was.src[b]), old.table.coord(was.dst[b]))
+                if here != there:
+                    return "adopt: robot {}'s move {} was {} {} -> {}, but the new plan has {} -> {}".format(
+                        r, k, "made" if k < done else "sent", there[0], there[1], here[0], here[1])
         return None
 
     def _forced(self, r: int, a: int, now: float) -> float:

@@ -53,7 +53,9 @@ from ..delays import DelayModel, MoveFates, robot_profile, simulator_fates
 from ..delays.draw import COLUMNS, draw_fates
 from ..grid import Coord, Grid
 from ..plan import Plan
+from ..planning.trim import trim_moves
 from ..robot_size import RobotSize
+from .actions import ActionTable
 from .approach import Approach, Safety, judge
 from .engine import Engine
 from .events import (ActionCompleted, ActionStarted, Disabled, Dispatch, Enabled, Freeze, Resume, RobotFailed, Thaw,
@@ -123,18 +125,28 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
              journal: bool = False, size: Optional[RobotSize] = None,
              feedback: Optional[Feedback] = None, fates: Optional[MoveFates] = None,
              reroute: Union[None, str, RerouteRule, Rerouter] = None, grid: Optional[Grid] = None,
-             **settings: object) -> SimResult:
+             trim: bool = False, **settings: object) -> SimResult:
     """Run `plan` under `strategy` with robots of `size` (None: as large as a cell); each move's
     fate drawn from `delays` with `seed`, or given as `fates`, or as plain `durations` (and
     `waits`); no delays by default. `reroute` ("auto", a rule or a `Rerouter`; None, "none" or
-    "off": never) replans robots held up by late ones on `grid` (see `reroute`)."""
+    "off": never) replans robots held up by late ones on `grid` (see `reroute`). `trim`: the
+    plan's robots first trimmed of moves that do not bring them in sooner (`planning.trim`, on
+    `grid`); a robot's k-th move keeps the fate drawn for its k-th move of `plan`, so a run is
+    paired with the same seed's run untrimmed."""
     follow = size is not None and not size.cell_sized
+    drawn = ActionTable.from_plan(plan)  # the moves the fates are drawn for
+    if trim:
+        if grid is None:
+            raise ValueError("trimming needs the map (grid=)")
+        plan = trim_moves(plan, grid).plan
     engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
     more = None
     if fates is None and durations is None:
         model = delays or DelayModel()
-        fates = simulator_fates(model, engine.table.agent, engine.run.num_agents, seed, nominal)
+        fates = simulator_fates(model, drawn.agent, engine.run.num_agents, seed, nominal)
         more = _more_fates(model, seed, engine.run.num_agents, nominal)
+        if trim:
+            fates, more = _kept_fates(drawn, engine.table, fates, more, nominal)
     return simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
                            feedback=feedback, fates=fates, nominal=nominal,
                            rerouter=_rerouter(reroute, grid), more=more)
@@ -166,6 +178,25 @@ def _more_fates(model: DelayModel, seed: int, n: int, nominal: float) -> Callabl
         return (nominal * float(f.wait[0]), nominal * float(f.slowdown[0]), nominal * float(f.stall[0]),
                 float(f.stall_at[0]), nominal * float(f.dropout[0]), float(f.dropout_at[0]))
     return more
+
+
+def _kept_fates(drawn: ActionTable, table: ActionTable, fates: MoveFates, more: Callable[[int, int], Fate],
+                nominal: float) -> Tuple[MoveFates, Callable[[int, int], Fate]]:
+    """Fates for `table`'s moves (a trimmed plan, fewer moves a robot) from those drawn for
+    `drawn`'s: each robot's k-th move keeps its k-th fate, its moves beyond `table`'s count the
+    fates that follow, then `more`'s."""
+    n = table.num_agents
+    pick = np.concatenate([np.arange(drawn.first[r], drawn.first[r] + table.count(r)) for r in range(n)]
+                          + [np.zeros(0, dtype=np.int64)]).astype(np.int64)
+    kept = MoveFates(*(np.asarray(column)[pick] for column in fates))
+
+    def beyond(r: int, k: int) -> Fate:
+        if k < drawn.count(r):
+            a = int(drawn.first[r]) + k
+            return (float(fates.wait[a]), nominal * float(fates.slowdown[a]), float(fates.stall[a]),
+                    float(fates.stall_at[a]), float(fates.dropout[a]), float(fates.dropout_at[a]))
+        return more(r, k)
+    return kept, beyond
 
 
 def simulate_engine(engine: Engine, durations: Optional[np.ndarray] = None,
