@@ -44,8 +44,9 @@ def run_cell(cell: Cell, plan: LoadedPlan) -> Row:
         robot, step = cell.disable.split("@")
         disable[int(robot) % p.num_agents] = int(step)
     size = cell.robot_size
-    reroute = {} if cell.reroute == "none" else {"reroute": RerouteRule(scope=cell.reroute_scope),
-                                                 "grid": plan.grid}
+    reroute = {} if cell.reroute == "none" else {"reroute": RerouteRule(scope=cell.reroute_scope, trim=cell.trim)}
+    if cell.reroute != "none" or cell.trim:
+        reroute.update(grid=plan.grid, trim=cell.trim)
     first = simulate(p, cell.strategy, model, seed=cell.seed, disable=disable, size=size, **reroute, **settings)
     second: Optional[SimResult] = None
     if cell.recover == "replan" and first.unfinished():

@@ -15,12 +15,12 @@ from .spec import Cell
 
 #: Columns of the results table, in order.
 COLUMNS = ("key", "plan", "solver", "agents", "strategy", "size", "delay", "p", "seed", "disable", "recover",
-           "reroute", "reroute_scope", "plan_makespan", "plan_soc", "makespan", "soc", "makespan_ratio", "soc_ratio",
+           "reroute", "reroute_scope", "trim", "plan_makespan", "plan_soc", "makespan", "soc", "makespan_ratio", "soc_ratio",
            "wait_total", "wait_mean", "wait_max", "waits", "held_time", "wait_by_robot", "blocked_by",
            "collisions", "closest_m", "reached", "finished", "replanned", "reroutes", "moves", "wall_s")
 #: Columns added since tables were first written, and their value in the rows of an older table
 #: (read back when a sweep resumes): older runs never rerouted.
-ADDED = {"reroute": "none", "reroutes": 0, "reroute_scope": "held"}
+ADDED = {"reroute": "none", "reroutes": 0, "reroute_scope": "held", "trim": False}
 
 Row = Dict[str, Any]
 
@@ -31,7 +31,7 @@ def strategy_label(cell: Cell) -> str:
     return cell.strategy + "".join(" {}={}".format(k, v) for k, v in cell.settings) + (
         " (wire)" if cell.chain == "wire" else "") + ("" if cell.reroute == "none" else " +reroute") + (
         " all" if cell.reroute != "none" and cell.reroute_scope != "held" else "") + (
-        "" if cell.size == "turtlebot" else " [{}]".format(cell.size))
+        " +trim" if cell.trim else "") + ("" if cell.size == "turtlebot" else " [{}]".format(cell.size))
 
 
 def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: float,
@@ -46,7 +46,7 @@ def make_row(cell: Cell, plan: LoadedPlan, p: Plan, *, makespan: float, soc: flo
         "key": cell.key, "plan": cell.plan, "solver": plan.solver, "agents": n,
         "strategy": strategy_label(cell), "size": cell.size, "delay": cell.delay, "p": cell.p, "seed": cell.seed,
         "disable": cell.disable, "recover": cell.recover, "reroute": cell.reroute,
-        "reroute_scope": cell.reroute_scope,
+        "reroute_scope": cell.reroute_scope, "trim": cell.trim,
         "plan_makespan": p.makespan, "plan_soc": p.soc,
         "makespan": round(makespan, 6), "soc": round(soc, 6),
         "makespan_ratio": round(makespan / p.makespan, 6) if p.makespan else 1.0,

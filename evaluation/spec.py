@@ -16,6 +16,8 @@
     reroute: [none, auto]               # optional: reroute robots a late one holds up (default none)
     reroute_scope: [held, all]          # optional: whom a reroute may give new paths: the held-up
                                         # robots (default) or every robot (`execution.reroute_all`)
+    trim: [false, true]                 # optional: the plan, and every reroute's plan, trimmed of
+                                        # moves that do not bring a robot in sooner (`planning.trim`)
     chain: [engine, wire]               # optional: engine alone (default), or also virtual
                                         # robots and the manager over loopback (wire_cell.py)
     time_scale: 10                      # wire cells: the virtual fleet's time scale
@@ -39,7 +41,7 @@ from fleet_common.robot_size import TURTLEBOT2, RobotSize, cell_sized
 from fleet_common.yaml_lines import load_marked, read_yaml_text, where
 
 KEYS = ("name", "plans", "strategies", "delays", "p", "seeds", "disable", "recover", "chain",
-        "time_scale", "sizes", "reroute", "reroute_scope")
+        "time_scale", "sizes", "reroute", "reroute_scope", "trim")
 #: Robot sizes a sweep names: "turtlebot" (the lab's robots, 354 mm on 700 mm cells, 0.1 m margin),
 #: "cell" (as large as a cell: the cell rule of robots before they had a size), or D:M (metres).
 SIZES = ("turtlebot", "cell")
@@ -81,6 +83,7 @@ class Cell:
     size: str = "turtlebot"   # the robots' size (SIZES, or D:M in metres)
     reroute: str = "none"     # REROUTE: new paths mid-run for robots a late one holds up
     reroute_scope: str = "held"  # REROUTE_SCOPES: whom a reroute may give new paths
+    trim: bool = False        # the plan and every reroute's plan trimmed (`planning.trim`)
 
     @property
     def robot_size(self) -> RobotSize:
@@ -99,6 +102,8 @@ class Cell:
             parts.append("reroute={}".format(self.reroute))
             if self.reroute_scope != "held":  # keys from before the scope rerouted the held-up robots
                 parts.append("reroute_scope={}".format(self.reroute_scope))
+        if self.trim:  # keys from before trimming ran the plans as given
+            parts.append("trim")
         return "|".join(parts)
 
 
@@ -148,6 +153,9 @@ def read_experiment(path: Path) -> Experiment:
     if scopes != ["held"] and reroute == ["none"]:
         raise _error(path, data, "reroute_scope", "a scope needs reroute: [auto] (it says whom a reroute "
                      "may give new paths)")
+    trims = _list(path, data, "trim", [False])
+    if any(not isinstance(t, bool) for t in trims):
+        raise _error(path, data, "trim", "expected true or false, got {!r}".format(trims))
     if "wire" in chains and (disable != ["none"] or recover != ["none"]):
         raise _error(path, data, "chain", "wire cells cannot disable robots or replan (an "
                      "operator's acts in the manager); sweep those on the engine alone")
@@ -162,9 +170,9 @@ def read_experiment(path: Path) -> Experiment:
             raise _error(path, data, "sizes", "expected turtlebot, cell or DIAMETER:MARGIN in metres "
                          "(e.g. 0.354:0.1), got {!r}".format(z)) from None
     cells = [Cell(plan.name, s, settings, d.replace("{p}", _p(p)) if p is not None else d, p, seed, dis, rec,
-                  chain, float(scale), size, rr, scope)
-             for plan, (s, settings), (d, p), seed, dis, rec, chain, size, rr, scope in itertools.product(
-                 plans, strategies, delays, seeds, disable, recover, chains, sizes, reroute, scopes)
+                  chain, float(scale), size, rr, scope, trim)
+             for plan, (s, settings), (d, p), seed, dis, rec, chain, size, rr, scope, trim in itertools.product(
+                 plans, strategies, delays, seeds, disable, recover, chains, sizes, reroute, scopes, trims)
              if not (dis == "none" and rec != "none") and not (rr == "none" and scope != "held")]
     return Experiment(str(data.get("name") or path.stem), path, plans, cells)
 

@@ -27,7 +27,7 @@ CSV_NAME = "results.csv"
 PARQUET_NAME = "results.parquet"
 
 _INT = ("agents", "seed", "plan_makespan", "plan_soc", "waits", "collisions", "reached", "moves", "reroutes")
-_BOOL = ("finished", "replanned")
+_BOOL = ("finished", "replanned", "trim")
 _STR = ("key", "plan", "solver", "strategy", "size", "delay", "disable", "recover", "reroute", "reroute_scope",
         "wait_by_robot", "blocked_by")
 TYPES: Dict[str, pa.DataType] = {

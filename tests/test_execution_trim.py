@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from fleet_common.delays import DelayModel, EventDelays
 from fleet_common.execution import engine as engine_module
-from fleet_common.execution import reroute as reroute_module
+from fleet_common.execution import trim_cut
 from fleet_common.execution.motion import Feedback
 from fleet_common.execution.reroute import RerouteRule
 from fleet_common.execution.simulate import simulate
@@ -77,14 +77,14 @@ def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
     """The property above is about runs that trim a reroute's plan: on these fixed runs many hand
     over at least one plan in which a rerouted robot makes fewer moves than the look planned
     (15 of these 48 when written)."""
-    real = reroute_module.trim_moves
+    real = trim_cut.trim_moves
     trims = []
 
     def spy(*args, **kwargs):
         result = real(*args, **kwargs)
         trims.append(len(result.robots))
         return result
-    monkeypatch.setattr(reroute_module, "trim_moves", spy)
+    monkeypatch.setattr(trim_cut, "trim_moves", spy)
     runs_trimmed = 0
     for plan_seed, seed, size in FIXED:
         trims.clear()
@@ -131,7 +131,7 @@ def test_trimming_needs_the_map():
 
 def wrong_trim(monkeypatch) -> None:
     """Trim a reroute's plan from its first step, before the moves sent at the cut are made."""
-    monkeypatch.setattr(reroute_module, "sent_moves_in", lambda plan, cut, grid: [[] for _ in range(plan.num_agents)])
+    monkeypatch.setattr(trim_cut, "sent_moves_in", lambda plan, cut, grid: [[] for _ in range(plan.num_agents)])
 
 
 def test_without_the_cells_of_moves_sent_kept_hand_overs_are_refused(monkeypatch):
@@ -139,8 +139,8 @@ def test_without_the_cells_of_moves_sent_kept_hand_overs_are_refused(monkeypatch
     not kept from the others until their robots are in: some trimmed plans send a robot where one
     with a move sent is about to be (or, a follower, is already), and the fit check refuses them
     (held scope, plan seeds 4, 7, 18, 22 and 23 when written)."""
-    real = reroute_module.trim_moves
-    monkeypatch.setattr(reroute_module, "trim_moves", lambda *a, **k: real(*a, **{**k, "reserved": ()}))
+    real = trim_cut.trim_moves
+    monkeypatch.setattr(trim_cut, "trim_moves", lambda *a, **k: real(*a, **{**k, "reserved": ()}))
     refused = 0
     for plan_seed in (4, 7, 18, 22, 23):
         for seed in range(6):

@@ -127,6 +127,8 @@ def test_the_dask_path_gives_the_same_table_as_the_local_one(spec, tmp_path):
      ":5:16: reroute_scope: expected held or all, got ['few']"),
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\nreroute_scope: [all]\n",
      ":4:16: reroute_scope: a scope needs reroute: [auto]"),
+    ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ntrim: [yes please]\n",
+     ":4:7: trim: expected true or false, got ['yes please']"),
 ])
 def test_a_bad_experiment_file_is_a_one_line_error_naming_line_and_key(tmp_path, text, message):
     path = tmp_path / "bad.yaml"
@@ -187,6 +189,27 @@ def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tm
     bad.write_text("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: [0]\nsizes: [huge]\n")
     refused = fleetctl("experiment", bad, "-o", tmp_path / "o2")
     assert refused.returncode == 2 and "expected turtlebot, cell or DIAMETER:MARGIN" in refused.stderr
+
+
+def test_a_trim_column_runs_the_plan_trimmed_beside_the_plan_as_given(tmp_path, shared_data):
+    """trim: [false, true] on the same delays: the trimmed rows make fewer moves (LaCAM's plan of
+    random-32-32-20 has robots to trim), say so in their key and strategy, and finish safely."""
+    spec = tmp_path / "trim.yaml"
+    spec.write_text("plans: [{{instance: {}, solver: lacam}}]\nstrategies: [adg]\n"
+                    "delays: [\"events=bernoulli:0.1:1-5\"]\nseeds: [0, 1]\nreroute: [none, auto]\n"
+                    "reroute_scope: [held, all]\ntrim: [false, true]\n".format(
+                        shared_data / "instances" / "random-32-32-20_70agents_1.txt"))
+    out = tmp_path / "out"
+    proc = fleetctl("experiment", spec, "-o", out, "--jobs", "1", timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_table(out)
+    assert len(rows) == 12 and all(r["finished"] and r["collisions"] == 0 for r in rows)
+    for seed in (0, 1):
+        plain = [r for r in rows if r["seed"] == seed and not r["trim"] and r["reroute"] == "none"]
+        trimmed = [r for r in rows if r["seed"] == seed and r["trim"] and r["reroute"] == "none"]
+        assert plain[0]["moves"] > trimmed[0]["moves"]
+    assert {r["strategy"] for r in rows if r["trim"]} == {"adg +trim", "adg +reroute +trim", "adg +reroute all +trim"}
+    assert all(r["key"].endswith("|trim") == r["trim"] for r in rows)
 
 
 def test_a_reroute_column_sweeps_rerouting_beside_the_same_runs_without(tmp_path, shared_data):

@@ -11,6 +11,7 @@ from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.reroute import SCOPES, RerouteRule
+from fleet_common.planning.trim import trim_moves
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.plan_loading import file_coordinates
@@ -84,6 +85,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="whom a reroute may give new paths: held (the robots a late robot holds up, "
                              "default) or all (every robot replanned from where it is by PIBT, when the "
                              "predicted makespan drops: fleet_common.execution.reroute_all)")
+    parser.add_argument("--trim", action="store_true",
+                        help="trim each robot's path to the fewest moves that bring it in no later, around "
+                             "the others, before the run, and every reroute's plan before its hand-over "
+                             "(fleet_common.planning.trim); each robot's k-th move keeps the delay drawn "
+                             "for its k-th move untrimmed, so runs with and without compare on one seed")
     add_repair_options(parser)
 
 
@@ -117,15 +123,19 @@ def run(args: argparse.Namespace) -> int:
     if args.reroute != "none" and args.log is not None:
         raise SimulateOptionError("--log with --reroute {}: a run folder records one plan, and a rerouted run "
                                   "changes plans (run without --log, or with --reroute none)".format(args.reroute))
+    trimmed = trim_moves(plan, sol.grid) if args.trim else None
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
-                          journal=args.log is not None, size=size, grid=sol.grid,
-                          reroute=RerouteRule(scope=args.reroute_scope) if args.reroute == "auto" else None,
-                          **settings)
+                          journal=args.log is not None, size=size, grid=sol.grid, trim=args.trim,
+                          reroute=RerouteRule(scope=args.reroute_scope, trim=args.trim)
+                          if args.reroute == "auto" else None, **settings)
     except PlanError as err:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
     lines = _summary(result, plan.makespan, plan.soc, delays.describe(), seed, names)
+    if trimmed is not None:
+        lines.insert(1, trimmed.describe())
+        plan = trimmed.plan  # the plan that ran
     for line in lines:
         print(line)
     if args.per_robot:

@@ -11,7 +11,7 @@ validator, in the file's own coordinates (`file_coordinates`). Pure: values in, 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path, PurePath
 from typing import Any, Callable, List, Optional, Sequence
 
@@ -24,6 +24,7 @@ from .plan import Plan
 from .planning import SolveResult, solve
 from .planning.deadline import Deadline
 from .planning.repair import RepairError, repair_rotations
+from .planning.trim import trim_moves
 from .robots import RobotDefinition
 from .validate import Report, validate_plan
 
@@ -165,6 +166,17 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
     else:
         loaded = from_instance(problem, name, solver, time_limit, seed)
     return fit_fleet(loaded, fleet_size, fleet_name)
+
+
+def trim_loaded(loaded: LoadedPlan) -> LoadedPlan:
+    """`loaded` with its robots trimmed of the moves that do not bring them in sooner
+    (`planning.trim`), recorded in its solution (what a run folder keeps: the plan the robots run)
+    and told in its note."""
+    result = trim_moves(loaded.plan, loaded.grid)
+    if not result.robots:
+        return replace(loaded, note=loaded.note + "; " + result.describe())
+    loaded.solution.replace_plan(result.plan)
+    return replace(loaded, plan=result.plan, note=loaded.note + "; " + result.describe())
 
 
 def fit_fleet(loaded: LoadedPlan, fleet_size: int, fleet_name: str) -> LoadedPlan:

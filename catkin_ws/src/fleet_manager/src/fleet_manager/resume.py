@@ -101,6 +101,7 @@ class ResumePoint:
     settings: Dict[str, Any] = field(default_factory=dict)
     reroute: str = "off"                            # the reroute mode the run had last
     reroute_scope: str = "held"                     # and its scope
+    trim: bool = False                              # whether its plans were trimmed (`ManagerSettings.trim`)
     phase: str = "waiting"
     #: a re-ordering strategy's passes, in order: (robot id, index, robot id passed, its index)
     passes: List[Tuple[int, int, int, int]] = field(default_factory=list)
@@ -164,6 +165,7 @@ def read_resume(run: RunFolder) -> ResumePoint:
     point.settings = dict(run.run.get("settings") or {})
     point.reroute = _mode(run.run.get("reroute"), "off")
     point.reroute_scope = _scope(run.run.get("reroute_scope"), "held")
+    point.trim = run.run.get("trim") is True
     pending: Dict[int, Dict[int, Unsettled]] = {}
     highest: Dict[int, int] = {}
     # the ids the manager had used before this folder (runs it drove before a reset or a load, in

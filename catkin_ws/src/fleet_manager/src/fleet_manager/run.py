@@ -34,7 +34,7 @@ from fleet_common.execution.reroute import Reroute, RerouteError, RerouteRule, w
 from fleet_common.formats.solution import format_solution, make_solution
 from fleet_common.grid import Coord, Grid
 from fleet_common.plan import Plan
-from fleet_common.plan_loading import LoadedPlan
+from fleet_common.plan_loading import LoadedPlan, trim_loaded
 from fleet_common.planning.replan import ReplanResult
 from fleet_common.runlog.records import FORMAT_VERSION, plan_file, size_fields
 from fleet_common.robot_size import STOP_OVERSHOOT_M
@@ -79,7 +79,10 @@ class Run:
         self.job_ids = iter(range(1, 2 ** 62))
         self.replanner = Replanner(settings.replan_limit, self.job_ids)
         self.rerouting = Rerouting(loaded.grid, settings.reroute, self.job_ids, settings.reroute_timed,
-                                   RerouteRule(scope=settings.reroute_scope, per_turn=settings.quarter_turn_steps))
+                                   RerouteRule(scope=settings.reroute_scope, per_turn=settings.quarter_turn_steps,
+                                               trim=settings.trim))
+        if settings.trim and resume is None:  # a run resumed goes on with the plan its folder recorded
+            loaded = trim_loaded(loaded)
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded
@@ -431,6 +434,7 @@ class Run:
                         plan=plan_file(1), definitions=None, robots=self.fleet.ids,
                         strategy=self.settings.strategy, settings={"lookahead": self.settings.lookahead},
                         reroute=self.rerouting.mode, reroute_scope=self.rerouting.rule.scope,
+                        trim=self.settings.trim,
                         plan_name=loaded.name, actions=action_counts(loaded.plan),
                         starts=[list(c) for c in loaded.starts], goals=[list(c) for c in loaded.goals],
                         map=self.grid.name, step_time=self.settings.step_time,
@@ -678,6 +682,8 @@ class Run:
         its starts): a new run, in a new run folder, waiting for Start."""
         self.way_after = None  # (a Reset pressed before: it was for the plan run so far)
         self._end(why)
+        if self.settings.trim and loaded is not self.target:  # the target again is trimmed already
+            loaded = trim_loaded(loaded)
         self.target = self.loaded = loaded
         self.purpose = PLAN
         self._new_run(loaded.plan, now)

@@ -38,6 +38,9 @@ class ManagerSettings:
     reroute: str = "off"              # reroute held-up robots: off, propose or auto (`rerouting`)
     reroute_timed: bool = True        # a look stops after its rule's budget (tests: to the end)
     reroute_scope: str = "held"       # whom a reroute may give new paths: held or all (`RerouteRule.scope`)
+    #: plans are trimmed of moves that do not bring a robot in sooner (`planning.trim`): the first
+    #: and any loaded later, and every reroute's plan before its hand-over (`RerouteRule.trim`)
+    trim: bool = False
     #: plan steps a robot's quarter turn in place takes, which a reroute's detour costs at each
     #: corner more (`RerouteRule.per_turn`): a TurtleBot's (1.5 rad/s) is about half a nominal move
     quarter_turn_steps: float = 0.5

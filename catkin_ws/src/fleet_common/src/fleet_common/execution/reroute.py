@@ -133,22 +133,19 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
-import numpy as np
-
 from ..errors import FleetError
 from ..grid import Grid
-from ..plan import Plan
 from ..planning.deadline import Deadline
 from ..planning.st_astar import DeadlineReached
-from ..planning.trim import trim_moves
 from ..validate import validate_plan
-from .cut import Cut, behind_taken_back, cut_of
+from .cut import behind_taken_back, cut_of
 from .engine import Engine
 from .errors import UnknownStrategyError
 from .forecast import earliest_starts, ready_steps, unplaced
 from .reroute_plan import Maps, Proposal, Reroute, new_start, plan_around
 from .lateness import behind, delayed, expected_steps, held_up, late_robots
 from .reroute_all import replan
+from .trim_cut import trim_from_cut
 
 __all__ = ["MODES", "SCOPES", "EVERY", "FREEZE", "RerouteError", "RerouteRule", "Reroute", "expected_steps", "behind",
            "delayed", "held_up", "worth_a_look", "later_by", "decide", "way_home", "Rerouter"]
@@ -262,39 +259,21 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
     if expected is None:
         expected = expected_steps(engine)
     deadline = deadline or Deadline(rule.budget)
-    if rule.scope == "all":
-        found = replan(engine, maps.grid, now, rule.gap, rule.margin, rule.clear, deadline, expected)
-    else:
-        found = _held(engine, maps, now, rule, deadline, expected)
-    if found is None or not rule.trim:
+    # trimming has a budget of its own: the look's may be spent by then
+    trim = Deadline(rule.budget if deadline.seconds is not None else None) if rule.trim else None
+    if rule.scope == "all":  # trimmed before it is judged: the plan judged is the plan handed over
+        return replan(engine, maps.grid, now, rule.gap, rule.margin, rule.clear, deadline, expected, trim=trim)
+    found = _held(engine, maps, now, rule, deadline, expected)
+    if found is None or trim is None:
         return found
-    return trimmed(found, engine, maps.grid, Deadline(rule.budget if deadline.seconds is not None else None))
+    return trimmed(found, engine, maps.grid, trim)
 
 
 def trimmed(found: Reroute, engine: Engine, grid: Grid, deadline: Optional[Deadline] = None) -> Reroute:
     """`found` with the robots it reroutes trimmed of moves that do not bring them in sooner (see
-    the module docstring, "Trimmed"); `found` itself while a robot is out or halfway in a move."""
-    run = engine.run
-    if any(o is not None for o in run.out) or any(run.halfway):
-        return found
-    sent = sent_moves_in(found.plan, found.cut, grid)
-    keep = [max([0] + [step for _, step in moves]) for moves in sent]
-    reserved = [move for moves in sent for move in moves]
-    result = trim_moves(found.plan, grid, found.agents, keep, rounds=1, deadline=deadline, reserved=reserved)
-    return dataclasses.replace(found, plan=result.plan) if result.robots else found
-
-
-def sent_moves_in(plan: Plan, cut: Cut, grid: Grid) -> List[List[Tuple[int, int]]]:
-    """Per robot, its moves sent at the cut in `plan` (a plan from `cut`: they are its first moves
-    there), each as (the cell it enters, the step it is in)."""
-    pos = plan.positions
-    moved = (pos[1:] != pos[:-1]).any(axis=2)  # (steps, robots)
-    out: List[List[Tuple[int, int]]] = []
-    for r in range(plan.num_agents):
-        count = cut.completed[r] + cut.committed[r] - cut.base[r]
-        steps = np.nonzero(moved[:, r])[0][:max(count, 0)] + 1
-        out.append([(grid.index((int(pos[s, r, 0]), int(pos[s, r, 1]))), int(s)) for s in steps])
-    return out
+    the module docstring, "Trimmed", and `trim_cut`)."""
+    plan = trim_from_cut(found.plan, found.cut, grid, found.agents, engine.run.out, engine.run.halfway, deadline)
+    return found if plan is found.plan else dataclasses.replace(found, plan=plan)
 
 
 def _held(engine: Engine, maps: Maps, now: float, rule: RerouteRule, deadline: Deadline,

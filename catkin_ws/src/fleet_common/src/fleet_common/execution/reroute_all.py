@@ -101,6 +101,7 @@ from .forecast import Schedule, earliest_starts, ready_steps, unplaced
 from .lateness import behind, held_up, late_robots
 from .reroute_plan import Reroute
 from .run import RunState
+from .trim_cut import trim_from_cut
 
 
 __all__ = ["prefix", "solve_from", "steer", "sent_made", "changed", "replan", "ReplanError", "PlanFrom"]
@@ -261,9 +262,11 @@ PlanFrom = Callable[[Engine, Schedule, Sequence[int], Sequence[int], int, Deadli
 
 
 def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clear: Optional[float],
-           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None) -> Optional[Reroute]:
+           deadline: Deadline, expected: Sequence[int], plan_from: Optional[PlanFrom] = None,
+           trim: Optional[Deadline] = None) -> Optional[Reroute]:
     """A new plan for every robot from the cut that is predicted to end `margin` steps sooner, as a
-    `Reroute`, or None (see the module docstring). `plan_from`: see `PlanFrom`."""
+    `Reroute`, or None (see the module docstring). `plan_from`: see `PlanFrom`. `trim`: the plan
+    is trimmed (`trim_cut`, within that deadline) before it is judged."""
     run, follow = engine.run, engine.follow
     if any(o is not None for o in run.out) or any(run.halfway):
         return None  # a robot out, or halfway in a move it failed in: see the module docstring
@@ -292,6 +295,8 @@ def replan(engine: Engine, grid: Grid, now: float, gap: int, margin: float, clea
     report = validate_plan(plan, grid, strict_rotations=True, max_findings_per_kind=1)
     if not report.ok:  # never, by construction (PIBT's steps); refused all the same
         raise ReplanError("a reroute's plan is not valid: {}".format(report.errors[0]))
+    if trim is not None:
+        plan = trim_from_cut(plan, cut, grid, range(n), run.out, run.halfway, trim)
     new = Engine(plan, engine.strategy.name, follow=follow, step_time=run.clock.step_time,
                  **engine.strategy.settings())
     # the same prediction on the new plan: each robot's first move there is its move `base` here
