@@ -456,6 +456,16 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     assert pump(console, lambda: any(row.endswith("rerouting now auto (every robot)")
                                      for row in app.events.rows()), 5)
     capture.grab(app.root, tmp_path / "reroute-scope.png")
+    app.admin.trim.set(True)  # and reroutes' plans trimmed of moves that bring nobody in sooner
+    app.admin._trim()  # as the check box's command, when clicked
+    assert pump(console, lambda: model.state.run.trim is True, 5)
+    assert pump(console, lambda: app.header.text().endswith("reroute auto, every robot, trimmed"), 2), \
+        app.header.text()
+    assert pump(console, lambda: any(row.endswith("plans now trimmed: fewer moves, nobody later")
+                                     for row in app.events.rows()), 5)
+    assert any(row.endswith("test console: reroute trim on") for row in app.events.rows())
+    assert app.admin.trim.get() is True
+    capture.grab(app.root, tmp_path / "reroute-trim.png")
 
 
 # ---- robots that cannot be trusted stay on the map, greyed, with why ------------------------

@@ -185,7 +185,7 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
     """`plan_start` (the steps a run's earlier plans took) is newer than some consoles, whose decoder
     refuses a field it does not know: a run's first plan leaves it out, a later one sends it."""
     first = State(7, 3, RunInfo("running", "", "adg", 1, 3.5, 1.4, 1, 2, 0, None, 0, None), ())
-    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start", "reroute_scope", "why_not"}
+    known_before = {f.name for f in dataclasses.fields(RunInfo)} - {"plan_start", "reroute_scope", "trim", "why_not"}
     assert set(json.loads(encode(first))["run"]) == known_before  # all an older console knows
     assert decode(encode(first), m.MANAGER_MESSAGES) == first
     rerouted = State(8, 4, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, plan_start=7.25), ())
@@ -198,6 +198,12 @@ def test_the_runs_plan_clock_is_sent_only_once_a_plan_changed_so_that_older_cons
                                 reroute_scope="all"), ())
     assert json.loads(encode(every))["run"]["reroute_scope"] == "all"
     assert decode(encode(every), m.MANAGER_MESSAGES) == every
+    # and trim: sent only when on
+    trimmed = State(10, 6, RunInfo("running", "", "adg", 1, 9.0, 0.2, 2, 2, 0, None, 0, None, trim=True), ())
+    assert json.loads(encode(trimmed))["run"]["trim"] is True
+    assert decode(encode(trimmed), m.MANAGER_MESSAGES) == trimmed
+    with pytest.raises(ControlProtocolError, match="trim"):  # a wrong value is named
+        decode(encode(trimmed).replace(b'"trim":true', b'"trim":"yes"'), m.MANAGER_MESSAGES)
 
 
 def test_why_a_run_action_is_refused_comes_with_the_state_one_line_each_and_a_bad_reason_is_named() -> None:

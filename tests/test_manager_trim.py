@@ -123,3 +123,24 @@ def test_a_reroute_with_trim_is_handed_over_and_the_run_ends_safely():
     seen = run_to_end(f)
     assert_arrived_safely(f, seen, TURTLEBOT2)
     assert f.kinds("reroute")
+
+
+def test_the_operator_turns_trim_on_and_off_at_runtime_and_a_resumed_manager_keeps_it():
+    f = fleet(trim=False)
+    ops = f.ops  # type: ignore[attr-defined]
+    answer = f.ask(ops, "reroute", trim=True)
+    assert answer.ok, answer.reason
+    f.advance(0.1)
+    assert ops.state.run.trim is True and f.core.run.rerouting.rule.trim is True
+    assert any(n.text.startswith("trim on: reroutes' plans and plans loaded from now on") for n in ops.notices())
+    assert [r for k, _, r in f.records if k == "reroute_mode"][-1]["trim"] is True
+    assert moves_of(f.core.run.plan) == 9  # the plan running stays as it is
+    again = f.ask(ops, "reroute", trim=True)
+    assert again.ok and again.reason == "trim is on already"
+    records = [dict(fields, k=kind, t=t) for kind, t, fields in f.folder_records[0]]
+    records[0].setdefault("started", None)
+    assert read_resume(RunFolder(Path("memory-run"), records, torn=False)).trim is True
+    assert f.ask(ops, "reroute", trim=False).ok
+    f.advance(0.1)
+    assert ops.state.run.trim is False and f.core.run.rerouting.rule.trim is False
+    assert not f.ask(ops, "reroute", trim="yes").ok  # a request's trim is true or false

@@ -161,7 +161,7 @@ class Ticker:
 
     def notice(self, notice: Notice) -> List[str]:
         """The manager's notices a visitor should read: replans, a new strategy, a robot that
-        goes before a late one, robots rerouted round a late one and the reroute mode."""
+        goes before a late one, robots rerouted round a late one, the reroute mode and trim."""
         if notice.kind == "plan" and notice.text.startswith("replanned"):
             return [notice.text.split(":")[0]]
         if notice.kind == "strategy" and " -> " in notice.text:
@@ -173,6 +173,10 @@ class Ticker:
                 return ["rerouting now {}".format(_DROPPED.sub("", notice.text.rsplit(" -> ", 1)[1]))]
             if notice.text.startswith("robot") and " rerouted" in notice.text:  # made, not proposed
                 return [_SOONER.sub("", notice.text)]
+            if notice.text.startswith("trim on"):
+                return ["plans now trimmed: fewer moves, nobody later"]
+            if notice.text.startswith("trim off"):
+                return ["plans now run as they are made"]
         return []
 
 

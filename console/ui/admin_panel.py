@@ -156,6 +156,10 @@ class AdminPanel(ttk.Frame):
                                       takefocus=0, values=list(REROUTE_SCOPES))
         self.scope_box.grid(row=1, column=3, sticky=tk.W, padx=4, pady=(4, 0))
         self.scope_box.bind("<<ComboboxSelected>>", lambda e: self._scope())
+        # reroutes' plans (and plans loaded from then on) trimmed of moves that bring nobody in sooner
+        self.trim = tk.BooleanVar(self, value=False)
+        ttk.Checkbutton(box, text="trim", variable=self.trim, takefocus=0, command=self._trim).grid(
+            row=1, column=4, sticky=tk.W, pady=(4, 0))
         row = 2
         ttk.Label(box, text="positions").grid(row=row, column=0, sticky=tk.W, pady=(4, 0))
         self.source = tk.StringVar(self, value="robot")
@@ -224,6 +228,8 @@ class AdminPanel(ttk.Frame):
                 self.reroute.set(run.reroute)
             if self.scope.get() != run.reroute_scope:
                 self.scope.set(run.reroute_scope)
+            if self.trim.get() != run.trim:
+                self.trim.set(run.trim)
             # Tk's own name of the focus: focus_get() raises KeyError while a menu or a drop-down
             # list has the focus (Tk's clones of them are no tkinter widgets), which froze this panel
             if not str(self.tk.call("focus")).endswith("spinbox"):
@@ -322,6 +328,10 @@ class AdminPanel(ttk.Frame):
         # the scope alone: the mode box may show a State older than the operator's last pick
         if not self._writing and self.scope.get():
             self.on_action("reroute", scope=self.scope.get())
+
+    def _trim(self) -> None:
+        if not self._writing:
+            self.on_action("reroute", trim=bool(self.trim.get()))
 
     def _clicked(self, event: "tk.Event[ttk.Treeview]") -> None:
         iid = self.tree.identify_row(event.y)

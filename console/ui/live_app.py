@@ -307,7 +307,10 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
             elif proposal is not None:
                 parts.insert(0, "REPLAN PROPOSAL {} (dashed): accept or reject".format(proposal.id))
             if run.reroute != "off":
-                parts.append("reroute {}{}".format(run.reroute, ", every robot" if run.reroute_scope == "all" else ""))
+                parts.append("reroute {}{}{}".format(run.reroute, ", every robot" if run.reroute_scope == "all" else "",
+                                                     ", trimmed" if run.trim else ""))
+            elif run.trim:
+                parts.append("plans trimmed")
             status = SEPARATOR.join(parts)
         self.header.set_status(status, self.scene.makespan, self.model.plan_start())
 

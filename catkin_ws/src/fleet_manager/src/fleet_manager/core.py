@@ -623,7 +623,8 @@ class RunCore:
         return build_state(self._states, self.desk.version, now, run.clock(now), run.plan_steps(now),
                            run.engine, self.fleet, run.phase, run.plan_id, run.replanner, self.min_distance,
                            self.collisions, waits, run.driver.following, run.purpose, allowed, why_not,
-                           run.rerouting.mode, run.rerouting.proposal_id, run.plan_start, run.rerouting.rule.scope)
+                           run.rerouting.mode, run.rerouting.proposal_id, run.plan_start, run.rerouting.rule.scope,
+                           run.settings.trim)
 
     def _allowed_now(self, now: float) -> Tuple[Tuple[str, ...], Dict[str, str]]:
         """What the manager would carry out now, and why not the rest (one line each): again when
@@ -787,9 +788,10 @@ def request_words(action: str, args: Dict) -> str:
         return "{} proposal {}".format(action, args.get("proposal"))
     if action == "to_starts":
         return "go to starts"
-    if action == "reroute":  # "reroute auto", "reroute scope all", "reroute auto, scope all"
+    if action == "reroute":  # "reroute auto", "reroute scope all", "reroute auto, scope all", "reroute trim on"
         words = ([str(args["mode"])] if args.get("mode") is not None else []) + (
-            ["scope {}".format(args["scope"])] if args.get("scope") is not None else [])
+            ["scope {}".format(args["scope"])] if args.get("scope") is not None else []) + (
+            ["trim {}".format("on" if args["trim"] else "off")] if args.get("trim") is not None else [])
         return "reroute {}".format(", ".join(words) or "(nothing)")
     return action
 

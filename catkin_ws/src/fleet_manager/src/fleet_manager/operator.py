@@ -370,13 +370,20 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
 
 
 def reroute(run: Run, args: Args, now: float) -> Answer:
-    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once), and
-    its scope: held (the robots a late one holds up) or all (every robot); either may be left out
-    (it stays as it is)."""
-    mode, scope = args.get("mode"), args.get("scope")
+    """The reroute mode: off, propose (found reroutes await the operator) or auto (at once), its
+    scope: held (the robots a late one holds up) or all (every robot), and trim (reroutes' plans,
+    and plans loaded from now on, trimmed of moves that bring nobody in sooner); any may be left
+    out (it stays as it is)."""
+    mode, scope, trim = args.get("mode"), args.get("scope"), args.get("trim")
+    if trim is not None and mode is None and scope is None:
+        return _trim(run, bool(trim))
     if mode is None and scope is None:
-        return False, "a reroute request names a mode ({}) or a scope ({})".format(
+        return False, "a reroute request names a mode ({}), a scope ({}) or trim (true or false)".format(
             ", ".join(REROUTE_MODES), ", ".join(REROUTE_SCOPES))
+    if trim is not None:
+        ok, why = _trim(run, bool(trim))
+        if not ok:
+            return ok, why
     mode = run.rerouting.mode if mode is None else mode  # a scope alone keeps the mode, and back
     if mode not in REROUTE_MODES:
         return False, "unknown reroute mode {!r}; modes: {}".format(mode, ", ".join(REROUTE_MODES))
@@ -396,6 +403,22 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
     run.out.tell(REROUTE, None, "reroute switched: {} -> {}{}".format(
         _mode_words(old, old_scope), _mode_words(mode, scope),
         "" if dropped is None else " (reroute {} dropped)".format(dropped)))
+    return True, ""
+
+
+def _trim(run: Run, trim: bool) -> Answer:
+    """Trim on or off: reroutes' plans before their hand-over and plans loaded from now on (the
+    plan running stays as it is)."""
+    if run.settings.trim == trim:
+        return True, "trim is {} already".format("on" if trim else "off")
+    run.settings.trim = trim
+    run.rerouting.set_trim(trim)
+    run.out.record("reroute_mode", mode=run.rerouting.mode, scope=run.rerouting.rule.scope, trim=trim,
+                   by="operator")
+    run.out.desk.bump("trim {}".format("on" if trim else "off"))
+    run.out.tell(REROUTE, None, "trim {}: {}".format(
+        "on" if trim else "off", "reroutes' plans and plans loaded from now on are trimmed of moves that bring "
+        "nobody in sooner" if trim else "plans run as they are made"))
     return True, ""
 
 

@@ -163,6 +163,11 @@ class Rerouting:
         every = None if rule.every == EVERY[rule.scope] else rule.every
         self.rule = dataclasses.replace(rule, scope=scope, every=every)
 
+    def set_trim(self, trim: bool) -> None:
+        """Whether a reroute's plan is trimmed before its hand-over (`RerouteRule.trim`); a look in
+        flight or a proposal made before stays as it was made."""
+        self.rule = dataclasses.replace(self.rule, trim=trim)
+
     def due(self, engine: Engine, now: float) -> bool:
         """Time for a look (paced by `rule.every` plan steps of this plan) and some robot held up
         (scope all: some robot late)."""

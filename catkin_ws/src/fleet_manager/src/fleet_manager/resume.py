@@ -224,6 +224,8 @@ def read_resume(run: RunFolder) -> ResumePoint:
         elif kind == "reroute_mode":
             point.reroute = _mode(r.get("mode"), point.reroute)
             point.reroute_scope = _scope(r.get("scope"), point.reroute_scope)
+            if isinstance(r.get("trim"), bool):
+                point.trim = r["trim"]
         elif kind == "strategy" and isinstance(r.get("name"), str):
             point.strategy = r["name"]
             point.settings.update(r.get("settings") or {})

@@ -61,7 +61,7 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
                 allowed: Optional[Tuple[str, ...]] = None, why_not: Optional[Dict[str, str]] = None,
                 reroute: str = "off",
                 reroute_proposal: Optional[int] = None, plan_start: float = 0.0,
-                reroute_scope: str = "held") -> State:
+                reroute_scope: str = "held", trim: bool = False) -> State:
     """The State at `now`; `clock` is the seconds since the run started (0 before), `plan_steps`
     the plan steps since the current plan's step 0 (a robot's `behind` is measured from it; the
     plan's clock shown stops at the makespan), `plan_start` the run's plan steps before that step 0
@@ -105,7 +105,7 @@ def build_state(seq: int, version: int, now: float, clock: float, plan_steps: fl
         robots=len(fleet), min_distance=min_distance, collisions=collisions,
         proposal=replanner.proposal_id if reroute_proposal is None else reroute_proposal,
         replanning=replanner.busy, purpose=purpose, allowed=allowed, reroute=reroute,
-        plan_start=round(plan_start, 3), reroute_scope=reroute_scope, why_not=why_not)
+        plan_start=round(plan_start, 3), reroute_scope=reroute_scope, trim=trim, why_not=why_not)
     return State(seq, version, info, tuple(robots))
 
 

@@ -118,10 +118,10 @@ _RUN = Record(m.RunInfo, {
     "clock": _TIME, "plan_time": Num(0.0, 1e9), "plan_id": _ID, "arrived": Int(), "robots": Int(),
     "min_distance": Opt(Num(0.0, 1e9)), "collisions": Int(), "proposal": Opt(_ID),
     "replanning": Bool(), "purpose": Str(choices=m.PURPOSES), "allowed": Opt(ListOf(Str(40), 50)),
-    "reroute": Str(40), "plan_start": Num(0.0, 1e9), "reroute_scope": Str(40),
+    "reroute": Str(40), "plan_start": Num(0.0, 1e9), "reroute_scope": Str(40), "trim": Bool(),
     "why_not": Opt(MapOf(Str(40), Str(m.WHY_NOT_CHARS), 50))},
     optional={"replanning": False, "purpose": "plan", "allowed": None, "reroute": "off", "plan_start": 0.0,
-              "reroute_scope": "held", "why_not": None})
+              "reroute_scope": "held", "trim": False, "why_not": None})
 
 #: Fields of each message type (the frame's "t" and "v" aside).
 SCHEMAS: Dict[str, Record] = {cls.TYPE: Record(cls, fields, optional) for cls, fields, optional in (
@@ -157,6 +157,8 @@ def encode(message: Any) -> bytes:
             del run["plan_start"]  # a run's first plan: what a console older than the field reads
         if run["reroute_scope"] == "held":
             del run["reroute_scope"]  # likewise
+        if not run["trim"]:
+            del run["trim"]  # likewise
         if run["why_not"] is None:
             del run["why_not"]  # likewise
         frame.update(seq=message.seq, version=message.version, run=run,

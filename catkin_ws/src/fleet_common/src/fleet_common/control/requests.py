@@ -23,7 +23,7 @@ from typing import Any, Dict
 
 from ..limits import MAX_PLAN_TEXT
 from .messages import SOURCES
-from ..schema import Checker, Int, Num, Obj, Opt, SchemaError, Str
+from ..schema import Bool, Checker, Int, Num, Obj, Opt, SchemaError, Str
 
 __all__ = ["ACTIONS", "ARGS", "RUN_ACTIONS", "STOPPING", "check_args"]
 
@@ -46,7 +46,8 @@ ARGS: Dict[str, Checker] = {
     "start": _NONE, "pause": _NONE, "stop": _NONE, "step": _NONE, "halt": _NONE,
     "to_starts": _NONE, "reset": _NONE,
     "strategy": Obj({"name": Str(40), "lookahead": Opt(Int(1, 100))}, optional={"lookahead": None}),
-    "reroute": Obj({"mode": Opt(Str(40)), "scope": Opt(Str(40))}, optional={"mode": None, "scope": None}),
+    "reroute": Obj({"mode": Opt(Str(40)), "scope": Opt(Str(40)), "trim": Opt(Bool())},
+                   optional={"mode": None, "scope": None, "trim": None}),
     "enable": Obj({"robot": _ROBOT}),
     "disable": Obj({"robot": _ROBOT}),
     "source": Obj({"source": Str(choices=SOURCES), "robot": Opt(_ROBOT)}, optional={"robot": None}),

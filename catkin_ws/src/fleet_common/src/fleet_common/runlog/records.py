@@ -16,7 +16,8 @@ ignore what they do not know), so later versions can add detail.
                size {diameter_m, margin_m, cell_m, safe_m} (the robots' size;
                absent in older folders: robots as large as a cell), epoch (the
                manager's command epoch, so that a manager started again on the
-               folder speaks to the robots as the same manager), walls (optional,
+               folder speaks to the robots as the same manager), trim (optional: the
+               run's plans trimmed, `planning.trim`; a manager resuming keeps it), walls (optional,
                as in plan: a way to the starts' own)
     resume     started (ISO 8601, UTC, at this record's `t`), plan (the file being run), completed
                [actions of it completed, by agent], sent [commands sent again:
@@ -39,7 +40,8 @@ ignore what they do not know), so later versions can add detail.
                (s from the look's cut to the hand-over): the run was handed over to a
                reroute's plan without stopping (the `plan` record before it); dispatches,
                actions and commands after it count in the new plan
-    reroute_mode  mode ("off" | "propose" | "auto"), by (operator): the reroute mode switched
+    reroute_mode  mode ("off" | "propose" | "auto"), scope ("held" | "all"), trim (optional,
+               true | false), by (operator): the reroute mode, scope or trim switched
     reroute_proposed  proposal (id), robots, text: a reroute awaits the operator (propose mode)
     reroute_dropped   reason, robots and look (optional, as in reroute): a reroute found was
                not handed over (the robots moved since, a proposal gone stale, a look that
