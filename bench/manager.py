@@ -19,7 +19,7 @@ one definitions file (`--robots a-b`), as several hosts would serve them. Prints
 
     .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--solver S] [--fleets 1]
                                       [--robot-size turtlebot|cell] [--keep FOLDER]
-                                      [--delay-model SPEC [--seed N]] [--reroute MODE [--reroute-scope S]]
+                                      [--delay-model SPEC [--seed N]] [--reroute MODE [--reroute-scope S]] [--trim]
 
 `--robot-size cell` writes a `size` line making the robots as large as a cell (no followers, no
 hold points, no Releases: the run of before issue 25), to tell that work from the rest;
@@ -182,6 +182,8 @@ def bench(work: Path) -> int:
     parser.add_argument("--reroute", choices=("off", "propose", "auto"), default="off",
                         help="the manager's reroute mode (auto: count reroutes handed over and dropped)")
     parser.add_argument("--reroute-scope", choices=("held", "all"), default="held")
+    parser.add_argument("--trim", action="store_true", help="the manager's --trim: the plan and every reroute's "
+                        "plan trimmed of moves that bring nobody in sooner")
     parser.add_argument("--profile", action="store_true",
                         help="run the manager as bench/profiled_manager.py: CPU of its loop's parts")
     args = parser.parse_args()
@@ -225,7 +227,8 @@ def bench(work: Path) -> int:
             "--host", "127.0.0.1", "--bind", "tcp://127.0.0.1:{}".format(console_port), "--start",
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
             "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale),
-            "--reroute", args.reroute, "--reroute-scope", args.reroute_scope, "--solver", args.solver)],
+            "--reroute", args.reroute, "--reroute-scope", args.reroute_scope, "--solver", args.solver,
+            *(["--trim"] if args.trim else []))],
             work / "manager.log")
         from live import ScriptedConsole
         console = ScriptedConsole(console_port, "bench", keys=work / "keys")
@@ -307,8 +310,8 @@ def bench(work: Path) -> int:
               "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
     if args.reroute != "off":
         kinds = [r["k"] for r in records]
-        print("reroute {} (scope {}): {} handed over, {} dropped ({})".format(
-            args.reroute, args.reroute_scope, kinds.count("reroute"), kinds.count("reroute_dropped"),
+        print("reroute {} (scope {}{}): {} handed over, {} dropped ({})".format(
+            args.reroute, args.reroute_scope, ", trimmed" if args.trim else "", kinds.count("reroute"), kinds.count("reroute_dropped"),
             "; ".join(sorted({str(r.get("reason", ""))[:100] for r in records
                               if r["k"] == "reroute_dropped"})[:3]) or "none"))
         for kind in ("reroute", "reroute_dropped"):  # s from a look's cut to its hand-over

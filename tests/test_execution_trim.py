@@ -44,7 +44,7 @@ def assert_all_good(plan, grid, size, result) -> None:
         assert validate_plan(rr.plan, grid, strict_rotations=True).ok
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(plan_seed=st.sampled_from(PLAN_SEEDS), seed=st.integers(0, 1000), size=st.one_of(st.just(cell_sized()), sizes()),
        p=st.floats(0.05, 0.4), strategy=st.sampled_from(["adg", "reorder"]), rule=st.sampled_from([HELD, ALL]))
 def test_trimmed_runs_are_safe_complete_and_every_hand_over_accepted(plan_seed, seed, size, p, strategy, rule):
@@ -56,7 +56,7 @@ def test_trimmed_runs_beside_the_operators_hand_stay_safe_and_every_robot_arrive
     """Both scopes, trimmed, while the operator acts: faults and disables cleared again, switches
     between every strategy mid-run, late pose reports. Every run safe, every robot home."""
     rerouted = total = 0
-    for plan_seed in PLAN_SEEDS[:12]:
+    for plan_seed in PLAN_SEEDS:
         for seed in range(2):
             plan, grid, rng, size, model = operator_case(plan_seed, seed, 2027)
             controls = operator_actions(plan, rng, plan.makespan)
@@ -74,15 +74,15 @@ FIXED = [(s, k, TURTLEBOT2 if k % 2 else cell_sized()) for s in PLAN_SEEDS for k
 
 
 def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
-    """The property above is about runs that trim a reroute's plan: on these fixed runs many hand
-    over at least one plan in which a rerouted robot makes fewer moves than the look planned
-    (15 of these 48 when written)."""
+    """The property above is about runs that trim a reroute's plan: every plan handed over came out
+    of the trim, and on these fixed runs many hand over one in which a rerouted robot makes fewer
+    moves than the look planned (scope all trims each plan before judging it)."""
     real = trim_cut.trim_moves
     trims = []
 
     def spy(*args, **kwargs):
         result = real(*args, **kwargs)
-        trims.append(len(result.robots))
+        trims.append(result)
         return result
     monkeypatch.setattr(trim_cut, "trim_moves", spy)
     runs_trimmed = 0
@@ -90,8 +90,9 @@ def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
         trims.clear()
         plan, grid, result = run_trimmed(plan_seed, seed, size, 0.2)
         assert_all_good(plan, grid, size, result)
-        assert len(trims) == len(result.reroutes)  # every reroute's plan went through the trim
-        runs_trimmed += any(trims)
+        out = {id(t.plan): t for t in trims}
+        assert all(id(rr.plan) in out for _, rr in result.reroutes)  # every plan handed over was trimmed
+        runs_trimmed += any(out[id(rr.plan)].robots for _, rr in result.reroutes)
     assert runs_trimmed >= len(FIXED) // 4, runs_trimmed
 
 
