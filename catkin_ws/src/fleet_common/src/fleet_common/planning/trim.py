@@ -18,8 +18,9 @@ fewest moves to its goal by then, waits costing nothing, through cells that no o
 robot holds at that step or at the step before or after, with its goal free of the
 others from the step before its arrival on; the earliest arrival among the fewest
 moves, the moves as early as they can be (a robot ahead of its schedule has time to
-lose). The new path is taken only if it has fewer moves. A cell farther from the goal
-than the moves to beat is never searched: no path with fewer moves reaches it.
+lose). The new path is taken only if it has fewer moves. Only the cells a way of fewer
+moves can pass are searched: those whose distance from the start plus the distance to the
+goal is under the moves to beat.
 
 Why the plan stays valid, and nobody arrives later. Only the trimmed robot's path
 changes, and at every step from `keep` on it is in a cell no other robot is in at
@@ -170,14 +171,40 @@ def closed(held: np.ndarray) -> np.ndarray:
     return blocked
 
 
+def _within(cells: np.ndarray, start: int, to_goal: np.ndarray, most: int, nb: np.ndarray) -> np.ndarray:
+    """Of `cells` (ids, each at most `most` moves from the goal), those a way of at most `most`
+    moves from `start` to the goal passes: d(start, c) + d(c, goal) <= most, the distance from
+    the start counted within `cells` (a way of at most `most` moves never leaves them)."""
+    nc = nb.shape[0] - 1
+    local = np.full(nc + 1, cells.size, dtype=np.int64)
+    local[cells] = np.arange(cells.size)
+    around = local[nb[cells]]
+    far = np.iinfo(np.int64).max // 2
+    dist = np.full(cells.size + 1, far, dtype=np.int64)
+    frontier = np.array([local[start]], dtype=np.int64)
+    dist[frontier] = 0
+    fresh = np.zeros(cells.size + 1, dtype=bool)
+    for d in range(1, most + 1):  # breadth first, a level at a time
+        fresh[around[frontier].ravel()] = True
+        fresh[cells.size] = False
+        fresh &= dist == far
+        frontier = np.nonzero(fresh)[0]
+        if not frontier.size:
+            break
+        dist[frontier] = d
+        fresh[frontier] = False
+    keep = dist[:-1] + to_goal[cells] <= most
+    return cells[keep]
+
+
 def _fewest_moves(ids: np.ndarray, r: int, keep: int, arrival: int, moves: int, to_goal: np.ndarray,
                   nb: np.ndarray, reserved: Sequence[Tuple[int, int]] = ()) -> Optional[List[int]]:
     """Robot r's cells from step `keep` to its new arrival, fewer than `moves` moves, or None."""
     steps, n = ids.shape
     start, goal = int(ids[keep, r]), int(ids[-1, r])
     nc = nb.shape[0] - 1
-    # the cells a path of fewer moves may reach: nearer the goal than the moves to beat
-    near = np.nonzero((to_goal >= 0) & (to_goal < moves))[0]
+    # the cells a path of fewer moves may pass: from the start and on to the goal in fewer moves
+    near = _within(np.nonzero((to_goal >= 0) & (to_goal < moves))[0], start, to_goal, moves - 1, nb)
     local = np.full(nc + 1, near.size, dtype=np.int64)  # global id -> local id (near.size: not near)
     local[near] = np.arange(near.size)
     around = local[nb[near]]  # (near, 4) local neighbour ids
