@@ -144,3 +144,13 @@ def test_the_operator_turns_trim_on_and_off_at_runtime_and_a_resumed_manager_kee
     f.advance(0.1)
     assert ops.state.run.trim is False and f.core.run.rerouting.rule.trim is False
     assert not f.ask(ops, "reroute", trim="yes").ok  # a request's trim is true or false
+
+
+def test_trimming_a_loaded_plan_leaves_the_plan_given_as_it_was():
+    from fleet_common.plan_loading import trim_loaded
+
+    given = winding()
+    trimmed = trim_loaded(given)
+    assert moves_of(trimmed.plan) == 5 and trimmed.solution.plan == trimmed.plan
+    assert moves_of(given.plan) == 9 and given.solution.plan == given.plan  # held elsewhere, untouched
+    assert "trimmed" not in given.note and trimmed.note.endswith("1 robot")

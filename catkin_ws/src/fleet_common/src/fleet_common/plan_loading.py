@@ -11,6 +11,7 @@ validator, in the file's own coordinates (`file_coordinates`). Pure: values in, 
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, replace
 from pathlib import Path, PurePath
 from typing import Any, Callable, List, Optional, Sequence
@@ -175,8 +176,9 @@ def trim_loaded(loaded: LoadedPlan) -> LoadedPlan:
     result = trim_moves(loaded.plan, loaded.grid)
     if not result.robots:
         return replace(loaded, note=loaded.note + "; " + result.describe())
-    loaded.solution.replace_plan(result.plan)
-    return replace(loaded, plan=result.plan, note=loaded.note + "; " + result.describe())
+    solution = copy.deepcopy(loaded.solution)  # the plan given stays as it was, where else it is held
+    solution.replace_plan(result.plan)
+    return replace(loaded, plan=result.plan, solution=solution, note=loaded.note + "; " + result.describe())
 
 
 def fit_fleet(loaded: LoadedPlan, fleet_size: int, fleet_name: str) -> LoadedPlan:

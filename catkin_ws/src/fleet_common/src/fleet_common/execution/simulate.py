@@ -134,18 +134,19 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
     `grid`); a robot's k-th move keeps the fate drawn for its k-th move of `plan`, so a run is
     paired with the same seed's run untrimmed."""
     follow = size is not None and not size.cell_sized
-    drawn = ActionTable.from_plan(plan)  # the moves the fates are drawn for
+    drawn: Optional[ActionTable] = None  # the moves the fates are drawn for: the plan given's
     if trim:
         if grid is None:
             raise ValueError("trimming needs the map (grid=)")
+        drawn = ActionTable.from_plan(plan)
         plan = trim_moves(plan, grid).plan
     engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
     more = None
     if fates is None and durations is None:
         model = delays or DelayModel()
-        fates = simulator_fates(model, drawn.agent, engine.run.num_agents, seed, nominal)
+        fates = simulator_fates(model, (drawn or engine.table).agent, engine.run.num_agents, seed, nominal)
         more = _more_fates(model, seed, engine.run.num_agents, nominal)
-        if trim:
+        if drawn is not None:
             fates, more = _kept_fates(drawn, engine.table, fates, more, nominal)
     return simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
                            feedback=feedback, fates=fates, nominal=nominal,
