@@ -69,15 +69,16 @@ def test_without_trim_the_robot_drives_the_plan_as_given():
     assert len(f.sent(1, "drive")) == 6
 
 
-def test_a_manager_resuming_the_folder_goes_on_trimming():
-    f = fleet(trim=True)
+def resumed_trim(f: MemoryFleet) -> bool:
+    """Whether a manager resuming the first run folder of `f` would trim (what it reads back)."""
     records = [dict(fields, k=kind, t=t) for kind, t, fields in f.folder_records[0]]
     records[0].setdefault("started", None)
-    assert read_resume(RunFolder(Path("memory-run"), records, torn=False)).trim is True
-    untrimmed = fleet(trim=False)
-    records = [dict(fields, k=kind, t=t) for kind, t, fields in untrimmed.folder_records[0]]
-    records[0].setdefault("started", None)
-    assert read_resume(RunFolder(Path("memory-run"), records, torn=False)).trim is False
+    return read_resume(RunFolder(Path("memory-run"), records, torn=False)).trim
+
+
+def test_a_manager_resuming_the_folder_goes_on_trimming():
+    assert resumed_trim(fleet(trim=True)) is True
+    assert resumed_trim(fleet(trim=False)) is False
 
 
 def lab_lacam_text() -> str:
@@ -137,9 +138,7 @@ def test_the_operator_turns_trim_on_and_off_at_runtime_and_a_resumed_manager_kee
     assert moves_of(f.core.run.plan) == 9  # the plan running stays as it is
     again = f.ask(ops, "reroute", trim=True)
     assert again.ok and again.reason == "trim is on already"
-    records = [dict(fields, k=kind, t=t) for kind, t, fields in f.folder_records[0]]
-    records[0].setdefault("started", None)
-    assert read_resume(RunFolder(Path("memory-run"), records, torn=False)).trim is True
+    assert resumed_trim(f) is True
     assert f.ask(ops, "reroute", trim=False).ok
     f.advance(0.1)
     assert ops.state.run.trim is False and f.core.run.rerouting.rule.trim is False
