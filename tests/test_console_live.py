@@ -464,7 +464,7 @@ def test_a_reroute_proposal_is_drawn_with_who_goes_round_whom_and_the_mode_is_pi
     assert pump(console, lambda: any(row.endswith("plans now trimmed: fewer moves, nobody later")
                                      for row in app.events.rows()), 5)
     assert any(row.endswith("test console: reroute trim on") for row in app.events.rows())
-    assert app.admin.trim.get() is True
+    assert pump(console, lambda: app.admin.trim.get() is True, 2)  # the box as the State has it
     capture.grab(app.root, tmp_path / "reroute-trim.png")
 
 
