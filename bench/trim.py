@@ -7,6 +7,7 @@ random-32-32-20 with 70 agents by LaCAM (the evaluation's), the 300-robot arena 
 evaluation's) and brc202d with 1,500 agents by LaCAM (as issue 29's scale benchmarks plan it).
 
     .venv/bin/python bench/trim.py [--repeat 3] [--plans lab,pibt_sample,random70,arena300,brc1500]
+                                   [--seconds S]   # a deadline: robots not reached by then are counted
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from typing import Dict, Tuple
 from fleet_common.formats import default_map_dirs
 from fleet_common.lab import lab_instance_path
 from fleet_common.plan_loading import load_plan
+from fleet_common.planning.deadline import Deadline
 from fleet_common.planning.trim import trim_moves
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
@@ -36,6 +38,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--plans", default=",".join(PLANS))
+    parser.add_argument("--seconds", type=float, default=None)
     args = parser.parse_args()
     print("load average before: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     print("{:<12} {:>6} {:>9} {:>8} {:>14} {:>8} {:>10} {:>12}".format(
@@ -48,13 +51,15 @@ def main() -> None:
         result = None
         for _ in range(max(args.repeat, 1)):
             began = time.perf_counter()
-            result = trim_moves(loaded.plan, loaded.grid)
+            result = trim_moves(loaded.plan, loaded.grid, deadline=Deadline(args.seconds))
             best = min(best, time.perf_counter() - began)
         assert result is not None and result.refused == ""
         saved = result.moves_before - result.moves_after
         print("{:<12} {:>6} {:>9} {:>8} {:>7} ({:>4.1f} %) {:>8} {:>10.3f} {:>12.2f}".format(
             name, n, loaded.plan.makespan, result.moves_before, saved, 100.0 * saved / max(result.moves_before, 1),
-            len(result.robots), best, 1e3 * best / n))
+            len(result.robots), best, 1e3 * best / n) + (
+                "  (time up: {} robots with moves to spare not reached)".format(result.unreached)
+                if result.unreached else ""))
     print("load average after: {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
 
 

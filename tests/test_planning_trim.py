@@ -115,10 +115,13 @@ def test_a_robot_that_winds_waits_instead_and_arrives_when_it_did():
     assert_trimmed_well(plan, grid, result)
 
 
-def test_an_expired_deadline_trims_nobody_and_loses_nothing():
+def test_an_expired_deadline_trims_nobody_loses_nothing_and_says_so():
     plan, grid = random_problem(PLAN_SEEDS[0])
+    assert trim_moves(plan, grid).robots  # (a plan with robots to trim)
     result = trim_moves(plan, grid, deadline=Deadline(0.0))
-    assert result.plan is plan and result.robots == ()
+    assert result.plan is plan and result.robots == () and result.unreached > 0
+    assert result.describe() == "trimmed: none; time was up before {} more robot{} with moves to spare".format(
+        result.unreached, "" if result.unreached == 1 else "s")
 
 
 def test_without_the_steps_either_side_the_validator_catches_the_plan(monkeypatch):

@@ -169,11 +169,12 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
     return fit_fleet(loaded, fleet_size, fleet_name)
 
 
-def trim_loaded(loaded: LoadedPlan) -> LoadedPlan:
+def trim_loaded(loaded: LoadedPlan, seconds: Optional[float] = None) -> LoadedPlan:
     """`loaded` with its robots trimmed of the moves that do not bring them in sooner
-    (`planning.trim`), recorded in its solution (what a run folder keeps: the plan the robots run)
-    and told in its note."""
-    result = trim_moves(loaded.plan, loaded.grid)
+    (`planning.trim`, the robots with the most to spare first, for at most `seconds`: those not
+    reached by then keep their paths), recorded in its solution (what a run folder keeps: the plan
+    the robots run) and told in its note."""
+    result = trim_moves(loaded.plan, loaded.grid, deadline=Deadline(seconds))
     if not result.robots:
         return replace(loaded, note=loaded.note + "; " + result.describe())
     solution = copy.deepcopy(loaded.solution)  # the plan given stays as it was, where else it is held

@@ -68,23 +68,27 @@ _FAR = np.int32(1 << 30)  # no way here
 @dataclass(frozen=True)
 class Trimmed:
     """The plan trimmed (or the one given, `refused` saying why), its moves before and after, the
-    robots whose paths changed."""
+    robots whose paths changed, and how many robots with moves to spare the deadline left as
+    they were."""
 
     plan: Plan
     moves_before: int
     moves_after: int
     robots: Tuple[int, ...]
     refused: str = ""
+    unreached: int = 0
 
     def describe(self) -> str:
         """One line, e.g. "trimmed: 156 moves fewer (1,814 to 1,658), 23 robots"."""
         if self.refused:
             return "not trimmed: {}".format(self.refused)
+        late = "" if not self.unreached else "; time was up before {} more robot{} with moves to spare".format(
+            self.unreached, "" if self.unreached == 1 else "s")
         if not self.robots:
-            return "trimmed: no robot has a move to spare"
+            return ("trimmed: no robot has a move to spare" if not self.unreached else "trimmed: none") + late
         return "trimmed: {:,} moves fewer ({:,} to {:,}), {} robot{}".format(
             self.moves_before - self.moves_after, self.moves_before, self.moves_after, len(self.robots),
-            "" if len(self.robots) == 1 else "s")
+            "" if len(self.robots) == 1 else "s") + late
 
 
 def moves_of(plan: Plan) -> int:
@@ -106,6 +110,7 @@ def trim_moves(plan: Plan, grid: Grid, robots: Optional[Iterable[int]] = None,
     chosen = range(n) if robots is None else sorted(set(robots))
     nb = _neighbours(grid)
     changed: List[int] = []
+    unreached = 0
     for _ in range(max(rounds, 0)):
         spare = []
         for r in chosen:
@@ -119,8 +124,9 @@ def trim_moves(plan: Plan, grid: Grid, robots: Optional[Iterable[int]] = None,
                 spare.append((-extra, r, arrival, moves, to_goal))
         spare.sort(key=lambda s: (s[0], s[1]))
         found = 0
-        for _, r, arrival, moves, to_goal in spare:
+        for done, (_, r, arrival, moves, to_goal) in enumerate(spare):
             if deadline is not None and deadline.expired():
+                unreached = len(spare) - done
                 break
             k = kept[r]
             path = _fewest_moves(ids, r, k, arrival, moves, to_goal, nb, reserved)
@@ -129,17 +135,17 @@ def trim_moves(plan: Plan, grid: Grid, robots: Optional[Iterable[int]] = None,
                 ids[k + len(path):, r] = path[-1]
                 changed.append(r)
                 found += 1
-        if not found:
+        if not found or unreached:
             break
     trimmed = Plan(np.stack([ids % grid.width, ids // grid.width], axis=2).astype(np.int32))
     robots_changed = tuple(sorted(set(changed)))
     if not robots_changed:
-        return Trimmed(plan, before, before, ())
+        return Trimmed(plan, before, before, (), unreached=unreached)
     report = validate_plan(trimmed, grid, plan.starts, plan.goals, strict_rotations=True,
                            max_findings_per_kind=1)
     if not report.ok:  # never, by construction (see above); the plan given is kept all the same
         return Trimmed(plan, before, before, (), refused=str(report.errors[0].message))
-    return Trimmed(trimmed, before, moves_of(trimmed), robots_changed)
+    return Trimmed(trimmed, before, moves_of(trimmed), robots_changed, unreached=unreached)
 
 
 def _arrival(path: np.ndarray) -> int:
@@ -200,7 +206,7 @@ def _within(cells: np.ndarray, start: int, to_goal: np.ndarray, most: int, nb: n
 def _fewest_moves(ids: np.ndarray, r: int, keep: int, arrival: int, moves: int, to_goal: np.ndarray,
                   nb: np.ndarray, reserved: Sequence[Tuple[int, int]] = ()) -> Optional[List[int]]:
     """Robot r's cells from step `keep` to its new arrival, fewer than `moves` moves, or None."""
-    steps, n = ids.shape
+    steps = ids.shape[0]
     start, goal = int(ids[keep, r]), int(ids[-1, r])
     nc = nb.shape[0] - 1
     # the cells a path of fewer moves may pass: from the start and on to the goal in fewer moves
@@ -208,28 +214,29 @@ def _fewest_moves(ids: np.ndarray, r: int, keep: int, arrival: int, moves: int, 
     local = np.full(nc + 1, near.size, dtype=np.int64)  # global id -> local id (near.size: not near)
     local[near] = np.arange(near.size)
     around = local[nb[near]]  # (near, 4) local neighbour ids
-    # others' cells near the way at every step (beyond the plan: at their goals for good)
-    others = local[ids]
-    others[:, r] = near.size
-    held = np.zeros((steps + 1, near.size + 1), dtype=bool)
-    held[np.repeat(np.arange(steps), n), others.ravel()] = True
-    held[steps] = held[steps - 1]
-    held[:, near.size] = False
-    blocked = closed(held)
-    for cell, until in reserved:  # nobody else's to enter up to that step
-        if local[cell] < near.size:
-            blocked[:until + 1, local[cell]] = True
+    others = np.ones(ids.shape[1], dtype=bool)
+    others[r] = False
     g = int(local[goal])
-    # free_from[t]: nobody else at the goal at step t or later
-    free_from = ~np.flip(np.logical_or.accumulate(np.flip(held[:, g])))
+    # free_from[t]: nobody else at the goal at step t or later (beyond the plan: at their goals)
+    at_goal = (ids[:, others] == goal).any(axis=1)
+    free_from = ~np.flip(np.logical_or.accumulate(np.flip(np.append(at_goal, at_goal[-1]))))
+    fewest_possible = int(to_goal[start])
     dist = np.full((arrival + 1, near.size + 1), _FAR, dtype=np.int32)
     dist[keep, local[start]] = 0
-    for t in range(keep, arrival):
-        here = dist[t]
-        best = np.minimum(here[:-1], here[around].min(axis=1) + 1)
-        best[blocked[t + 1, :-1]] = _FAR
-        dist[t + 1, :-1] = best
-    column = dist[keep + 1:, g]
+    t = keep
+    while t < arrival:  # a chunk of steps at a time: most robots find their fewest moves early
+        end = min(arrival, t + _CHUNK)
+        blocked = _blocked(ids, others, local, near.size, t + 1, end, steps, reserved)
+        for u in range(t, end):
+            here = dist[u]
+            best = np.minimum(here[:-1], here[around].min(axis=1) + 1)
+            best[blocked[u + 1 - (t + 1)]] = _FAR
+            dist[u + 1, :-1] = best
+            if dist[u + 1, g] == fewest_possible and free_from[u]:
+                arrival = u + 1  # no way has fewer moves, none arrives sooner with as few
+                break
+        t = end if end < arrival else arrival
+    column = dist[keep + 1:arrival + 1, g]
     ok = (column < moves) & free_from[keep:arrival]
     if not ok.any():
         return None
@@ -238,10 +245,30 @@ def _fewest_moves(ids: np.ndarray, r: int, keep: int, arrival: int, moves: int, 
     # back from the goal: stay wherever the same moves got there a step earlier (moves early)
     path = [g]
     c, d = g, fewest
-    for t in range(t_in, keep, -1):
-        if dist[t - 1, c] != d:
-            c = next(int(p) for p in around[c] if p < near.size and dist[t - 1, p] == d - 1)
+    for u in range(t_in, keep, -1):
+        if dist[u - 1, c] != d:
+            c = next(int(p) for p in around[c] if p < near.size and dist[u - 1, p] == d - 1)
             d -= 1
         path.append(c)
     path.reverse()
     return [int(near[c]) for c in path]
+
+
+#: Plan steps of the others' cells looked at at once (`_fewest_moves`)
+_CHUNK = 32
+
+
+def _blocked(ids: np.ndarray, others: np.ndarray, local: np.ndarray, size: int, first: int, last: int,
+             steps: int, reserved: Sequence[Tuple[int, int]]) -> np.ndarray:
+    """Rows `first`..`last` (steps) of where the trimmed robot may not be, over the `size` cells near
+    its way (local ids; `local` maps a cell id to them, `size` where it is not near): `closed` of
+    the others' cells, and the cells `reserved` up to their steps."""
+    rows = np.clip(np.arange(first - 1, last + 2), 0, steps - 1)  # beyond the plan: at their goals
+    cells = local[ids[rows][:, others]]
+    held = np.zeros((rows.size, size + 1), dtype=bool)
+    held[np.repeat(np.arange(rows.size), cells.shape[1]), cells.ravel()] = True
+    blocked = closed(held)[1:-1, :size]
+    for cell, until in reserved:  # nobody else's to enter up to that step
+        if local[cell] < size and until >= first:
+            blocked[:until - first + 1, local[cell]] = True
+    return blocked
