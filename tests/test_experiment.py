@@ -191,18 +191,23 @@ def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tm
     assert refused.returncode == 2 and "expected turtlebot, cell or DIAMETER:MARGIN" in refused.stderr
 
 
-def test_a_trim_column_runs_the_plan_trimmed_beside_the_plan_as_given(tmp_path, shared_data):
-    """trim: [false, true] on the same delays: the trimmed rows make fewer moves (LaCAM's plan of
-    random-32-32-20 has robots to trim), say so in their key and strategy, and finish safely."""
-    spec = tmp_path / "trim.yaml"
-    spec.write_text("plans: [{{instance: {}, solver: lacam}}]\nstrategies: [adg]\n"
-                    "delays: [\"events=bernoulli:0.1:1-5\"]\nseeds: [0, 1]\nreroute: [none, auto]\n"
-                    "reroute_scope: [held, all]\ntrim: [false, true]\n".format(
-                        shared_data / "instances" / "random-32-32-20_70agents_1.txt"))
+def swept(tmp_path: Path, name: str, text: str):
+    """(the spec file, the output folder, the rows) of `fleetctl experiment` on a spec of `text`."""
+    spec = tmp_path / name
+    spec.write_text(text)
     out = tmp_path / "out"
     proc = fleetctl("experiment", spec, "-o", out, "--jobs", "1", timeout=300)
     assert proc.returncode == 0, proc.stderr
-    rows = read_table(out)
+    return spec, out, read_table(out)
+
+
+def test_a_trim_column_runs_the_plan_trimmed_beside_the_plan_as_given(tmp_path, shared_data):
+    """trim: [false, true] on the same delays: the trimmed rows make fewer moves (LaCAM's plan of
+    random-32-32-20 has robots to trim), say so in their key and strategy, and finish safely."""
+    _, _, rows = swept(tmp_path, "trim.yaml", "plans: [{{instance: {}, solver: lacam}}]\nstrategies: [adg]\n"
+                       "delays: [\"events=bernoulli:0.1:1-5\"]\nseeds: [0, 1]\nreroute: [none, auto]\n"
+                       "reroute_scope: [held, all]\ntrim: [false, true]\n".format(
+                           shared_data / "instances" / "random-32-32-20_70agents_1.txt"))
     assert len(rows) == 12 and all(r["finished"] and r["collisions"] == 0 for r in rows)
     for seed in (0, 1):
         plain = [r for r in rows if r["seed"] == seed and not r["trim"] and r["reroute"] == "none"]
@@ -215,14 +220,9 @@ def test_a_trim_column_runs_the_plan_trimmed_beside_the_plan_as_given(tmp_path, 
 def test_a_reroute_column_sweeps_rerouting_beside_the_same_runs_without(tmp_path, shared_data):
     """reroute: [none, auto] on the same delays; the rows count the reroutes; a table written
     before the column existed resumes (its rows are the runs without rerouting)."""
-    spec = tmp_path / "reroute.yaml"
-    spec.write_text("plans: [{{solution: {}}}]\nstrategies: [adg, reorder]\ndelays: [\"events=bernoulli:0.1:1-5\"]\n"
-                    "seeds: [0, 1]\nreroute: [none, auto]\n".format(
-                        shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"))
-    out = tmp_path / "out"
-    proc = fleetctl("experiment", spec, "-o", out, "--jobs", "1", timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    rows = read_table(out)
+    spec, out, rows = swept(tmp_path, "reroute.yaml", "plans: [{{solution: {}}}]\nstrategies: [adg, reorder]\n"
+                            "delays: [\"events=bernoulli:0.1:1-5\"]\nseeds: [0, 1]\nreroute: [none, auto]\n".format(
+                                shared_data / "solutions" / "ecbs_random-32-32-20_30agents_1.txt"))
     assert len(rows) == 8
     plain = [r for r in rows if r["reroute"] == "none"]
     auto = [r for r in rows if r["reroute"] == "auto"]
