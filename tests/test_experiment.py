@@ -173,6 +173,25 @@ def test_a_wire_cell_reroutes_through_the_manager(tmp_path):
     assert rerouted["collisions"] == 0 and rerouted["closest_m"] >= 0.454 - 1e-6 and rerouted["reroutes"] >= 1
 
 
+def test_a_wire_cell_trims_through_the_manager(tmp_path):
+    """trim: true in a wire cell is the manager's --trim: the lab as LaCAM plans it with seed 1 (one
+    robot winds, 10 moves to spare) runs trimmed through the manager as in the engine, move for move."""
+    from fleet_common.formats import default_map_dirs
+    from fleet_common.formats.solution import format_solution, make_solution
+    from fleet_common.lab import lab_instance_path
+    from fleet_common.plan_loading import load_plan
+
+    loaded = load_plan(lab_instance_path(), 5, "lab", default_map_dirs(), solver="lacam", seed=1)
+    (tmp_path / "lab_lacam.txt").write_text(format_solution(make_solution(
+        loaded.grid, "lab.map", loaded.plan, loaded.starts, loaded.goals, "lacam", True, 0)))
+    _, _, rows = swept(tmp_path, "wire.yaml", "plans: [{solution: lab_lacam.txt}]\nstrategies: [adg]\n"
+                       "delays: [none]\nseeds: [0]\nchain: [engine, wire]\ntime_scale: 10\ntrim: [true]\n")
+    engine, wire = sorted(rows, key=lambda r: "(wire)" in r["strategy"])
+    assert (engine["strategy"], wire["strategy"]) == ("adg +trim", "adg (wire) +trim")
+    assert wire["finished"] and wire["reached"] == 5 and wire["collisions"] == 0 and wire["closest_m"] >= 0.454 - 1e-6
+    assert wire["moves"] == engine["moves"] == 57  # 67 as planned: the manager ran the plan trimmed
+
+
 def test_a_sweep_over_robot_sizes_shows_what_a_robot_as_large_as_a_cell_costs(tmp_path, shared_data):
     spec = tmp_path / "sizes.yaml"
     spec.write_text("plans: [{{solution: {}}}]\nstrategies: [adg, step]\ndelays: [none]\nseeds: [0]\n"
