@@ -89,7 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="trim each robot's path to the fewest moves that bring it in no later, around "
                              "the others, before the run, and every reroute's plan before its hand-over "
                              "(fleet_common.planning.trim); each robot's k-th move keeps the delay drawn "
-                             "for its k-th move untrimmed, so runs with and without compare on one seed")
+                             "for its k-th move untrimmed, so runs with and without compare on one seed; "
+                             "with rerouting it pays with --reroute-scope all, not with the held scope")
     add_repair_options(parser)
 
 
