@@ -85,6 +85,22 @@ def test_the_seed_makes_runs_repeatable(shared_data):
     assert "strategy: adg (lookahead 2); delays: moves take 1-2 x nominal; robot 4 3x slower" in lookahead.stdout
 
 
+def test_trim_says_what_it_trimmed_and_the_run_folder_keeps_the_plan_that_ran(shared_data, tmp_path):
+    """--trim: one line says what was trimmed, the run meets the same delays move by move (paired),
+    and --log records the trimmed plan, the plan the robots ran."""
+    path = shared_data / "solutions" / "pibt_sample.txt"
+    delays = ("--delay-model", "events=bernoulli:0.1:1-5", "--seed", "3")
+    plain, trimmed = simulate(path, *delays), simulate(path, *delays, "--trim", "--log", tmp_path)
+    assert plain.returncode == trimmed.returncode == 0, trimmed.stdout + trimmed.stderr
+    assert "trimmed: 70 moves fewer (3,297 to 3,227), 17 robots" in trimmed.stdout
+    assert "trimmed" not in plain.stdout
+    assert figure(trimmed.stdout, "executed makespan") <= figure(plain.stdout, "executed makespan")
+    logged, = tmp_path.glob("*/plan-1.txt")
+    from fleet_common.formats.solution import read_solution
+
+    assert read_solution(str(logged), [shared_data / "maps"]).plan.move_counts().sum() == 3227
+
+
 @pytest.mark.parametrize("args, message", [
     (["--delay-model", "sometimes"], "delay model 'sometimes': unknown term 'sometimes'; expected factor=LOW-HIGH, "
                                      "delay=D, slow=P:F, stall=P:S, dropout=P:S, robot=R:F, events="),

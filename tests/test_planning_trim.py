@@ -24,8 +24,7 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
 
 
 def robot_moves(plan: Plan, r: int) -> int:
-    pos = plan.positions[:, r]
-    return int((pos[1:] != pos[:-1]).any(axis=1).sum())
+    return int(plan.move_counts()[r])
 
 
 def assert_trimmed_well(given_plan: Plan, grid, result, keep=0) -> None:

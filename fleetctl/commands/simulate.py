@@ -11,7 +11,6 @@ from fleet_common.errors import FleetError
 from fleet_common.execution import STRATEGIES, PlanError
 from fleet_common.delays import FORMS, parse_delay_model
 from fleet_common.execution.reroute import SCOPES, RerouteRule
-from fleet_common.planning.trim import trim_moves
 from fleet_common.execution.simulate import SimResult, simulate
 from fleet_common.execution.trace import SWAP, VERTEX
 from fleet_common.plan_loading import file_coordinates
@@ -124,7 +123,6 @@ def run(args: argparse.Namespace) -> int:
     if args.reroute != "none" and args.log is not None:
         raise SimulateOptionError("--log with --reroute {}: a run folder records one plan, and a rerouted run "
                                   "changes plans (run without --log, or with --reroute none)".format(args.reroute))
-    trimmed = trim_moves(plan, sol.grid) if args.trim else None
     try:
         result = simulate(plan, args.strategy, delays, seed=seed, disable=disable, show=show,
                           journal=args.log is not None, size=size, grid=sol.grid, trim=args.trim,
@@ -134,9 +132,9 @@ def run(args: argparse.Namespace) -> int:
         print("{}: cannot be executed by robots: {}".format(name, err))
         return 1
     lines = _summary(result, plan.makespan, plan.soc, delays.describe(), seed, names)
-    if trimmed is not None:
-        lines.insert(1, trimmed.describe())
-        plan = trimmed.plan  # the plan that ran
+    if result.trimmed is not None:
+        lines.insert(1, result.trimmed.describe())
+        plan = result.trimmed.plan  # the plan that ran
     for line in lines:
         print(line)
     if args.per_robot:

@@ -100,6 +100,11 @@ class Plan:
     def goals(self) -> List[Coord]:
         return self.config(self.makespan)
 
+    def move_counts(self) -> np.ndarray:
+        """Per agent, its moves (steps at which it changes cells)."""
+        pos = self.positions
+        return (pos[1:] != pos[:-1]).any(axis=2).sum(axis=0).astype(np.int64)
+
     def path_costs(self) -> np.ndarray:
         """Per agent, the step from which it stays at its final cell (mapf-IR's count)."""
         n = self.num_agents

@@ -72,8 +72,7 @@ TRIM_IN_LOOP_S = 2.0
 
 
 def action_counts(plan: Plan) -> List[int]:
-    pos = plan.positions
-    return [int((pos[1:, i] != pos[:-1, i]).any(axis=1).sum()) for i in range(plan.num_agents)]
+    return [int(k) for k in plan.move_counts()]
 
 
 class Run:

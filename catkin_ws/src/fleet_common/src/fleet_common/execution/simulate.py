@@ -53,7 +53,7 @@ from ..delays import DelayModel, MoveFates, robot_profile, simulator_fates
 from ..delays.draw import COLUMNS, draw_fates
 from ..grid import Coord, Grid
 from ..plan import Plan
-from ..planning.trim import trim_moves
+from ..planning.trim import Trimmed, trim_moves
 from ..robot_size import RobotSize
 from .actions import ActionTable
 from .approach import Approach, Safety, judge
@@ -93,6 +93,8 @@ class SimResult:
     handover_seconds: float = 0.0
     #: Per robot, the time its moves take with its own delays and no waiting (from the fates).
     alone: Optional[np.ndarray] = None
+    #: the trim of the plan given, with `simulate(trim=True)`: the plan that ran is its `plan`
+    trimmed: Optional[Trimmed] = None
 
     @property
     def lower_bound(self) -> float:
@@ -135,11 +137,13 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
     paired with the same seed's run untrimmed."""
     follow = size is not None and not size.cell_sized
     drawn: Optional[ActionTable] = None  # the moves the fates are drawn for: the plan given's
+    trimmed: Optional[Trimmed] = None
     if trim:
         if grid is None:
             raise ValueError("trimming needs the map (grid=)")
         drawn = ActionTable.from_plan(plan)
-        plan = trim_moves(plan, grid).plan
+        trimmed = trim_moves(plan, grid)
+        plan = trimmed.plan
     engine = Engine(plan, strategy, follow=follow, **settings)  # type: ignore[arg-type]
     more = None
     if fates is None and durations is None:
@@ -148,9 +152,11 @@ def simulate(plan: Plan, strategy: object = "adg", delays: Optional[DelayModel] 
         more = _more_fates(model, seed, engine.run.num_agents, nominal)
         if drawn is not None:
             fates, more = _kept_fates(drawn, engine.table, fates, more, nominal)
-    return simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
-                           feedback=feedback, fates=fates, nominal=nominal,
-                           rerouter=_rerouter(reroute, grid), more=more)
+    result = simulate_engine(engine, durations, disable, controls, waits, journal, size=size,
+                             feedback=feedback, fates=fates, nominal=nominal,
+                             rerouter=_rerouter(reroute, grid), more=more)
+    result.trimmed = trimmed
+    return result
 
 
 def _rerouter(reroute: Union[None, str, RerouteRule, Rerouter], grid: Optional[Grid]) -> Optional[Rerouter]:

@@ -92,9 +92,8 @@ class Trimmed:
 
 
 def moves_of(plan: Plan) -> int:
-    """Moves in `plan` (a robot changing cells between two steps)."""
-    pos = plan.positions
-    return int((pos[1:] != pos[:-1]).any(axis=2).sum())
+    """Moves in `plan`, of all its robots (`Plan.move_counts`)."""
+    return int(plan.move_counts().sum())
 
 
 def trim_moves(plan: Plan, grid: Grid, robots: Optional[Iterable[int]] = None,
