@@ -267,6 +267,33 @@ def test_the_executed_plan_holds_each_cell_until_the_move_out_completes(tmp_path
         executed_plan(read_run(tmp_path), 0.0, [(0, 0), (1, 1)])
 
 
+def test_the_traced_plan_moves_a_robot_one_cell_a_row_when_a_completion_report_came_late(tmp_path: Path) -> None:
+    """Robot 7 drives (0,0) -> (3,0), half a second a move; the report of its second move comes
+    0.1 s late, so its third comes 0.35 s after it. Rows as long as the quickest move (0.5 s,
+    what `fleetctl trace` used) show the robot two cells on in one row, a plan the validator
+    refuses (a CI run of the resume test traced one); the traced plan's rows are short enough."""
+    from fleet_common.runlog.executed import executed_plan, traced_plan
+
+    log, at = timed_run(tmp_path, actions=[3, 0], starts=[[0, 0], [5, 5]])
+    at(1.0, "state", run="running")
+    for index, (sent, started, completed) in enumerate([(1.0, 1.0, 1.5), (1.5, 1.5, 2.1), (1.6, 2.0, 2.45)]):
+        at(sent, "command", robot=7, id=index + 1, type="drive", action=index)
+        at(started, "action", robot=7, index=index, phase="started", src=[index, 0], dst=[index + 1, 0])
+        at(completed, "action", robot=7, index=index, phase="completed", src=[index, 0], dst=[index + 1, 0])
+    at(3.0, "state", run="done")
+    log.close()
+    run = read_run(tmp_path)
+
+    def cells_per_row(plan) -> list:
+        return [abs(a[0][0] - b[0][0]) for a, b in zip(plan.positions.tolist(), plan.positions.tolist()[1:])]
+
+    assert max(cells_per_row(executed_plan(run, 0.5, [(0, 0), (5, 5)]))) == 2  # the control: rows too long
+    plan, dt = traced_plan(run, [(0, 0), (5, 5)])
+    assert dt == pytest.approx(0.35) and max(cells_per_row(plan)) == 1
+    assert [tuple(c) for c in plan.positions[-1].tolist()] == [(3, 0), (5, 5)]
+    assert traced_plan(run, [(0, 0), (5, 5)], 0.25)[1] == 0.25  # a row time given is kept
+
+
 def test_a_runs_folder_that_is_a_file_is_named_as_such(tmp_path: Path) -> None:
     taken = tmp_path / "runs"
     taken.write_text("not a folder")

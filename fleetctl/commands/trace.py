@@ -23,15 +23,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
                         help="solution file to write (default RUNDIR/executed.txt)")
     parser.add_argument("--dt", type=positive, default=None, metavar="S",
-                        help="run time per row (default: the quickest move of the run, so that "
-                             "no robot moves more than one cell from row to row)")
+                        help="run time per row (default: short enough that no robot moves more "
+                             "than one cell from row to row)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from fleet_common.errors import FleetError
     from fleet_common.formats.solution import make_solution, read_solution, write_solution
     from fleet_common.runlog import read_run
-    from fleet_common.runlog.executed import executed_plan
+    from fleet_common.runlog.executed import traced_plan
     from fleet_common.runlog.summary import SummaryBuilder
 
     from ..options import map_dirs
@@ -40,14 +39,11 @@ def run(args: argparse.Namespace) -> int:
     builder = SummaryBuilder()
     for record in folder.records:
         builder.feed(record)
-    dt = args.dt if args.dt is not None else quickest_move(folder)
-    if dt <= 0:
-        raise FleetError("--dt must be positive")
     plan_path = folder.plan_files()[0]
     planned = read_solution(str(plan_path), map_dirs=[Path(plan_path).parent] + map_dirs(
         argparse.Namespace(map_dir=[])))
     starts = [tuple(c) for c in folder.run.get("starts") or planned.starts]
-    executed = executed_plan(folder, dt, starts)
+    executed, dt = traced_plan(folder, starts, args.dt)
     ends = [tuple(int(v) for v in c) for c in executed.positions[-1]]
     sol = make_solution(planned.grid, planned.map_file or "", executed, starts, ends,
                         "fleetcontrol-executed-{:g}s".format(dt), True, 0)
@@ -61,16 +57,3 @@ def run(args: argparse.Namespace) -> int:
         print(line)
     return 0
 
-
-def quickest_move(folder) -> float:
-    """The shortest time from a drive sent to its completion in the run (1 s if none)."""
-    sent, best = {}, None
-    for r in folder.records:
-        if r.get("k") == "command" and r.get("type") == "drive":
-            sent[(r["robot"], r.get("action"))] = float(r["t"])
-        elif r.get("k") == "action" and r.get("phase") == "completed":
-            began = sent.pop((r["robot"], r.get("index")), None)
-            if began is not None and float(r["t"]) > began:
-                took = float(r["t"]) - began
-                best = took if best is None else min(best, took)
-    return round(max(best, 0.01), 3) if best is not None else 1.0

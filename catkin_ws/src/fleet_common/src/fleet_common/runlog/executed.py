@@ -5,8 +5,12 @@ time), sampled every `dt` seconds from the run's start (its first "running"
 state) to its end: each robot is on the target of its last move completed by
 the sample time (its start before any). The result is a `Plan` that the
 player and mapf-IR's visualizer play like any solver's output, so a run can
-be watched again beside its plan. With `dt` no longer than the quickest move,
-no robot moves more than one cell from row to row. A robot of real size may
+be watched again beside its plan, and the validator checks it: so no robot
+may move more than one cell from row to row. `traced_plan` picks the row time
+that keeps it so. The quickest move (drive sent to completion) is not short
+enough: completions are stamped when their reports arrive, and a report held
+up by a busy machine arrives closer to the next one than a move takes (a CI
+run traced a robot two cells in one row of that length). A robot of real size may
 complete its move into a cell before the robot it follows has completed its
 move out of it; in such a row the leader, already on its way out, is shown
 in the cell it goes to, so that each cell holds one robot, as in any plan. (Where robots were between
@@ -15,6 +19,7 @@ cells, the `poses` records say; the run report plots them.)
 from __future__ import annotations
 
 import bisect
+import math
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -22,7 +27,7 @@ import numpy as np
 from ..plan import Plan
 from .reader import RunFolder
 
-__all__ = ["executed_plan", "run_span"]
+__all__ = ["executed_plan", "run_span", "traced_plan"]
 
 
 def run_span(run: RunFolder) -> Tuple[float, float]:
@@ -85,3 +90,43 @@ def executed_plan(run: RunFolder, dt: float, starts: Sequence[Tuple[int, int]]) 
             positions[k, i] = cells[i][j - 1] if j > 0 else tuple(starts[i])
     return Plan(positions)
 
+
+
+def traced_plan(run: RunFolder, starts: Sequence[Tuple[int, int]],
+                dt: Optional[float] = None) -> Tuple[Plan, float]:
+    """The executed plan and its row time: `dt` as given, else the shortest time between two
+    completions of one robot, halved while a robot still moves more than a cell in one row
+    (a leader shown leaving once its follower is in may be a move ahead)."""
+    if dt is not None:
+        return executed_plan(run, dt, starts), dt
+    dt = _shortest_gap(run)
+    plan = executed_plan(run, dt, starts)
+    for _ in range(8):  # bounded: each halving doubles the rows
+        if not _jumps(plan):
+            break
+        dt = math.floor(dt / 2 * 1000) / 1000 or 0.001
+        plan = executed_plan(run, dt, starts)
+    return plan, dt
+
+
+def _shortest_gap(run: RunFolder) -> float:
+    """The shortest time between two completions of one robot, rounded down to the millisecond
+    (1 s if no robot completed two moves): no row of this length holds two of them."""
+    last: Dict[object, float] = {}
+    best = math.inf
+    for record in run.of("action"):
+        if record.get("phase") != "completed":
+            continue
+        robot, t = record.get("robot"), float(record["t"])
+        if robot in last:
+            best = min(best, t - last[robot])
+        last[robot] = t
+    if math.isinf(best):
+        return 1.0
+    return max(math.floor(best * 1000) / 1000, 0.01)
+
+
+def _jumps(plan: Plan) -> bool:
+    """Whether a robot moves more than one cell from one row to the next."""
+    steps = np.abs(np.diff(plan.positions, axis=0)).sum(axis=2)
+    return bool((steps > 1).any())
