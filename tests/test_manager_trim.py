@@ -126,23 +126,54 @@ def test_a_reroute_with_trim_is_handed_over_and_the_run_ends_safely():
     assert f.kinds("reroute")
 
 
-def test_the_operator_turns_trim_on_and_off_at_runtime_and_a_resumed_manager_keeps_it():
+def test_trim_switched_on_before_start_trims_the_plan_waiting_and_a_resumed_manager_keeps_it():
+    """The operator ticks trim before pressing Start: the plan waiting is trimmed at once, in the
+    same run folder (a plan record "trim"), the robot drives it, and Reset takes it again."""
     f = fleet(trim=False)
     ops = f.ops  # type: ignore[attr-defined]
     answer = f.ask(ops, "reroute", trim=True)
     assert answer.ok, answer.reason
     f.advance(0.1)
     assert ops.state.run.trim is True and f.core.run.rerouting.rule.trim is True
-    assert any(n.text.startswith("trim on: reroutes' plans and plans loaded from now on") for n in ops.notices())
+    assert any(n.text == "trim on: the plan waiting for Start is trimmed: 4 moves fewer (9 to 5), 1 robot; "
+               "reroutes' plans and plans loaded from now on are trimmed of moves that bring nobody in sooner"
+               for n in ops.notices())
     assert [r for k, _, r in f.records if k == "reroute_mode"][-1]["trim"] is True
-    assert moves_of(f.core.run.plan) == 9  # the plan running stays as it is
+    run = f.core.run
+    assert moves_of(run.plan) == 5 and run.plan.path(0)[:3] == [(0, 0), (1, 0), (2, 0)]
+    plans = [r for k, _, r in f.records if k == "plan"]
+    assert f.folders == 1 and plans[-1]["reason"] == "trim" and f.replans[plans[-1]["file"]] == run.plan
     again = f.ask(ops, "reroute", trim=True)
     assert again.ok and again.reason == "trim is on already"
     assert resumed_trim(f) is True
+    assert f.ask(ops, "reset").ok  # the target again: the trimmed plan, not the one given
+    assert moves_of(f.core.run.plan) == 5
     assert f.ask(ops, "reroute", trim=False).ok
     f.advance(0.1)
     assert ops.state.run.trim is False and f.core.run.rerouting.rule.trim is False
+    assert moves_of(f.core.run.plan) == 5  # a trimmed plan stays: it brings nobody in later
+    assert any(n.text == "trim off: plans from now on run as they are made" for n in ops.notices())
     assert not f.ask(ops, "reroute", trim="yes").ok  # a request's trim is true or false
+    assert f.ask(ops, "start").ok
+    seen = run_to_end(f)
+    assert_arrived_safely(f, seen, TURTLEBOT2)
+    assert len(f.sent(1, "drive")) == 2
+
+
+def test_trim_switched_on_during_a_run_leaves_the_plan_running_as_it_is():
+    f = fleet(trim=False)
+    ops = f.ops  # type: ignore[attr-defined]
+    assert f.ask(ops, "start").ok
+    f.advance(0.6)
+    assert f.sent(1, "drive")  # robot 1 is on its way round the block
+    assert f.ask(ops, "reroute", trim=True).ok
+    f.advance(0.1)
+    assert any(n.text.startswith("trim on: reroutes' plans and plans loaded from now on")
+               and n.text.endswith("(the plan running stays as it is)") for n in ops.notices())
+    assert moves_of(f.core.run.plan) == 9 and not [r for k, _, r in f.records if k == "plan"]
+    seen = run_to_end(f)
+    assert_arrived_safely(f, seen, TURTLEBOT2)
+    assert len(f.sent(1, "drive")) == 6
 
 
 def test_trimming_a_loaded_plan_leaves_the_plan_given_as_it_was():

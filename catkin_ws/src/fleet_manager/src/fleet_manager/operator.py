@@ -376,12 +376,12 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
     out (it stays as it is)."""
     mode, scope, trim = args.get("mode"), args.get("scope"), args.get("trim")
     if trim is not None and mode is None and scope is None:
-        return _trim(run, bool(trim))
+        return _trim(run, bool(trim), now)
     if mode is None and scope is None:
         return False, "a reroute request names a mode ({}), a scope ({}) or trim (true or false)".format(
             ", ".join(REROUTE_MODES), ", ".join(REROUTE_SCOPES))
     if trim is not None:
-        ok, why = _trim(run, bool(trim))
+        ok, why = _trim(run, bool(trim), now)
         if not ok:
             return ok, why
     mode = run.rerouting.mode if mode is None else mode  # a scope alone keeps the mode, and back
@@ -406,9 +406,10 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
     return True, ""
 
 
-def _trim(run: Run, trim: bool) -> Answer:
-    """Trim on or off: reroutes' plans before their hand-over and plans loaded from now on (the
-    plan running stays as it is)."""
+def _trim(run: Run, trim: bool, now: float) -> Answer:
+    """Trim on or off: reroutes' plans before their hand-over and plans loaded from now on, and the
+    plan waiting for Start (`Run.trim_waiting`); a plan running stays as it is, and so does a
+    trimmed plan when trim goes off (it brings nobody in later)."""
     if run.settings.trim == trim:
         return True, "trim is {} already".format("on" if trim else "off")
     run.settings.trim = trim
@@ -416,9 +417,14 @@ def _trim(run: Run, trim: bool) -> Answer:
     run.out.record("reroute_mode", mode=run.rerouting.mode, scope=run.rerouting.rule.scope, trim=trim,
                    by="operator")
     run.out.desk.bump("trim {}".format("on" if trim else "off"))
-    run.out.tell(REROUTE, None, "trim {}: {}".format(
-        "on" if trim else "off", "reroutes' plans and plans loaded from now on are trimmed of moves that bring "
-        "nobody in sooner" if trim else "plans run as they are made"))
+    if not trim:
+        run.out.tell(REROUTE, None, "trim off: plans from now on run as they are made")
+        return True, ""
+    waiting = run.trim_waiting(now)
+    run.out.tell(REROUTE, None, "trim on: {}reroutes' plans and plans loaded from now on are trimmed of moves "
+                 "that bring nobody in sooner{}".format(
+                     "" if waiting is None else "the plan waiting for Start {}; ".format(waiting),
+                     " (the plan running stays as it is)" if waiting is None else ""))
     return True, ""
 
 

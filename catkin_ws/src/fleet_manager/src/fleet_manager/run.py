@@ -698,6 +698,21 @@ class Run:
                   reason or "{} loaded; waiting for Start".format(loaded.title))
         self.out.broadcast(self.setup())
 
+    def trim_waiting(self, now: float) -> Optional[str]:
+        """The plan waiting for Start trimmed now (`trim_loaded`; trim switched on before it), in the
+        same run folder, and what was trimmed ("is trimmed: ...", or "has no move to trim"); None
+        once the run has begun (the plan running is
+        not trimmed: its robots may be in the middle of moves it would change), or while the way
+        to the starts runs. Reset takes the trimmed plan again."""
+        if self.started_at is not None or self.purpose != PLAN or self.loaded is not self.target:
+            return None
+        trimmed = trim_loaded(self.loaded, TRIM_IN_LOOP_S)
+        if trimmed.plan is self.loaded.plan:
+            return "has no move to trim"
+        self.switch_plan(trimmed.plan, "trim", now)
+        self.target = self.loaded = trimmed
+        return "is " + trimmed.note.rsplit("; ", 1)[-1]  # "is trimmed: 10 moves fewer (67 to 57), 3 robots"
+
     def _end(self, why: str) -> None:
         self.out.summary.feed({"k": "end", "t": round(self.out.now, 4), "reason": why})
         summary = self.out.summary.summary()
