@@ -345,7 +345,8 @@ def test_a_lost_manager_is_shown_and_the_console_reconnects(lab: Lab, consoles) 
 
 # ---- replanning: the proposal on the map, then accepted ------------------------------------
 
-def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new_plan(lab: Lab, consoles) -> None:
+def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new_plan(lab: Lab, consoles,
+                                                                                       tmp_path: Path) -> None:
     lab.fleet(time_scale=4.0)
     lab.start_manager("--start")
     console = consoles(lab.endpoint)
@@ -356,6 +357,9 @@ def test_a_replan_proposal_is_drawn_and_accepting_it_switches_the_map_to_the_new
     assert pump(console, lambda: bool(app.proposal.items), 2)
     assert len(app.canvas.find_withtag("proposal")) == len(app.proposal.items) > 0
     assert "REPLAN PROPOSAL {}".format(model.proposal.id) in app.header.text()
+    assert pump(console, lambda: "replan {} proposed".format(model.proposal.id) in app.header.text(), 5)
+    assert app.header.text().count("accept or reject") == 1, app.header.text()  # said once, first
+    capture.grab(app.root, tmp_path / "replan-proposal.png")
     assert pump(console, lambda: "disabled" not in app.admin.buttons["accept"].state(), 2)
     old_plan = model.setup.plan.id
     app.admin.buttons["accept"].invoke()

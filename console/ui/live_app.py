@@ -51,6 +51,9 @@ from .wait_layer import WaitLayer
 
 #: Seconds between refreshes of the panels' texts (the map follows every state).
 PANEL_PERIOD = 0.25
+#: How the manager's reason ends while a proposal awaits the operator; the header's proposal part
+#: says it already, so the reason beside it goes without it.
+ASKED = ": accept or reject it"
 #: The feed is looked at every 15 ms (a poll that finds nothing costs well under a
 #: millisecond), so a state waits half as long for its frame as at the player's 33 ms.
 POLL_MS = 15
@@ -294,7 +297,10 @@ class LiveApp(LiveFiles, LiveActions, PlayerApp):
         if run is None:
             status = self.model.connection.text
         else:
-            parts = [run.state + (": " + run.reason if run.reason else ""),
+            reason = run.reason
+            if self.model.proposal is not None and reason.endswith(ASKED):
+                reason = reason[:-len(ASKED)]  # the proposal's own part leads with what to do
+            parts = [run.state + (": " + reason if reason else ""),
                      "clock {:.1f} s".format(run.clock),
                      "arrived {}/{}".format(run.arrived, run.robots),
                      "strategy {}".format(run.strategy + (" (lookahead {})".format(run.lookahead)
