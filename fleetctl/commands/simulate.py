@@ -86,10 +86,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "predicted makespan drops: fleet_common.execution.reroute_all)")
     parser.add_argument("--trim", action="store_true",
                         help="trim each robot's path to the fewest moves that bring it in no later, around "
-                             "the others, before the run, and every reroute's plan before its hand-over "
-                             "(fleet_common.planning.trim); each robot's k-th move keeps the delay drawn "
-                             "for its k-th move untrimmed, so runs with and without compare on one seed; "
-                             "with rerouting it pays with --reroute-scope all, not with the held scope")
+                             "the others, before the run, and the held scope's reroutes' plans before their "
+                             "hand-over (fleet_common.planning.trim; --reroute-scope all trims its own plans "
+                             "whatever this says); each robot's k-th move keeps the delay drawn for its k-th "
+                             "move untrimmed, so runs with and without compare on one seed")
     add_repair_options(parser)
 
 

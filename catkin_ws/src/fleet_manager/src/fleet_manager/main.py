@@ -66,9 +66,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "keeps the mode it had")
     parser.add_argument("--trim", action="store_true",
                         help="trim each robot's path to the fewest moves that bring it in no later, around the "
-                             "others: the plan at the start, any plan loaded later, and every reroute's plan "
-                             "before its hand-over (fewer moves meet fewer delays; off: the plan as given); "
-                             "it pays with --reroute-scope all, not with the held scope (EVALUATION.md)")
+                             "others: the plan at the start, any plan loaded later, and the held scope's "
+                             "reroutes' plans before their hand-over (fewer moves meet fewer delays; off: the "
+                             "plan as given; --reroute-scope all trims its own plans whatever this says)")
     parser.add_argument("--reroute-scope", choices=list(REROUTE_SCOPES), default="held",
                         help="whom a reroute may give new paths: held (the robots a late robot holds up, "
                              "default) or all (every robot replanned from where it is by PIBT when the "

@@ -164,8 +164,8 @@ class Rerouting:
         self.rule = dataclasses.replace(rule, scope=scope, every=every)
 
     def set_trim(self, trim: bool) -> None:
-        """Whether a reroute's plan is trimmed before its hand-over (`RerouteRule.trim`); a look in
-        flight or a proposal made before stays as it was made."""
+        """Whether a held-scope reroute's plan is trimmed before its hand-over (`RerouteRule.trim`;
+        scope all's always is); a look in flight or a proposal made before stays as it was made."""
         self.rule = dataclasses.replace(self.rule, trim=trim)
 
     def due(self, engine: Engine, now: float) -> bool:

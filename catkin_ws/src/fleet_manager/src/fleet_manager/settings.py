@@ -39,7 +39,8 @@ class ManagerSettings:
     reroute_timed: bool = True        # a look stops after its rule's budget (tests: to the end)
     reroute_scope: str = "held"       # whom a reroute may give new paths: held or all (`RerouteRule.scope`)
     #: plans are trimmed of moves that do not bring a robot in sooner (`planning.trim`): the first
-    #: and any loaded later, and every reroute's plan before its hand-over (`RerouteRule.trim`)
+    #: and any loaded later, and the held scope's reroutes' plans before their hand-over
+    #: (`RerouteRule.trim`; scope all trims its own whatever this says)
     trim: bool = False
     #: plan steps a robot's quarter turn in place takes, which a reroute's detour costs at each
     #: corner more (`RerouteRule.per_turn`): a TurtleBot's (1.5 rad/s) is about half a nominal move

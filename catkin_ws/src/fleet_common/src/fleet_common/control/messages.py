@@ -215,8 +215,8 @@ class RunInfo:
     #: whom a reroute may give new paths: "held" (the robots a late one holds up) or "all" (every
     #: robot, replanned from the cut). Sent only when "all": a console older than it refuses it.
     reroute_scope: str = "held"
-    #: plans are trimmed of moves that do not bring a robot in sooner (`planning.trim`): reroutes'
-    #: plans before their hand-over, plans loaded. Sent only when true: a console older than it
+    #: plans are trimmed of moves that do not bring a robot in sooner (`planning.trim`): the held
+    #: scope's reroutes' plans before their hand-over (scope all's always are), plans loaded. Sent only when true: a console older than it
     #: refuses it.
     trim: bool = False
     #: why the manager would refuse each run action it does not allow now, by action: one line

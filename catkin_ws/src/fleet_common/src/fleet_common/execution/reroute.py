@@ -54,16 +54,18 @@ by PIBT when the predicted makespan drops by `margin` steps
 (`reroute_all`, its docstring says how and why it is safe); `decide`
 dispatches on it and both return a `Reroute` for the same hand-over.
 
-Trimmed (`RerouteRule.trim`). A reroute's plan has the robots it gives new
-paths trimmed of the moves that do not bring them in sooner (`trim_cut`,
-`planning.trim`: the fewest moves that arrive no later, around everyone else)
-before it is handed over; scope all trims its plan before judging it, so the
-plan judged is the plan handed over. Each robot keeps its moves sent, and the
-cell a move sent enters stays reserved until its robot is in. A replan of every
-robot by PIBT winds as LaCAM's plans do, and every move is a chance of delay:
-trimmed, scope all went from -15.4 % to -20.5 % against the ADG on
-random-32-32-20 (seeds 0-29; -20.3 % over 90 seeds; bench/README.md, "Fewer
-moves, the same arrivals"). The held scope gains nothing from it.
+Trimmed. Scope all's plan always has its robots trimmed of the moves that do
+not bring them in sooner (`trim_cut`, `planning.trim`: the fewest moves that
+arrive no later, around everyone else), before it is judged, so the plan judged
+is the plan handed over; the held scope's only with `RerouteRule.trim`. Each
+robot keeps its moves sent, and the cell a move sent enters stays reserved until
+its robot is in. A replan of every robot by PIBT winds as LaCAM's plans do, and
+every move is a chance of delay: trimmed, scope all went from -15.4 % to -20.4 %
+against the ADG on random-32-32-20 (seeds 0-29; -21.0 % over 90 seeds; -22.7 %
+on the arena; bench/README.md, "Scope all trims its replans"). Scope all's
+reroutes trimmed, the plan given need not be (`simulate(trim=)`, `--trim`): the
+run at p = 0 stays the ADG's exactly. The held scope gains nothing from it
+(its reroutes are quickest paths already).
 
 The rule (`slack` included) only chooses which plan to hand over; the
 hand-over's safety below does not depend on it: any plan from the cut that
@@ -199,8 +201,9 @@ class RerouteRule:
     #: makespan that one would bring in sooner, held up or not (None: only held-up robots; chosen
     #: on random70 seeds 0-29, bench/README.md "The robots predicted last")
     critical: Optional[float] = 3.0
-    #: the plan found has the robots it reroutes trimmed of moves that do not bring them in
-    #: sooner before it is handed over (`planning.trim`; off: the plan as the look made it)
+    #: held scope: the plan found has the robots it reroutes trimmed of moves that do not bring
+    #: them in sooner before it is handed over (`planning.trim`; off: the plan as the look made
+    #: it); scope all trims its plan whatever this says
     trim: bool = False
 
     def __post_init__(self) -> None:
@@ -258,11 +261,11 @@ def decide(engine: Engine, maps: Maps, now: float, rule: RerouteRule,
         expected = expected_steps(engine)
     deadline = deadline or Deadline(rule.budget)
     # trimming has a budget of its own: the look's may be spent by then
-    trim = Deadline(rule.budget if deadline.seconds is not None else None) if rule.trim else None
-    if rule.scope == "all":  # trimmed before it is judged: the plan judged is the plan handed over
+    trim = Deadline(rule.budget if deadline.seconds is not None else None)
+    if rule.scope == "all":  # always trimmed, before it is judged: the plan judged is the plan handed over
         return replan(engine, maps.grid, now, rule.gap, rule.margin, rule.clear, deadline, expected, trim=trim)
     found = _held(engine, maps, now, rule, deadline, expected)
-    if found is None or trim is None:
+    if found is None or not rule.trim:
         return found
     return trimmed(found, engine, maps.grid, trim)
 
