@@ -136,8 +136,8 @@ def test_trim_switched_on_before_start_trims_the_plan_waiting_and_a_resumed_mana
     f.advance(0.1)
     assert ops.state.run.trim is True and f.core.run.rerouting.rule.trim is True
     assert any(n.text == "trim on: the plan waiting for Start is trimmed: 4 moves fewer (9 to 5), 1 robot; "
-               "reroutes' plans and plans loaded from now on are trimmed of moves that bring nobody in sooner"
-               for n in ops.notices())
+               "plans loaded from now on and the held scope's reroutes' plans are trimmed of moves that bring "
+               "nobody in sooner" for n in ops.notices())
     assert [r for k, _, r in f.records if k == "reroute_mode"][-1]["trim"] is True
     run = f.core.run
     assert moves_of(run.plan) == 5 and run.plan.path(0)[:3] == [(0, 0), (1, 0), (2, 0)]
@@ -168,7 +168,7 @@ def test_trim_switched_on_during_a_run_leaves_the_plan_running_as_it_is():
     assert f.sent(1, "drive")  # robot 1 is on its way round the block
     assert f.ask(ops, "reroute", trim=True).ok
     f.advance(0.1)
-    assert any(n.text.startswith("trim on: reroutes' plans and plans loaded from now on")
+    assert any(n.text.startswith("trim on: plans loaded from now on and the held scope's reroutes' plans")
                and n.text.endswith("(the plan running stays as it is)") for n in ops.notices())
     assert moves_of(f.core.run.plan) == 9 and not [r for k, _, r in f.records if k == "plan"]
     seen = run_to_end(f)

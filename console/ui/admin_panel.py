@@ -156,8 +156,8 @@ class AdminPanel(ttk.Frame):
                                       takefocus=0, values=list(REROUTE_SCOPES))
         self.scope_box.grid(row=1, column=3, sticky=tk.W, padx=4, pady=(4, 0))
         self.scope_box.bind("<<ComboboxSelected>>", lambda e: self._scope())
-        # reroutes' plans, plans loaded from then on and the plan waiting for Start trimmed of moves
-        # that bring nobody in sooner
+        # the plan waiting for Start, plans loaded from then on and the held scope's reroutes' plans
+        # trimmed of moves that bring nobody in sooner (scope all trims its own always)
         self.trim = tk.BooleanVar(self, value=False)
         ttk.Checkbutton(box, text="trim", variable=self.trim, takefocus=0, command=self._trim).grid(
             row=1, column=4, sticky=tk.W, pady=(4, 0))

@@ -371,9 +371,9 @@ def strategy(run: Run, args: Args, now: float) -> Answer:
 
 def reroute(run: Run, args: Args, now: float) -> Answer:
     """The reroute mode: off, propose (found reroutes await the operator) or auto (at once), its
-    scope: held (the robots a late one holds up) or all (every robot), and trim (reroutes' plans,
-    and plans loaded from now on, trimmed of moves that bring nobody in sooner); any may be left
-    out (it stays as it is)."""
+    scope: held (the robots a late one holds up) or all (every robot, its plans always trimmed),
+    and trim (the held scope's reroutes' plans, plans loaded from now on and the plan waiting for
+    Start trimmed of moves that bring nobody in sooner); any may be left out (it stays as it is)."""
     mode, scope, trim = args.get("mode"), args.get("scope"), args.get("trim")
     if trim is not None and mode is None and scope is None:
         return _trim(run, bool(trim), now)
@@ -421,8 +421,8 @@ def _trim(run: Run, trim: bool, now: float) -> Answer:
         run.out.tell(REROUTE, None, "trim off: plans from now on run as they are made")
         return True, ""
     waiting = run.trim_waiting(now)
-    run.out.tell(REROUTE, None, "trim on: {}reroutes' plans and plans loaded from now on are trimmed of moves "
-                 "that bring nobody in sooner{}".format(
+    run.out.tell(REROUTE, None, "trim on: {}plans loaded from now on and the held scope's reroutes' plans are "
+                 "trimmed of moves that bring nobody in sooner{}".format(
                      "" if waiting is None else "the plan waiting for Start {}; ".format(waiting),
                      " (the plan running stays as it is)" if waiting is None else ""))
     return True, ""
