@@ -96,6 +96,42 @@ def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
     assert runs_trimmed >= len(FIXED) // 4, runs_trimmed
 
 
+def test_scope_all_trims_its_plans_without_trim_and_the_held_scope_does_not(monkeypatch):
+    """Scope all's replans wind as PIBT makes them, so it trims every plan it hands over whatever
+    `trim` says (`reroute.decide`); the held scope's reroutes are trimmed only with `trim`. The
+    plan given is not trimmed without `trim`: at p = 0 scope all's run is the ADG's exactly."""
+    real = trim_cut.trim_moves
+    trims = []
+
+    def spy(*args, **kwargs):
+        result = real(*args, **kwargs)
+        trims.append(result)
+        return result
+    monkeypatch.setattr(trim_cut, "trim_moves", spy)
+    handed = {"all": 0, "held": 0}
+    for scope in ("all", "held"):
+        for plan_seed, seed, size in FIXED[:16]:
+            trims.clear()
+            plan, grid = random_problem(plan_seed)
+            model = DelayModel(events=EventDelays("bernoulli", 0.2, 1, 5))
+            result = simulate(plan, "adg", model, seed=seed, size=size, reroute=RerouteRule(scope=scope), grid=grid)
+            assert_all_good(plan, grid, size, result)
+            out = {id(t.plan) for t in trims}
+            handed[scope] += len(result.reroutes)
+            if scope == "all":
+                assert all(id(rr.plan) in out for _, rr in result.reroutes)
+            else:
+                assert not trims
+    assert handed["all"] >= 8 and handed["held"] >= 8, handed
+    for plan_seed in PLAN_SEEDS[:8]:
+        plan, grid = random_problem(plan_seed)
+        plain = simulate(plan, "adg", DelayModel(), seed=1, size=TURTLEBOT2)
+        rerouted = simulate(plan, "adg", DelayModel(), seed=1, size=TURTLEBOT2, grid=grid,
+                            reroute=RerouteRule(scope="all"))
+        assert rerouted.reroutes == () and rerouted.metrics.makespan == plain.metrics.makespan
+        assert rerouted.trace.moves == plain.trace.moves
+
+
 def test_a_trimmed_run_meets_the_same_fates_robot_by_robot():
     """Paired: a robot's k-th move keeps the fate of its k-th move in the plan given, so a robot the
     trim left alone is as long alone as untrimmed, and a trimmed one no longer."""
