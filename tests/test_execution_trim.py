@@ -73,10 +73,8 @@ def test_trimmed_runs_beside_the_operators_hand_stay_safe_and_every_robot_arrive
 FIXED = [(s, k, TURTLEBOT2 if k % 2 else cell_sized()) for s in PLAN_SEEDS for k in range(2)]
 
 
-def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
-    """The property above is about runs that trim a reroute's plan: every plan handed over came out
-    of the trim, and on these fixed runs many hand over one in which a rerouted robot makes fewer
-    moves than the look planned (scope all trims each plan before judging it)."""
+def spy_on_trims(monkeypatch) -> list:
+    """The list every trim of a plan from a cut (`trim_cut`) appends its result to, from now on."""
     real = trim_cut.trim_moves
     trims = []
 
@@ -85,6 +83,14 @@ def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
         trims.append(result)
         return result
     monkeypatch.setattr(trim_cut, "trim_moves", spy)
+    return trims
+
+
+def test_runs_trim_their_reroutes_plans_and_stay_good(monkeypatch):
+    """The property above is about runs that trim a reroute's plan: every plan handed over came out
+    of the trim, and on these fixed runs many hand over one in which a rerouted robot makes fewer
+    moves than the look planned (scope all trims each plan before judging it)."""
+    trims = spy_on_trims(monkeypatch)
     runs_trimmed = 0
     for plan_seed, seed, size in FIXED:
         trims.clear()
@@ -100,14 +106,7 @@ def test_scope_all_trims_its_plans_without_trim_and_the_held_scope_does_not(monk
     """Scope all's replans wind as PIBT makes them, so it trims every plan it hands over whatever
     `trim` says (`reroute.decide`); the held scope's reroutes are trimmed only with `trim`. The
     plan given is not trimmed without `trim`: at p = 0 scope all's run is the ADG's exactly."""
-    real = trim_cut.trim_moves
-    trims = []
-
-    def spy(*args, **kwargs):
-        result = real(*args, **kwargs)
-        trims.append(result)
-        return result
-    monkeypatch.setattr(trim_cut, "trim_moves", spy)
+    trims = spy_on_trims(monkeypatch)
     handed = {"all": 0, "held": 0}
     for scope in ("all", "held"):
         for plan_seed, seed, size in FIXED[:16]:
