@@ -407,9 +407,9 @@ def reroute(run: Run, args: Args, now: float) -> Answer:
 
 
 def _trim(run: Run, trim: bool, now: float) -> Answer:
-    """Trim on or off: reroutes' plans before their hand-over and plans loaded from now on, and the
-    plan waiting for Start (`Run.trim_waiting`); a plan running stays as it is, and so does a
-    trimmed plan when trim goes off (it brings nobody in later)."""
+    """Trim on or off: the held scope's reroutes' plans before their hand-over and plans loaded
+    from now on, and the plan waiting for Start (`Run.trim_waiting`); a plan running stays as it
+    is, and so does a trimmed plan when trim goes off (it brings nobody in later)."""
     if run.settings.trim == trim:
         return True, "trim is {} already".format("on" if trim else "off")
     run.settings.trim = trim

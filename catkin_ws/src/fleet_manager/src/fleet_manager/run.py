@@ -701,9 +701,9 @@ class Run:
     def trim_waiting(self, now: float) -> Optional[str]:
         """The plan waiting for Start trimmed now (`trim_loaded`; trim switched on before it), in the
         same run folder, and what was trimmed ("is trimmed: ...", or "has no move to trim"); None
-        once the run has begun (the plan running is
-        not trimmed: its robots may be in the middle of moves it would change), or while the way
-        to the starts runs. Reset takes the trimmed plan again."""
+        once the run has begun (the plan running is not trimmed: its robots may be in the middle
+        of moves it would change), or while the way to the starts runs. Reset takes the trimmed
+        plan again."""
         if self.started_at is not None or self.purpose != PLAN or self.loaded is not self.target:
             return None
         trimmed = trim_loaded(self.loaded, TRIM_IN_LOOP_S)

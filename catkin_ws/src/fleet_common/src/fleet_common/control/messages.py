@@ -216,8 +216,8 @@ class RunInfo:
     #: robot, replanned from the cut). Sent only when "all": a console older than it refuses it.
     reroute_scope: str = "held"
     #: plans are trimmed of moves that do not bring a robot in sooner (`planning.trim`): the held
-    #: scope's reroutes' plans before their hand-over (scope all's always are), plans loaded. Sent only when true: a console older than it
-    #: refuses it.
+    #: scope's reroutes' plans before their hand-over (scope all's always are), plans loaded.
+    #: Sent only when true: a console older than it refuses it.
     trim: bool = False
     #: why the manager would refuse each run action it does not allow now, by action: one line
     #: each, of at most WHY_NOT_CHARS; None: a manager of old that does not say (left out of the
