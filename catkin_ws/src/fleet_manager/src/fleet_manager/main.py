@@ -68,7 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="trim each robot's path to the fewest moves that bring it in no later, around the "
                              "others: the plan at the start, any plan loaded later, and the held scope's "
                              "reroutes' plans before their hand-over (fewer moves meet fewer delays; off: the "
-                             "plan as given; --reroute-scope all trims its own plans whatever this says)")
+                             "plan as given; --reroute-scope all trims its own plans whatever this says; the "
+                             "held scope does worse on a trimmed plan, EVALUATION.md)")
     parser.add_argument("--reroute-scope", choices=list(REROUTE_SCOPES), default="held",
                         help="whom a reroute may give new paths: held (the robots a late robot holds up, "
                              "default) or all (every robot replanned from where it is by PIBT when the "
