@@ -180,7 +180,8 @@ def test_trimming_a_loaded_plan_leaves_the_plan_given_as_it_was():
     from fleet_common.plan_loading import trim_loaded
 
     given = winding()
-    trimmed = trim_loaded(given)
+    trimmed, result = trim_loaded(given)
     assert moves_of(trimmed.plan) == 5 and trimmed.solution.plan == trimmed.plan
     assert moves_of(given.plan) == 9 and given.solution.plan == given.plan  # held elsewhere, untouched
     assert "trimmed" not in given.note and trimmed.note.endswith("1 robot")
+    assert result.plan == trimmed.plan and result.robots == (0,) and trimmed.note.endswith(result.describe())

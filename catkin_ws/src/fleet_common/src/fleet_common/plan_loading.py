@@ -14,7 +14,7 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, replace
 from pathlib import Path, PurePath
-from typing import Any, Callable, List, Optional, Sequence
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 from .errors import FleetError
 from .formats.instance import Instance
@@ -25,7 +25,7 @@ from .plan import Plan
 from .planning import SolveResult, solve
 from .planning.deadline import Deadline
 from .planning.repair import RepairError, repair_rotations
-from .planning.trim import trim_moves
+from .planning.trim import Trimmed, trim_moves
 from .robots import RobotDefinition
 from .validate import Report, validate_plan
 
@@ -169,17 +169,19 @@ def load_plan(path: Path, fleet_size: int, fleet_name: str, map_dirs: Sequence[P
     return fit_fleet(loaded, fleet_size, fleet_name)
 
 
-def trim_loaded(loaded: LoadedPlan, seconds: Optional[float] = None) -> LoadedPlan:
+def trim_loaded(loaded: LoadedPlan, seconds: Optional[float] = None) -> Tuple[LoadedPlan, Trimmed]:
     """`loaded` with its robots trimmed of the moves that do not bring them in sooner
     (`planning.trim`, the robots with the most to spare first, for at most `seconds`: those not
     reached by then keep their paths), recorded in its solution (what a run folder keeps: the plan
-    the robots run) and told in its note."""
+    the robots run) and told in its note; and the trim (its plan the one given when nobody had a
+    move to spare)."""
     result = trim_moves(loaded.plan, loaded.grid, deadline=Deadline(seconds))
     if not result.robots:
-        return replace(loaded, note=loaded.note + "; " + result.describe())
+        return replace(loaded, note=loaded.note + "; " + result.describe()), result
     solution = copy.deepcopy(loaded.solution)  # the plan given stays as it was, where else it is held
     solution.replace_plan(result.plan)
-    return replace(loaded, plan=result.plan, solution=solution, note=loaded.note + "; " + result.describe())
+    return replace(loaded, plan=result.plan, solution=solution,
+                   note=loaded.note + "; " + result.describe()), result
 
 
 def fit_fleet(loaded: LoadedPlan, fleet_size: int, fleet_name: str) -> LoadedPlan:

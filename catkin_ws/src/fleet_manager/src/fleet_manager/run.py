@@ -89,7 +89,7 @@ class Run:
                                    RerouteRule(scope=settings.reroute_scope, per_turn=settings.quarter_turn_steps,
                                                trim=settings.trim))
         if settings.trim and resume is None:  # a run resumed goes on with the plan its folder recorded
-            loaded = trim_loaded(loaded, TRIM_AT_START_S)
+            loaded = trim_loaded(loaded, TRIM_AT_START_S)[0]
         #: the map this fleet runs on: the first plan's (another plan must be on the same map)
         self.fleet_map = loaded.grid
         self.target = loaded
@@ -690,7 +690,7 @@ class Run:
         self.way_after = None  # (a Reset pressed before: it was for the plan run so far)
         self._end(why)
         if self.settings.trim and loaded is not self.target:  # the target again is trimmed already
-            loaded = trim_loaded(loaded, TRIM_IN_LOOP_S)
+            loaded = trim_loaded(loaded, TRIM_IN_LOOP_S)[0]
         self.target = self.loaded = loaded
         self.purpose = PLAN
         self._new_run(loaded.plan, now)
@@ -700,18 +700,18 @@ class Run:
 
     def trim_waiting(self, now: float) -> Optional[str]:
         """The plan waiting for Start trimmed now (`trim_loaded`; trim switched on before it), in the
-        same run folder, and what was trimmed ("is trimmed: ...", or "has no move to trim"); None
+        same run folder, and what was trimmed ("is trimmed: ...", or "is as it was (...)"); None
         once the run has begun (the plan running is not trimmed: its robots may be in the middle
         of moves it would change), or while the way to the starts runs. Reset takes the trimmed
         plan again."""
         if self.started_at is not None or self.purpose != PLAN or self.loaded is not self.target:
             return None
-        trimmed = trim_loaded(self.loaded, TRIM_IN_LOOP_S)
-        if trimmed.plan is self.loaded.plan:
-            return "has no move to trim"
+        trimmed, result = trim_loaded(self.loaded, TRIM_IN_LOOP_S)
+        if not result.robots:  # nobody had a move to spare (or time ran out first): as it was
+            return "is as it was ({})".format(result.describe())
         self.switch_plan(trimmed.plan, "trim", now)
         self.target = self.loaded = trimmed
-        return "is " + trimmed.note.rsplit("; ", 1)[-1]  # "is trimmed: 10 moves fewer (67 to 57), 3 robots"
+        return "is " + result.describe()  # "is trimmed: 10 moves fewer (67 to 57), 3 robots"
 
     def _end(self, why: str) -> None:
         self.out.summary.feed({"k": "end", "t": round(self.out.now, 4), "reason": why})
