@@ -16,8 +16,9 @@
     reroute: [none, auto]               # optional: reroute robots a late one holds up (default none)
     reroute_scope: [held, all]          # optional: whom a reroute may give new paths: the held-up
                                         # robots (default) or every robot (`execution.reroute_all`)
-    trim: [false, true]                 # optional: the plan, and every reroute's plan, trimmed of
-                                        # moves that do not bring a robot in sooner (`planning.trim`)
+    trim: [false, true]                 # optional: the plan and the held scope's reroutes' plans
+                                        # trimmed of moves that do not bring a robot in sooner
+                                        # (`planning.trim`; scope all trims its own always)
     chain: [engine, wire]               # optional: engine alone (default), or also virtual
                                         # robots and the manager over loopback (wire_cell.py)
     time_scale: 10                      # wire cells: the virtual fleet's time scale
@@ -83,7 +84,7 @@ class Cell:
     size: str = "turtlebot"   # the robots' size (SIZES, or D:M in metres)
     reroute: str = "none"     # REROUTE: new paths mid-run for robots a late one holds up
     reroute_scope: str = "held"  # REROUTE_SCOPES: whom a reroute may give new paths
-    trim: bool = False        # the plan and every reroute's plan trimmed (`planning.trim`)
+    trim: bool = False        # the plan and the held scope's reroutes' plans trimmed (`planning.trim`)
 
     @property
     def robot_size(self) -> RobotSize:
