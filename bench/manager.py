@@ -17,7 +17,7 @@ one definitions file (`--robots a-b`), as several hosts would serve them. Prints
   what it took on the virtual robot; what the ratio shows is what dispatching over the
   wire adds (replies, decisions, commands), nothing else.
 
-    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--solver S] [--fleets 1]
+    .venv/bin/python bench/manager.py [--robots 300] [--time-scale 4] [--instance FILE] [--solver S [--solver-seed N]] [--fleets 1]
                                       [--robot-size turtlebot|cell] [--keep FOLDER]
                                       [--delay-model SPEC [--seed N]] [--reroute MODE [--reroute-scope S]] [--trim]
 
@@ -52,11 +52,13 @@ from fleet_common.execution import Engine  # noqa: E402
 from fleet_common.execution.simulate import simulate_engine  # noqa: E402
 from fleet_common.formats.instance import make_instance, read_instance, write_instance  # noqa: E402
 from fleet_common.formats.solution import read_solution  # noqa: E402
+from fleet_common.planning.pibt_turns import slowest_need  # noqa: E402
 from fleet_common.robot_size import LAB_CELL_M  # noqa: E402
 from fleet_common.robots import SIZE_LINE  # noqa: E402
 from fleet_common.runlog import read_run  # noqa: E402
 from fleet_common.transport.curve_keys import make_keys  # noqa: E402
 from live import Proc, fleetctl_args, free_port_block  # noqa: E402
+from virtual_fleet.kinematics import SPEED, TURN_SPEED  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "mapf-ir"
 
@@ -171,6 +173,7 @@ def bench(work: Path) -> int:
     parser.add_argument("--strategy", default="adg")
     parser.add_argument("--solver", default="lacam", help="the manager's built-in solver for the instance "
                         "(EVALUATION.md's 300-robot plan: pibt)")
+    parser.add_argument("--solver-seed", type=int, default=0, help="the solver's seed (the manager's --seed)")
     parser.add_argument("--fleets", type=int, default=1, help="virtual-fleet processes serving the robots")
     parser.add_argument("--robot-size", choices=("turtlebot", "cell"), default="turtlebot",
                         help="the robots' size: a TurtleBot 2 (followers, hold points) or a whole cell")
@@ -228,6 +231,7 @@ def bench(work: Path) -> int:
             "--until-done", "--log", work / "runs", "--strategy", args.strategy, "--time-limit",
             "1800", "--connect-timeout", "120", "--step-time", str(3.0 / args.time_scale),
             "--reroute", args.reroute, "--reroute-scope", args.reroute_scope, "--solver", args.solver,
+            "--seed", args.solver_seed,
             *(["--trim"] if args.trim else []))],
             work / "manager.log")
         from live import ScriptedConsole
@@ -308,6 +312,13 @@ def bench(work: Path) -> int:
     else:
         print("executed makespan {:.2f} s; engine-only with the same move durations {:.2f} s; "
               "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
+    # the plan against the virtual robots' pace (their speed, and turn speed unless --turn-speed)
+    move_s = 1.0 / SPEED / args.time_scale
+    need = slowest_need(plan, (np.pi / 2) / (args.turn_speed or TURN_SPEED) * SPEED) * move_s
+    print("planned makespan {} steps, {:.1f} s at {:g} s a move: executed / planned {:.3f}; the slowest robot's "
+          "own moves and turns need {:.1f} s ({:.3f} of planned)".format(
+              plan.makespan, plan.makespan * move_s, move_s, executed / (plan.makespan * move_s), need,
+              need / (plan.makespan * move_s)))
     if args.reroute != "off":
         kinds = [r["k"] for r in records]
         print("reroute {} (scope {}{}): {} handed over, {} dropped ({})".format(

@@ -199,9 +199,20 @@ def test_demo_plans_the_lab_scenario():
     assert "13x14 marker grid" in proc.stdout
     assert re.search(r"plan: \S+ in \d+ ms, soc=\d+, makespan=\d+, valid", proc.stdout)
     assert len(re.findall(r"^  robot \d+ ", proc.stdout, flags=re.M)) == 5
+    # CBS's optimal plan has robot 5 turn twice, pibt-turns' once: the robots finish that one sooner
+    chosen = re.search(r"^plan chosen: pibt-turns over cbs: its slowest robot drives and turns for ([\d.]+) "
+                       r"moves' time, against ([\d.]+)$", proc.stdout, flags=re.M)
+    assert chosen and float(chosen.group(1)) < float(chosen.group(2)), proc.stdout
+    assert "plan: pibt-turns in" in proc.stdout
     for strategy in ("adg", "step"):
         assert re.search(r"^  {}: executed makespan [\d.]+ \(plan \d+\), \d+ waits, collisions: 0, "
                          r"robots at goal: 5 of 5$".format(strategy), proc.stdout, flags=re.M), proc.stdout
+
+
+def test_demo_runs_the_solver_it_is_given():
+    proc = fleetctl("demo", "--plan-only", "-s", "cbs")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "plan chosen" not in proc.stdout and "plan: cbs in" in proc.stdout
 
 
 def test_legacy_plan_converts_to_a_mapf_ir_solution_that_validates(repo_root, tmp_path):

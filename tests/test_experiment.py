@@ -108,7 +108,7 @@ def test_the_dask_path_gives_the_same_table_as_the_local_one(spec, tmp_path):
 @pytest.mark.parametrize("text, message", [
     ("plans: []\nstrategies: [adg]\nseeds: 1\n", ":1:8: plans: expected a non-empty list"),
     ("plans: [{instance: lab, solver: fastest}]\nstrategies: [adg]\nseeds: 1\n",
-     ":1:9: plans[0]: solver: expected one of pibt, lacam, cbs, ecbs, pp, got 'fastest'"),
+     ":1:9: plans[0]: solver: expected one of pibt, lacam, cbs, ecbs, pp, pibt-turns, got 'fastest'"),
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg, warp]\nseeds: 1\n",
      ":2:13: strategies: expected strategies from "),
     ("plans: [{instance: lab, solver: cbs}]\nstrategies: [adg]\nseeds: 1\ndelays: [\"stall=2:1\"]\n",

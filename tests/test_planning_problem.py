@@ -88,7 +88,7 @@ def test_unknown_solver_names_the_built_in_ones() -> None:
     with pytest.raises(UnknownSolverError) as err:
         solve("astar", ROOMS, [], [])
     assert "unknown solver 'astar'" in str(err.value)
-    assert "pibt, lacam, cbs, ecbs, pp" in str(err.value)
+    assert "pibt, lacam, cbs, ecbs, pp, pibt-turns" in str(err.value)
 
 
 def test_a_solver_bug_surfaces_as_an_error_not_as_a_bad_plan(monkeypatch) -> None:

@@ -41,7 +41,7 @@ from fleet_common.transport.zap import ZapHandler
 from fleet_common.wire.command_check import CommandCheck
 
 from .delays import FleetDelays
-from .kinematics import VirtualNavigator
+from .kinematics import SPEED, TURN_SPEED, VirtualNavigator
 from .stalls import Stall, stalls_by_robot
 from .truth import TruthRecorder, load_state
 
@@ -60,8 +60,8 @@ class VirtualFleet:
 
     def __init__(self, robots: Sequence[RobotDefinition], *, keys: Optional[RobotKeys] = None,
                  feedback_base: int = FEEDBACK_PORT, time_scale: float = 1.0,
-                 model: Optional[FleetDelays] = None, seed: int = 0, speed: float = 0.5,
-                 turn_speed: float = 1.5, start_poses: Optional[Dict[int, Pose]] = None,
+                 model: Optional[FleetDelays] = None, seed: int = 0, speed: float = SPEED,
+                 turn_speed: float = TURN_SPEED, start_poses: Optional[Dict[int, Pose]] = None,
                  path: str = "robot_definitions.txt", feedback_rate: float = 10.0,
                  clock: Callable[[], float] = time.monotonic,
                  log: Optional[logging.Logger] = None,

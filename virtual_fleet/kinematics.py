@@ -30,7 +30,12 @@ from fleet_common.wire.navigator import MotionOutcome
 
 from .delays import FleetDelays, MoveFate
 
-__all__ = ["VirtualNavigator"]
+__all__ = ["VirtualNavigator", "SPEED", "TURN_SPEED", "QUARTER_OF_A_MOVE"]
+
+SPEED = 0.5        # cells/s: a move of 2 s, about 0.35 m/s on the lab's 0.7 m cells
+TURN_SPEED = 1.5   # rad/s in place
+#: A quarter turn's time in moves (about a half): what a plan's turns cost these robots.
+QUARTER_OF_A_MOVE = (math.pi / 2) / TURN_SPEED * SPEED
 
 
 @dataclass(frozen=True)
@@ -44,7 +49,7 @@ class _Segment:
 class VirtualNavigator:
     """Kinematic robot; `speed` in cells/s, `turn_speed` in rad/s (fleet seconds)."""
 
-    def __init__(self, pose: Pose, *, speed: float = 0.5, turn_speed: float = 1.5,
+    def __init__(self, pose: Pose, *, speed: float = SPEED, turn_speed: float = TURN_SPEED,
                  time_scale: float = 1.0, model: Optional[FleetDelays] = None,
                  rng: Optional[random.Random] = None,
                  clock: Callable[[], float] = _time.monotonic) -> None:

@@ -19,7 +19,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("validate", "validate", "check a mapf-IR solution: cells, moves, vertex and swap conflicts, rotations, header claims"),
     ("repair", "repair", "repair a solution's rotations (robots cannot perform them); writes the same format"),
     ("convert", "convert", "convert between mapf-IR and lab orientation; scen -> instance; legacy XML -> mapf-IR"),
-    ("solve", "solve", "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp or mapf-IR; write a solution"),
+    ("solve", "solve", "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp, pibt-turns or mapf-IR; write a solution"),
     ("demo", "demo", "the lab scenario on virtual robots, steered by the manager, watched in the live console"),
     ("keys", "keys", "make the CurveZMQ key pairs of the manager, the robots and the consoles"),
     ("virtual-fleet", "virtual_fleet", "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"),

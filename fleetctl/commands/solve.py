@@ -23,7 +23,7 @@ from ..options import add_map_dir, map_dirs
 NAME = "solve"
 #: what follows `--` reaches us unparsed, as args.passthrough (options for mapf-IR)
 PASSTHROUGH = True
-HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp or mapf-IR; write a solution"
+HELP = "plan an instance (or a .scen) with pibt, lacam, cbs, ecbs, pp, pibt-turns or mapf-IR; write a solution"
 #: mapf-IR's variable naming its binary (fleet_common.planning.mapf_ir.APP_ENV; that module is
 #: imported only when a mapf-IR solver runs)
 APP_ENV = "MAPF_IR_APP"

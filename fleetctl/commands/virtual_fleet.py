@@ -22,6 +22,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 from fleet_common.arg_types import non_negative, port, positive, seed
 from fleet_common.delays import FORMS
+from virtual_fleet.kinematics import SPEED, TURN_SPEED
 
 NAME = "virtual-fleet"
 HELP = "run one virtual robot per robot definition on 127.0.0.1, speaking the robot protocol"
@@ -53,10 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--feedback-base", type=port, default=9980, metavar="PORT",
                         help="pose feedback port of the first robot; the others count up "
                              "(default 9980)")
-    parser.add_argument("--speed", type=positive, default=0.5, metavar="CELLS_PER_S",
-                        help="driving speed (default 0.5 cells/s, about 0.35 m/s in the lab)")
-    parser.add_argument("--turn-speed", type=positive, default=1.5, metavar="RAD_PER_S",
-                        help="turning speed (default 1.5 rad/s)")
+    parser.add_argument("--speed", type=positive, default=SPEED, metavar="CELLS_PER_S",
+                        help="driving speed (default {:g} cells/s, about 0.35 m/s in the lab)".format(SPEED))
+    parser.add_argument("--turn-speed", type=positive, default=TURN_SPEED, metavar="RAD_PER_S",
+                        help="turning speed (default {:g} rad/s)".format(TURN_SPEED))
     parser.add_argument("--paired", action="store_true",
                         help="robot i's k-th drive meets the fate `fleetctl simulate` draws for agent "
                              "i's k-th move of the --instance plan (same --delay-model and --seed): "

@@ -18,6 +18,7 @@ semantics, where rotations are legal.
     cbs    Conflict-Based Search: optimal sum of costs, small instances
     ecbs   Enhanced CBS (focal search): sum of costs within a factor `w` of the optimum
     pp     prioritized planning with space-time A*: also the replanning engine
+    pibt-turns  PIBT for robots that turn in place: a quarter turn takes a step (`pibt_turns`)
 """
 from __future__ import annotations
 
@@ -35,9 +36,9 @@ from .result import NO_SOLUTION, SOLVED, TIMEOUT, SolveResult, SolverError
 Solver = Callable[..., SolveResult]
 
 #: Solvers that stop by themselves at `max_timestep`; for the others `solve` checks the plan.
-_STEP_LIMITED = ("pibt",)
+_STEP_LIMITED = ("pibt", "pibt-turns")
 #: Solvers whose distance tables cover the free cells only (`goal_distances`); the others' cover every cell.
-_FREE_CELL_TABLES = ("pibt", "lacam")
+_FREE_CELL_TABLES = ("pibt", "pibt-turns", "lacam")
 
 
 def _lazy(module: str, function: str) -> Solver:
@@ -55,9 +56,10 @@ SOLVERS: Dict[str, Solver] = {
     "cbs": _lazy("cbs", "cbs"),
     "ecbs": _lazy("cbs", "ecbs"),
     "pp": _lazy("prioritized", "pp"),
+    "pibt-turns": _lazy("pibt_turns", "pibt_turns"),
 }
 SOLVER_NAMES = tuple(SOLVERS)
-_EXPORTED = {"pibt": "pibt", "lacam": "lacam", "cbs": "cbs", "ecbs": "cbs", "pp": "prioritized",
+_EXPORTED = {"pibt": "pibt", "pibt_turns": "pibt_turns", "lacam": "lacam", "cbs": "cbs", "ecbs": "cbs", "pp": "prioritized",
              "plan_with_reservations": "prioritized"}
 
 
@@ -129,5 +131,5 @@ def check_plan(result: SolveResult, grid: Grid, starts: Sequence[Coord], goals: 
 __all__ = [
     "SOLVERS", "SOLVER_NAMES", "solve", "check_plan", "Deadline", "SolveResult", "SolverError",
     "InvalidProblemError", "ProblemTooLargeError", "UnknownSolverError", "check_problem", "plan_with_reservations",
-    "pibt", "lacam", "cbs", "ecbs", "pp", "SOLVED", "TIMEOUT", "NO_SOLUTION",
+    "pibt", "pibt_turns", "lacam", "cbs", "ecbs", "pp", "SOLVED", "TIMEOUT", "NO_SOLUTION",
 ]

@@ -10,7 +10,7 @@ at the deadline ("timeout"); use LaCAM where it cycles. Plans have no rotations 
 from __future__ import annotations
 
 import random
-from typing import List, Sequence
+from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
@@ -39,11 +39,17 @@ def tie_ranks(stepper: PIBTStep, q: Sequence[int], rng: random.Random) -> List[i
 def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
          seed: int = 0, max_timestep: int = DEFAULT_MAX_TIMESTEP, rotations: bool = False) -> SolveResult:
     """Run PIBT until every agent is at its goal, `max_timestep` steps, or the deadline."""
-    rng = random.Random(seed)
-    n = len(starts)
     if [tuple(c) for c in starts] == [tuple(c) for c in goals]:
         return solved(Plan.from_paths([[c] for c in starts]), NAME, timesteps=0)
-    stepper = PIBTStep(grid, goals, rotations=rotations)
+    return run_steps(PIBTStep(grid, goals, rotations=rotations), starts, deadline, seed, max_timestep, NAME)
+
+
+def run_steps(stepper: PIBTStep, starts: Sequence[Coord], deadline: Deadline, seed: int, max_timestep: int,
+              name: str, after: Optional[Callable[[List[int], List[int]], None]] = None) -> SolveResult:
+    """PIBT steps by `stepper` from `starts` until every agent is at its goal; `after(q, next)` may
+    change each step's next configuration (keeping it valid) before it is taken."""
+    rng = random.Random(seed)
+    n = len(starts)
     goal_ids = stepper.goals
     q = stepper.to_ids(starts)
     configs = [q]
@@ -55,7 +61,7 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
     goal_array = np.asarray(goal_ids, dtype=np.int64)
     for t in range(1, max_timestep + 1):
         if deadline.expired():
-            return failed(NAME, TIMEOUT, "time limit reached at step {}".format(t - 1), timesteps=t - 1)
+            return failed(name, TIMEOUT, "time limit reached at step {}".format(t - 1), timesteps=t - 1)
         away = np.fromiter(q, np.int64, n) != goal_array
         prio = np.where(away, prio + n, rank)
         moving = np.flatnonzero(away)
@@ -64,11 +70,13 @@ def pibt(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: 
         order = moving[np.argsort(-prio[moving])].tolist()
         nxt = [NIL] * n
         if not stepper.step(q, nxt, order, rng.randrange(1 << 20), moving.tolist()):
-            return failed(NAME, NO_SOLUTION, "PIBT found no next configuration at step {}".format(t))
+            return failed(name, NO_SOLUTION, "PIBT found no next configuration at step {}".format(t))
+        if after is not None:
+            after(q, nxt)
         q = nxt
         configs.append(q)
         if q == goal_ids:
-            return solved(stepper.plan(configs), NAME, timesteps=t)
+            return solved(stepper.plan(configs), name, timesteps=t)
     at_goal = sum(1 for a, b in zip(q, goal_ids) if a == b)
-    return failed(NAME, TIMEOUT, "{} of {} agents not at their goals after max_timestep={} steps".format(
+    return failed(name, TIMEOUT, "{} of {} agents not at their goals after max_timestep={} steps".format(
         n - at_goal, n, max_timestep), timesteps=max_timestep)
