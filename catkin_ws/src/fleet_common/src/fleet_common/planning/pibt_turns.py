@@ -2,20 +2,23 @@
 
 Why. The other solvers plan cells only, so a robot that must turn in place before
 each change of direction cannot run their plans as planned: on the arena, the robot
-that sets PIBT's makespan drives 80 cells and turns 39 quarters with no step to wait
-in, so no executor can bring it in under 1.24 of the plan (virtual robots: 2 s a
-cell, 1.05 s a quarter turn). Here every agent faces one of four ways, and a step
-either drives it one cell straight ahead, turns it a quarter in place, or waits; the
-plan counts its turns, and changes direction less, since a turn costs a step.
+that sets PIBT's makespan drives 80 cells and turns 40 quarters with no step to wait
+in, so no executor brings it in under 1.25 of the plan (`slowest_need`; virtual
+robots: 2 s a cell, 1.05 s a quarter turn). Here every agent faces one of four ways,
+and a step either drives it one cell straight ahead, turns it a quarter in place, or
+waits; the plan counts its turns, and has fewer, since a turn costs a step.
 
 How (the scheme of PIBT entries to the League of Robot Runners, 2023). Each step
-PIBT picks every agent's next cell as usual, breaking ties between equally near
-cells by the fewest quarter turns from the agent's heading. Then an agent whose next
-cell is not straight ahead turns a quarter towards it instead, and stays. An agent
-whose next cell is the cell of an agent that stays stays too, and so on down the
-chain. Only moves are taken back, so no swap or rotation appears, and the only cell
-that could be entered twice is a stayer's, which the chain keeps its mover out of:
-the step stays valid. Incomplete like PIBT, stopped at `max_timestep`.
+PIBT picks every agent's next cell as usual, breaking ties between cells equally
+nearer the goal by the fewest quarter turns from the agent's heading. Ties among
+cells no nearer stay random: an agent pushed out of the way that kept straight on
+would be pushed along a line by the agent behind it instead of stepping aside (one
+agent made 100 moves for a distance of 18 so). Then an agent whose next cell is not
+straight ahead turns a quarter towards it instead, and stays. An agent whose next
+cell is the cell of an agent that stays stays too, and so on down the chain. Only
+moves are taken back, so no swap or rotation appears, and the only cell that could
+be entered twice is a stayer's, which the chain keeps its mover out of: the step
+stays valid. Incomplete like PIBT, stopped at `max_timestep`.
 
 The plan is an ordinary mapf-IR plan: a turn is a step in which the agent stays in
 its cell, so every executor runs it; the ADG, which keeps no waits, lets a robot whose
@@ -77,13 +80,14 @@ class TurningStep(PIBTStep):
         ties = moves[(salt + i) % len(moves)]
         nearer = dist[here]
 
-        def turns(v: int) -> int:
-            # only moves towards the goal prefer straight ahead: an agent pushed out of the way
-            # that kept straight on would be pushed along a line by the agent behind it, not step aside
+        def turns(v: int) -> int:  # only moves towards the goal prefer straight ahead (see above)
             return quarters_between(h, self.way(here, v)) if dist[v] < nearer else 0
         cands = sorted(ties, key=lambda v: (dist[v], turns(v)))
         partner = self._swap_partner(i, cands[0], q_from, q_to) if self.swap else NIL
-        if partner != NIL:  # leading a swap: farthest first, and still the fewest turns among equals
+        if partner != NIL:
+            # leading a swap: farthest first, and still the fewest turns among equals (the reversed
+            # list would put the most turns first: two agents, each on the other's goal, then
+            # turned back and forth for ever)
             cands = sorted(ties, key=lambda v: (-dist[v], turns(v)))
         return cands, partner
 
