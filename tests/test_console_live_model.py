@@ -184,6 +184,10 @@ def test_picture_ghosts_follow_the_plan_clock_and_waits_point_at_agents() -> Non
     assert pic.behind.tolist() == [True, False]  # a greyed robot is greyed, not late
     assert pic.grey.tolist() == [False, True] and pic.labels[1] == "link down"
     assert pic.waits == [WaitMark(1, (1, 0), (0,))]
+    # done before the plan's clock reached its end (the robots ran ahead of it): the ghosts are
+    # where the plan ends, on the robots, not where the plan's clock stopped
+    model.apply(state(3, [robot(7, 3.0, 0.0), robot(9, 0.0, 2.0)], run(state="done", plan_time=1.5)), 0.0, 0.0)
+    np.testing.assert_allclose(picture(model).ghost, [[3.0, 0.0], [0.0, 2.0]])
     model.apply(LinkStatus(LOST, "lost"), 0.0, 0.0)
     lost = picture(model)
     assert lost.grey.all() and lost.waits == []

@@ -82,7 +82,10 @@ def picture(model: LiveModel) -> Picture:
     ghost = None
     run = None if model.state is None else model.state.run
     if scene is not None and scene.plan is not None and run is not None and run.clock > 0:
-        ghost = state_at(scene.plan, run.plan_time).positions
+        # a run done is where its plan ends, also when the robots got there before the plan's clock
+        # did (a plan that gives its turns whole steps): no ghost left standing in an empty cell
+        at = float(scene.plan.makespan) if run.state == "done" else run.plan_time
+        ghost = state_at(scene.plan, at).positions
     return Picture(fleet.positions, theta, ghost, grey, labels, behind, steps, waits, follows)
 
 
