@@ -25,7 +25,8 @@ its cell, so every executor runs it; the ADG, which keeps no waits, lets a robot
 turn is quicker than a move run ahead of it. Headings are quarters counter-clockwise
 from +x in the base frame (`headings`, radians, as robots report them; default +x,
 where the virtual fleet starts its robots). The Python step only, since the C step
-does not know headings: about 0.1 s for the arena's 300 agents.
+does not know headings: about 0.1 s for the arena's 300 agents, 9 s for
+brc202d's 1,500.
 """
 from __future__ import annotations
 
