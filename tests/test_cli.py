@@ -144,6 +144,10 @@ def test_missing_file_and_missing_map_are_one_line(tmp_path):
     ("random instance", "instances/sample.txt", "random_problem=1"),
     ("solution", "solutions/ir_makespan-soc-pareto.txt", "refinement iterations"),
     ("failed run", "solutions/cbs_arena300_1_timeout.txt", "NOT solved"),
+    # mapf-IR's PIBT turns its robots at most corners: on robots that turn in place it runs late
+    ("turns", "solutions/pibt_sample.txt", "1,223 quarter turns in 3,297 moves; the slowest robot needs 83.5 moves' "
+     "time with its turns, 1.14x the makespan: it cannot run as planned on them (fleetctl solve -s pibt-turns "
+     "plans the turns)"),
 ])
 def test_info_summarises_mapf_ir_files(shared_data, kind, relpath, expect):
     proc = fleetctl("info", shared_data / relpath)

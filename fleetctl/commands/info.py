@@ -66,9 +66,25 @@ def _solution(args: argparse.Namespace) -> List[str]:
         sol.soc, sol.lb_soc, sol.makespan, sol.lb_makespan, sol.comp_time))
     if sol.iterations:
         lines.append("{} refinement iterations recorded".format(len(sol.iterations)))
+    if sol.plan is not None and sol.plan.makespan > 0:
+        lines.append(_turns(sol.plan))
     if sol.instance:
         lines.append("instance: {}".format(sol.instance))
     return lines
+
+
+def _turns(plan) -> str:
+    """What the plan asks of robots that turn in place (the virtual fleet's, facing +x at the start)."""
+    from fleet_common.planning.pibt_turns import moves_and_turns, slowest_need
+    from virtual_fleet.kinematics import QUARTER_OF_A_MOVE
+
+    counts = moves_and_turns(plan)
+    need = slowest_need(plan, QUARTER_OF_A_MOVE)
+    line = "robots turning in place: {:,} quarter turns in {:,} moves; the slowest robot needs {:.1f} moves' " \
+           "time with its turns, {:.2f}x the makespan".format(
+               sum(q for _, q in counts), sum(m for m, _ in counts), need, need / plan.makespan)
+    return line + (": it cannot run as planned on them (fleetctl solve -s pibt-turns plans the turns)"
+                   if need > plan.makespan else "")
 
 
 def _scen(args: argparse.Namespace) -> List[str]:
