@@ -34,6 +34,7 @@ import numpy as np
 from ..grid import Grid
 from ..plan import Plan
 from ..planning.deadline import Deadline
+from ..planning.pibt_turns import path_moves_and_turns
 from ..planning.reservations import Reservations
 from ..planning.st_astar import space_time_astar
 from .actions import ActionTable
@@ -304,16 +305,7 @@ def plan_around(run: RunState, grid: Grid, maps: Maps, schedule: Schedule, ready
 def quarter_turns(cells: Sequence[int], width: int) -> int:
     """Quarter turns a robot makes along `cells` (grid indices, waits allowed): 1 at a corner, 2
     where it goes back the way it came."""
-    heading: Optional[Tuple[int, int]] = None
-    count = 0
-    for a, b in zip(cells, cells[1:]):
-        if a == b:
-            continue
-        d = (b % width - a % width, b // width - a // width)
-        if heading is not None and d != heading:
-            count += 2 if d == (-heading[0], -heading[1]) else 1
-        heading = d
-    return count
+    return path_moves_and_turns([(c % width, c // width) for c in cells])[1]
 
 
 def _came_from(run: RunState, grid: Grid, r: int, k: int) -> Optional[int]:

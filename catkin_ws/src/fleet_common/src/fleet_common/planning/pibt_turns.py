@@ -116,20 +116,26 @@ class TurningStep(PIBTStep):
                 self.heading[i] = self.way(a, b)
 
 
+def path_moves_and_turns(cells: Sequence[Coord], facing: Optional[int] = None) -> Tuple[int, int]:
+    """Moves and quarter turns along a path of neighbouring cells (waits allowed): 1 at a corner, 2
+    back the way it came; the first move turns from way `facing` (a quarter), or is free (None)."""
+    moves = turns = 0
+    for (x0, y0), (x1, y1) in zip(cells, cells[1:]):
+        if (x0, y0) != (x1, y1):
+            way = _QUARTER[(x1 - x0, y1 - y0)]
+            moves += 1
+            turns += 0 if facing is None else quarters_between(facing, way)
+            facing = way
+    return moves, turns
+
+
 def moves_and_turns(plan: Plan, headings: Optional[Sequence[float]] = None) -> List[Tuple[int, int]]:
     """Per agent, the moves and quarter turns its path asks of a robot starting at its heading
     (radians; default +x): what it needs at least, whatever the executor."""
     pos = plan.positions
-    out = []
-    for a in range(plan.num_agents):
-        facing = quarter(headings[a]) if headings is not None else 0
-        moves = turns = 0
-        for (x0, y0), (x1, y1) in zip(pos[:-1, a].tolist(), pos[1:, a].tolist()):
-            if (x0, y0) != (x1, y1):
-                way = _QUARTER[(x1 - x0, y1 - y0)]
-                moves, turns, facing = moves + 1, turns + quarters_between(facing, way), way
-        out.append((moves, turns))
-    return out
+    return [path_moves_and_turns([tuple(c) for c in pos[:, a].tolist()],
+                                 quarter(headings[a]) if headings is not None else 0)
+            for a in range(plan.num_agents)]
 
 
 def slowest_need(plan: Plan, quarter_of_a_move: float, headings: Optional[Sequence[float]] = None) -> float:
