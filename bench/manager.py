@@ -52,7 +52,7 @@ from fleet_common.execution import Engine  # noqa: E402
 from fleet_common.execution.simulate import simulate_engine  # noqa: E402
 from fleet_common.formats.instance import make_instance, read_instance, write_instance  # noqa: E402
 from fleet_common.formats.solution import read_solution  # noqa: E402
-from fleet_common.planning.pibt_turns import slowest_need  # noqa: E402
+from fleet_common.planning.pibt_turns import moves_and_turns, slowest_need  # noqa: E402
 from fleet_common.robot_size import LAB_CELL_M  # noqa: E402
 from fleet_common.robots import SIZE_LINE  # noqa: E402
 from fleet_common.runlog import read_run  # noqa: E402
@@ -314,7 +314,7 @@ def bench(work: Path) -> int:
               "ratio {:.3f}".format(executed, engine_only, executed / engine_only))
     # the plan against the virtual robots' pace (their speed, and turn speed unless --turn-speed)
     move_s = 1.0 / SPEED / args.time_scale
-    need = slowest_need(plan, (np.pi / 2) / (args.turn_speed or TURN_SPEED) * SPEED) * move_s
+    need = slowest_need(moves_and_turns(plan), (np.pi / 2) / (args.turn_speed or TURN_SPEED) * SPEED) * move_s
     print("planned makespan {} steps, {:.1f} s at {:g} s a move: executed / planned {:.3f}; the slowest robot's "
           "own moves and turns need {:.1f} s ({:.3f} of planned)".format(
               plan.makespan, plan.makespan * move_s, move_s, executed / (plan.makespan * move_s), need,

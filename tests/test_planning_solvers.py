@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from fleet_common.formats.instance import read_instance
 from fleet_common.grid import Coord, Grid
 from fleet_common.lab import lab_instance_path, lab_map_path
+from fleet_common.planning import _STEP_LIMITED as STEP_LIMITED  # stop at max_timestep, as PIBT
 from fleet_common.planning import SOLVER_NAMES, InvalidProblemError, solve
 from fleet_common.planning.cells import NIL
 from fleet_common.planning.deadline import Deadline
@@ -106,10 +107,6 @@ def test_pibt_reports_a_goal_it_cannot_reach_instead_of_a_plan() -> None:
         assert_solved(result, GOAL_BEHIND_A_GOAL)
     else:
         assert result.status == "timeout" and "not at their goals after max_timestep=300" in result.message
-
-
-#: Solvers that stop at `max_timestep` (PIBT's cycles) rather than search on.
-STEP_LIMITED = ("pibt", "pibt-turns")
 
 
 @pytest.mark.parametrize("name", SOLVER_NAMES)

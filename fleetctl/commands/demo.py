@@ -145,7 +145,7 @@ def _quickest_plan(grid, inst, args: argparse.Namespace):
     time), or pibt-turns', which counts the turns the robots make in place; judged by the time its
     slowest robot needs for its own drives and turns (the virtual robots' pace, facing +x at the
     start as they do), CBS's on a tie."""
-    from fleet_common.planning.pibt_turns import slowest_need
+    from fleet_common.planning.pibt_turns import moves_and_turns, slowest_need
     from fleet_common.plan_loading import solve_instance
     from virtual_fleet.kinematics import QUARTER_OF_A_MOVE
 
@@ -154,7 +154,7 @@ def _quickest_plan(grid, inst, args: argparse.Namespace):
     solved = [r for r in (optimal, turning) if r.solved]
     if len(solved) < 2:
         return solved[0] if solved else optimal
-    needs = [slowest_need(r.plan, QUARTER_OF_A_MOVE) for r in solved]
+    needs = [slowest_need(moves_and_turns(r.plan), QUARTER_OF_A_MOVE) for r in solved]
     best = 1 if needs[1] < needs[0] else 0
     print("plan chosen: {} over {}: its slowest robot drives and turns for {:.1f} moves' time, against "
           "{:.1f}".format(solved[best].solver, solved[1 - best].solver, needs[best], needs[1 - best]))

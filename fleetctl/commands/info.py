@@ -79,7 +79,7 @@ def _turns(plan) -> str:
     from virtual_fleet.kinematics import QUARTER_OF_A_MOVE
 
     counts = moves_and_turns(plan)
-    need = slowest_need(plan, QUARTER_OF_A_MOVE)
+    need = slowest_need(counts, QUARTER_OF_A_MOVE)
     line = "robots turning in place: {:,} quarter turns in {:,} moves; the slowest robot needs {:.1f} moves' " \
            "time with its turns, {:.2f}x the makespan".format(
                sum(q for _, q in counts), sum(m for m, _ in counts), need, need / plan.makespan)

@@ -138,10 +138,10 @@ def moves_and_turns(plan: Plan, headings: Optional[Sequence[float]] = None) -> L
             for a in range(plan.num_agents)]
 
 
-def slowest_need(plan: Plan, quarter_of_a_move: float, headings: Optional[Sequence[float]] = None) -> float:
-    """The most time one robot needs for its own moves and turns, in moves (a quarter turn taking
-    `quarter_of_a_move`): no executor brings the plan in sooner."""
-    return max((m + q * quarter_of_a_move for m, q in moves_and_turns(plan, headings)), default=0.0)
+def slowest_need(counts: Sequence[Tuple[int, int]], quarter_of_a_move: float) -> float:
+    """The most time one robot needs for its own moves and turns (`moves_and_turns`), in moves (a
+    quarter turn taking `quarter_of_a_move`): no executor brings the plan in sooner."""
+    return max((m + q * quarter_of_a_move for m, q in counts), default=0.0)
 
 
 def pibt_turns(grid: Grid, starts: Sequence[Coord], goals: Sequence[Coord], deadline: Deadline,
